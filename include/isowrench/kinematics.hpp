@@ -1,0 +1,73 @@
+#pragma once
+/// @file
+/// Kinematics from KDL: endpoint pose and Jacobian, point Jacobians of muscle path points, and
+/// the muscle generalized force tau = -F (dL/dtheta)^T (MODEL.md "Muscle generalized force").
+
+#include <Eigen/Core>
+#include <Eigen/Geometry>
+#include <memory>
+
+#include "isowrench/model.hpp"
+
+namespace isowrench {
+
+/// Mutable scratch for repeated kinematics on one Model (KDL solvers and arrays). One per
+/// thread; never shared between threads. Construction allocates; evaluations reuse it.
+class KinematicsWorkspace {
+ public:
+  explicit KinematicsWorkspace(const Model& model);
+  ~KinematicsWorkspace();
+  KinematicsWorkspace(KinematicsWorkspace&&) noexcept;
+  KinematicsWorkspace& operator=(KinematicsWorkspace&&) noexcept;
+
+  struct Impl;
+  Impl& impl() { return *impl_; }
+
+ private:
+  std::unique_ptr<Impl> impl_;
+};
+
+/// Endpoint pose X_W_E in world (the root link's frame). Orientation is the endpoint link's.
+Eigen::Isometry3d EndpointPose(const Model& model, KinematicsWorkspace& ws,
+                               const Eigen::VectorXd& q);
+
+/// Geometric endpoint Jacobian J_W_E (6 x m): rows [v; w], reference point = endpoint origin,
+/// expressed in world axes; exactly KDL's ChainJntToJacSolver with the endpoint as chain tip.
+Matrix6Xd EndpointJacobianWorld(const Model& model, KinematicsWorkspace& ws,
+                                const Eigen::VectorXd& q);
+
+/// Rotation R_W_T of the transducer axes at posture q (constant when axes_in_world).
+Eigen::Matrix3d TransducerRotation(const Model& model, KinematicsWorkspace& ws,
+                                   const Eigen::VectorXd& q);
+
+/// Endpoint Jacobian in transducer axes: J_T_E = blockdiag(R_W_T^T, R_W_T^T) J_W_E. All 6 rows
+/// (released dofs are handled by the statics, not by deleting rows here).
+Matrix6Xd EndpointJacobian(const Model& model, KinematicsWorkspace& ws, const Eigen::VectorXd& q);
+
+/// World position (m) of a point fixed at `p_link` (m) on link `link`.
+/// @throws Error if the link is not on the chain.
+Eigen::Vector3d PointPosition(const Model& model, KinematicsWorkspace& ws, const Eigen::VectorXd& q,
+                              const std::string& link, const Eigen::Vector3d& p_link);
+
+/// Linear Jacobian (3 x m, world axes, m/rad or m/m) of a point fixed on a link.
+/// Zero for the root link. @throws Error if the link is not on the chain.
+Eigen::Matrix3Xd PointJacobian(const Model& model, KinematicsWorkspace& ws,
+                               const Eigen::VectorXd& q, const std::string& link,
+                               const Eigen::Vector3d& p_link);
+
+/// A muscle's length, its derivative and its generalized force at a posture.
+struct MuscleTorque {
+  double length = 0.0;         ///< m, sum of segment lengths
+  double force = 0.0;          ///< N, activation * max_force
+  Eigen::RowVectorXd dL_dq;    ///< 1 x m, m/rad (revolute) or m/m (prismatic)
+  Eigen::VectorXd tau;         ///< m, -force * dL_dq^T: N·m (revolute) or N (prismatic)
+};
+
+/// Evaluate muscle `muscle_index` at activation `activation` (force = activation * max_force).
+/// @throws Error if a path segment has zero length (coincident points) or activation is not
+///         finite.
+MuscleTorque ComputeMuscleTorque(const Model& model, KinematicsWorkspace& ws,
+                                 const Eigen::VectorXd& q, int muscle_index,
+                                 double activation = 1.0);
+
+}  // namespace isowrench

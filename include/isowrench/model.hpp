@@ -1,0 +1,195 @@
+#pragma once
+/// @file
+/// Limb models: the editable description read from URDF (+ isowrench extension tags), and the
+/// immutable Model built from it (KDL chain, joint roles and stiffnesses, muscles, transducer).
+///
+/// URDF extension tags are documented in docs/urdf-extensions.md. In short, inside <robot>:
+///   <isowrench:joint name="knee_ry" role="extra" stiffness="1.0"/>
+///   <isowrench:transducer link="tibia" xyz="0.041 0 0" rpy="0 0 0" axes="world"
+///                         stiffness="1e7 1e7 1e7 1e7 1e7 1e7" released="rz"/>
+///   <isowrench:muscle name="GP" max_force="2.3">
+///     <isowrench:point link="ground" xyz="..."/> <isowrench:point link="tibia" xyz="..."/>
+///   </isowrench:muscle>
+///   <isowrench:posture joint="hip_rz" degrees="-110"/>
+
+#include <Eigen/Core>
+#include <Eigen/Geometry>
+#include <array>
+#include <memory>
+#include <string>
+#include <vector>
+
+namespace isowrench {
+
+using Vector6d = Eigen::Matrix<double, 6, 1>;
+using Matrix6d = Eigen::Matrix<double, 6, 6>;
+using Matrix6Xd = Eigen::Matrix<double, 6, Eigen::Dynamic>;
+
+/// Joint kinds isowrench represents. URDF "continuous" becomes kRevolute; "fixed" joints are
+/// folded into the chain; "floating" and "planar" are refused with an Error.
+enum class JointType { kRevolute, kPrismatic, kFixed };
+
+/// What a movable joint stands for. Roles only label results and choose defaults; the
+/// mechanics is the same for all (a joint with a stiffness in S_p).
+enum class JointRole {
+  kLimb,     ///< an ordinary limb dof (stiffness usually 0)
+  kBase,     ///< a base translation dof modelling imperfect skeletal fixation
+  kExtra,    ///< an extra joint dof held by a passive stiffness (e.g. knee ab/adduction)
+  kRelease,  ///< a released transducer dof written as an explicit zero-stiffness joint
+};
+
+/// Name of a role as used in URDF tags: "limb", "base", "extra", "release".
+const char* RoleName(JointRole role);
+
+/// One joint of the chain, in URDF semantics: child pose = origin * motion(axis, q).
+struct JointSpec {
+  std::string name;
+  JointType type = JointType::kRevolute;
+  std::string parent_link;
+  std::string child_link;
+  Eigen::Isometry3d origin = Eigen::Isometry3d::Identity();  ///< parent link -> joint frame at q=0
+  Eigen::Vector3d axis = Eigen::Vector3d::UnitZ();  ///< unit axis in the joint frame
+  JointRole role = JointRole::kLimb;
+  double stiffness = 0.0;  ///< N·m/rad (revolute) or N/m (prismatic), >= 0; the S_p diagonal
+};
+
+/// A muscle path point fixed on a link ("ground" = the root link, i.e. fixed in world).
+struct PathPoint {
+  std::string link;
+  Eigen::Vector3d position = Eigen::Vector3d::Zero();  ///< m, in the link's frame
+};
+
+/// A straight-line muscle through its path points (origin first, insertion last).
+struct MuscleSpec {
+  std::string name;
+  double max_force = 0.0;  ///< N, > 0; the force used when activation is 1
+  std::vector<PathPoint> path;  ///< at least two points
+};
+
+/// Index into a 6-vector in KDL order: x y z rx ry rz.
+enum Dof : int { kX = 0, kY = 1, kZ = 2, kRX = 3, kRY = 4, kRZ = 5 };
+
+/// Name of a 6-vector component ("x", "y", "z", "rx", "ry", "rz").
+const char* DofName(int dof);
+
+/// The endpoint and the transducer it is bolted to.
+struct TransducerSpec {
+  std::string link;  ///< the distal link carrying the endpoint
+  Eigen::Vector3d endpoint = Eigen::Vector3d::Zero();  ///< m, endpoint origin in `link`'s frame
+  /// Orientation of the transducer axes: in world (axes_in_world = true, the transducer is
+  /// bolted to ground) or relative to `link` (false, the axes turn with the distal bone).
+  Eigen::Matrix3d rotation = Eigen::Matrix3d::Identity();
+  bool axes_in_world = true;
+  /// S_t diagonal in transducer axes [kx ky kz krx kry krz]; N/m then N·m/rad; each >= 0.
+  Vector6d stiffness = Vector6d::Constant(1e7);
+  /// Released dofs of the transducer (rows deleted from J and S_t), in transducer axes.
+  std::array<bool, 6> released{{false, false, false, false, false, false}};
+};
+
+/// Transducer stiffness presets from MODEL.md "Transducer stiffness presets".
+/// Names: "balanced" (1e7 everywhere), "ati-mini40", "jr3" (as printed in the paper).
+/// @throws Error for an unknown name (the message lists the known ones).
+Vector6d TransducerPreset(const std::string& name);
+
+/// The full, editable description of a limb: everything a URDF with isowrench tags says.
+/// Only the joints on the path from the root link to the endpoint link are kept.
+struct LimbDescription {
+  std::string name;         ///< robot name
+  std::string source;       ///< file the description came from ("" when built in code)
+  std::string root_link;    ///< the ground link
+  std::vector<std::string> links;   ///< root first, then each joint's child link
+  std::vector<JointSpec> joints;    ///< chain order, root to endpoint, fixed joints included
+  std::vector<MuscleSpec> muscles;
+  TransducerSpec transducer;
+  /// Nominal posture: joint name -> position (rad or m). Missing joints are 0.
+  std::vector<std::pair<std::string, double>> nominal_posture;
+};
+
+/// Parse a URDF file with isowrench extension tags.
+/// @throws Error naming the file and line for malformed XML, unsupported joint types
+///         (floating, planar), unknown links/joints in tags, non-finite or negative values.
+LimbDescription ReadUrdfFile(const std::string& path);
+
+/// Same as ReadUrdfFile for text already in memory; `source_name` appears in messages.
+LimbDescription ReadUrdfString(const std::string& xml, const std::string& source_name);
+
+/// Serialize a description back to URDF text with isowrench tags (round-trips through
+/// ReadUrdfString to an equal description).
+std::string WriteUrdfString(const LimbDescription& description);
+
+/// Write WriteUrdfString() to `path` atomically (temporary file, then rename).
+/// @throws Error if the file cannot be written.
+void WriteUrdfFile(const LimbDescription& description, const std::string& path);
+
+// ---- Editing a description (each returns a modified copy; all throw Error on bad names) ----
+
+/// Add three prismatic joints base_x, base_y, base_z (world axes, role kBase) between the
+/// root link and the first joint, each with `stiffness` N/m. If the description already has
+/// base joints their stiffness is set instead.
+LimbDescription WithBaseStiffness(LimbDescription description, double stiffness);
+
+/// Set the S_p stiffness of a named joint (N·m/rad or N/m, >= 0).
+LimbDescription WithJointStiffness(LimbDescription description, const std::string& joint,
+                                   double stiffness);
+
+/// Insert an extra revolute joint (role kExtra) right after `after_joint`, turning about
+/// `axis` (unit, in the child frame of `after_joint`), with `stiffness` N·m/rad.
+LimbDescription WithExtraJoint(LimbDescription description, const std::string& after_joint,
+                               const std::string& new_joint, const Eigen::Vector3d& axis,
+                               double stiffness);
+
+/// Mark transducer dofs released; `dofs` holds names x y z rx ry rz (empty = none released).
+LimbDescription WithReleasedDofs(LimbDescription description,
+                                 const std::vector<std::string>& dofs);
+
+/// Replace the S_t diagonal (each entry finite and >= 0).
+LimbDescription WithTransducerStiffness(LimbDescription description, const Vector6d& stiffness);
+
+/// Immutable model built from a description: validated, with a KDL chain from the root link to
+/// the endpoint. Cheap to copy (shared state). Thread-safe to share; mutable scratch lives in
+/// KinematicsWorkspace.
+class Model {
+ public:
+  /// Validate and build. @throws Error naming the joint/link/muscle for any invalid entry.
+  explicit Model(LimbDescription description);
+
+  /// ReadUrdfFile + Model.
+  static Model FromUrdfFile(const std::string& path);
+
+  const LimbDescription& description() const;
+  const std::string& name() const { return description().name; }
+
+  /// Number of movable joints m (the Jacobian's column count).
+  int dof_count() const;
+  /// Movable joint names in column order.
+  const std::vector<std::string>& joint_names() const;
+  /// Spec of movable joint i (column i).
+  const JointSpec& joint(int i) const;
+  /// Column index of a movable joint. @throws Error listing the known joints.
+  int JointIndex(const std::string& name) const;
+  /// S_p diagonal in column order (N·m/rad or N/m).
+  Eigen::VectorXd joint_stiffness() const;
+
+  int muscle_count() const;
+  const MuscleSpec& muscle(int i) const;
+  /// @throws Error listing the known muscles.
+  int MuscleIndex(const std::string& name) const;
+
+  const TransducerSpec& transducer() const { return description().transducer; }
+
+  /// Nominal posture in column order (rad / m).
+  Eigen::VectorXd nominal_posture() const;
+
+  /// Sum of the distances between consecutive joint origins plus the endpoint offset (m):
+  /// the "leg length" the small-motion rule is relative to.
+  double chain_length() const;
+
+  /// Opaque access for isowrench's own modules (KDL chain etc.). Not part of the stable API.
+  struct Impl;
+  const Impl& impl() const { return *impl_; }
+
+ private:
+  std::shared_ptr<const Impl> impl_;
+};
+
+}  // namespace isowrench

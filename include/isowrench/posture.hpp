@@ -1,0 +1,30 @@
+#pragma once
+/// @file
+/// Postures: joint positions in the model's column order (rad for revolute joints, m for
+/// prismatic ones), and the user-facing "name=value" syntax in degrees / millimetres.
+
+#include <Eigen/Core>
+#include <string>
+
+#include "isowrench/model.hpp"
+
+namespace isowrench {
+
+/// Apply assignments like "hip_rz=-110,knee_rz=105" to `q` (a copy is returned). Values are
+/// degrees for revolute joints and millimetres for prismatic joints.
+/// @throws Error naming the joint for unknown joints, malformed or non-finite values.
+Eigen::VectorXd ApplyPostureAssignments(const Model& model, Eigen::VectorXd q,
+                                        const std::string& assignments);
+
+/// Set one joint from a user value (degrees or mm). @throws Error as above.
+void SetJointFromUserUnits(const Model& model, Eigen::VectorXd& q, const std::string& joint,
+                           double value);
+
+/// A readable posture, e.g. "hip_rz=-110.0°, knee_rz=105.0°" (non-zero joints only, or all
+/// joints when `all` is true).
+std::string FormatPosture(const Model& model, const Eigen::VectorXd& q, bool all = false);
+
+/// Check that q has model.dof_count() finite entries. @throws Error otherwise.
+void ValidatePosture(const Model& model, const Eigen::VectorXd& q);
+
+}  // namespace isowrench

@@ -1,0 +1,127 @@
+#pragma once
+/// @file
+/// Statics of the compliantly restrained limb (paper Eq. 6-10, MODEL.md "Statics"):
+///   K = J^T S_t J + S_p,   K dtheta = tau,   W = S_t J dtheta,
+/// and the classic answers it is compared with: J^-T tau (Eq. 11/14) and pinv(J^T) tau (Eq. 15).
+/// W is the wrench the limb applies TO the transducer, [f; m] in N and N·m, moment about the
+/// endpoint origin, in transducer axes (released components are exactly 0).
+
+#include <Eigen/Core>
+#include <string>
+#include <vector>
+
+#include "isowrench/model.hpp"
+
+namespace isowrench {
+
+/// Options of SolveStatics. Each states the inequality it controls.
+struct StaticsOptions {
+  /// Eigenvalue lambda_i of K counts as zero (a self-motion) when
+  /// lambda_i <= rank_tolerance * lambda_max. Reported in the result.
+  double rank_tolerance = 1e-12;
+  /// tau excites a self-motion direction n (unit) when |n . tau| > excitation_tolerance * |tau|.
+  double excitation_tolerance = 1e-9;
+  /// Small-motion rule, translation: |endpoint translation| <= max_endpoint_fraction * leg length.
+  double max_endpoint_fraction = 1e-3;
+  /// Small-motion rule, rotation: |dtheta_i| <= max_joint_rotation (rad) for revolute joints,
+  /// and |dtheta_i| <= max_endpoint_fraction * leg length for prismatic ones.
+  double max_joint_rotation = 0.01;
+  /// Leg length (m) for the translation rule; <= 0 means "use Model::chain_length()".
+  double leg_length = 0.0;
+};
+
+/// Outcome of a statics solve.
+enum class StaticsStatus {
+  kOk,                 ///< unique W; K positive definite
+  kSelfMotionHeld,     ///< K singular but tau does not excite the self-motion: W still unique
+  kSelfMotion,         ///< K singular and tau excites it: no equilibrium; W is not defined (zeros)
+  kInvalidInput,       ///< non-finite or negative input; see message
+};
+const char* StatusName(StaticsStatus status);
+
+/// Result of SolveStatics (Ceres-style summary: status + message + data).
+struct StaticsResult {
+  StaticsStatus status = StaticsStatus::kInvalidInput;
+  std::string message;
+  /// W [f; m] in transducer axes (N, N·m); released rows are 0. Zero when status is kSelfMotion
+  /// or kInvalidInput.
+  Vector6d wrench = Vector6d::Zero();
+  /// dtheta = K^+ tau (rad or m per joint), the equilibrium displacement.
+  Eigen::VectorXd dtheta;
+  /// Endpoint displacement J dtheta [m; rad] in transducer axes.
+  Vector6d endpoint_displacement = Vector6d::Zero();
+  /// Residual of equilibrium |J^T W + S_p dtheta - tau| (N·m), a check on the solve.
+  double equilibrium_residual = 0.0;
+  /// Eigenvalues of K, ascending, and the rank decision.
+  Eigen::VectorXd k_eigenvalues;
+  double rank_threshold = 0.0;  ///< absolute threshold: rank_tolerance * lambda_max
+  int k_rank = 0;
+  double k_condition = 0.0;     ///< lambda_max / lambda_min over the non-null eigenvalues
+  /// Self-motion basis: columns span null(K), unit length (m x r; r = 0 when K is regular).
+  Eigen::MatrixXd self_motion;
+  /// Small-motion check (MODEL.md "Validity of the linear model").
+  bool small_motion_valid = true;
+  double endpoint_translation = 0.0;      ///< |J dtheta|_translation (m)
+  double endpoint_translation_limit = 0.0;  ///< max_endpoint_fraction * leg length (m)
+  double max_joint_rotation = 0.0;        ///< max |dtheta_i| over revolute joints (rad)
+  double max_joint_rotation_limit = 0.0;  ///< rad
+  std::string validity_message;           ///< empty when valid
+
+  bool ok() const {
+    return status == StaticsStatus::kOk || status == StaticsStatus::kSelfMotionHeld;
+  }
+};
+
+/// Solve the statics on raw matrices, for lab tools that compute J themselves.
+/// @param J     6 x m endpoint Jacobian, rows [v; w] in the transducer's axes.
+/// @param s_t   S_t diagonal (N/m, N·m/rad), >= 0. A zero entry is a released dof (same as
+///              deleting that row of J, see MODEL.md "Released dofs").
+/// @param s_p   S_p diagonal, m entries (N·m/rad or N/m), >= 0.
+/// @param tau   m joint torques (N·m or N).
+/// @param revolute m flags (true: revolute) for the small-motion rule; empty = all revolute.
+/// Never throws; bad input gives status kInvalidInput.
+StaticsResult SolveStatics(const Matrix6Xd& J, const Vector6d& s_t, const Eigen::VectorXd& s_p,
+                           const Eigen::VectorXd& tau, const StaticsOptions& options = {},
+                           const std::vector<bool>& revolute = {});
+
+/// The classic answers without compliance, on the restrained rows (mask true = restrained):
+/// J_r^-T tau when J_r is square and invertible (Eq. 11/14), otherwise pinv(J_r^T) tau =
+/// J_r (J_r^T J_r)^-1 tau (Eq. 15), by SVD with threshold rank_tolerance * sigma_max.
+struct ClassicResult {
+  Vector6d wrench = Vector6d::Zero();  ///< [f; m], transducer axes, released rows 0
+  bool square_inverse = false;         ///< true: J_r^-T tau; false: pseudoinverse
+  int rank = 0;                        ///< rank of J_r
+  double residual = 0.0;               ///< |J_r^T W_r - tau|: > 0 when tau is not reachable
+};
+ClassicResult ClassicWrench(const Matrix6Xd& J, const std::array<bool, 6>& restrained,
+                            const Eigen::VectorXd& tau, double rank_tolerance = 1e-10);
+
+/// Everything about one muscle at one posture on a model: kinematics, muscle torque, statics
+/// with the model's S_t, S_p and released dofs, and the classic comparison.
+struct WrenchEvaluation {
+  Eigen::VectorXd q;          ///< posture (rad / m)
+  Matrix6Xd jacobian;         ///< J_T_E, transducer axes, all 6 rows
+  Eigen::Matrix3d R_W_T;      ///< transducer axes in world
+  std::string muscle;
+  double muscle_length = 0.0;  ///< m
+  double muscle_force = 0.0;   ///< N
+  Eigen::VectorXd tau;        ///< N·m / N
+  Vector6d s_t;               ///< effective S_t diagonal (0 on released dofs)
+  Eigen::VectorXd s_p;
+  StaticsResult statics;      ///< W in transducer axes
+  Vector6d wrench_world = Vector6d::Zero();  ///< W rotated to world axes
+  ClassicResult classic;      ///< J^-T / pinv comparison on the restrained rows
+};
+
+/// Evaluate `muscle` (by name) at posture q with activation in [0, 1] (force scale; > 1 allowed).
+/// @throws Error for unknown muscle names or a posture of the wrong size / non-finite.
+WrenchEvaluation EvaluateWrench(const Model& model, const Eigen::VectorXd& q,
+                                const std::string& muscle, double activation = 1.0,
+                                const StaticsOptions& options = {});
+
+/// "hip_rx +1.00, knee_ry +0.97, knee_rx +0.26": a joint-space direction in named joints,
+/// scaled so the largest |entry| is 1, entries below `cutoff` omitted.
+std::string DescribeJointMotion(const Model& model, const Eigen::VectorXd& direction,
+                                double cutoff = 0.01);
+
+}  // namespace isowrench
