@@ -1,0 +1,156 @@
+#include <unistd.h>
+
+#include <cmath>
+#include <cstdio>
+#include <iostream>
+
+#include "cli/command.hpp"
+#include "isowrench/error.hpp"
+#include "isowrench/posture.hpp"
+#include "util/text.hpp"
+
+namespace isowrench::cli {
+
+std::vector<Command>& RegisteredCommands() {
+  static std::vector<Command> commands;
+  return commands;
+}
+
+bool RegisterCommand(Command command) {
+  RegisteredCommands().push_back(std::move(command));
+  return true;
+}
+
+void AddModelOptions(CLI::App& app, ModelOptions& o, bool with_muscle) {
+  app.add_option("urdf", o.urdf, "Limb URDF with isowrench extension tags (e.g. urdf/rat_hindlimb_5dof.urdf)")
+      ->required();
+  app.add_option("--posture", o.posture,
+                 "Joint positions over the URDF's nominal posture: joint=value,... in degrees "
+                 "(mm for prismatic joints), e.g. hip_rz=-110,knee_rz=105");
+  app.add_option("--release", o.release,
+                 "Released transducer dofs (x y z rx ry rz, in transducer axes), replacing the "
+                 "URDF's; 'none' restrains all six")
+      ->delimiter(',')
+      ->each([&o](const std::string&) { o.release_given = true; });
+  app.add_option("--transducer", o.transducer, "Transducer stiffness preset: balanced, ati-mini40, jr3")
+      ->check(CLI::IsMember({"balanced", "ati-mini40", "jr3"}));
+  app.add_option("--transducer-stiffness", o.transducer_stiffness,
+                 "S_t diagonal kx,ky,kz,krx,kry,krz in N/m and N·m/rad (transducer axes)");
+  app.add_option("--base-stiffness", o.base_stiffness,
+                 "Base translation stiffness in N/m; adds base_x/y/z prismatic dofs if the URDF has none")
+      ->each([&o](const std::string&) { o.base_given = true; });
+  app.add_option("--joint-stiffness", o.joint_stiffness,
+                 "Passive joint stiffness joint=value (N·m/rad, or N/m for prismatic); repeatable")
+      ->delimiter(',');
+  if (with_muscle) {
+    app.add_option("--muscle", o.muscle, "Muscle name (default: the first muscle in the URDF)");
+    app.add_option("--activation", o.activation, "Force scale: force = activation x max_force (default 1)");
+  }
+  app.add_option("--max-endpoint-fraction", o.statics.max_endpoint_fraction,
+                 "Small-motion rule: endpoint translation <= this x leg length (default 0.001)");
+  app.add_option("--max-joint-rotation", o.statics.max_joint_rotation,
+                 "Small-motion rule: every joint rotation <= this, rad (default 0.01)");
+  app.add_option("--rank-tolerance", o.statics.rank_tolerance,
+                 "Eigenvalue of K counts as zero when <= this x the largest (default 1e-12)");
+}
+
+Model LoadModel(const ModelOptions& o) {
+  LimbDescription d = ReadUrdfFile(o.urdf);
+  if (o.release_given) d = WithReleasedDofs(std::move(d), o.release);
+  if (!o.transducer.empty() && !o.transducer_stiffness.empty()) {
+    throw Error("give either --transducer or --transducer-stiffness, not both");
+  }
+  if (!o.transducer.empty()) d = WithTransducerStiffness(std::move(d), TransducerPreset(o.transducer));
+  if (!o.transducer_stiffness.empty()) {
+    std::vector<std::string> items = util::Split(o.transducer_stiffness, ", ");
+    if (items.size() != 6) {
+      throw Error("--transducer-stiffness needs 6 values kx,ky,kz,krx,kry,krz; got '" + o.transducer_stiffness + "'");
+    }
+    Vector6d s;
+    for (int i = 0; i < 6; ++i) {
+      s[i] = util::ParseDoubleOrThrow(items[i], std::string("--transducer-stiffness ") + DofName(i));
+    }
+    d = WithTransducerStiffness(std::move(d), s);
+  }
+  if (o.base_given) d = WithBaseStiffness(std::move(d), o.base_stiffness);
+  for (const std::string& item : o.joint_stiffness) {
+    size_t eq = item.find('=');
+    if (eq == std::string::npos) throw Error("--joint-stiffness '" + item + "' is not joint=value");
+    std::string joint = util::Trim(item.substr(0, eq));
+    d = WithJointStiffness(std::move(d), joint,
+                           util::ParseDoubleOrThrow(item.substr(eq + 1), "--joint-stiffness " + joint));
+  }
+  return Model(std::move(d));
+}
+
+Eigen::VectorXd LoadPosture(const Model& model, const ModelOptions& o) {
+  return ApplyPostureAssignments(model, model.nominal_posture(), o.posture);
+}
+
+std::string ChooseMuscle(const Model& model, const ModelOptions& o) {
+  if (!o.muscle.empty()) {
+    model.MuscleIndex(o.muscle);  // throws with the list of muscles
+    return o.muscle;
+  }
+  if (model.muscle_count() == 0) throw Error("model '" + model.name() + "' has no <isowrench:muscle>");
+  return model.muscle(0).name;
+}
+
+std::string Cell(double value, int width) {
+  char buffer[64];
+  if (value == 0.0) value = 0.0;  // no "-0"
+  std::snprintf(buffer, sizeof(buffer), "%*.4g", width, value);
+  return buffer;
+}
+
+std::string StiffnessText(const Vector6d& s) {
+  return "[" + util::FormatNumber(s[0], 4) + " " + util::FormatNumber(s[1], 4) + " " +
+         util::FormatNumber(s[2], 4) + " N/m; " + util::FormatNumber(s[3], 4) + " " +
+         util::FormatNumber(s[4], 4) + " " + util::FormatNumber(s[5], 4) + " N·m/rad]";
+}
+
+std::string WrenchHeader(int label_width) {
+  std::string line(static_cast<size_t>(label_width), ' ');
+  const char* names[6] = {"fx (N)", "fy (N)", "fz (N)", "mx (N·m)", "my (N·m)", "mz (N·m)"};
+  for (int i = 0; i < 6; ++i) {
+    std::string name = names[i];
+    // "·" is 2 bytes but one column wide.
+    size_t columns = name.size() - (i >= 3 ? 1 : 0);
+    line += std::string(11 - columns, ' ') + name;
+  }
+  return line;
+}
+
+std::string WrenchRow(const std::string& label, const Vector6d& w, int label_width) {
+  std::string line = label;
+  if (static_cast<int>(line.size()) < label_width) line += std::string(label_width - line.size(), ' ');
+  for (int i = 0; i < 6; ++i) line += Cell(w[i]);
+  return line;
+}
+
+nlohmann::json ToJson(const Vector6d& v) { return std::vector<double>(v.data(), v.data() + 6); }
+nlohmann::json ToJson(const Eigen::VectorXd& v) { return std::vector<double>(v.data(), v.data() + v.size()); }
+
+nlohmann::json WrenchJson(const Vector6d& w) {
+  return {{"fx", w[0]}, {"fy", w[1]}, {"fz", w[2]}, {"mx", w[3]}, {"my", w[4]}, {"mz", w[5]},
+          {"units", {{"force", "N"}, {"moment", "N·m"}}}};
+}
+
+Progress::Progress(std::string label, long total)
+    : label_(std::move(label)), total_(total), enabled_(::isatty(STDERR_FILENO) && total > 0) {}
+
+Progress::~Progress() {
+  if (enabled_ && last_percent_ >= 0) std::cerr << "\n";
+}
+
+void Progress::Update(long done) {
+  if (!enabled_) return;
+  int percent = static_cast<int>(100.0 * static_cast<double>(done) / static_cast<double>(total_));
+  if (percent == last_percent_) return;
+  last_percent_ = percent;
+  int filled = percent * 30 / 100;
+  std::cerr << "\r" << label_ << " [" << std::string(filled, '#') << std::string(30 - filled, '.') << "] "
+            << percent << "% (" << done << "/" << total_ << ")" << std::flush;
+}
+
+}  // namespace isowrench::cli

@@ -1,0 +1,84 @@
+#pragma once
+// Private: the CLI's command registry and the options every model-based command shares.
+// Each command lives in src/cli/<name>_command.cpp and registers itself with a static
+// `const bool registered = RegisterCommand({...});`.
+
+#include <CLI/CLI.hpp>
+#include <Eigen/Core>
+#include <functional>
+#include <memory>
+#include <nlohmann/json.hpp>
+#include <string>
+#include <vector>
+
+#include "isowrench/model.hpp"
+#include "isowrench/statics.hpp"
+
+namespace isowrench::cli {
+
+/// A subcommand: `setup` adds its options to the CLI11 subcommand and returns the function that
+/// runs it after parsing (returning the process exit code).
+struct Command {
+  std::string name;
+  std::string description;
+  int order = 100;  ///< position in --help
+  std::function<std::function<int()>(CLI::App&)> setup;
+};
+
+bool RegisterCommand(Command command);
+std::vector<Command>& RegisteredCommands();
+
+/// Options shared by commands that load one limb and override parts of it.
+struct ModelOptions {
+  std::string urdf;
+  std::string posture;                 ///< "joint=deg,..." applied over the nominal posture
+  std::vector<std::string> release;    ///< transducer dofs to release ("none" clears)
+  bool release_given = false;
+  std::string transducer;              ///< preset name
+  std::string transducer_stiffness;    ///< "kx,ky,kz,krx,kry,krz"
+  double base_stiffness = 0;           ///< N/m, used when base_given
+  bool base_given = false;
+  std::vector<std::string> joint_stiffness;  ///< "joint=value"
+  std::string muscle;                  ///< empty = the first muscle
+  double activation = 1.0;
+  StaticsOptions statics;
+};
+
+/// Add the shared options (positional <urdf> included) to a subcommand.
+void AddModelOptions(CLI::App& app, ModelOptions& options, bool with_muscle = true);
+
+/// Load the URDF and apply the overrides. @throws isowrench::Error.
+Model LoadModel(const ModelOptions& options);
+/// Nominal posture with --posture applied.
+Eigen::VectorXd LoadPosture(const Model& model, const ModelOptions& options);
+/// --muscle or the model's first muscle. @throws isowrench::Error if the model has none.
+std::string ChooseMuscle(const Model& model, const ModelOptions& options);
+
+/// Number formatting for tables: fixed width, signed, 4 significant digits.
+std::string Cell(double value, int width = 11);
+/// "[1e+07 1e+07 1e+07 N/m; 1e+07 1e+07 1e+07 N·m/rad]"
+std::string StiffnessText(const Vector6d& s_t);
+/// Header line "fx (N) fy (N) fz (N) mx (N·m) my (N·m) mz (N·m)" aligned with Cell().
+std::string WrenchHeader(int label_width);
+std::string WrenchRow(const std::string& label, const Vector6d& w, int label_width);
+
+nlohmann::json ToJson(const Vector6d& v);
+nlohmann::json ToJson(const Eigen::VectorXd& v);
+/// {"fx": .., "fy": .., ...,"units": {...}}
+nlohmann::json WrenchJson(const Vector6d& w);
+
+/// A progress bar on stderr when it is a terminal; silent when piped.
+class Progress {
+ public:
+  Progress(std::string label, long total);
+  ~Progress();
+  void Update(long done);
+
+ private:
+  std::string label_;
+  long total_;
+  bool enabled_;
+  int last_percent_ = -1;
+};
+
+}  // namespace isowrench::cli

@@ -1,0 +1,44 @@
+// isowrench command-line tool: a thin layer over the library. Every command is a file
+// src/cli/<name>_command.cpp that registers itself (see command.hpp).
+
+#include <algorithm>
+#include <clocale>
+#include <iostream>
+
+#include "cli/command.hpp"
+#include "isowrench/error.hpp"
+
+int main(int argc, char** argv) {
+  std::setlocale(LC_ALL, "C");
+  CLI::App app{
+      "isowrench: the wrench a stimulated muscle produces at a limb endpoint bolted to a 6-axis "
+      "force/torque transducer, with transducer, base and joint compliances (Eq. 10 of the "
+      "seed paper). Units: SI; postures in degrees. Docs: README.md, docs/."};
+  app.require_subcommand(1);
+  app.set_version_flag("--version", "isowrench 0.1.0");
+  auto commands = isowrench::cli::RegisteredCommands();
+  std::sort(commands.begin(), commands.end(),
+            [](const auto& a, const auto& b) { return a.order < b.order || (a.order == b.order && a.name < b.name); });
+  std::vector<std::pair<CLI::App*, std::function<int()>>> runners;
+  for (const auto& command : commands) {
+    CLI::App* sub = app.add_subcommand(command.name, command.description);
+    runners.emplace_back(sub, command.setup(*sub));
+  }
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    return app.exit(e);
+  }
+  try {
+    for (auto& [sub, run] : runners) {
+      if (sub->parsed()) return run();
+    }
+  } catch (const isowrench::Error& e) {
+    std::cerr << "isowrench: error: " << e.what() << "\n";
+    return 1;
+  } catch (const std::exception& e) {
+    std::cerr << "isowrench: internal error: " << e.what() << "\n";
+    return 3;
+  }
+  return 0;
+}

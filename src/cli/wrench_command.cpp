@@ -1,0 +1,157 @@
+// `isowrench wrench <urdf>`: one muscle, one posture, one set of compliances.
+
+#include <iostream>
+
+#include "cli/command.hpp"
+#include "isowrench/posture.hpp"
+#include "isowrench/statics.hpp"
+#include "util/text.hpp"
+
+namespace isowrench::cli {
+namespace {
+
+std::string ReleasedText(const TransducerSpec& t) {
+  std::vector<std::string> names;
+  for (int i = 0; i < 6; ++i) {
+    if (t.released[i]) names.push_back(DofName(i));
+  }
+  return names.empty() ? "none (all 6 dofs restrained)" : util::Join(names, " ");
+}
+
+std::string Unit(const Model& model, int i, const char* revolute, const char* prismatic) {
+  return model.joint(i).type == JointType::kPrismatic ? prismatic : revolute;
+}
+
+nlohmann::json EvaluationJson(const Model& model, const WrenchEvaluation& e, const std::string& urdf) {
+  const StaticsResult& s = e.statics;
+  nlohmann::json joints = nlohmann::json::array();
+  for (int i = 0; i < model.dof_count(); ++i) {
+    joints.push_back({{"name", model.joint_names()[i]},
+                      {"role", RoleName(model.joint(i).role)},
+                      {"q", e.q[i]},
+                      {"stiffness", e.s_p[i]},
+                      {"tau", e.tau[i]},
+                      {"dtheta", s.dtheta[i]},
+                      {"units", model.joint(i).type == JointType::kPrismatic
+                                    ? nlohmann::json{{"q", "m"}, {"stiffness", "N/m"}, {"tau", "N"}, {"dtheta", "m"}}
+                                    : nlohmann::json{{"q", "rad"}, {"stiffness", "N·m/rad"}, {"tau", "N·m"}, {"dtheta", "rad"}}}});
+  }
+  nlohmann::json self_motion = nlohmann::json::array();
+  for (int c = 0; c < s.self_motion.cols(); ++c) {
+    Eigen::VectorXd v = s.self_motion.col(c);
+    self_motion.push_back({{"direction", ToJson(v)}, {"description", DescribeJointMotion(model, v)}});
+  }
+  std::vector<std::string> released;
+  for (int i = 0; i < 6; ++i) {
+    if (model.transducer().released[i]) released.push_back(DofName(i));
+  }
+  return {
+      {"model", model.name()},
+      {"urdf", urdf},
+      {"muscle", {{"name", e.muscle}, {"force_N", e.muscle_force}, {"length_m", e.muscle_length}}},
+      {"transducer", {{"stiffness", ToJson(e.s_t)}, {"released", released},
+                      {"units", "N/m for x y z, N·m/rad for rx ry rz"}}},
+      {"joints", joints},
+      {"wrench", WrenchJson(s.wrench)},
+      {"wrench_world", WrenchJson(e.wrench_world)},
+      {"wrench_sign", "wrench the limb applies to the transducer; moment about the endpoint"},
+      {"classic", {{"method", e.classic.square_inverse ? "J^-T tau (Eq. 11)" : "pinv(J^T) tau (Eq. 15)"},
+                   {"wrench", WrenchJson(e.classic.wrench)},
+                   {"rank", e.classic.rank},
+                   {"residual", e.classic.residual}}},
+      {"statics", {{"status", StatusName(s.status)},
+                   {"message", s.message},
+                   {"k_rank", s.k_rank},
+                   {"k_condition", s.k_condition},
+                   {"rank_threshold", s.rank_threshold},
+                   {"k_eigenvalues", ToJson(s.k_eigenvalues)},
+                   {"equilibrium_residual", s.equilibrium_residual},
+                   {"self_motion", self_motion}}},
+      {"endpoint_displacement", {{"value", ToJson(s.endpoint_displacement)}, {"units", "m for x y z, rad for rx ry rz"}}},
+      {"small_motion", {{"valid", s.small_motion_valid},
+                        {"endpoint_translation_m", s.endpoint_translation},
+                        {"endpoint_translation_limit_m", s.endpoint_translation_limit},
+                        {"max_joint_rotation_rad", s.max_joint_rotation},
+                        {"max_joint_rotation_limit_rad", s.max_joint_rotation_limit},
+                        {"message", s.validity_message}}},
+  };
+}
+
+void PrintEvaluation(const Model& model, const WrenchEvaluation& e, const std::string& urdf) {
+  const StaticsResult& s = e.statics;
+  const TransducerSpec& t = model.transducer();
+  std::cout << "isowrench wrench: " << model.name() << " (" << urdf << ")\n"
+            << "  posture      " << FormatPosture(model, e.q) << "\n"
+            << "  muscle       " << e.muscle << ": " << util::FormatNumber(e.muscle_force, 4)
+            << " N, length " << util::FormatNumber(e.muscle_length * 1e3, 4) << " mm\n"
+            << "  transducer   S_t = " << StiffnessText(t.stiffness) << ", axes "
+            << (t.axes_in_world ? "world" : "of link " + t.link) << ", released: " << ReleasedText(t) << "\n";
+  std::vector<std::string> springs;
+  for (int i = 0; i < model.dof_count(); ++i) {
+    if (e.s_p[i] > 0) {
+      springs.push_back(model.joint_names()[i] + " " + util::FormatNumber(e.s_p[i], 4) +
+                        Unit(model, i, " N·m/rad", " N/m"));
+    }
+  }
+  std::cout << "  S_p          " << (springs.empty() ? "none (all joints free)" : util::Join(springs, ", ")) << "\n"
+            << "  statics      " << StatusName(s.status) << ": " << s.message << "\n";
+  for (int c = 0; c < s.self_motion.cols(); ++c) {
+    std::cout << "  self-motion  " << DescribeJointMotion(model, s.self_motion.col(c)) << "\n";
+  }
+  std::cout << "  small motion " << (s.small_motion_valid ? "valid" : "INVALID") << ": endpoint moves "
+            << util::FormatNumber(s.endpoint_translation, 3) << " m (limit "
+            << util::FormatNumber(s.endpoint_translation_limit, 3) << " m), largest joint rotation "
+            << util::FormatNumber(s.max_joint_rotation, 3) << " rad (limit "
+            << util::FormatNumber(s.max_joint_rotation_limit, 3) << " rad)\n";
+  if (!s.validity_message.empty()) std::cout << "  warning      " << s.validity_message << "\n";
+
+  const int w = 30;
+  std::cout << "\nWrench the limb applies to the transducer (moment about the endpoint):\n"
+            << WrenchHeader(w) << "\n"
+            << WrenchRow("Eq. 10, transducer axes", s.wrench, w) << "\n"
+            << WrenchRow("Eq. 10, world axes", e.wrench_world, w) << "\n"
+            << WrenchRow(e.classic.square_inverse ? "J^-T tau (Eq. 11)" : "pinv(J^T) tau (Eq. 15)",
+                         e.classic.wrench, w)
+            << "\n";
+  if (e.classic.residual > 1e-9 * std::max(1.0, e.tau.norm())) {
+    std::cout << "  (the classic answer leaves |J^T W - tau| = " << util::FormatNumber(e.classic.residual, 3)
+              << " N·m: the restrained dofs cannot balance the muscle torque without compliance)\n";
+  }
+  std::cout << "\nPer joint:\n" << "  joint        role       tau            dtheta         stiffness\n";
+  for (int i = 0; i < model.dof_count(); ++i) {
+    char line[200];
+    std::snprintf(line, sizeof(line), "  %-12s %-8s %11.4g %-4s %11.4g %-4s %10.4g %s\n",
+                  model.joint_names()[i].c_str(), RoleName(model.joint(i).role), e.tau[i],
+                  Unit(model, i, "N·m", "N").c_str(), s.dtheta[i], Unit(model, i, "rad", "m").c_str(),
+                  e.s_p[i], Unit(model, i, "N·m/rad", "N/m").c_str());
+    std::cout << line;
+  }
+}
+
+const bool registered = RegisterCommand({
+    "wrench",
+    "Compute the wrench one muscle applies through the limb to the transducer (Eq. 10), with the "
+    "classic J^-T / pseudoinverse answer beside it",
+    10,
+    [](CLI::App& app) -> std::function<int()> {
+      auto options = std::make_shared<ModelOptions>();
+      auto json = std::make_shared<bool>(false);
+      AddModelOptions(app, *options);
+      app.add_flag("--json", *json, "Print JSON instead of the table");
+      return [options, json]() {
+        Model model = LoadModel(*options);
+        Eigen::VectorXd q = LoadPosture(model, *options);
+        WrenchEvaluation e = EvaluateWrench(model, q, ChooseMuscle(model, *options), options->activation,
+                                            options->statics);
+        if (*json) {
+          std::cout << EvaluationJson(model, e, options->urdf).dump(2) << "\n";
+        } else {
+          PrintEvaluation(model, e, options->urdf);
+        }
+        return e.statics.status == StaticsStatus::kSelfMotion ? 4 : 0;
+      };
+    },
+});
+
+}  // namespace
+}  // namespace isowrench::cli

@@ -1,0 +1,175 @@
+// Editing a LimbDescription: base dofs, joint stiffness, extra joints, releases, presets.
+
+#include <algorithm>
+#include <cmath>
+
+#include "isowrench/error.hpp"
+#include "isowrench/model.hpp"
+#include "util/text.hpp"
+
+namespace isowrench {
+namespace {
+
+JointSpec& FindMovable(LimbDescription& d, const std::string& name) {
+  std::vector<std::string> known;
+  for (JointSpec& j : d.joints) {
+    if (j.type == JointType::kFixed) continue;
+    if (j.name == name) return j;
+    known.push_back(j.name);
+  }
+  throw Error("unknown joint '" + name + "' in model '" + d.name + "' (movable joints: " +
+              util::Join(known, ", ") + ")");
+}
+
+void CheckStiffness(double stiffness, const std::string& what) {
+  if (!std::isfinite(stiffness) || stiffness < 0) {
+    throw Error(what + ": stiffness " + util::FormatNumber(stiffness) +
+                " must be finite and >= 0");
+  }
+}
+
+bool HasLink(const LimbDescription& d, const std::string& name) {
+  return std::find(d.links.begin(), d.links.end(), name) != d.links.end();
+}
+
+}  // namespace
+
+const char* RoleName(JointRole role) {
+  switch (role) {
+    case JointRole::kLimb: return "limb";
+    case JointRole::kBase: return "base";
+    case JointRole::kExtra: return "extra";
+    case JointRole::kRelease: return "release";
+  }
+  return "limb";
+}
+
+const char* DofName(int dof) {
+  static const char* kNames[6] = {"x", "y", "z", "rx", "ry", "rz"};
+  return (dof >= 0 && dof < 6) ? kNames[dof] : "?";
+}
+
+Vector6d TransducerPreset(const std::string& name) {
+  Vector6d s;
+  if (name == "balanced") {
+    s.setConstant(1e7);
+  } else if (name == "ati-mini40") {
+    s << 1.1e7, 1.1e7, 2.0e7, 2.8e3, 2.8e3, 4.0e3;  // datasheet, MODEL.md
+  } else if (name == "jr3") {
+    s << 0.519, 0.519, 5.279, 0.0054, 0.0054, 0.0015;  // as printed in the paper
+  } else {
+    throw Error("unknown transducer preset '" + name + "' (known: balanced, ati-mini40, jr3)");
+  }
+  return s;
+}
+
+LimbDescription WithBaseStiffness(LimbDescription d, double stiffness) {
+  CheckStiffness(stiffness, "base");
+  bool found = false;
+  for (JointSpec& j : d.joints) {
+    if (j.role == JointRole::kBase) {
+      j.stiffness = stiffness;
+      found = true;
+    }
+  }
+  if (found) return d;
+  const char* names[3] = {"base_x", "base_y", "base_z"};
+  std::vector<JointSpec> base;
+  std::string parent = d.root_link;
+  for (int i = 0; i < 3; ++i) {
+    JointSpec j;
+    j.name = names[i];
+    for (const JointSpec& other : d.joints) {
+      if (other.name == j.name) throw Error("cannot add base dofs: joint '" + j.name + "' exists");
+    }
+    j.type = JointType::kPrismatic;
+    j.role = JointRole::kBase;
+    j.stiffness = stiffness;
+    j.axis = Eigen::Vector3d::Unit(i);
+    j.parent_link = parent;
+    j.child_link = std::string(names[i]) + "_link";
+    if (HasLink(d, j.child_link)) throw Error("cannot add base dofs: link '" + j.child_link + "' exists");
+    parent = j.child_link;
+    base.push_back(j);
+  }
+  if (!d.joints.empty()) d.joints.front().parent_link = parent;
+  d.joints.insert(d.joints.begin(), base.begin(), base.end());
+  d.links.insert(d.links.begin() + 1, {"base_x_link", "base_y_link", "base_z_link"});
+  return d;
+}
+
+LimbDescription WithJointStiffness(LimbDescription d, const std::string& joint, double stiffness) {
+  CheckStiffness(stiffness, "joint '" + joint + "'");
+  FindMovable(d, joint).stiffness = stiffness;
+  return d;
+}
+
+LimbDescription WithExtraJoint(LimbDescription d, const std::string& after_joint,
+                               const std::string& new_joint, const Eigen::Vector3d& axis,
+                               double stiffness) {
+  CheckStiffness(stiffness, "joint '" + new_joint + "'");
+  if (!axis.allFinite() || axis.norm() < 1e-12) {
+    throw Error("extra joint '" + new_joint + "': axis must be a finite non-zero vector");
+  }
+  for (const JointSpec& j : d.joints) {
+    if (j.name == new_joint) throw Error("extra joint '" + new_joint + "' already exists");
+  }
+  FindMovable(d, after_joint);
+  auto it = std::find_if(d.joints.begin(), d.joints.end(),
+                         [&](const JointSpec& j) { return j.name == after_joint; });
+  JointSpec extra;
+  extra.name = new_joint;
+  extra.type = JointType::kRevolute;
+  extra.role = JointRole::kExtra;
+  extra.stiffness = stiffness;
+  extra.axis = axis.normalized();
+  extra.parent_link = it->child_link;
+  extra.child_link = new_joint + "_link";
+  if (HasLink(d, extra.child_link)) throw Error("extra joint: link '" + extra.child_link + "' exists");
+  // Everything that hung on after_joint's child now hangs on the new joint's child.
+  auto next = it + 1;
+  if (next != d.joints.end()) next->parent_link = extra.child_link;
+  // Links, muscle points and the transducer stay on their links: the new link is massless
+  // and coincides with after_joint's child at zero extra angle. But anything attached to
+  // after_joint's child link must now move with the extra joint, so move those to the new link.
+  std::string old_child = it->child_link;
+  for (MuscleSpec& m : d.muscles) {
+    for (PathPoint& p : m.path) {
+      if (p.link == old_child) p.link = extra.child_link;
+    }
+  }
+  if (d.transducer.link == old_child) d.transducer.link = extra.child_link;
+  auto link_it = std::find(d.links.begin(), d.links.end(), old_child);
+  d.links.insert(link_it + 1, extra.child_link);
+  d.joints.insert(next, extra);
+  return d;
+}
+
+LimbDescription WithReleasedDofs(LimbDescription d, const std::vector<std::string>& dofs) {
+  d.transducer.released.fill(false);
+  for (const std::string& name : dofs) {
+    if (name == "none") continue;
+    bool found = false;
+    for (int i = 0; i < 6; ++i) {
+      if (name == DofName(i)) {
+        d.transducer.released[i] = true;
+        found = true;
+      }
+    }
+    if (!found) throw Error("released dof '" + name + "' is not one of x y z rx ry rz");
+  }
+  return d;
+}
+
+LimbDescription WithTransducerStiffness(LimbDescription d, const Vector6d& stiffness) {
+  for (int i = 0; i < 6; ++i) {
+    if (!std::isfinite(stiffness[i]) || stiffness[i] < 0) {
+      throw Error(std::string("transducer stiffness ") + DofName(i) + " = " +
+                  util::FormatNumber(stiffness[i]) + " must be finite and >= 0");
+    }
+  }
+  d.transducer.stiffness = stiffness;
+  return d;
+}
+
+}  // namespace isowrench

@@ -1,0 +1,177 @@
+// Model: validation of a LimbDescription and its KDL chain.
+
+#include <algorithm>
+#include <cmath>
+#include <set>
+
+#include "isowrench/error.hpp"
+#include "isowrench/model.hpp"
+#include "model/model_impl.hpp"
+#include "util/text.hpp"
+
+namespace isowrench {
+namespace {
+
+KDL::Vector ToKdl(const Eigen::Vector3d& v) { return KDL::Vector(v.x(), v.y(), v.z()); }
+
+KDL::Frame ToKdl(const Eigen::Isometry3d& t) {
+  const Eigen::Matrix3d& R = t.linear();
+  return KDL::Frame(KDL::Rotation(R(0, 0), R(0, 1), R(0, 2), R(1, 0), R(1, 1), R(1, 2), R(2, 0),
+                                  R(2, 1), R(2, 2)),
+                    ToKdl(t.translation()));
+}
+
+void Validate(const LimbDescription& d) {
+  const std::string model = "model '" + d.name + "'";
+  if (d.joints.empty()) throw Error(model + " has no joints between '" + d.root_link + "' and the endpoint");
+  std::set<std::string> names;
+  std::set<std::string> links(d.links.begin(), d.links.end());
+  if (links.size() != d.links.size()) throw Error(model + ": a link name appears twice");
+  std::string parent = d.root_link;
+  int movable = 0;
+  for (const JointSpec& j : d.joints) {
+    const std::string what = model + ", joint '" + j.name + "'";
+    if (j.name.empty()) throw Error(model + ": a joint has no name");
+    if (!names.insert(j.name).second) throw Error(what + " is defined twice");
+    if (j.parent_link != parent) {
+      throw Error(what + ": parent link '" + j.parent_link + "' does not continue the chain (expected '" +
+                  parent + "')");
+    }
+    if (!links.count(j.child_link)) throw Error(what + ": child link '" + j.child_link + "' is not listed");
+    parent = j.child_link;
+    if (!j.origin.matrix().allFinite()) throw Error(what + ": origin is not finite");
+    if (j.type == JointType::kFixed) continue;
+    ++movable;
+    if (!j.axis.allFinite() || std::abs(j.axis.norm() - 1.0) > 1e-9) {
+      throw Error(what + ": axis must be a finite unit vector");
+    }
+    if (!std::isfinite(j.stiffness) || j.stiffness < 0) {
+      throw Error(what + ": stiffness " + util::FormatNumber(j.stiffness) + " must be finite and >= 0");
+    }
+  }
+  if (movable == 0) throw Error(model + " has no movable joint");
+  const TransducerSpec& t = d.transducer;
+  if (t.link != parent) {
+    throw Error(model + ": transducer link '" + t.link + "' is not the chain's last link '" + parent + "'");
+  }
+  if (!t.endpoint.allFinite()) throw Error(model + ": transducer endpoint position is not finite");
+  if (!t.rotation.allFinite() ||
+      !(t.rotation.transpose() * t.rotation).isApprox(Eigen::Matrix3d::Identity(), 1e-9)) {
+    throw Error(model + ": transducer rotation is not a rotation matrix");
+  }
+  for (int i = 0; i < 6; ++i) {
+    if (!std::isfinite(t.stiffness[i]) || t.stiffness[i] < 0) {
+      throw Error(model + ": transducer stiffness " + DofName(i) + " = " +
+                  util::FormatNumber(t.stiffness[i]) + " must be finite and >= 0");
+    }
+  }
+  std::set<std::string> muscles;
+  for (const MuscleSpec& m : d.muscles) {
+    const std::string what = model + ", muscle '" + m.name + "'";
+    if (!muscles.insert(m.name).second) throw Error(what + " is defined twice");
+    if (!std::isfinite(m.max_force) || m.max_force <= 0) {
+      throw Error(what + ": max_force " + util::FormatNumber(m.max_force) + " N must be finite and > 0");
+    }
+    if (m.path.size() < 2) throw Error(what + " needs at least two path points");
+    for (const PathPoint& p : m.path) {
+      if (!links.count(p.link)) {
+        throw Error(what + ": path point on link '" + p.link + "', which is not on the chain");
+      }
+      if (!p.position.allFinite()) throw Error(what + ": a path point position is not finite");
+    }
+  }
+  for (const auto& [joint, value] : d.nominal_posture) {
+    auto it = std::find_if(d.joints.begin(), d.joints.end(),
+                           [&](const JointSpec& j) { return j.name == joint; });
+    if (it == d.joints.end() || it->type == JointType::kFixed) {
+      throw Error(model + ": nominal posture names unknown or fixed joint '" + joint + "'");
+    }
+    if (!std::isfinite(value)) throw Error(model + ": nominal posture of '" + joint + "' is not finite");
+  }
+}
+
+}  // namespace
+
+KDL::Chain BuildKdlChain(const LimbDescription& d) {
+  KDL::Chain chain;
+  for (const JointSpec& j : d.joints) {
+    KDL::Frame origin = ToKdl(j.origin);
+    KDL::Joint joint(j.name, KDL::Joint::Fixed);
+    if (j.type == JointType::kRevolute) {
+      joint = KDL::Joint(j.name, origin.p, origin.M * ToKdl(j.axis), KDL::Joint::RotAxis);
+    } else if (j.type == JointType::kPrismatic) {
+      joint = KDL::Joint(j.name, origin.p, origin.M * ToKdl(j.axis), KDL::Joint::TransAxis);
+    }
+    // Segment pose(q) = joint.pose(q) * joint.pose(0)^-1 * origin = origin * motion(axis, q).
+    chain.addSegment(KDL::Segment(j.child_link, joint, origin));
+  }
+  KDL::Frame endpoint(ToKdl(d.transducer.endpoint));
+  chain.addSegment(KDL::Segment("isowrench_endpoint", KDL::Joint("isowrench_endpoint", KDL::Joint::Fixed),
+                                endpoint));
+  return chain;
+}
+
+Model::Model(LimbDescription description) {
+  Validate(description);
+  auto impl = std::make_shared<Impl>();
+  impl->chain = BuildKdlChain(description);
+  impl->link_segments[description.root_link] = 0;
+  double length = 0.0;
+  for (size_t i = 0; i < description.joints.size(); ++i) {
+    const JointSpec& j = description.joints[i];
+    impl->link_segments[j.child_link] = static_cast<int>(i) + 1;
+    length += j.origin.translation().norm();
+    if (j.type == JointType::kFixed) continue;
+    impl->movable.push_back(static_cast<int>(i));
+    impl->joint_names.push_back(j.name);
+    impl->revolute.push_back(j.type == JointType::kRevolute);
+  }
+  impl->endpoint_link_segments = static_cast<int>(description.joints.size());
+  impl->chain_length = length + description.transducer.endpoint.norm();
+  impl->description = std::move(description);
+  impl_ = impl;
+}
+
+Model Model::FromUrdfFile(const std::string& path) { return Model(ReadUrdfFile(path)); }
+
+const LimbDescription& Model::description() const { return impl_->description; }
+int Model::dof_count() const { return static_cast<int>(impl_->movable.size()); }
+const std::vector<std::string>& Model::joint_names() const { return impl_->joint_names; }
+const JointSpec& Model::joint(int i) const { return impl_->description.joints.at(impl_->movable.at(i)); }
+
+int Model::JointIndex(const std::string& name) const {
+  for (int i = 0; i < dof_count(); ++i) {
+    if (impl_->joint_names[i] == name) return i;
+  }
+  throw Error("unknown joint '" + name + "' in model '" + this->name() + "' (movable joints: " +
+              util::Join(impl_->joint_names, ", ") + ")");
+}
+
+Eigen::VectorXd Model::joint_stiffness() const {
+  Eigen::VectorXd s(dof_count());
+  for (int i = 0; i < dof_count(); ++i) s[i] = joint(i).stiffness;
+  return s;
+}
+
+int Model::muscle_count() const { return static_cast<int>(description().muscles.size()); }
+const MuscleSpec& Model::muscle(int i) const { return description().muscles.at(i); }
+
+int Model::MuscleIndex(const std::string& name) const {
+  std::vector<std::string> known;
+  for (int i = 0; i < muscle_count(); ++i) {
+    if (muscle(i).name == name) return i;
+    known.push_back(muscle(i).name);
+  }
+  throw Error("unknown muscle '" + name + "' in model '" + this->name() + "' (muscles: " +
+              (known.empty() ? std::string("none") : util::Join(known, ", ")) + ")");
+}
+
+Eigen::VectorXd Model::nominal_posture() const {
+  Eigen::VectorXd q = Eigen::VectorXd::Zero(dof_count());
+  for (const auto& [joint, value] : description().nominal_posture) q[JointIndex(joint)] = value;
+  return q;
+}
+
+double Model::chain_length() const { return impl_->chain_length; }
+
+}  // namespace isowrench

@@ -1,0 +1,356 @@
+// URDF (+ isowrench extension tags) -> LimbDescription.
+//
+// urdfdom only logs why it rejects a file and returns null, so the XML is parsed with tinyxml2
+// first (file:line messages, joint types we refuse, our extension tags), then handed to urdfdom
+// for the standard robot model. Numbers are parsed with std::from_chars (locale independent).
+
+#include <tinyxml2.h>
+#include <urdf_parser/urdf_parser.h>
+
+#include <algorithm>
+#include <cmath>
+#include <fstream>
+#include <map>
+#include <set>
+#include <sstream>
+
+#include "isowrench/error.hpp"
+#include "isowrench/model.hpp"
+#include "util/text.hpp"
+
+namespace isowrench {
+namespace {
+
+constexpr const char* kPrefix = "isowrench:";
+
+struct Reader {
+  std::string source;  // file name used in messages
+
+  std::string Where(const tinyxml2::XMLElement* e) const {
+    return source + ":" + std::to_string(e->GetLineNum());
+  }
+
+  [[noreturn]] void Fail(const tinyxml2::XMLElement* e, const std::string& what) const {
+    throw Error(Where(e) + ": " + what);
+  }
+
+  std::string Attribute(const tinyxml2::XMLElement* e, const char* name, bool required) const {
+    const char* value = e->Attribute(name);
+    if (!value) {
+      if (required) {
+        Fail(e, std::string("<") + e->Name() + "> needs the attribute '" + name + "'");
+      }
+      return "";
+    }
+    return value;
+  }
+
+  double Number(const tinyxml2::XMLElement* e, const char* name, const std::string& text) const {
+    double value = 0.0;
+    if (!util::ParseDouble(text, &value)) {
+      Fail(e, std::string("attribute '") + name + "' = '" + text + "' is not a number");
+    }
+    if (!std::isfinite(value)) {
+      Fail(e, std::string("attribute '") + name + "' = '" + text + "' is not finite");
+    }
+    return value;
+  }
+
+  std::vector<double> Numbers(const tinyxml2::XMLElement* e, const char* name, size_t count,
+                              bool required) const {
+    std::string text = Attribute(e, name, required);
+    if (text.empty() && !required) return {};
+    std::vector<double> values;
+    for (const std::string& piece : util::Split(text, " \t\n,")) {
+      values.push_back(Number(e, name, piece));
+    }
+    if (values.size() != count) {
+      Fail(e, std::string("attribute '") + name + "' = '" + text + "' must hold " +
+                  std::to_string(count) + " numbers");
+    }
+    return values;
+  }
+
+  Eigen::Vector3d Vector3(const tinyxml2::XMLElement* e, const char* name) const {
+    std::vector<double> v = Numbers(e, name, 3, false);
+    if (v.empty()) return Eigen::Vector3d::Zero();
+    return Eigen::Vector3d(v[0], v[1], v[2]);
+  }
+};
+
+Eigen::Matrix3d RotationFromRpy(const Eigen::Vector3d& rpy) {
+  return (Eigen::AngleAxisd(rpy.z(), Eigen::Vector3d::UnitZ()) *
+          Eigen::AngleAxisd(rpy.y(), Eigen::Vector3d::UnitY()) *
+          Eigen::AngleAxisd(rpy.x(), Eigen::Vector3d::UnitX()))
+      .toRotationMatrix();
+}
+
+Eigen::Isometry3d ToIsometry(const urdf::Pose& pose) {
+  Eigen::Isometry3d t = Eigen::Isometry3d::Identity();
+  t.translation() = Eigen::Vector3d(pose.position.x, pose.position.y, pose.position.z);
+  t.linear() = Eigen::Quaterniond(pose.rotation.w, pose.rotation.x, pose.rotation.y,
+                                  pose.rotation.z)
+                   .normalized()
+                   .toRotationMatrix();
+  return t;
+}
+
+int DofIndex(const std::string& name) {
+  for (int i = 0; i < 6; ++i) {
+    if (name == DofName(i)) return i;
+  }
+  return -1;
+}
+
+}  // namespace
+
+LimbDescription ReadUrdfFile(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw Error("cannot open URDF file '" + path + "'");
+  std::stringstream buffer;
+  buffer << in.rdbuf();
+  return ReadUrdfString(buffer.str(), path);
+}
+
+LimbDescription ReadUrdfString(const std::string& xml, const std::string& source_name) {
+  Reader r{source_name.empty() ? std::string("<string>") : source_name};
+  tinyxml2::XMLDocument doc;
+  if (doc.Parse(xml.c_str(), xml.size()) != tinyxml2::XML_SUCCESS) {
+    throw Error(r.source + ":" + std::to_string(doc.ErrorLineNum()) +
+                ": malformed XML: " + (doc.ErrorStr() ? doc.ErrorStr() : "parse error"));
+  }
+  const tinyxml2::XMLElement* robot = doc.FirstChildElement("robot");
+  if (!robot) throw Error(r.source + ": no <robot> element: not a URDF file");
+
+  // Pass 1 (tinyxml2): joint types we refuse, line numbers for messages.
+  std::map<std::string, const tinyxml2::XMLElement*> joint_elements;
+  std::map<std::string, const tinyxml2::XMLElement*> link_elements;
+  for (auto* e = robot->FirstChildElement("joint"); e; e = e->NextSiblingElement("joint")) {
+    std::string name = r.Attribute(e, "name", true);
+    std::string type = r.Attribute(e, "type", true);
+    if (type == "floating" || type == "planar") {
+      r.Fail(e, "joint '" + name + "' has type '" + type +
+                    "', which isowrench cannot represent; model it as revolute/prismatic "
+                    "joints (one per dof) joined by massless links");
+    }
+    if (type != "revolute" && type != "continuous" && type != "prismatic" && type != "fixed") {
+      r.Fail(e, "joint '" + name + "' has unknown type '" + type + "'");
+    }
+    if (e->FirstChildElement("mimic")) {
+      r.Fail(e, "joint '" + name + "' is a mimic joint, which isowrench does not support");
+    }
+    if (joint_elements.count(name)) r.Fail(e, "joint '" + name + "' is defined twice");
+    joint_elements[name] = e;
+  }
+  for (auto* e = robot->FirstChildElement("link"); e; e = e->NextSiblingElement("link")) {
+    link_elements[r.Attribute(e, "name", true)] = e;
+  }
+
+  // Pass 2 (urdfdom): the standard robot model.
+  urdf::ModelInterfaceSharedPtr urdf_model = urdf::parseURDF(xml);
+  if (!urdf_model) {
+    throw Error(r.source + ": urdfdom rejected the robot description (a joint without "
+                           "<limit>, a link with two parents, or a missing link; see the "
+                           "message printed above)");
+  }
+  urdf::LinkConstSharedPtr root = urdf_model->getRoot();
+  if (!root) throw Error(r.source + ": the URDF has no root link");
+
+  LimbDescription d;
+  d.name = urdf_model->getName();
+  d.source = source_name;
+  d.root_link = root->name;
+
+  // Extension tags.
+  const tinyxml2::XMLElement* transducer = nullptr;
+  for (auto* e = robot->FirstChildElement(); e; e = e->NextSiblingElement()) {
+    std::string tag = e->Name();
+    if (tag.rfind(kPrefix, 0) != 0) continue;
+    std::string local = tag.substr(std::string(kPrefix).size());
+    if (local == "transducer") {
+      if (transducer) r.Fail(e, "a second <isowrench:transducer>; a limb has one");
+      transducer = e;
+    } else if (local != "joint" && local != "muscle" && local != "posture") {
+      r.Fail(e, "unknown extension element <" + tag +
+                    ">; known: isowrench:joint, isowrench:transducer, isowrench:muscle, "
+                    "isowrench:posture");
+    }
+  }
+  if (!transducer) {
+    throw Error(r.source + ": no <isowrench:transducer link=\"...\" xyz=\"...\"/> element: "
+                           "isowrench needs to know where the endpoint is");
+  }
+
+  // Chain from the root to the endpoint link.
+  std::string endpoint_link = r.Attribute(transducer, "link", true);
+  urdf::LinkConstSharedPtr link = urdf_model->getLink(endpoint_link);
+  if (!link) r.Fail(transducer, "transducer link '" + endpoint_link + "' is not a link of the URDF");
+  std::vector<urdf::JointConstSharedPtr> chain;
+  while (link && link->parent_joint) {
+    chain.push_back(link->parent_joint);
+    link = urdf_model->getLink(link->parent_joint->parent_link_name);
+  }
+  std::reverse(chain.begin(), chain.end());
+  d.links.push_back(d.root_link);
+  for (const auto& j : chain) {
+    JointSpec spec;
+    spec.name = j->name;
+    spec.parent_link = j->parent_link_name;
+    spec.child_link = j->child_link_name;
+    spec.origin = ToIsometry(j->parent_to_joint_origin_transform);
+    Eigen::Vector3d axis(j->axis.x, j->axis.y, j->axis.z);
+    switch (j->type) {
+      case urdf::Joint::REVOLUTE:
+      case urdf::Joint::CONTINUOUS:
+        spec.type = JointType::kRevolute;
+        break;
+      case urdf::Joint::PRISMATIC:
+        spec.type = JointType::kPrismatic;
+        break;
+      case urdf::Joint::FIXED:
+        spec.type = JointType::kFixed;
+        break;
+      default:
+        r.Fail(joint_elements.at(j->name), "joint '" + j->name + "' has an unsupported type");
+    }
+    if (spec.type != JointType::kFixed) {
+      if (!(axis.norm() > 1e-12) || !axis.allFinite()) {
+        r.Fail(joint_elements.at(j->name), "joint '" + j->name + "' has a zero or invalid axis");
+      }
+      spec.axis = axis.normalized();
+    }
+    d.joints.push_back(spec);
+    d.links.push_back(spec.child_link);
+  }
+
+  auto find_joint = [&](const tinyxml2::XMLElement* e, const std::string& name) -> JointSpec& {
+    for (JointSpec& j : d.joints) {
+      if (j.name == name) {
+        if (j.type == JointType::kFixed) r.Fail(e, "joint '" + name + "' is fixed; it has no dof");
+        return j;
+      }
+    }
+    if (joint_elements.count(name)) {
+      r.Fail(e, "joint '" + name + "' is not on the chain from '" + d.root_link + "' to the "
+                    "endpoint link '" + endpoint_link + "'");
+    }
+    r.Fail(e, "unknown joint '" + name + "'");
+  };
+  auto check_link = [&](const tinyxml2::XMLElement* e, const std::string& name) {
+    if (std::find(d.links.begin(), d.links.end(), name) != d.links.end()) return;
+    if (link_elements.count(name)) {
+      r.Fail(e, "link '" + name + "' is not on the chain from '" + d.root_link +
+                    "' to the endpoint link '" + endpoint_link + "'");
+    }
+    r.Fail(e, "unknown link '" + name + "'");
+  };
+
+  // Transducer.
+  TransducerSpec& t = d.transducer;
+  t.link = endpoint_link;
+  t.endpoint = r.Vector3(transducer, "xyz");
+  t.rotation = RotationFromRpy(r.Vector3(transducer, "rpy"));
+  std::string axes = r.Attribute(transducer, "axes", false);
+  if (axes.empty() || axes == "world") {
+    t.axes_in_world = true;
+  } else if (axes == "link") {
+    t.axes_in_world = false;
+  } else {
+    r.Fail(transducer, "axes='" + axes + "' must be 'world' or 'link'");
+  }
+  std::string preset = r.Attribute(transducer, "preset", false);
+  std::vector<double> stiffness = r.Numbers(transducer, "stiffness", 6, false);
+  if (!preset.empty() && !stiffness.empty()) {
+    r.Fail(transducer, "give either preset= or stiffness=, not both");
+  }
+  if (!preset.empty()) {
+    try {
+      t.stiffness = TransducerPreset(preset);
+    } catch (const Error& e) {
+      r.Fail(transducer, e.what());
+    }
+  } else if (!stiffness.empty()) {
+    for (int i = 0; i < 6; ++i) {
+      if (stiffness[i] < 0) {
+        r.Fail(transducer, "transducer stiffness " + std::string(DofName(i)) + " = " +
+                               util::FormatNumber(stiffness[i]) + " is negative");
+      }
+      t.stiffness[i] = stiffness[i];
+    }
+  }
+  for (const std::string& dof : util::Split(r.Attribute(transducer, "released", false), " ,")) {
+    int index = DofIndex(dof);
+    if (index < 0) r.Fail(transducer, "released dof '" + dof + "' is not one of x y z rx ry rz");
+    t.released[index] = true;
+  }
+
+  for (auto* e = robot->FirstChildElement(); e; e = e->NextSiblingElement()) {
+    std::string tag = e->Name();
+    if (tag == "isowrench:joint") {
+      JointSpec& j = find_joint(e, r.Attribute(e, "name", true));
+      std::string role = r.Attribute(e, "role", false);
+      if (role.empty() || role == "limb") {
+        j.role = JointRole::kLimb;
+      } else if (role == "base") {
+        j.role = JointRole::kBase;
+      } else if (role == "extra") {
+        j.role = JointRole::kExtra;
+      } else if (role == "release") {
+        j.role = JointRole::kRelease;
+      } else {
+        r.Fail(e, "joint '" + j.name + "': role '" + role +
+                      "' is not one of limb, base, extra, release");
+      }
+      std::string s = r.Attribute(e, "stiffness", false);
+      if (!s.empty()) {
+        j.stiffness = r.Number(e, "stiffness", s);
+        if (j.stiffness < 0) {
+          r.Fail(e, "joint '" + j.name + "': stiffness " + s + " is negative");
+        }
+      }
+    } else if (tag == "isowrench:muscle") {
+      MuscleSpec m;
+      m.name = r.Attribute(e, "name", true);
+      for (const MuscleSpec& other : d.muscles) {
+        if (other.name == m.name) r.Fail(e, "muscle '" + m.name + "' is defined twice");
+      }
+      std::string f = r.Attribute(e, "max_force", true);
+      m.max_force = r.Number(e, "max_force", f);
+      if (!(m.max_force > 0)) r.Fail(e, "muscle '" + m.name + "': max_force " + f + " must be > 0");
+      for (auto* p = e->FirstChildElement(); p; p = p->NextSiblingElement()) {
+        if (std::string(p->Name()) != "isowrench:point") {
+          r.Fail(p, std::string("unexpected <") + p->Name() + "> in muscle '" + m.name +
+                        "'; expected <isowrench:point>");
+        }
+        PathPoint point;
+        point.link = r.Attribute(p, "link", true);
+        check_link(p, point.link);
+        point.position = r.Vector3(p, "xyz");
+        m.path.push_back(point);
+      }
+      if (m.path.size() < 2) {
+        r.Fail(e, "muscle '" + m.name + "' needs at least two <isowrench:point> elements");
+      }
+      d.muscles.push_back(m);
+    } else if (tag == "isowrench:posture") {
+      std::string name = r.Attribute(e, "joint", true);
+      JointSpec& j = find_joint(e, name);
+      std::string deg = r.Attribute(e, "degrees", false);
+      std::string value = r.Attribute(e, "value", false);
+      if (deg.empty() == value.empty()) {
+        r.Fail(e, "posture of '" + name + "' needs exactly one of degrees= or value= (rad or m)");
+      }
+      double q = 0;
+      if (!deg.empty()) {
+        if (j.type != JointType::kRevolute) r.Fail(e, "joint '" + name + "' is prismatic; use value= (m)");
+        q = r.Number(e, "degrees", deg) * M_PI / 180.0;
+      } else {
+        q = r.Number(e, "value", value);
+      }
+      d.nominal_posture.emplace_back(name, q);
+    }
+  }
+  return d;
+}
+
+}  // namespace isowrench

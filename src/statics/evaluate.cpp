@@ -1,0 +1,62 @@
+// One muscle at one posture on a Model: kinematics + muscle torque + statics + classic answer.
+
+#include <cmath>
+
+#include "isowrench/error.hpp"
+#include "isowrench/kinematics.hpp"
+#include "isowrench/posture.hpp"
+#include "isowrench/statics.hpp"
+#include "model/model_impl.hpp"
+#include "util/text.hpp"
+
+namespace isowrench {
+
+WrenchEvaluation EvaluateWrench(const Model& model, const Eigen::VectorXd& q, const std::string& muscle,
+                                double activation, const StaticsOptions& options) {
+  int muscle_index = model.MuscleIndex(muscle);
+  ValidatePosture(model, q);
+  KinematicsWorkspace ws(model);
+  WrenchEvaluation e;
+  e.q = q;
+  e.muscle = muscle;
+  e.R_W_T = TransducerRotation(model, ws, q);
+  e.jacobian = EndpointJacobian(model, ws, q);
+  MuscleTorque mt = ComputeMuscleTorque(model, ws, q, muscle_index, activation);
+  e.muscle_length = mt.length;
+  e.muscle_force = mt.force;
+  e.tau = mt.tau;
+  const TransducerSpec& t = model.transducer();
+  std::array<bool, 6> restrained;
+  e.s_t = t.stiffness;
+  for (int i = 0; i < 6; ++i) {
+    restrained[i] = !t.released[i];
+    if (t.released[i]) e.s_t[i] = 0.0;
+  }
+  e.s_p = model.joint_stiffness();
+  StaticsOptions opts = options;
+  if (opts.leg_length <= 0) opts.leg_length = model.chain_length();
+  e.statics = SolveStatics(e.jacobian, e.s_t, e.s_p, e.tau, opts, model.impl().revolute);
+  e.wrench_world.head<3>() = e.R_W_T * e.statics.wrench.head<3>();
+  e.wrench_world.tail<3>() = e.R_W_T * e.statics.wrench.tail<3>();
+  e.classic = ClassicWrench(e.jacobian, restrained, e.tau);
+  return e;
+}
+
+std::string DescribeJointMotion(const Model& model, const Eigen::VectorXd& direction, double cutoff) {
+  if (direction.size() != model.dof_count() || !direction.allFinite()) return "(invalid direction)";
+  double largest = direction.cwiseAbs().maxCoeff();
+  if (largest == 0.0) return "(zero)";
+  Eigen::VectorXd v = direction / largest;
+  std::vector<std::string> items;
+  for (int i = 0; i < v.size(); ++i) {
+    if (std::abs(v[i]) < cutoff) continue;
+    char buffer[32];
+    std::snprintf(buffer, sizeof(buffer), "%+.2f", v[i]);
+    std::string text = model.joint_names()[i] + " " + buffer;
+    if (model.joint(i).type == JointType::kPrismatic) text += " (m)";
+    items.push_back(text);
+  }
+  return util::Join(items, ", ");
+}
+
+}  // namespace isowrench
