@@ -116,8 +116,8 @@ LimbDescription ReadUrdfString(const std::string& xml, const std::string& source
   Reader r{source_name.empty() ? std::string("<string>") : source_name};
   tinyxml2::XMLDocument doc;
   if (doc.Parse(xml.c_str(), xml.size()) != tinyxml2::XML_SUCCESS) {
-    throw Error(r.source + ":" + std::to_string(doc.ErrorLineNum()) +
-                ": malformed XML: " + (doc.ErrorStr() ? doc.ErrorStr() : "parse error"));
+    throw Error(r.source + ":" + std::to_string(doc.ErrorLineNum()) + ": malformed XML (" +
+                tinyxml2::XMLDocument::ErrorIDToName(doc.ErrorID()) + ")");
   }
   const tinyxml2::XMLElement* robot = doc.FirstChildElement("robot");
   if (!robot) throw Error(r.source + ": no <robot> element: not a URDF file");
@@ -303,7 +303,9 @@ LimbDescription ReadUrdfString(const std::string& xml, const std::string& source
       }
       std::string s = r.Attribute(e, "stiffness", false);
       if (!s.empty()) {
-        j.stiffness = r.Number(e, "stiffness", s);
+        if (!util::ParseDouble(s, &j.stiffness) || !std::isfinite(j.stiffness)) {
+          r.Fail(e, "joint '" + j.name + "': stiffness '" + s + "' is not a finite number");
+        }
         if (j.stiffness < 0) {
           r.Fail(e, "joint '" + j.name + "': stiffness " + s + " is negative");
         }
