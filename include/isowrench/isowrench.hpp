@@ -10,6 +10,7 @@
 
 #include "isowrench/conventions.hpp"
 #include "isowrench/error.hpp"
+#include "isowrench/fast.hpp"
 #include "isowrench/kinematics.hpp"
 #include "isowrench/model.hpp"
 #include "isowrench/paper.hpp"
