@@ -13,6 +13,7 @@
 
 #include <cassert>
 #include <cmath>
+#include <limits>
 #include <map>
 #include <string>
 
@@ -70,7 +71,21 @@ inline void RotateFrame(const FastJoint& j, double q, Eigen::Matrix3d& M) {
   }
 }
 
-bool NonNegativeFinite(double v) { return std::isfinite(v) && v >= 0.0; }
+// Full unrolling of the statics loops when m is a compile-time constant (N > 0): the 8-dof
+// kernel's K, Cholesky and solves become straight-line code the compiler keeps in registers.
+#if defined(__GNUC__) && !defined(__clang__)
+#define ISOWRENCH_UNROLL _Pragma("GCC unroll 16")
+#elif defined(__clang__)
+#define ISOWRENCH_UNROLL _Pragma("unroll")
+#else
+#define ISOWRENCH_UNROLL
+#endif
+
+// v is finite and >= 0: written without branches so a loop over entries vectorizes (NaN fails
+// both comparisons, +inf fails the second).
+inline bool NonNegativeFinite(double v) {
+  return (v >= 0.0) & (v <= std::numeric_limits<double>::max());
+}
 
 // The eigen-solve used when the Cholesky pivots say K is (nearly) singular: the same rank and
 // excitation decisions as SolveStatics, on the workspace's fixed-size buffers.
@@ -136,11 +151,15 @@ FastWrench SolveKernel(FastWorkspace::Impl& ws, int m_runtime, const double* J, 
   constexpr int S = kFastMaxDofs;
   double* K = ws.K;
   double max_diag = 0.0;
+  ISOWRENCH_UNROLL
   for (int i = 0; i < m; ++i) {
     double sj[6];
+    ISOWRENCH_UNROLL
     for (int r = 0; r < 6; ++r) sj[r] = s_t[r] * J[i * 6 + r];
+    ISOWRENCH_UNROLL
     for (int j = 0; j <= i; ++j) {
       double sum = 0.0;
+      ISOWRENCH_UNROLL
       for (int r = 0; r < 6; ++r) sum += sj[r] * J[j * 6 + r];
       K[i * S + j] = sum;
     }
@@ -151,8 +170,10 @@ FastWrench SolveKernel(FastWorkspace::Impl& ws, int m_runtime, const double* J, 
   const double pivot_floor = options.cholesky_pivot_tolerance * max_diag;
   double* L = ws.L;
   bool regular = max_diag > 0.0;
+  ISOWRENCH_UNROLL
   for (int j = 0; j < m && regular; ++j) {
     double d = K[j * S + j];
+    ISOWRENCH_UNROLL
     for (int k = 0; k < j; ++k) d -= L[j * S + k] * L[j * S + k];
     if (!(d > pivot_floor)) {
       regular = false;
@@ -162,29 +183,37 @@ FastWrench SolveKernel(FastWorkspace::Impl& ws, int m_runtime, const double* J, 
     const double inv = 1.0 / l;
     L[j * S + j] = l;
     ws.inv_diag[j] = inv;
+    ISOWRENCH_UNROLL
     for (int i = j + 1; i < m; ++i) {
       double v = K[i * S + j];
+      ISOWRENCH_UNROLL
       for (int k = 0; k < j; ++k) v -= L[i * S + k] * L[j * S + k];
       L[i * S + j] = v * inv;
     }
   }
   if (!regular) return SolveByEigen(ws, m, J, s_t, tau, options);
   double y[S];
+  ISOWRENCH_UNROLL
   for (int i = 0; i < m; ++i) {
     double v = tau[i];
+    ISOWRENCH_UNROLL
     for (int k = 0; k < i; ++k) v -= L[i * S + k] * y[k];
     y[i] = v * ws.inv_diag[i];
   }
   ws.dtheta.resize(m);
   double* x = ws.dtheta.data();
+  ISOWRENCH_UNROLL
   for (int i = m - 1; i >= 0; --i) {
     double v = y[i];
+    ISOWRENCH_UNROLL
     for (int k = i + 1; k < m; ++k) v -= L[k * S + i] * x[k];
     x[i] = v * ws.inv_diag[i];
   }
   FastWrench out;
+  ISOWRENCH_UNROLL
   for (int r = 0; r < 6; ++r) {
     double v = 0.0;
+    ISOWRENCH_UNROLL
     for (int j = 0; j < m; ++j) v += J[j * 6 + r] * x[j];
     out.wrench[r] = s_t[r] * v;
   }
@@ -213,8 +242,10 @@ FastWrench SolveDispatch(FastWorkspace::Impl& ws, const double* J, const double*
 // Inputs of a solve are checked, not trusted: negative or non-finite values give kInvalidInput.
 bool ValidSolveInput(int m, const double* s_t, const double* s_p, const double* tau) {
   bool ok = true;
-  for (int r = 0; r < 6; ++r) ok = ok && NonNegativeFinite(s_t[r]);
-  for (int i = 0; i < m; ++i) ok = ok && NonNegativeFinite(s_p[i]) && std::isfinite(tau[i]);
+  for (int r = 0; r < 6; ++r) ok &= NonNegativeFinite(s_t[r]);
+  for (int i = 0; i < m; ++i) {
+    ok &= NonNegativeFinite(s_p[i]) & (std::abs(tau[i]) <= std::numeric_limits<double>::max());
+  }
   return ok;
 }
 

@@ -1,0 +1,173 @@
+// Google Benchmark: kernel K (GP on rat_hindlimb_5dof_base.urdf) through the library's fast
+// path against the straightforward KDL baseline in kdl_baseline.cpp, in one run, plus the batch
+// APIs and the 181 x 181 posture x 20 stiffness-ratio sweep. After the runs a summary prints
+// ns per evaluation and the ratio to the KDL baseline. Instruction counts come from callgrind
+// (`cmake --build <dir> --target bench_instructions`): this machine has no hardware counters.
+
+#include <benchmark/benchmark.h>
+
+#include <cmath>
+#include <cstdio>
+#include <map>
+#include <string>
+
+#include "bench_common.hpp"
+#include "kdl_baseline.hpp"
+
+using namespace isowrench_bench;
+
+namespace {
+
+struct Fixture {
+  isowrench::Model model = isowrench::Model::FromUrdfFile(KernelUrdf());
+  isowrench::CompiledModel compiled{model};
+  Eigen::MatrixXd postures = KernelPostures(model, 1 << 16);
+  std::vector<isowrench::StiffnessSet> sets = KernelStiffnessSets(compiled);
+};
+
+Fixture& F() {
+  static Fixture fixture;
+  return fixture;
+}
+
+void BM_KdlBaseline(benchmark::State& state) {
+  Fixture& f = F();
+  KdlBaseline kdl(f.model, 0);
+  const isowrench::StiffnessSet& st = f.sets[0];
+  const Eigen::VectorXd s_p = st.s_p;
+  long i = 0;
+  for (auto _ : state) {
+    const Eigen::VectorXd q = f.postures.col(i++ & 1023);
+    benchmark::DoNotOptimize(kdl.Evaluate(q, st.s_t, s_p));
+  }
+  state.SetItemsProcessed(state.iterations());
+}
+BENCHMARK(BM_KdlBaseline);
+
+void BM_ReferenceEvaluateWrench(benchmark::State& state) {
+  Fixture& f = F();
+  long i = 0;
+  for (auto _ : state) {
+    benchmark::DoNotOptimize(isowrench::EvaluateWrench(f.model, f.postures.col(i++ & 1023), "GP"));
+  }
+  state.SetItemsProcessed(state.iterations());
+}
+BENCHMARK(BM_ReferenceEvaluateWrench);
+
+void BM_FastSingle(benchmark::State& state) {
+  Fixture& f = F();
+  isowrench::FastWorkspace ws(f.compiled);
+  long i = 0;
+  for (auto _ : state) {
+    benchmark::DoNotOptimize(isowrench::EvaluateFast(f.compiled, ws, f.postures.col(i++ & 1023), 0, f.sets[0]));
+  }
+  state.SetItemsProcessed(state.iterations());
+}
+BENCHMARK(BM_FastSingle);
+
+// Many postures, one stiffness set, `threads` worker threads.
+void BM_FastBatchPostures(benchmark::State& state) {
+  Fixture& f = F();
+  std::vector<isowrench::StiffnessSet> one = {f.sets[0]};
+  std::vector<isowrench::FastWrench> out;
+  isowrench::BatchOptions options;
+  options.threads = static_cast<int>(state.range(0));
+  for (auto _ : state) {
+    isowrench::EvaluateBatch(f.compiled, f.postures, 0, one, out, 1.0, options);
+    benchmark::DoNotOptimize(out.data());
+  }
+  state.SetItemsProcessed(state.iterations() * f.postures.cols());
+  state.counters["threads"] = options.threads;
+}
+BENCHMARK(BM_FastBatchPostures)->Arg(1)->Arg(2)->UseRealTime()->Unit(benchmark::kMillisecond);
+
+// Postures x 20 stiffness sets: kinematics once per posture, 20 solves.
+void BM_FastBatchStiffness(benchmark::State& state) {
+  Fixture& f = F();
+  const Eigen::MatrixXd postures = f.postures.leftCols(4096);
+  std::vector<isowrench::FastWrench> out;
+  isowrench::BatchOptions options;
+  options.threads = static_cast<int>(state.range(0));
+  for (auto _ : state) {
+    isowrench::EvaluateBatch(f.compiled, postures, 0, f.sets, out, 1.0, options);
+    benchmark::DoNotOptimize(out.data());
+  }
+  state.SetItemsProcessed(state.iterations() * postures.cols() * static_cast<long>(f.sets.size()));
+  state.counters["threads"] = options.threads;
+}
+BENCHMARK(BM_FastBatchStiffness)->Arg(1)->Arg(2)->UseRealTime()->Unit(benchmark::kMillisecond);
+
+// The sweep: hip_rz x knee_rz on a 181 x 181 grid (1 degree steps) x 20 ratios, both
+// cores, including building the posture grid.
+void BM_Sweep181x181x20(benchmark::State& state) {
+  Fixture& f = F();
+  const int hip = f.model.JointIndex("hip_rz"), knee = f.model.JointIndex("knee_rz");
+  const Eigen::VectorXd nominal = f.model.nominal_posture();
+  std::vector<isowrench::FastWrench> out;
+  isowrench::BatchOptions options;
+  options.threads = 2;
+  for (auto _ : state) {
+    Eigen::MatrixXd grid(f.model.dof_count(), 181 * 181);
+    for (int a = 0; a < 181; ++a) {
+      for (int b = 0; b < 181; ++b) {
+        auto col = grid.col(a * 181 + b);
+        col = nominal;
+        col[hip] = (-200.0 + a) * M_PI / 180.0;
+        col[knee] = (15.0 + b) * M_PI / 180.0;
+      }
+    }
+    isowrench::EvaluateBatch(f.compiled, grid, 0, f.sets, out, 1.0, options);
+    benchmark::DoNotOptimize(out.data());
+  }
+  state.SetItemsProcessed(state.iterations() * 181L * 181L * static_cast<long>(f.sets.size()));
+}
+BENCHMARK(BM_Sweep181x181x20)->UseRealTime()->Unit(benchmark::kMillisecond);
+
+// Console output as usual, plus a record of every run for the summary.
+class RecordingReporter : public benchmark::ConsoleReporter {
+ public:
+  void ReportRuns(const std::vector<Run>& runs) override {
+    ConsoleReporter::ReportRuns(runs);
+    for (const Run& run : runs) {
+      if (run.run_type != Run::RT_Iteration) continue;
+      auto it = run.counters.find("items_per_second");
+      if (it == run.counters.end()) continue;
+      const double threads = run.counters.count("threads") ? run.counters.at("threads").value : 1.0;
+      records_.push_back({run.benchmark_name(), 1e9 / it->second.value, threads,
+                          run.GetAdjustedRealTime()});
+    }
+  }
+  struct Record {
+    std::string name;
+    double ns_per_evaluation;  // wall-clock ns per evaluation (all threads together)
+    double threads;
+    double real_time;          // in the benchmark's unit
+  };
+  const std::vector<Record>& records() const { return records_; }
+
+ private:
+  std::vector<Record> records_;
+};
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  benchmark::Initialize(&argc, argv);
+  if (benchmark::ReportUnrecognizedArguments(argc, argv)) return 1;
+  RecordingReporter reporter;
+  benchmark::RunSpecifiedBenchmarks(&reporter);
+  double kdl = 0.0;
+  for (const auto& r : reporter.records()) {
+    if (r.name.rfind("BM_KdlBaseline", 0) == 0) kdl = r.ns_per_evaluation;
+  }
+  std::printf("\nSummary (kernel K: GP on rat_hindlimb_5dof_base.urdf, m = 8)\n");
+  std::printf("%-36s %14s %16s %12s\n", "benchmark", "ns/eval (wall)", "ns/eval/core", "KDL / this");
+  for (const auto& r : reporter.records()) {
+    const double per_core = r.ns_per_evaluation * r.threads;
+    char ratio[32] = "-";
+    if (kdl > 0) std::snprintf(ratio, sizeof(ratio), "%.1fx", kdl / r.ns_per_evaluation);
+    std::printf("%-36s %14.1f %16.1f %12s\n", r.name.c_str(), r.ns_per_evaluation, per_core, ratio);
+  }
+  benchmark::Shutdown();
+  return 0;
+}

@@ -1,0 +1,77 @@
+// Runs one kernel N times inside isowrench_measured_loop, for instruction counts under
+// callgrind (this machine exposes no hardware counters):
+//   valgrind --tool=callgrind --toggle-collect=isowrench_measured_loop
+//     ./isowrench_kernel_driver fast 10000   (one command line)
+// instructions per evaluation = Ir collected / evaluations (printed by the driver).
+
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+
+#include "bench_common.hpp"
+#include "kdl_baseline.hpp"
+
+using namespace isowrench_bench;
+
+namespace {
+
+struct Setup {
+  isowrench::Model model = isowrench::Model::FromUrdfFile(KernelUrdf());
+  isowrench::CompiledModel compiled{model};
+  isowrench::FastWorkspace ws{compiled};
+  Eigen::MatrixXd postures = KernelPostures(model, 1024);
+  std::vector<isowrench::StiffnessSet> sets = KernelStiffnessSets(compiled);
+  KdlBaseline kdl{model, 0};
+  std::vector<isowrench::FastWrench> out;
+};
+
+double g_sink = 0.0;
+
+}  // namespace
+
+// Returns the number of evaluations done.
+extern "C" __attribute__((noinline)) long isowrench_measured_loop(Setup& s, const char* kernel, long n) {
+  const isowrench::StiffnessSet& st = s.sets[0];
+  if (std::strcmp(kernel, "fast") == 0) {
+    for (long i = 0; i < n; ++i) {
+      g_sink += isowrench::EvaluateFast(s.compiled, s.ws, s.postures.col(i & 1023), 0, st).wrench[0];
+    }
+    return n;
+  }
+  if (std::strcmp(kernel, "fast-stiffness") == 0) {  // kinematics once, 20 stiffness sets
+    for (long i = 0; i < n; ++i) {
+      isowrench::ComputeFastKinematics(s.compiled, s.ws, s.postures.col(i & 1023), 0);
+      for (const auto& set : s.sets) g_sink += isowrench::SolveFastStatics(s.compiled, s.ws, set).wrench[0];
+    }
+    return n * static_cast<long>(s.sets.size());
+  }
+  if (std::strcmp(kernel, "kdl") == 0) {
+    const Eigen::VectorXd s_p = st.s_p;
+    for (long i = 0; i < n; ++i) {
+      const Eigen::VectorXd q = s.postures.col(i & 1023);
+      g_sink += s.kdl.Evaluate(q, st.s_t, s_p)[0];
+    }
+    return n;
+  }
+  if (std::strcmp(kernel, "reference") == 0) {
+    for (long i = 0; i < n; ++i) {
+      g_sink += isowrench::EvaluateWrench(s.model, s.postures.col(i & 1023), "GP").statics.wrench[0];
+    }
+    return n;
+  }
+  std::fprintf(stderr, "unknown kernel '%s' (fast, fast-stiffness, kdl, reference)\n", kernel);
+  std::exit(2);
+}
+
+int main(int argc, char** argv) {
+  if (argc != 3) {
+    std::fprintf(stderr, "usage: %s fast|fast-stiffness|kdl|reference <count>\n", argv[0]);
+    return 2;
+  }
+  Setup s;
+  const long n = std::atol(argv[2]);
+  // Warm-up and measurement both run inside the collected function: report their sum.
+  const long evaluations = isowrench_measured_loop(s, argv[1], 16) + isowrench_measured_loop(s, argv[1], n);
+  std::printf("%s: %ld evaluations collected (checksum %.6g)\n", argv[1], evaluations, g_sink);
+  return 0;
+}
