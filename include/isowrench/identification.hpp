@@ -203,6 +203,9 @@ struct SimulationOptions {
   double sd_floor = 1e-9;
   /// Muscles used, cycled over trials; empty = all muscles of the model.
   std::vector<std::string> muscles;
+  /// Centre of the posture sampling in the columns of the nominal model (rad / m); empty =
+  /// the nominal posture.
+  Eigen::VectorXd center;
 };
 
 /// Synthetic measured data: postures sampled around the nominal posture of `nominal`, wrenches

@@ -1,0 +1,258 @@
+// `isowrench fit <urdf> <data.csv>`: trace the residual of measured wrenches to a missing effect.
+
+#include <cmath>
+#include <cstdio>
+#include <iostream>
+
+#include "cli/command.hpp"
+#include "isowrench/error.hpp"
+#include "isowrench/identification.hpp"
+#include "util/text.hpp"
+
+namespace isowrench::cli {
+namespace {
+
+struct FitCommandOptions {
+  ModelOptions model;
+  std::string data;
+  std::string output;
+  bool json = false;
+  bool list_effects = false;
+  int rounds = 3;
+  int folds = 5;
+  int rows = 20;
+  std::vector<std::string> candidates;
+};
+
+nlohmann::json StatsJson(const ResidualStats& s) {
+  return {{"rms", ToJson(s.rms)},
+          {"r2", ToJson(s.r2)},
+          {"noise_multiple", ToJson(s.normalized)},
+          {"mean", ToJson(s.mean)},
+          {"chi2", s.chi2},
+          {"reduced_chi2", s.reduced_chi2},
+          {"residual_count", s.residual_count},
+          {"parameter_count", s.parameter_count},
+          {"order", "fx fy fz mx my mz"},
+          {"units", "N for fx fy fz, N·m for mx my mz; noise multiples and r2 dimensionless"}};
+}
+
+nlohmann::json EffectJson(const Effect& e) {
+  nlohmann::json params = nlohmann::json::array();
+  for (const EffectParameter& p : e.parameters) {
+    params.push_back({{"name", p.name}, {"unit", p.unit}, {"scale", p.scale == ParameterScale::kLog10 ? "log10" : "linear"},
+                      {"neutral", p.neutral}, {"initial", p.initial}, {"lower", p.lower}, {"upper", p.upper}});
+  }
+  return {{"id", e.id}, {"kind", EffectKindName(e.kind)}, {"description", e.description}, {"parameters", params}};
+}
+
+nlohmann::json CandidateJson(const CandidateFit& f) {
+  nlohmann::json params = nlohmann::json::array();
+  for (size_t i = 0; i < f.values.size(); ++i) {
+    params.push_back({{"name", f.effect.parameters[i].name},
+                      {"value", f.values[i]},
+                      {"standard_error", f.standard_errors[i]},
+                      {"log10_standard_error", f.log10_standard_errors[i]},
+                      {"unit", f.effect.parameters[i].unit},
+                      {"at_bound", static_cast<bool>(f.at_bound[i])}});
+  }
+  nlohmann::json corr = nlohmann::json::array();
+  for (int i = 0; i < f.correlation.rows(); ++i) {
+    nlohmann::json row = nlohmann::json::array();
+    for (int j = 0; j < f.correlation.cols(); ++j) row.push_back(f.correlation(i, j));
+    corr.push_back(row);
+  }
+  nlohmann::json j = {{"effect", f.effect.id},        {"description", f.effect.description},
+                      {"parameters", params},         {"correlation", corr},
+                      {"chi2", f.cost},               {"aicc", f.aic},
+                      {"bic", f.bic},                 {"delta_bic", f.delta_bic},
+                      {"identifiable", f.identifiable}, {"identifiability", f.identifiability},
+                      {"converged", f.converged},     {"solver_message", f.solver_message},
+                      {"accepted", f.accepted},       {"verdict", f.verdict}};
+  j["cv_error"] = f.cv_error >= 0 ? nlohmann::json(f.cv_error) : nlohmann::json(nullptr);
+  return j;
+}
+
+nlohmann::json ReportJson(const FitReport& r, const std::string& urdf, const std::string& data,
+                          const std::string& output) {
+  nlohmann::json rounds = nlohmann::json::array();
+  for (const FitRound& round : r.rounds) {
+    nlohmann::json c = nlohmann::json::array();
+    for (const CandidateFit& f : round.candidates) c.push_back(CandidateJson(f));
+    rounds.push_back({{"index", round.index},
+                      {"before", StatsJson(round.before)},
+                      {"bic_before", round.bic_before},
+                      {"cv_before", round.cv_before},
+                      {"candidates", c},
+                      {"chosen", round.chosen >= 0 ? nlohmann::json(round.candidates[round.chosen].effect.id)
+                                                   : nlohmann::json(nullptr)},
+                      {"indistinguishable", round.indistinguishable},
+                      {"summary", round.summary}});
+  }
+  nlohmann::json chosen = nlohmann::json::array();
+  for (const CandidateFit& f : r.chosen_fits) chosen.push_back(CandidateJson(f));
+  nlohmann::json trials = nlohmann::json::array();
+  for (const TrialResidual& t : r.trials) {
+    trials.push_back({{"line", t.line}, {"muscle", t.muscle}, {"activation", t.activation},
+                      {"measured", ToJson(t.measured)}, {"residual_before", ToJson(t.before)},
+                      {"residual_after", ToJson(t.after)}, {"noise_multiple_before", t.normalized_before},
+                      {"noise_multiple_after", t.normalized_after}});
+  }
+  return {{"model", r.model_name},
+          {"urdf", urdf},
+          {"data", data},
+          {"trials_count", r.trial_count},
+          {"sd_stated", r.sd_stated},
+          {"verdict", FitVerdictName(r.verdict)},
+          {"verdict_message", r.verdict_message},
+          {"before", StatsJson(r.before)},
+          {"after", StatsJson(r.after)},
+          {"chosen", chosen},
+          {"sensor_offset", WrenchJson(r.augmented.sensor_offset)},
+          {"rounds", rounds},
+          {"indistinguishable", r.indistinguishable},
+          {"trials", trials},
+          {"residual_sign", "measured - predicted, transducer axes, moment about the endpoint"},
+          {"augmented_urdf", output.empty() ? nlohmann::json(nullptr) : nlohmann::json(output)},
+          {"seconds", r.seconds}};
+}
+
+std::string Fixed(double v, int width, int precision) {
+  char b[64];
+  std::snprintf(b, sizeof(b), "%*.*f", width, precision, v);
+  return b;
+}
+
+void PrintReport(const FitReport& r, const FitCommandOptions& o) {
+  const int w = 24;
+  std::cout << "isowrench fit: " << r.model_name << " (" << o.model.urdf << ") against " << o.data << "\n"
+            << "  trials       " << r.trial_count << ", stated noise (sd columns): " << (r.sd_stated ? "yes" : "no")
+            << "\n"
+            << "  verdict      " << FitVerdictName(r.verdict) << ": " << r.verdict_message << "\n";
+  std::cout << "\nError before (nominal model) and after (with the chosen effects); residual = measured - predicted,\n"
+            << "transducer axes, moment about the endpoint:\n"
+            << WrenchHeader(w) << "\n"
+            << WrenchRow("RMS before", r.before.rms, w) << "\n"
+            << WrenchRow("RMS after", r.after.rms, w) << "\n"
+            << WrenchRow("mean residual before", r.before.mean, w) << "\n"
+            << WrenchRow("mean residual after", r.after.mean, w) << "\n";
+  if (r.sd_stated) {
+    std::cout << WrenchRow("x noise before", r.before.normalized, w) << "\n"
+              << WrenchRow("x noise after", r.after.normalized, w) << "\n";
+  }
+  std::cout << WrenchRow("R^2 before", r.before.r2, w) << "\n" << WrenchRow("R^2 after", r.after.r2, w) << "\n";
+  std::cout << "  reduced chi^2: " << util::FormatNumber(r.before.reduced_chi2, 4) << " before, "
+            << util::FormatNumber(r.after.reduced_chi2, 4) << " after (1 = at the noise)\n";
+
+  for (const FitRound& round : r.rounds) {
+    std::cout << "\nRound " << round.index << ": " << round.summary << "\n"
+              << "  BIC of the current model " << util::FormatNumber(round.bic_before, 6) << ", held-out chi^2 per residual "
+              << util::FormatNumber(round.cv_before, 4) << "\n"
+              << "  candidate                        k      ΔBIC  held-out  verdict\n";
+    for (const CandidateFit& f : round.candidates) {
+      char line[160];
+      std::snprintf(line, sizeof(line), "  %-30s %3zu %9s %9s  ", f.effect.id.c_str(), f.effect.parameters.size(),
+                    util::FormatNumber(f.delta_bic, 4).c_str(),
+                    f.cv_error >= 0 ? util::FormatNumber(f.cv_error, 4).c_str() : "-");
+      std::cout << line << f.verdict << "\n";
+    }
+  }
+  std::cout << "\nChosen effects (parameters ± standard error from the covariance):\n";
+  if (r.chosen_fits.empty()) std::cout << "  none\n";
+  for (size_t i = 0; i < r.chosen_fits.size(); ++i) {
+    const CandidateFit& f = r.chosen_fits[i];
+    std::cout << "  " << i + 1 << ". " << f.effect.id << ": " << f.effect.description << "\n";
+    for (size_t k = 0; k < f.values.size(); ++k) {
+      const EffectParameter& p = f.effect.parameters[k];
+      std::cout << "       " << p.name << " = " << util::FormatNumber(f.values[k], 5) << " ± "
+                << util::FormatNumber(f.standard_errors[k], 3) << " " << p.unit;
+      if (p.scale == ParameterScale::kLog10) {
+        std::cout << "  (log10 ± " << util::FormatNumber(f.log10_standard_errors[k], 3) << ")";
+      }
+      if (f.at_bound[k]) std::cout << "  [at search limit]";
+      std::cout << "\n";
+    }
+    if (!f.identifiable) std::cout << "       warning: " << f.identifiability << "\n";
+  }
+  if (!r.indistinguishable.empty()) {
+    std::cout << "\nEffects wrench data cannot tell apart at these postures:\n";
+    for (const std::string& s : r.indistinguishable) std::cout << "  " << s << "\n";
+  }
+  std::cout << "\nPer-trial residuals after the fit (N, N·m) and |weighted residual| in noise multiples:\n"
+            << "  line  muscle  activ.   x noise before  x noise after  " << WrenchHeader(0) << "\n";
+  size_t shown = 0;
+  for (const TrialResidual& t : r.trials) {
+    if (o.rows > 0 && static_cast<int>(shown) >= o.rows) break;
+    char line[128];
+    std::snprintf(line, sizeof(line), "  %4ld  %-6s %6.3f %16s %14s  ", t.line, t.muscle.c_str(), t.activation,
+                  Fixed(t.normalized_before, 10, 2).c_str(), Fixed(t.normalized_after, 10, 2).c_str());
+    std::cout << line;
+    for (int c = 0; c < 6; ++c) std::cout << Cell(t.after[c]);
+    std::cout << "\n";
+    ++shown;
+  }
+  if (shown < r.trials.size()) {
+    std::cout << "  ... " << r.trials.size() - shown << " more (--rows 0 shows all, --json gives everything)\n";
+  }
+  std::cout << "\nfit took " << util::FormatNumber(r.seconds, 3) << " s\n";
+  if (!o.output.empty()) std::cout << "wrote the augmented model to " << o.output << "\n";
+}
+
+const bool registered = RegisterCommand({
+    "fit",
+    "Fit measured wrenches (CSV): trace the residual to missing effects, report the error before/after "
+    "and write the augmented model",
+    41,
+    [](CLI::App& app) -> std::function<int()> {
+      auto o = std::make_shared<FitCommandOptions>();
+      AddModelOptions(app, o->model, /*with_muscle=*/false);
+      app.add_option("data", o->data, "Measured wrenches, CSV (format: docs/identification.md)");
+      app.add_option("-o,--output", o->output, "Write the augmented model (URDF + chosen effects) here");
+      app.add_flag("--json", o->json, "Print everything as JSON");
+      app.add_option("--rounds", o->rounds, "Most effects to add (default 3)");
+      app.add_option("--folds", o->folds, "Cross-validation folds (default 5)");
+      app.add_option("--candidates", o->candidates, "Only try these effect ids (default: the whole library)");
+      app.add_option("--rows", o->rows, "Per-trial rows in the table (default 20, 0 = all)");
+      app.add_flag("--list-effects", o->list_effects, "List the candidate effects for the model and exit");
+      return [o]() {
+        Model model = LoadModel(o->model);
+        if (o->list_effects) {
+          std::vector<Effect> effects = CandidateEffects(model);
+          if (o->json) {
+            nlohmann::json j = nlohmann::json::array();
+            for (const Effect& e : effects) j.push_back(EffectJson(e));
+            std::cout << j.dump(2) << "\n";
+            return 0;
+          }
+          std::cout << "Candidate effects for " << model.name() << " (simulate: --effect ID=V1,V2,... in these units):\n";
+          for (const Effect& e : effects) {
+            std::vector<std::string> p;
+            for (const EffectParameter& q : e.parameters) {
+              p.push_back(q.name + " (" + q.unit + ", " + util::FormatNumber(q.lower, 3) + " to " +
+                          util::FormatNumber(q.upper, 3) + ")");
+            }
+            std::cout << "  " << e.id << "\n      " << e.description << "\n      " << util::Join(p, ", ") << "\n";
+          }
+          return 0;
+        }
+        if (o->data.empty()) throw Error("fit: missing <data.csv> (measured wrenches; see docs/identification.md)");
+        if (o->rounds < 0) throw Error("fit: --rounds must be >= 0");
+        std::vector<Trial> trials = ReadTrialsCsv(model, o->data);
+        FitOptions options;
+        options.max_rounds = o->rounds;
+        options.folds = o->folds;
+        options.candidates = o->candidates;
+        FitReport report = FitEffects(model, trials, options);
+        report.source = o->data;
+        if (!o->output.empty()) WriteAugmentedUrdf(report, o->output);
+        if (o->json) {
+          std::cout << ReportJson(report, o->model.urdf, o->data, o->output).dump(2) << "\n";
+        } else {
+          PrintReport(report, *o);
+        }
+        return 0;
+      };
+    }});
+
+}  // namespace
+}  // namespace isowrench::cli
