@@ -186,6 +186,8 @@ struct EquilibriumCase {
   std::string muscle;
 };
 
+void PrintTo(const EquilibriumCase& c, std::ostream* os) { *os << c.urdf << " / " << c.muscle; }
+
 class Equilibrium : public ::testing::TestWithParam<EquilibriumCase> {};
 
 TEST_P(Equilibrium, JointTorquesAreBalanced) {
