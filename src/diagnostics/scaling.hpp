@@ -1,0 +1,44 @@
+#pragma once
+// Private: the dimensionless Jacobian every diagnostic rank decision uses, and small helpers.
+// Translation rows are divided by a length scale L and prismatic columns multiplied by it, so
+// every entry is rad/rad (or m/m): J_s = D J E with D = diag(1/L on translation rows, 1) and
+// E = diag(L on prismatic columns, 1). Then null(J) = E null(J_s), null(J^T) = D null(J_s^T).
+
+#include <Eigen/Core>
+#include <array>
+#include <string>
+#include <vector>
+
+#include "isowrench/model.hpp"
+
+namespace isowrench::diagnostics {
+
+/// Rows of the restrained transducer dofs, in order.
+std::vector<int> RestrainedRows(const Model& model);
+
+/// L: `length_scale` if > 0, else model.chain_length(). @throws Error if not finite.
+double LengthScale(const Model& model, double length_scale);
+
+/// J_s on the given rows: (rows.size() x J.cols()); `prismatic` flags columns (may be longer
+/// than model.dof_count() for expanded Jacobians).
+Eigen::MatrixXd ScaledRows(const Matrix6Xd& J, const std::vector<int>& rows, const std::vector<bool>& prismatic,
+                           double L);
+
+/// Column flags from the model.
+std::vector<bool> PrismaticColumns(const Model& model);
+
+/// |D v| for a wrench v with D = diag(1, 1, 1, 1/L, 1/L, 1/L) (forces in N, moments / L).
+double ScaledWrenchNorm(const Vector6d& w, double L);
+
+/// "fx +1.000 N, fy -0.532 N, mz +0.0123 N·m", entries with |entry| <= cutoff * largest skipped.
+std::string DescribeWrench(const Vector6d& w, double cutoff);
+
+/// Flip v so that its largest-magnitude entry is positive (reproducible signs).
+template <typename V>
+void CanonicalSign(V& v) {
+  Eigen::Index i = 0;
+  v.cwiseAbs().maxCoeff(&i);
+  if (v[i] < 0) v = -v;
+}
+
+}  // namespace isowrench::diagnostics
