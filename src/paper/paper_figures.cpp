@@ -21,7 +21,7 @@ constexpr double kMomentRatioD = 1e-4;
 // Fig. 3 base stiffness rows B (high), C and D (N/m); Fig. 4 C uses the "moderate" value.
 constexpr double kBaseHigh = 1e9;
 constexpr double kBaseModerate = 1e7;
-constexpr double kBaseLow = 1e4;
+constexpr double kBaseLow = 1e5;
 // Fig. 4: knee ab/adduction stiffness (N·m/rad), from the paper.
 constexpr double kKneeAbduction = 1.0;
 
