@@ -21,8 +21,10 @@ using diagnostics::ScaledWrenchNorm;
 
 std::string N3(double v) { return util::FormatNumber(v, 3); }
 
+// Components below 1e-12 are rounding of an exact zero (axes are unit vectors): print 0.
 std::string AxisText(const Eigen::Vector3d& a) {
-  return "(" + N3(a.x()) + ", " + N3(a.y()) + ", " + N3(a.z()) + ")";
+  auto c = [](double v) { return N3(std::abs(v) < 1e-12 ? 0.0 : v); };
+  return "(" + c(a.x()) + ", " + c(a.y()) + ", " + c(a.z()) + ")";
 }
 
 // Everything about one muscle at one posture that a release assessment needs: J (transducer
