@@ -197,8 +197,8 @@ struct SimulationOptions {
   double activation_max = 1.0;
   /// Gaussian noise sd per force component (N) and moment component (N·m), >= 0; written as
   /// the sd_* columns (0 noise writes sd = the floor below, so weights stay finite).
-  double noise_force = 0.005;
-  double noise_moment = 0.0001;
+  double noise_force = 0.002;
+  double noise_moment = 5e-5;
   /// sd written when a noise level is 0 (N or N·m).
   double sd_floor = 1e-9;
   /// Muscles used, cycled over trials; empty = all muscles of the model.
@@ -232,6 +232,9 @@ struct FitOptions {
   /// An effect is added only when BIC_current - BIC_candidate >= min_bic_improvement
   /// (10 = "very strong" evidence on the Kass & Raftery scale).
   double min_bic_improvement = 10.0;
+  /// Look-elsewhere correction: with M candidates tried in a round, the threshold above is
+  /// raised by 2 ln(M) (a Bonferroni-style penalty for picking the best of M).
+  bool look_elsewhere = true;
   /// ... and its held-out error is lower: cv_candidate <= (1 - min_cv_improvement) * cv_current.
   double min_cv_improvement = 0.02;
   /// Runner-ups with BIC within indistinguishable_bic of the winner (and also passing the
@@ -299,6 +302,8 @@ struct FitRound {
   ResidualStats before;          ///< residual of the current model at the start of the round
   double bic_before = 0.0;
   double cv_before = -1.0;       ///< held-out chi2 per residual of the current model
+  /// ΔBIC an effect needed in this round (min_bic_improvement + look-elsewhere term).
+  double bic_threshold = 0.0;
   std::vector<CandidateFit> candidates;  ///< sorted best BIC first
   int chosen = -1;               ///< index in candidates, -1 when nothing earned its parameters
   /// Effect ids indistinguishable from the winner at these postures (BIC within
@@ -342,6 +347,10 @@ struct FitReport {
   std::vector<TrialResidual> trials;
   FitVerdict verdict = FitVerdict::kNominalFits;
   std::string verdict_message;
+  /// False when the verdict is kUnexplained: the effects in `chosen` then reduce the residual
+  /// but do not bring it to the noise, so they are reported as tentative partial fits, not as
+  /// found effects (an effect outside the library is not attributed to one inside it).
+  bool effects_claimed = true;
   /// Pairs/groups of effects that cannot be told apart from these data, one sentence each.
   std::vector<std::string> indistinguishable;
   AugmentedModel augmented;  ///< nominal + chosen effects (write with WriteAugmentedUrdf)

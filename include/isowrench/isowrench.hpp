@@ -9,8 +9,10 @@
 ///   // transducer, in transducer axes.
 
 #include "isowrench/conventions.hpp"
+#include "isowrench/diagnostics.hpp"
 #include "isowrench/error.hpp"
 #include "isowrench/fast.hpp"
+#include "isowrench/identification.hpp"
 #include "isowrench/kinematics.hpp"
 #include "isowrench/model.hpp"
 #include "isowrench/paper.hpp"

@@ -82,6 +82,7 @@ nlohmann::json ReportJson(const FitReport& r, const std::string& urdf, const std
     rounds.push_back({{"index", round.index},
                       {"before", StatsJson(round.before)},
                       {"bic_before", round.bic_before},
+                      {"bic_threshold", round.bic_threshold},
                       {"cv_before", round.cv_before},
                       {"candidates", c},
                       {"chosen", round.chosen >= 0 ? nlohmann::json(round.candidates[round.chosen].effect.id)
@@ -105,6 +106,7 @@ nlohmann::json ReportJson(const FitReport& r, const std::string& urdf, const std
           {"sd_stated", r.sd_stated},
           {"verdict", FitVerdictName(r.verdict)},
           {"verdict_message", r.verdict_message},
+          {"effects_claimed", r.effects_claimed},
           {"before", StatsJson(r.before)},
           {"after", StatsJson(r.after)},
           {"chosen", chosen},
@@ -147,7 +149,8 @@ void PrintReport(const FitReport& r, const FitCommandOptions& o) {
   for (const FitRound& round : r.rounds) {
     std::cout << "\nRound " << round.index << ": " << round.summary << "\n"
               << "  BIC of the current model " << util::FormatNumber(round.bic_before, 6) << ", held-out chi^2 per residual "
-              << util::FormatNumber(round.cv_before, 4) << "\n"
+              << util::FormatNumber(round.cv_before, 4) << "; an effect needs ΔBIC >= "
+              << util::FormatNumber(round.bic_threshold, 3) << " and a lower held-out error\n"
               << "  candidate                        k      ΔBIC  held-out  verdict\n";
     for (const CandidateFit& f : round.candidates) {
       char line[160];
@@ -157,7 +160,8 @@ void PrintReport(const FitReport& r, const FitCommandOptions& o) {
       std::cout << line << f.verdict << "\n";
     }
   }
-  std::cout << "\nChosen effects (parameters ± standard error from the covariance):\n";
+  std::cout << (r.effects_claimed ? "\nChosen effects (parameters ± standard error from the covariance):\n"
+                                  : "\nTentative partial fits, NOT claimed (the residual stays above the noise):\n");
   if (r.chosen_fits.empty()) std::cout << "  none\n";
   for (size_t i = 0; i < r.chosen_fits.size(); ++i) {
     const CandidateFit& f = r.chosen_fits[i];

@@ -223,6 +223,14 @@ SolveResult Solve(const Context& c, std::vector<double> x) {
 SolveResult SolveWithStarts(const Context& c, const std::vector<double>& x0) {
   SolveResult best = Solve(c, x0);
   if (c.parameter_count == 1 && c.free.size() == 1 && c.free[0].parameters[0].scale == ParameterScale::kLog10) {
+    // Retry only when the first solve failed or stopped on a search limit away from the value
+    // at which the effect vanishes (a flat, saturated region); the rigid side is a real answer.
+    const EffectParameter& p = c.free[0].parameters[0];
+    double lo = ident::ToInternal(p, p.lower), hi = ident::ToInternal(p, p.upper);
+    double x = best.x.empty() ? x0[0] : best.x[0];
+    bool at_limit = x - lo <= kAtBoundFraction * (hi - lo) || hi - x <= kAtBoundFraction * (hi - lo);
+    bool far_from_neutral = std::abs(x - ident::ToInternal(p, p.neutral)) > 1.0;
+    if (best.usable && !(at_limit && far_from_neutral)) return best;
     for (double shift : {-2.0, 2.0}) {
       std::vector<double> x = x0;
       x[0] += shift;
@@ -493,6 +501,10 @@ FitReport FitEffects(const Model& nominal, const std::vector<Trial>& trials, con
       f.delta_bic = r.bic_before - f.bic;
       r.candidates.push_back(std::move(f));
     }
+    const double threshold =
+        options.min_bic_improvement +
+        (options.look_elsewhere && r.candidates.size() > 1 ? 2.0 * std::log(static_cast<double>(r.candidates.size())) : 0.0);
+    r.bic_threshold = threshold;
     std::stable_sort(r.candidates.begin(), r.candidates.end(), [](const CandidateFit& a, const CandidateFit& b) {
       if (a.converged != b.converged) return a.converged;
       return a.bic < b.bic;
@@ -501,7 +513,7 @@ FitReport FitEffects(const Model& nominal, const std::vector<Trial>& trials, con
     int cv_done = 0;
     for (CandidateFit& f : r.candidates) {
       if (cv_done >= options.cv_candidates) break;
-      if (!f.converged || !f.identifiable || f.delta_bic < options.min_bic_improvement || train.empty()) continue;
+      if (!f.converged || !f.identifiable || f.delta_bic < threshold || train.empty()) continue;
       ++cv_done;
       double held_chi2 = 0.0;
       int held_n = 0;
@@ -535,9 +547,9 @@ FitReport FitEffects(const Model& nominal, const std::vector<Trial>& trials, con
       std::string p = std::to_string(f.effect.parameters.size()) + " parameter" + (f.effect.parameters.size() > 1 ? "s" : "");
       if (!f.converged) {
         f.verdict = "fit failed: " + f.solver_message;
-      } else if (f.delta_bic < options.min_bic_improvement) {
+      } else if (f.delta_bic < threshold) {
         f.verdict = "does not earn its " + p + ": ΔBIC = " + util::FormatNumber(f.delta_bic, 3) + " < " +
-                    util::FormatNumber(options.min_bic_improvement, 3);
+                    util::FormatNumber(threshold, 3);
         if (!f.identifiable) f.verdict += "; not identifiable: " + f.identifiability;
       } else if (!f.identifiable) {
         f.verdict = "not identifiable from these data: " + f.identifiability;
@@ -661,11 +673,15 @@ FitReport FitEffects(const Model& nominal, const std::vector<Trial>& trials, con
     double multiple = std::sqrt(report.after.reduced_chi2);
     if (report.after.reduced_chi2 > threshold) {
       report.verdict = FitVerdict::kUnexplained;
-      m << "unexplained residual: after " << report.chosen.size() << " effect(s) the residual is "
+      report.effects_claimed = report.chosen.empty();
+      m << "after " << report.chosen.size() << " effect(s) the residual is "
         << util::FormatNumber(multiple, 3) << " x the stated noise (reduced chi^2 "
         << util::FormatNumber(report.after.reduced_chi2, 4) << " > " << util::FormatNumber(threshold, 4)
         << "); something outside the candidate library is missing";
-      if (!report.chosen.empty()) m << "; the effects added reduce the residual but their attribution is tentative";
+      if (!report.chosen.empty()) {
+        m << "; the effects tried reduce the residual but do not explain it, so none is claimed (tentative partial "
+             "fits below)";
+      }
     } else if (report.chosen.empty()) {
       report.verdict = FitVerdict::kNominalFits;
       m << "the nominal model explains the data to the noise (residual " << util::FormatNumber(multiple, 3)
@@ -689,7 +705,7 @@ std::string FitReport::BriefReport() const {
   o << "verdict: " << FitVerdictName(verdict) << ": " << verdict_message << "\n";
   for (size_t i = 0; i < chosen_fits.size(); ++i) {
     const CandidateFit& f = chosen_fits[i];
-    o << "effect " << i + 1 << ": " << f.effect.id << ": " << ValueText(f.effect, f.values, f.standard_errors) << "\n";
+    o << (effects_claimed ? "effect " : "tentative, not claimed: ") << i + 1 << ": " << f.effect.id << ": " << ValueText(f.effect, f.values, f.standard_errors) << "\n";
   }
   const char* names[6] = {"fx", "fy", "fz", "mx", "my", "mz"};
   for (int c = 0; c < 6; ++c) {
