@@ -10,6 +10,7 @@
 
 #include "isowrench/conventions.hpp"
 #include "isowrench/diagnostics.hpp"
+#include "isowrench/diagnostics.hpp"
 #include "isowrench/error.hpp"
 #include "isowrench/fast.hpp"
 #include "isowrench/identification.hpp"
