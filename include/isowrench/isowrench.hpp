@@ -10,7 +10,6 @@
 
 #include "isowrench/conventions.hpp"
 #include "isowrench/diagnostics.hpp"
-#include "isowrench/diagnostics.hpp"
 #include "isowrench/error.hpp"
 #include "isowrench/fast.hpp"
 #include "isowrench/identification.hpp"
