@@ -150,7 +150,11 @@ void PrintMuscle(const Diagnosis& d) {
   if (d.large_deflection_run) {
     const LargeDeflectionResult& l = d.large_deflection;
     std::cout << "    large deflection: " << LargeDeflectionStatusName(l.status) << ": " << l.message << "\n"
-              << "  " << WrenchRow("  W nonlinear (updated kinematics)", l.wrench_nonlinear, w) << "\n"
+              << "  "
+              << WrenchRow(l.status == LargeDeflectionStatus::kConverged ? "  W nonlinear (updated kinematics)"
+                                                                        : "  W at the last iterate",
+                           l.wrench_nonlinear, w)
+              << "\n"
               << "      linear motion max |dtheta| = " << N(l.displacement, 3)
               << " rad; |dtheta_nonlinear - dtheta_linear| = " << N(l.dtheta_difference, 3)
               << " rad; wrench difference " << N(100 * l.wrench_relative_difference, 3) << "% of |W|\n";

@@ -200,8 +200,10 @@ LargeDeflectionResult SolveLargeDeflection(const Model& model, const Eigen::Vect
         alpha *= 0.5;
       }
       if (!accepted) {
-        r.message = "line search failed: no decrease of the potential along the Newton step" +
-                    (broken.empty() ? std::string() : " (trial postures broke down: " + broken + ")");
+        r.message = broken.empty()
+                        ? "line search failed: no decrease of the potential along the Newton step"
+                        : "no equilibrium near the posture: the limb is pulled until the geometry breaks "
+                          "down (" + broken + ")";
         failed = !broken.empty();
         break;
       }
