@@ -16,5 +16,6 @@
 #include "isowrench/kinematics.hpp"
 #include "isowrench/model.hpp"
 #include "isowrench/paper.hpp"
+#include "isowrench/plots.hpp"
 #include "isowrench/posture.hpp"
 #include "isowrench/statics.hpp"

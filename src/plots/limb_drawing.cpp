@@ -1,0 +1,248 @@
+// Two-view stick figure of a limb (top: world x-y, side: world x-z) to check a URDF by eye.
+
+#include <algorithm>
+#include <cmath>
+#include <map>
+
+#include "isowrench/error.hpp"
+#include "isowrench/kinematics.hpp"
+#include "isowrench/plots.hpp"
+#include "isowrench/posture.hpp"
+#include "plots/svg_writer.hpp"
+#include "util/text.hpp"
+
+namespace isowrench {
+namespace {
+
+using plots::Num;
+
+// Points closer than this (m) are one joint centre (a ball joint's three axes share one).
+constexpr double kSameCentre = 1e-9;
+// Fraction of the chain length used for axis segments when none is given.
+constexpr double kAxisFraction = 0.12;
+constexpr double kPad = 36;        // px around each view
+constexpr double kTitleHeight = 44;
+constexpr double kViewTitle = 18;
+constexpr double kFooter = 34;     // scale bar and legend
+
+struct Segment3 {
+  Eigen::Vector3d a, b;
+};
+
+struct Geometry {
+  std::vector<Eigen::Vector3d> bones;  // chain polyline: root, each joint's child origin, endpoint
+  struct Centre {
+    Eigen::Vector3d p;
+    std::vector<std::string> joints;
+  };
+  std::vector<Centre> centres;
+  struct Axis {
+    std::string joint;
+    bool prismatic;
+    Segment3 s;
+  };
+  std::vector<Axis> axes;
+  struct Muscle {
+    std::string name;
+    std::vector<Eigen::Vector3d> points;
+  };
+  std::vector<Muscle> muscles;
+  Eigen::Isometry3d endpoint;
+  Eigen::Matrix3d transducer;
+};
+
+std::string PathLink(const Model& model, const std::string& link) {
+  return link == "ground" ? model.description().root_link : link;
+}
+
+Geometry Collect(const Model& model, const Eigen::VectorXd& q, double axis_length) {
+  KinematicsWorkspace ws(model);
+  Geometry g;
+  const LimbDescription& d = model.description();
+  g.bones.push_back(PointPosition(model, ws, q, d.root_link, Eigen::Vector3d::Zero()));
+  for (const JointSpec& j : d.joints) {
+    Eigen::Vector3d p = PointPosition(model, ws, q, j.child_link, Eigen::Vector3d::Zero());
+    if ((p - g.bones.back()).norm() > kSameCentre) g.bones.push_back(p);
+    if (j.type == JointType::kFixed) continue;
+    auto it = std::find_if(g.centres.begin(), g.centres.end(),
+                           [&](const Geometry::Centre& c) { return (c.p - p).norm() <= kSameCentre; });
+    if (it == g.centres.end()) {
+      g.centres.push_back({p, {j.name}});
+    } else {
+      it->joints.push_back(j.name);
+    }
+    // The axis is fixed in the joint frame, which is the child frame (URDF): map it to world.
+    Eigen::Vector3d axis = PointPosition(model, ws, q, j.child_link, j.axis) - p;
+    axis.normalize();
+    g.axes.push_back({j.name, j.type == JointType::kPrismatic,
+                      {p - 0.5 * axis_length * axis, p + 0.5 * axis_length * axis}});
+  }
+  g.endpoint = EndpointPose(model, ws, q);
+  if ((g.endpoint.translation() - g.bones.back()).norm() > kSameCentre) g.bones.push_back(g.endpoint.translation());
+  g.transducer = TransducerRotation(model, ws, q);
+  for (int m = 0; m < model.muscle_count(); ++m) {
+    const MuscleSpec& spec = model.muscle(m);
+    Geometry::Muscle muscle{spec.name, {}};
+    for (const PathPoint& p : spec.path) {
+      muscle.points.push_back(PointPosition(model, ws, q, PathLink(model, p.link), p.position));
+    }
+    g.muscles.push_back(muscle);
+  }
+  return g;
+}
+
+// A view maps world to screen: two world axes (right, up) and a scale.
+struct View {
+  std::string name;   // "top" / "side"
+  int right, up;      // world axis indices
+  double x0, y0;      // screen position of the view's top-left corner (inside padding)
+  Eigen::Vector2d min, max;  // world bounds along (right, up)
+  double scale;       // px per m
+  Eigen::Vector2d Screen(const Eigen::Vector3d& p) const {
+    return {x0 + (p[right] - min.x()) * scale, y0 + (max.y() - p[up]) * scale};
+  }
+};
+
+double NiceScaleBar(double max_m) {
+  double best = 0.001;
+  for (double mm : {0.1, 0.2, 0.5, 1.0, 2.0, 5.0, 10.0, 20.0, 50.0, 100.0, 200.0, 500.0, 1000.0}) {
+    if (mm * 1e-3 <= max_m) best = mm * 1e-3;
+  }
+  return best;
+}
+
+const char* kAxisName[3] = {"x", "y", "z"};
+
+}  // namespace
+
+std::string LimbStickFigureSvg(const Model& model, const Eigen::VectorXd& q, const LimbDrawingOptions& options) {
+  ValidatePosture(model, q);
+  if (!(options.view_px > 0)) throw Error("draw: view width must be > 0 px, got " + util::FormatNumber(options.view_px));
+  if (!std::isfinite(options.axis_length)) throw Error("draw: axis length must be finite");
+  const double axis_length = options.axis_length > 0 ? options.axis_length : kAxisFraction * model.chain_length();
+  const Geometry g = Collect(model, q, axis_length);
+
+  // Everything that must fit in the views.
+  std::vector<Eigen::Vector3d> all = g.bones;
+  for (const auto& a : g.axes) {
+    all.push_back(a.s.a);
+    all.push_back(a.s.b);
+  }
+  for (const auto& m : g.muscles) all.insert(all.end(), m.points.begin(), m.points.end());
+  for (int k = 0; k < 3; ++k) {
+    all.push_back(g.endpoint.translation() + axis_length * g.endpoint.linear().col(k));
+    all.push_back(g.endpoint.translation() + axis_length * g.transducer.col(k));
+  }
+  View views[2] = {{"top", 0, 1, 0, 0, {}, {}, 0}, {"side", 0, 2, 0, 0, {}, {}, 0}};
+  double scale = 1e300;
+  const double inner = options.view_px - 2 * kPad;
+  for (View& v : views) {
+    v.min = Eigen::Vector2d::Constant(1e300);
+    v.max = Eigen::Vector2d::Constant(-1e300);
+    for (const Eigen::Vector3d& p : all) {
+      v.min = v.min.cwiseMin(Eigen::Vector2d(p[v.right], p[v.up]));
+      v.max = v.max.cwiseMax(Eigen::Vector2d(p[v.right], p[v.up]));
+    }
+    const double range = std::max({v.max.x() - v.min.x(), v.max.y() - v.min.y(), 1e-6});
+    scale = std::min(scale, inner / range);
+  }
+  double view_height = 0;
+  for (View& v : views) {
+    v.scale = scale;
+    view_height = std::max(view_height, (v.max.y() - v.min.y()) * scale);
+  }
+  const double width = 2 * options.view_px;
+  const double height = kTitleHeight + kViewTitle + view_height + 2 * kPad + kFooter;
+  const std::string title =
+      options.title.empty() ? model.name() + " at " + FormatPosture(model, q) : options.title;
+
+  plots::SvgWriter svg(width, height, title);
+  svg.Text(12, 20, title, 14, "start", {{"class", "title"}, {"font-weight", "bold"}});
+  svg.Text(12, 36,
+           "Joint centres (circles) and axes (orange segments, dashed = prismatic), bones (grey), muscle paths (red), "
+           "endpoint frame x y z (green, blue, red).",
+           10, "start", {{"class", "subtitle"}});
+  for (int i = 0; i < 2; ++i) {
+    View& v = views[i];
+    v.x0 = options.view_px * i + kPad;
+    v.y0 = kTitleHeight + kViewTitle + kPad;
+    svg.Open("g", {{"class", "view"},
+                   {"data-view", v.name},
+                   {"data-right", kAxisName[v.right]},
+                   {"data-up", kAxisName[v.up]},
+                   {"data-px-per-m", plots::Exact(scale)},
+                   {"data-origin-x", Num(v.Screen(Eigen::Vector3d::Zero()).x())},
+                   {"data-origin-y", Num(v.Screen(Eigen::Vector3d::Zero()).y())}});
+    svg.Element("rect", {{"x", Num(options.view_px * i + 4)}, {"y", Num(kTitleHeight)},
+                         {"width", Num(options.view_px - 8)}, {"height", Num(height - kTitleHeight - 4)},
+                         {"fill", "none"}, {"stroke", "#dddddd"}});
+    svg.Text(options.view_px * i + 12, kTitleHeight + 14,
+             i == 0 ? "Top view (x right, y up; looking down -z)" : "Side view (x right, z up; looking along +y)", 12,
+             "start", {{"class", "view-title"}, {"font-weight", "bold"}});
+    // Bones.
+    std::string points;
+    for (const Eigen::Vector3d& p : g.bones) {
+      Eigen::Vector2d s = v.Screen(p);
+      points += Num(s.x()) + "," + Num(s.y()) + " ";
+    }
+    svg.Element("polyline", {{"class", "bones"}, {"points", points}, {"fill", "none"}, {"stroke", "#707070"},
+                             {"stroke-width", "4"}, {"stroke-linejoin", "round"}, {"stroke-linecap", "round"}});
+    // Joint axes.
+    for (const auto& a : g.axes) {
+      Eigen::Vector2d s0 = v.Screen(a.s.a), s1 = v.Screen(a.s.b);
+      plots::Attributes extra = {{"class", "joint-axis"}, {"data-joint", a.joint}};
+      if (a.prismatic) extra.push_back({"stroke-dasharray", "4,2"});
+      svg.Line(s0.x(), s0.y(), s1.x(), s1.y(), "#e08000", 1.6, extra);
+    }
+    // Muscles.
+    for (const auto& m : g.muscles) {
+      std::string mp;
+      for (const Eigen::Vector3d& p : m.points) {
+        Eigen::Vector2d s = v.Screen(p);
+        mp += Num(s.x()) + "," + Num(s.y()) + " ";
+        svg.Element("circle", {{"class", "muscle-point"}, {"cx", Num(s.x())}, {"cy", Num(s.y())}, {"r", "2.5"},
+                               {"fill", "#c0102a"}});
+      }
+      svg.Element("polyline", {{"class", "muscle"}, {"data-muscle", m.name}, {"points", mp}, {"fill", "none"},
+                               {"stroke", "#c0102a"}, {"stroke-width", "1.8"}});
+      Eigen::Vector2d mid = 0.5 * (v.Screen(m.points.front()) + v.Screen(m.points.back()));
+      svg.Text(mid.x() + 4, mid.y() - 4, m.name, 10, "start", {{"class", "muscle-label"}, {"fill", "#c0102a"}});
+    }
+    // Joint centres.
+    for (const auto& c : g.centres) {
+      Eigen::Vector2d s = v.Screen(c.p);
+      svg.Element("circle", {{"class", "joint-centre"}, {"data-joints", util::Join(c.joints, " ")},
+                             {"cx", Num(s.x())}, {"cy", Num(s.y())}, {"r", "4"}, {"fill", "white"},
+                             {"stroke", "black"}, {"stroke-width", "1.2"}});
+      svg.Text(s.x() + 7, s.y() + 12, util::Join(c.joints, ", "), 9, "start", {{"class", "joint-label"}});
+    }
+    // Endpoint frame, and the transducer axes when they differ.
+    const Eigen::Vector3d e = g.endpoint.translation();
+    const bool transducer_differs = !g.transducer.isApprox(g.endpoint.linear(), 1e-9);
+    for (int k = 0; k < 3; ++k) {
+      Eigen::Vector2d s0 = v.Screen(e), s1 = v.Screen(e + axis_length * g.endpoint.linear().col(k));
+      svg.Line(s0.x(), s0.y(), s1.x(), s1.y(), kAxisColors[k], 2.0,
+               {{"class", "endpoint-axis"}, {"data-axis", kAxisName[k]}});
+      svg.Text(s1.x() + 3, s1.y() - 2, kAxisName[k], 10, "start", {{"fill", kAxisColors[k]}});
+      if (transducer_differs) {
+        Eigen::Vector2d t1 = v.Screen(e + axis_length * g.transducer.col(k));
+        svg.Line(s0.x(), s0.y(), t1.x(), t1.y(), kAxisColors[k], 1.2,
+                 {{"class", "transducer-axis"}, {"data-axis", kAxisName[k]}, {"stroke-dasharray", "3,2"}});
+        svg.Text(t1.x() + 3, t1.y() + 9, std::string("T") + kAxisName[k], 9, "start", {{"fill", kAxisColors[k]}});
+      }
+    }
+    Eigen::Vector2d se = v.Screen(e);
+    svg.Text(se.x() + 6, se.y() + 14, "endpoint", 9, "start", {{"class", "endpoint-label"}});
+    // Scale bar.
+    const double bar_m = NiceScaleBar(0.3 * inner / scale);
+    const double bar_y = height - 18;
+    const double bx = options.view_px * i + 14;
+    svg.Line(bx, bar_y, bx + bar_m * scale, bar_y, "black", 2, {{"class", "scale-bar"}, {"data-value-m", plots::Exact(bar_m)}});
+    svg.Text(bx + bar_m * scale + 6, bar_y + 4, util::FormatNumber(bar_m * 1e3, 3) + " mm", 10, "start",
+             {{"class", "scale-label"}});
+    svg.Close();
+  }
+  return svg.Finish();
+}
+
+}  // namespace isowrench
