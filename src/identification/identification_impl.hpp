@@ -35,6 +35,22 @@ double Weight(const Trial& trial, int c, const FitOptions& options);
 /// Map a trial's joint names onto a model's columns (index per trial entry, -1 = absent).
 std::vector<int> JointMap(const Model& model, const std::vector<std::string>& names);
 
+/// Maps trials onto a model's posture vector and muscle index, caching the last mapping.
+class TrialMapper {
+ public:
+  explicit TrialMapper(const Model& model);
+  /// Fill q (model columns; joints the trial lacks at 0) and return the muscle index.
+  /// @throws Error for unknown muscles or unmappable postures.
+  int Map(const Trial& trial, Eigen::VectorXd* q);
+
+ private:
+  const Model* model_;
+  const std::vector<std::string>* last_names_ = nullptr;
+  std::vector<int> map_;
+  std::string last_muscle_;
+  int muscle_index_ = -1;
+};
+
 /// Prediction on a subset of trials (indices), without rebuilding anything but a workspace.
 void PredictSubset(const Model& model, const std::vector<Trial>& trials, const std::vector<int>& subset,
                    const Vector6d& sensor_offset, std::vector<Vector6d>* wrench, std::vector<bool>* ok,

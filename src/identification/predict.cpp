@@ -5,6 +5,7 @@
 
 #include "identification/identification_impl.hpp"
 #include "isowrench/error.hpp"
+#include "isowrench/fast.hpp"
 #include "isowrench/kinematics.hpp"
 #include "util/text.hpp"
 
@@ -30,9 +31,13 @@ std::vector<int> JointMap(const Model& model, const std::vector<std::string>& na
   return map;
 }
 
-void PredictSubset(const Model& model, const std::vector<Trial>& trials, const std::vector<int>& subset,
-                   const Vector6d& sensor_offset, std::vector<Vector6d>* wrench, std::vector<bool>* ok,
-                   std::string* message) {
+namespace {
+
+/// Reference path (KDL kinematics + SolveStatics), used when the fast path cannot compile the
+/// model (more than kFastMaxDofs joints).
+void PredictSubsetReference(const Model& model, const std::vector<Trial>& trials, const std::vector<int>& subset,
+                            const Vector6d& sensor_offset, std::vector<Vector6d>* wrench, std::vector<bool>* ok,
+                            std::string* message) {
   KinematicsWorkspace ws(model);
   const TransducerSpec& t = model.transducer();
   Vector6d s_t = t.stiffness;
@@ -44,35 +49,12 @@ void PredictSubset(const Model& model, const std::vector<Trial>& trials, const s
   for (int i = 0; i < model.dof_count(); ++i) revolute[i] = model.joint(i).type == JointType::kRevolute;
   StaticsOptions statics;
   statics.leg_length = model.chain_length();
-  const std::vector<std::string>* last_names = nullptr;
-  std::vector<int> map;
-  std::string last_muscle;
-  int muscle_index = -1;
+  TrialMapper mapper(model);
   Eigen::VectorXd q(model.dof_count());
-  wrench->assign(subset.size(), Vector6d::Zero());
-  ok->assign(subset.size(), false);
   for (size_t k = 0; k < subset.size(); ++k) {
     const Trial& trial = trials[subset[k]];
     try {
-      q.setZero();
-      if (trial.joint_names) {
-        if (trial.joint_names.get() != last_names) {
-          map = JointMap(model, *trial.joint_names);
-          last_names = trial.joint_names.get();
-        }
-        for (size_t i = 0; i < map.size(); ++i) {
-          if (map[i] >= 0) q[map[i]] = trial.q[i];
-        }
-      } else if (trial.q.size() == q.size()) {
-        q = trial.q;
-      } else {
-        throw Error("trial at line " + std::to_string(trial.line) + " has " + std::to_string(trial.q.size()) +
-                    " joint values and no joint names; model has " + std::to_string(q.size()));
-      }
-      if (trial.muscle != last_muscle || muscle_index < 0) {
-        muscle_index = model.MuscleIndex(trial.muscle);
-        last_muscle = trial.muscle;
-      }
+      int muscle_index = mapper.Map(trial, &q);
       Matrix6Xd J = EndpointJacobian(model, ws, q);
       MuscleTorque mt = ComputeMuscleTorque(model, ws, q, muscle_index, trial.activation);
       StaticsResult s = SolveStatics(J, s_t, s_p, mt.tau, statics, revolute);
@@ -83,6 +65,69 @@ void PredictSubset(const Model& model, const std::vector<Trial>& trials, const s
         continue;
       }
       (*wrench)[k] = s.wrench + sensor_offset;
+      (*ok)[k] = true;
+    } catch (const Error& e) {
+      if (message && message->empty()) *message = e.what();
+    }
+  }
+}
+
+}  // namespace
+
+TrialMapper::TrialMapper(const Model& model) : model_(&model) {}
+
+int TrialMapper::Map(const Trial& trial, Eigen::VectorXd* q) {
+  const Model& model = *model_;
+  q->setZero(model.dof_count());
+  if (trial.joint_names) {
+    if (trial.joint_names.get() != last_names_) {
+      map_ = JointMap(model, *trial.joint_names);
+      last_names_ = trial.joint_names.get();
+    }
+    for (size_t i = 0; i < map_.size(); ++i) {
+      if (map_[i] >= 0) (*q)[map_[i]] = trial.q[i];
+    }
+  } else if (trial.q.size() == q->size()) {
+    *q = trial.q;
+  } else {
+    throw Error("trial at line " + std::to_string(trial.line) + " has " + std::to_string(trial.q.size()) +
+                " joint values and no joint names; model has " + std::to_string(q->size()));
+  }
+  if (trial.muscle != last_muscle_ || muscle_index_ < 0) {
+    muscle_index_ = model.MuscleIndex(trial.muscle);
+    last_muscle_ = trial.muscle;
+  }
+  return muscle_index_;
+}
+
+void PredictSubset(const Model& model, const std::vector<Trial>& trials, const std::vector<int>& subset,
+                   const Vector6d& sensor_offset, std::vector<Vector6d>* wrench, std::vector<bool>* ok,
+                   std::string* message) {
+  wrench->assign(subset.size(), Vector6d::Zero());
+  ok->assign(subset.size(), false);
+  if (model.dof_count() > kFastMaxDofs || model.dof_count() < 1) {
+    PredictSubsetReference(model, trials, subset, sensor_offset, wrench, ok, message);
+    return;
+  }
+  CompiledModel compiled(model);
+  FastWorkspace ws(compiled);
+  const StiffnessSet stiffness = compiled.model_stiffness();
+  TrialMapper mapper(model);
+  Eigen::VectorXd q(model.dof_count());
+  for (size_t k = 0; k < subset.size(); ++k) {
+    const Trial& trial = trials[subset[k]];
+    try {
+      int muscle_index = mapper.Map(trial, &q);
+      if (!q.allFinite() || !std::isfinite(trial.activation)) throw Error("trial at line " + std::to_string(trial.line) + ": non-finite posture or activation");
+      FastWrench w = EvaluateFast(compiled, ws, q, muscle_index, stiffness, trial.activation);
+      if (w.status != StaticsStatus::kOk && w.status != StaticsStatus::kSelfMotionHeld) {
+        if (message && message->empty()) {
+          *message = "trial at line " + std::to_string(trial.line) + ": " + StatusName(w.status) +
+                     " (the model cannot hold this posture; see `isowrench wrench`)";
+        }
+        continue;
+      }
+      (*wrench)[k] = w.wrench + sensor_offset;
       (*ok)[k] = true;
     } catch (const Error& e) {
       if (message && message->empty()) *message = e.what();

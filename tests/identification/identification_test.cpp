@@ -5,6 +5,7 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <fstream>
@@ -282,6 +283,72 @@ INSTANTIATE_TEST_SUITE_P(
       }
       return name;
     });
+
+const std::vector<DetectionCase>& AllCases() {
+  static const std::vector<DetectionCase> cases = {
+      {"base_isotropic=1e7", {"base_isotropic", "base_per_axis"}},
+      {"base_per_axis=3e6,3e7,1e7", {"base_per_axis"}},
+      {"extra_joint:hip_ry:x=1e6", {"extra_joint:hip_ry:x", "extra_joint:knee_rx:y"}, true},
+      {"transducer_anisotropy=0.1", {"transducer_anisotropy"}},
+      {"transducer_soft:rz=1e5", {"transducer_soft:rz"}},
+      {"misalignment=2,-1,1", {"misalignment"}},
+      {"sensor_offset=0.02,-0.01,0.01,0.001,0,-0.0005", {"sensor_offset"}},
+      {"force_scale:GP=0.85", {"force_scale:GP"}},
+      {"attachment:GP:0=1,-0.5,0.5", {"attachment:GP:0"}},
+      {"attachment:GP:1=1,-0.5,0.5", {"attachment:GP:1"}},
+      {"moment_reference=2,1,-1", {"moment_reference"}}};
+  return cases;
+}
+
+TEST(FitLoop, DetectionRatesAndParameterErrorsOverSeeds) {
+  // Every candidate over 5 seeds: the rate at which the fit names it (or an equivalent) first
+  // and claims nothing else, and the parameter errors in units of the reported SE. If the
+  // standard errors are honest, z = error / SE is ~N(0, 1): mean z^2 ~ 1. With ~100 z values
+  // (correlated within an effect) mean z^2 within [0.4, 2.5] rejects SEs off by a factor ~1.6.
+  const int seeds = 5;
+  double z2 = 0;
+  int nz = 0, detected_total = 0, runs = 0;
+  for (const DetectionCase& c : AllCases()) {
+    Model model = c.four_dof ? RatWithoutHipRx() : Rat();
+    AppliedEffect truth = ParseEffectAssignment(model, c.effect);
+    int detected = 0, exact = 0, flagged = 0;
+    double worst = 0;
+    for (int seed = 0; seed < seeds; ++seed) {
+      FitReport r = FitEffects(model, Simulate(model, {c.effect}, 7000 + 13 * seed), TestOptions());
+      ++runs;
+      if (r.chosen.size() != 1 || r.verdict != FitVerdict::kExplained) continue;
+      if (std::find(c.equivalent.begin(), c.equivalent.end(), r.chosen[0].effect.id) == c.equivalent.end()) {
+        // Not named first: acceptable only when the report says the truth is indistinguishable.
+        const std::vector<std::string>& same = r.rounds.at(0).indistinguishable;
+        if (std::find(same.begin(), same.end(), truth.effect.id) != same.end()) ++flagged;
+        continue;
+      }
+      ++detected;
+      if (r.chosen[0].effect.id != truth.effect.id) continue;
+      ++exact;
+      const CandidateFit& f = r.chosen_fits[0];
+      for (size_t i = 0; i < truth.values.size(); ++i) {
+        const EffectParameter& p = f.effect.parameters[i];
+        double z = p.scale == ParameterScale::kLog10
+                       ? (std::log10(f.values[i]) - std::log10(truth.values[i])) / f.log10_standard_errors[i]
+                       : (f.values[i] - truth.values[i]) / f.standard_errors[i];
+        z2 += z * z;
+        ++nz;
+        worst = std::max(worst, std::abs(z));
+      }
+    }
+    detected_total += detected;
+    std::cout << "[rates] " << c.effect << ": named first " << detected << "/" << seeds << " (exact id " << exact << "/"
+              << seeds << "), otherwise reported indistinguishable from the winner " << flagged << "/" << seeds
+              << ", largest |error|/SE " << worst << "\n";
+    EXPECT_GE(detected, seeds - 1) << c.effect;
+    EXPECT_EQ(detected + flagged, seeds) << c.effect;
+  }
+  std::cout << "[rates] overall " << detected_total << "/" << runs << ", mean (error/SE)^2 = " << z2 / nz << " over "
+            << nz << " parameters\n";
+  EXPECT_GT(z2 / nz, 0.4);
+  EXPECT_LT(z2 / nz, 2.5);
+}
 
 TEST(FitLoop, DataWithoutAnEffectRarelyProduceAClaim) {
   // False-alarm rate over 20 seeds of small data sets (30 trials, one round): with
