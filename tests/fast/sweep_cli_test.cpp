@@ -1,0 +1,125 @@
+// `isowrench sweep` end to end: the CSV it writes equals EvaluateWrench (the KDL reference
+// path) row by row, carries units in its header, orders rows with the last grid axis fastest,
+// and bad input exits 1 naming the culprit without leaving a file behind.
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "isowrench/isowrench.hpp"
+
+namespace {
+
+constexpr double kPi = 3.14159265358979323846;
+
+struct CliRun {
+  int exit_code = -1;
+  std::string output;
+};
+
+CliRun RunCli(const std::string& args, const std::filesystem::path& dir) {
+  const std::filesystem::path log = dir / "cli.log";
+  const std::string command = std::string(ISOWRENCH_CLI) + " " + args + " > " + log.string() + " 2>&1";
+  const int status = std::system(command.c_str());
+  CliRun run;
+  run.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  std::ifstream in(log);
+  std::stringstream ss;
+  ss << in.rdbuf();
+  run.output = ss.str();
+  return run;
+}
+
+std::vector<std::string> SplitCsv(const std::string& line) {
+  std::vector<std::string> cells;
+  std::stringstream ss(line);
+  std::string cell;
+  while (std::getline(ss, cell, ',')) cells.push_back(cell);
+  return cells;
+}
+
+std::filesystem::path TempDir(const std::string& name) {
+  const auto dir = std::filesystem::temp_directory_path() / ("isowrench_sweep_test_" + name);
+  std::filesystem::remove_all(dir);
+  std::filesystem::create_directories(dir);
+  return dir;
+}
+
+TEST(SweepCli, CsvRowsEqualEvaluateWrenchWithUnitsInHeader) {
+  const auto dir = TempDir("rows");
+  const std::string urdf = std::string(ISOWRENCH_TEST_URDF_DIR) + "/planar_2r.urdf";
+  const std::string csv = (dir / "out.csv").string();
+  const CliRun run = RunCli("sweep " + urdf + " --grid shoulder=10:50:20 --grid elbow=0:90:45 "
+                         "--stiffness-ratio 1,0.01 --muscle biarticular -o " + csv, dir);
+  ASSERT_EQ(run.exit_code, 0) << run.output;
+  EXPECT_THAT(run.output, ::testing::HasSubstr("9 postures x 2 stiffness ratios = 18 evaluations"));
+
+  std::ifstream in(csv);
+  std::string header;
+  std::getline(in, header);
+  EXPECT_EQ(header,
+            "shoulder (deg),elbow (deg),stiffness_ratio (1),status,fx (N),fy (N),fz (N),mx (N·m),"
+            "my (N·m),mz (N·m),self_motion_dims (1)");
+  const isowrench::LimbDescription description = isowrench::ReadUrdfFile(urdf);
+  std::vector<std::vector<std::string>> rows;
+  for (std::string line; std::getline(in, line);) rows.push_back(SplitCsv(line));
+  ASSERT_EQ(rows.size(), 18u);
+  int row = 0;
+  for (double shoulder : {10.0, 30.0, 50.0}) {
+    for (double elbow : {0.0, 45.0, 90.0}) {  // the last axis varies fastest
+      for (double ratio : {1.0, 0.01}) {
+        const std::vector<std::string>& cells = rows[static_cast<size_t>(row++)];
+        ASSERT_EQ(cells.size(), 11u);
+        EXPECT_DOUBLE_EQ(std::stod(cells[0]), shoulder);
+        EXPECT_DOUBLE_EQ(std::stod(cells[1]), elbow);
+        EXPECT_DOUBLE_EQ(std::stod(cells[2]), ratio);
+        isowrench::Vector6d s_t = description.transducer.stiffness;
+        s_t.tail<3>() *= ratio;
+        const isowrench::Model model(isowrench::WithTransducerStiffness(description, s_t));
+        Eigen::VectorXd q = model.nominal_posture();
+        q[model.JointIndex("shoulder")] = shoulder * kPi / 180;
+        q[model.JointIndex("elbow")] = elbow * kPi / 180;
+        const isowrench::WrenchEvaluation e = isowrench::EvaluateWrench(model, q, "biarticular");
+        EXPECT_EQ(cells[3], e.statics.status == isowrench::StaticsStatus::kOk ? "ok" : "?");
+        // The CSV has 10 significant digits: 1e-9 of the largest component covers rounding.
+        const double scale = e.statics.wrench.cwiseAbs().maxCoeff();
+        for (int k = 0; k < 6; ++k) {
+          EXPECT_NEAR(std::stod(cells[static_cast<size_t>(4 + k)]), e.statics.wrench[k], 1e-9 * scale)
+              << "row " << row << ", component " << k;
+        }
+      }
+    }
+  }
+}
+
+TEST(SweepCli, UnknownGridJointExitsOneNamingItAndWritesNothing) {
+  const auto dir = TempDir("bad_joint");
+  const std::string csv = (dir / "out.csv").string();
+  const CliRun run = RunCli("sweep " + std::string(ISOWRENCH_TEST_URDF_DIR) +
+                         "/planar_2r.urdf --grid wrist=0:10:1 -o " + csv, dir);
+  EXPECT_EQ(run.exit_code, 1);
+  EXPECT_THAT(run.output, ::testing::HasSubstr("isowrench: error: unknown joint 'wrist'"));
+  EXPECT_FALSE(std::filesystem::exists(csv));
+}
+
+TEST(SweepCli, NonPositiveStepAndRatioAreRejected) {
+  const auto dir = TempDir("bad_step");
+  const std::string urdf = std::string(ISOWRENCH_TEST_URDF_DIR) + "/planar_2r.urdf";
+  const std::string csv = (dir / "out.csv").string();
+  CliRun run = RunCli("sweep " + urdf + " --grid elbow=0:10:0 -o " + csv, dir);
+  EXPECT_EQ(run.exit_code, 1);
+  EXPECT_THAT(run.output, ::testing::HasSubstr("step 0 degrees must be > 0"));
+  run = RunCli("sweep " + urdf + " --grid elbow=0:10:5 --stiffness-ratio 1,-2 -o " + csv, dir);
+  EXPECT_EQ(run.exit_code, 1);
+  EXPECT_THAT(run.output, ::testing::HasSubstr("--stiffness-ratio -2 must be finite and > 0"));
+  EXPECT_FALSE(std::filesystem::exists(csv));
+}
+
+}  // namespace
