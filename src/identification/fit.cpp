@@ -6,6 +6,7 @@
 #include <Eigen/SVD>
 #include <algorithm>
 #include <chrono>
+#include <map>
 #include <cmath>
 #include <numeric>
 #include <sstream>
@@ -222,19 +223,22 @@ SolveResult Solve(const Context& c, std::vector<double> x) {
 /// side has no gradient, so also start two decades either side.
 SolveResult SolveWithStarts(const Context& c, const std::vector<double>& x0) {
   SolveResult best = Solve(c, x0);
-  if (c.parameter_count == 1 && c.free.size() == 1 && c.free[0].parameters[0].scale == ParameterScale::kLog10) {
-    // Retry only when the first solve failed or stopped on a search limit away from the value
-    // at which the effect vanishes (a flat, saturated region); the rigid side is a real answer.
-    const EffectParameter& p = c.free[0].parameters[0];
+  const Effect& last = c.free.back();
+  if (last.parameters.size() == 1 && last.parameters[0].scale == ParameterScale::kLog10) {
+    // Multi-start on the candidate's single log10 parameter (stiffness or factor): retry only
+    // when the first solve failed or stopped on a search limit away from the value at which
+    // the effect vanishes (a flat, saturated region); the rigid side is a real answer.
+    const int k = c.parameter_count - 1;
+    const EffectParameter& p = last.parameters[0];
     double lo = ident::ToInternal(p, p.lower), hi = ident::ToInternal(p, p.upper);
-    double x = best.x.empty() ? x0[0] : best.x[0];
+    double x = best.x.empty() ? x0[k] : best.x[k];
     bool at_limit = x - lo <= kAtBoundFraction * (hi - lo) || hi - x <= kAtBoundFraction * (hi - lo);
     bool far_from_neutral = std::abs(x - ident::ToInternal(p, p.neutral)) > 1.0;
     if (best.usable && !(at_limit && far_from_neutral)) return best;
     for (double shift : {-2.0, 2.0}) {
-      std::vector<double> x = x0;
-      x[0] += shift;
-      SolveResult r = Solve(c, x);
+      std::vector<double> start = x0;
+      start[k] += shift;
+      SolveResult r = Solve(c, start);
       if (r.usable && (!best.usable || r.chi2 < best.chi2)) best = r;
     }
   }
@@ -363,22 +367,25 @@ std::vector<int> AllIndices(size_t n) {
   return v;
 }
 
-/// Fill a CandidateFit for `effect` from a solve/analysis on a context with that effect alone.
-CandidateFit MakeFit(const Context& c, const Effect& effect, const SolveResult& r, const Analysis& a, int k_total,
-                     bool sd_stated) {
+/// Fill a CandidateFit for `effect`, the last free effect of the context (its parameters start
+/// at c.start.back(); earlier free effects are the already chosen ones, refitted jointly).
+CandidateFit MakeFit(const Context& c, const Effect& effect, const SolveResult& r, const Analysis& a, bool sd_stated) {
   CandidateFit f;
   f.effect = effect;
   const int n = static_cast<int>(6 * c.subset.size());
+  const int k_total = c.parameter_count;
+  const int p0 = c.start.back();
   for (size_t i = 0; i < effect.parameters.size(); ++i) {
     const EffectParameter& p = effect.parameters[i];
-    double value = ident::ToUser(p, r.x[i]);
+    double value = ident::ToUser(p, r.x[p0 + i]);
     f.values.push_back(value);
-    double se = a.se_internal[i];
+    double se = a.se_internal[p0 + i];
     f.log10_standard_errors.push_back(p.scale == ParameterScale::kLog10 ? se : 0.0);
     f.standard_errors.push_back(p.scale == ParameterScale::kLog10 ? value * std::log(10.0) * se : se);
-    f.at_bound.push_back(a.at_bound[i]);
+    f.at_bound.push_back(a.at_bound[p0 + i]);
   }
-  f.correlation = a.correlation;
+  const int pn = static_cast<int>(effect.parameters.size());
+  f.correlation = a.correlation.block(p0, p0, pn, pn);
   f.cost = r.chi2;
   f.bic = Bic(r.chi2, n, k_total, sd_stated);
   f.aic = Aicc(r.chi2, n, k_total, sd_stated);
@@ -389,13 +396,24 @@ CandidateFit MakeFit(const Context& c, const Effect& effect, const SolveResult& 
   return f;
 }
 
-CandidateFit FitOnSubset(const LimbDescription& base, const Vector6d& base_offset, int k_previous,
-                         const Effect& effect, const std::vector<Trial>& trials, const std::vector<int>& subset,
-                         const FitOptions& options, const std::vector<double>* start, bool analyze) {
+/// Fit `effect` jointly with the already chosen effects `previous` (their values are the start)
+/// on the trials in `subset`. `start` (optional) is a full internal start vector; the solution's
+/// full internal vector goes to `x_out`.
+CandidateFit FitOnSubset(const LimbDescription& base, const Vector6d& base_offset,
+                         const std::vector<AppliedEffect>& previous, const Effect& effect,
+                         const std::vector<Trial>& trials, const std::vector<int>& subset, const FitOptions& options,
+                         const std::vector<double>* start, bool analyze, std::vector<double>* x_out = nullptr) {
   bool sd_stated = AllSd(trials);
-  Context c = MakeContext(base, base_offset, {effect}, trials, subset, options);
-  std::vector<double> x0 = start ? *start : InitialInternal(effect);
-  SolveResult r = start ? Solve(c, x0) : SolveWithStarts(c, x0);
+  std::vector<Effect> free;
+  std::vector<double> x0;
+  for (const AppliedEffect& a : previous) {
+    free.push_back(a.effect);
+    for (size_t i = 0; i < a.values.size(); ++i) x0.push_back(ident::ToInternal(a.effect.parameters[i], a.values[i]));
+  }
+  free.push_back(effect);
+  for (double v : InitialInternal(effect)) x0.push_back(v);
+  Context c = MakeContext(base, base_offset, free, trials, subset, options);
+  SolveResult r = start ? Solve(c, *start) : SolveWithStarts(c, x0);
   Analysis a;
   if (analyze && r.usable) {
     a = Analyze(c, r.x, r.chi2, sd_stated);
@@ -408,7 +426,8 @@ CandidateFit FitOnSubset(const LimbDescription& base, const Vector6d& base_offse
       a.reason = "no usable solution";
     }
   }
-  return MakeFit(c, effect, r, a, k_previous + c.parameter_count, sd_stated);
+  if (x_out) *x_out = r.x;
+  return MakeFit(c, effect, r, a, sd_stated);
 }
 
 std::string ValueText(const Effect& e, const std::vector<double>& v, const std::vector<double>& se) {
@@ -436,8 +455,15 @@ const char* FitVerdictName(FitVerdict verdict) {
 
 CandidateFit FitCandidate(const AugmentedModel& current, const Effect& effect, const std::vector<Trial>& trials,
                           const FitOptions& options) {
-  return FitOnSubset(current.description, current.sensor_offset, TotalParameters(current.effects), effect, trials,
-                     AllIndices(trials.size()), options, nullptr, true);
+  // The already chosen effects stay fixed: a context whose only free effect is `effect`, on a
+  // base that already holds them. BIC counts their parameters too.
+  CandidateFit f = FitOnSubset(current.description, current.sensor_offset, {}, effect, trials,
+                               AllIndices(trials.size()), options, nullptr, true);
+  const int n = static_cast<int>(6 * trials.size());
+  const int k = TotalParameters(current.effects) + static_cast<int>(effect.parameters.size());
+  f.bic = Bic(f.cost, n, k, AllSd(trials));
+  f.aic = Aicc(f.cost, n, k, AllSd(trials));
+  return f;
 }
 
 FitReport FitEffects(const Model& nominal, const std::vector<Trial>& trials, const FitOptions& options) {
@@ -493,11 +519,15 @@ FitReport FitEffects(const Model& nominal, const std::vector<Trial>& trials, con
     r.before = ComputeResidualStats(trials, current_prediction, k_current, options);
     r.bic_before = Bic(chi2_current, n, k_current, sd_stated);
     r.cv_before = chi2_current / n;
+    std::map<std::string, std::vector<double>> full_x;  // joint solution per candidate id
     std::vector<std::string> taken;
     for (const AppliedEffect& a : current.effects) taken.push_back(ident::ConflictKey(a.effect));
     for (const Effect& effect : library) {
       if (std::find(taken.begin(), taken.end(), ident::ConflictKey(effect)) != taken.end()) continue;
-      CandidateFit f = FitCandidate(current, effect, trials, options);
+      std::vector<double> x_full;
+      CandidateFit f = FitOnSubset(nominal.description(), Vector6d::Zero(), current.effects, effect, trials, all,
+                                   options, nullptr, true, &x_full);
+      full_x[effect.id] = x_full;
       f.delta_bic = r.bic_before - f.bic;
       r.candidates.push_back(std::move(f));
     }
@@ -517,19 +547,20 @@ FitReport FitEffects(const Model& nominal, const std::vector<Trial>& trials, con
       ++cv_done;
       double held_chi2 = 0.0;
       int held_n = 0;
-      std::vector<double> start;
-      for (size_t i = 0; i < f.values.size(); ++i) start.push_back(ident::ToInternal(f.effect.parameters[i], f.values[i]));
+      const std::vector<double>& start = full_x[f.effect.id];
+      std::vector<Effect> free;
+      for (const AppliedEffect& a : current.effects) free.push_back(a.effect);
+      free.push_back(f.effect);
       bool ok = true;
       for (int fold = 0; fold < folds && ok; ++fold) {
-        CandidateFit g = FitOnSubset(current.description, current.sensor_offset, k_current, f.effect, trials,
-                                     train[fold], options, &start, false);
+        std::vector<double> x;
+        CandidateFit g = FitOnSubset(nominal.description(), Vector6d::Zero(), current.effects, f.effect, trials,
+                                     train[fold], options, &start, false, &x);
         if (!g.converged) {
           ok = false;
           break;
         }
-        Context c = MakeContext(current.description, current.sensor_offset, {f.effect}, trials, test[fold], options);
-        std::vector<double> x;
-        for (size_t i = 0; i < g.values.size(); ++i) x.push_back(ident::ToInternal(f.effect.parameters[i], g.values[i]));
+        Context c = MakeContext(nominal.description(), Vector6d::Zero(), free, trials, test[fold], options);
         std::vector<Vector6d> prediction;
         if (!c.Predict(x.data(), &prediction)) {
           ok = false;
@@ -591,21 +622,19 @@ FitReport FitEffects(const Model& nominal, const std::vector<Trial>& trials, con
                       util::FormatNumber(options.indistinguishable_bic, 3) + ")";
       report.indistinguishable.push_back(s);
     }
-    // Add the winner, then refit all chosen effects jointly (previous values as the start).
+    // Add the winner; the candidate fit already refitted all chosen effects jointly: take their
+    // values from it and their standard errors from the joint covariance.
     std::vector<AppliedEffect> chosen = current.effects;
     chosen.push_back({winner.effect, winner.values});
     std::vector<CandidateFit> chosen_fits = report.chosen_fits;
     chosen_fits.push_back(winner);
     if (chosen.size() > 1) {
       std::vector<Effect> free;
-      std::vector<double> x0;
-      for (const AppliedEffect& a : chosen) {
-        free.push_back(a.effect);
-        for (size_t i = 0; i < a.values.size(); ++i) x0.push_back(ident::ToInternal(a.effect.parameters[i], a.values[i]));
-      }
+      for (const AppliedEffect& a : chosen) free.push_back(a.effect);
+      const std::vector<double>& x0 = full_x[winner.effect.id];
       Context c = MakeContext(nominal.description(), Vector6d::Zero(), free, trials, all, options);
       SolveResult joint = Solve(c, x0);
-      if (joint.usable && joint.chi2 <= winner.cost) {
+      if (joint.usable && joint.chi2 <= winner.cost * (1 + 1e-9) + 1e-12) {
         Analysis a = Analyze(c, joint.x, joint.chi2, sd_stated);
         for (size_t e = 0; e < chosen.size(); ++e) {
           CandidateFit& f = chosen_fits[e];
