@@ -236,8 +236,8 @@ struct ReleaseCandidate {
 ReleaseCandidate MakeReleaseCandidate(const std::string& name, ReleaseKind kind,
                                       const Eigen::Vector3d& axis_world);
 
-/// The 6 transducer axes (rotations, then translations) and the rotations about the lines
-/// from the endpoint to each proximal joint centre.
+/// The transducer axes that are still restrained (rotations, then translations) and the
+/// rotations about the lines from the endpoint to each proximal joint centre.
 std::vector<ReleaseCandidate> DefaultReleaseCandidates(const Model& model, const Eigen::VectorXd& q);
 
 /// Transducer and base stiffness range a release is tested over (stated in every output).
@@ -327,6 +327,7 @@ ReleaseComparison CompareReleases(const Model& model, const Eigen::VectorXd& q, 
 struct AxisSweep {
   int samples = 0;
   std::uint64_t seed = 0;
+  int already_free = 0;  ///< axes whose rotation the model's released dofs already allow
   int self_motion = 0;   ///< margin <= rank_tolerance
   int near = 0;          ///< rank_tolerance < margin <= margin_warning
   int safe = 0;          ///< margin > margin_warning

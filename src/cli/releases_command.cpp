@@ -213,12 +213,14 @@ const bool registered = RegisterCommand({
             AxisSweep s = SweepReleaseAxes(model, p.q, o->sweep, o->seed, options);
             if (o->json) {
               js = {{"samples", s.samples}, {"seed", s.seed}, {"safe", s.safe}, {"near_self_motion", s.near},
-                    {"self_motion", s.self_motion}, {"smallest_margin", s.smallest_margin},
+                    {"self_motion", s.self_motion}, {"already_free", s.already_free}, {"smallest_margin", s.smallest_margin},
                     {"worst_axis_world", AxisJson(s.worst_axis)}, {"margin_warning", options.margin_warning}};
             } else {
               std::cout << "\n  sweep: " << s.samples << " random rotation axes through the endpoint (seed " << s.seed
                         << "): " << s.safe << " safe (margin > " << N(options.margin_warning) << "), " << s.near
-                        << " near self-motion, " << s.self_motion << " self-motion; smallest margin "
+                        << " near self-motion, " << s.self_motion << " self-motion"
+                        << (s.already_free ? ", " + std::to_string(s.already_free) + " already free" : "")
+                        << "; smallest margin "
                         << N(s.smallest_margin) << " at axis " << AxisText(s.worst_axis) << " (world)\n";
             }
           }

@@ -147,8 +147,8 @@ ConstraintAnalysis AnalyzeConstraints(const Model& model, const Eigen::VectorXd&
   a.rank_tolerance = options.rank_tolerance;
 
   Eigen::MatrixXd Js = diagnostics::ScaledRows(a.jacobian, rows, prismatic, L);
-  Eigen::JacobiSVD<Eigen::MatrixXd> svd(Js, Eigen::ComputeFullU | Eigen::ComputeFullV);
-  a.singular_values = svd.singularValues();
+  const diagnostics::FullSvd svd = diagnostics::ComputeFullSvd(Js);
+  a.singular_values = svd.singular_values;
   const double sigma_max = a.singular_values.size() ? a.singular_values[0] : 0.0;
   a.rank_threshold = options.rank_tolerance * sigma_max;
   a.rank = 0;
@@ -193,8 +193,7 @@ ConstraintAnalysis AnalyzeConstraints(const Model& model, const Eigen::VectorXd&
     a.free_joint_count = static_cast<int>(free.size());
     a.free_rank = 0;
     if (Jf.cols() > 0 && n > 0) {
-      Eigen::JacobiSVD<Eigen::MatrixXd> svd_f(Jf);
-      const Eigen::VectorXd& sf = svd_f.singularValues();
+      const Eigen::VectorXd sf = diagnostics::ComputeFullSvd(Jf).singular_values;
       for (Eigen::Index i = 0; i < sf.size(); ++i) {
         if (sf[i] > options.rank_tolerance * sf[0] && sf[0] > 0) ++a.free_rank;
       }
@@ -216,7 +215,7 @@ ConstraintAnalysis AnalyzeConstraints(const Model& model, const Eigen::VectorXd&
   }
 
   std::vector<JointCentre> centres = FindJointCentres(model, q);
-  const Eigen::MatrixXd& V = svd.matrixV();
+  const Eigen::MatrixXd& V = svd.V;
   for (int c = a.rank; c < m; ++c) {
     Eigen::VectorXd d = V.col(c);
     for (int i = 0; i < m; ++i) {
@@ -226,7 +225,7 @@ ConstraintAnalysis AnalyzeConstraints(const Model& model, const Eigen::VectorXd&
     CanonicalSign(d);
     a.self_motion.push_back({d, DescribeJointMotion(model, d), InterpretMotion(model, q, d, centres, L)});
   }
-  const Eigen::MatrixXd& U = svd.matrixU();
+  const Eigen::MatrixXd& U = svd.U;
   for (int c = a.rank; c < n; ++c) {
     Eigen::VectorXd u = U.col(c);
     CanonicalSign(u);

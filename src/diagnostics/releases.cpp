@@ -148,15 +148,16 @@ Margin ComputeMargin(const System& s, const std::vector<int>& rows, double L, do
   }
   Eigen::MatrixXd Js = diagnostics::ScaledRows(Jf, rows, prismatic, L);
   out.columns = static_cast<int>(Js.cols());
-  Eigen::JacobiSVD<Eigen::MatrixXd> svd(Js, Eigen::ComputeFullV);
-  const Eigen::VectorXd& sv = svd.singularValues();
+  const diagnostics::FullSvd svd = diagnostics::ComputeFullSvd(Js);
+  const Eigen::VectorXd& sv = svd.singular_values;
   const double smax = sv.size() ? sv[0] : 0.0;
   for (Eigen::Index i = 0; i < sv.size(); ++i) {
     if (smax > 0 && sv[i] > rank_tolerance * smax) ++out.rank;
   }
-  out.margin = (Js.cols() <= Js.rows() && smax > 0) ? sv[Js.cols() - 1] / smax : 0.0;
+  // No columns: nothing can move (margin 1 by convention); more columns than rows: margin 0.
+  out.margin = Js.cols() == 0 ? 1.0 : (Js.cols() <= Js.rows() && smax > 0) ? sv[Js.cols() - 1] / smax : 0.0;
   if (out.rank < out.columns) {
-    Eigen::VectorXd v = svd.matrixV().col(out.columns - 1);
+    Eigen::VectorXd v = svd.V.col(out.columns - 1);
     out.null_direction = Eigen::VectorXd::Zero(s.J.cols());
     for (size_t k = 0; k < free.size(); ++k) {
       out.null_direction[free[k]] = v[static_cast<Eigen::Index>(k)] * (prismatic[k] ? L : 1.0);
@@ -238,7 +239,17 @@ ReleaseAssessment Assess(const Model& model, const Systems& sys, const ReleaseCa
   }
 
   // Verdict.
-  if (a.self_motion) {
+  double restrained_part = 0.0;  // |release column on the restrained rows|
+  if (cand.kind != ReleaseKind::kNone) {
+    const Vector6d col = ReleaseColumn(cand.kind, a.axis_transducer);
+    for (int r : rows) restrained_part = std::max(restrained_part, std::abs(col[r]));
+  }
+  // A unit axis whose restrained components are all rounding moves only released dofs.
+  constexpr double kAlreadyFree = 1e-12;
+  if (cand.kind != ReleaseKind::kNone && restrained_part <= kAlreadyFree) {
+    a.verdict = "already free: the model's released dofs cover this motion, so releasing it adds nothing (and "
+                "the extra joint would be a self-motion)";
+  } else if (a.self_motion) {
     std::string motion;
     if (mg.null_direction.size() == expanded.J.cols()) {
       Eigen::VectorXd joints = mg.null_direction.head(model.dof_count());
@@ -262,8 +273,8 @@ ReleaseAssessment Assess(const Model& model, const Systems& sys, const ReleaseCa
 
 ForbiddenAxes Forbidden(const Eigen::MatrixXd& Js, const Eigen::MatrixXd& B, double tol, const char* what) {
   ForbiddenAxes f;
-  Eigen::JacobiSVD<Eigen::MatrixXd> svd(Js, Eigen::ComputeFullU);
-  const Eigen::VectorXd& sv = svd.singularValues();
+  const diagnostics::FullSvd svd = diagnostics::ComputeFullSvd(Js);
+  const Eigen::VectorXd& sv = svd.singular_values;
   const double smax = sv.size() ? sv[0] : 0.0;
   int rank = 0;
   for (Eigen::Index i = 0; i < sv.size(); ++i) {
@@ -275,17 +286,17 @@ ForbiddenAxes Forbidden(const Eigen::MatrixXd& Js, const Eigen::MatrixXd& B, dou
     f.description = std::string("every ") + what + " axis: the limb already has a self-motion";
     return f;
   }
-  const Eigen::MatrixXd U = svd.matrixU().leftCols(rank);
+  const Eigen::MatrixXd U = svd.U.leftCols(rank);
   Eigen::MatrixXd M = B - U * (U.transpose() * B);  // the part of each release column outside range(J_s)
-  Eigen::JacobiSVD<Eigen::MatrixXd> svd_m(M, Eigen::ComputeFullV);
-  const Eigen::VectorXd& s = svd_m.singularValues();
+  const diagnostics::FullSvd svd_m = diagnostics::ComputeFullSvd(M);
+  const Eigen::VectorXd& s = svd_m.singular_values;
   std::vector<int> null;
   for (int i = 0; i < 3; ++i) {
-    if (s[i] <= tol) null.push_back(i);
+    if (i >= s.size() || s[i] <= tol) null.push_back(i);  // no restrained rows: every axis
   }
   f.dimension = static_cast<int>(null.size());
   f.basis.resize(3, f.dimension);
-  for (int k = 0; k < f.dimension; ++k) f.basis.col(k) = svd_m.matrixV().col(null[static_cast<size_t>(k)]);
+  for (int k = 0; k < f.dimension; ++k) f.basis.col(k) = svd_m.V.col(null[static_cast<size_t>(k)]);
   if (f.dimension == 0) {
     f.description = std::string("none: every ") + what + " axis keeps the expanded Jacobian full rank";
   } else if (f.dimension == 1) {
@@ -294,7 +305,7 @@ ForbiddenAxes Forbidden(const Eigen::MatrixXd& Js, const Eigen::MatrixXd& B, dou
     f.basis.col(0) = a;
     f.description = std::string("one ") + what + " axis: " + AxisText(a) + " (world)";
   } else if (f.dimension == 2) {
-    Eigen::Vector3d normal = svd_m.matrixV().col(0);
+    Eigen::Vector3d normal = svd_m.V.col(0);
     diagnostics::CanonicalSign(normal);
     f.plane_normal = normal;
     f.description = std::string("every ") + what + " axis in the plane with normal " + AxisText(normal) + " (world)";
@@ -333,8 +344,13 @@ std::vector<ReleaseCandidate> DefaultReleaseCandidates(const Model& model, const
   KinematicsWorkspace ws(model);
   const Eigen::Matrix3d R = TransducerRotation(model, ws, q);
   std::vector<ReleaseCandidate> out;
-  for (int i = 3; i < 6; ++i) out.push_back({DofName(i), ReleaseKind::kRotation, R.col(i - 3), "transducer axis"});
-  for (int i = 0; i < 3; ++i) out.push_back({DofName(i), ReleaseKind::kTranslation, R.col(i), "transducer axis"});
+  const auto& released = model.transducer().released;
+  for (int i = 3; i < 6; ++i) {
+    if (!released[i]) out.push_back({DofName(i), ReleaseKind::kRotation, R.col(i - 3), "transducer axis"});
+  }
+  for (int i = 0; i < 3; ++i) {
+    if (!released[i]) out.push_back({DofName(i), ReleaseKind::kTranslation, R.col(i), "transducer axis"});
+  }
   const Eigen::Vector3d p_E = EndpointPose(model, ws, q).translation();
   for (const JointCentre& c : FindJointCentres(model, q)) {
     out.push_back({"endpoint-" + c.name + " line", ReleaseKind::kRotation, (c.position - p_E).normalized(),
@@ -476,19 +492,27 @@ AxisSweep SweepReleaseAxes(const Model& model, const Eigen::VectorXd& q, int cou
     } while (a.norm() < 1e-6);
     a.normalize();
     ReleaseCandidate c{"sample", ReleaseKind::kRotation, a, "sweep"};
-    Margin mg = ComputeMargin(Expand(s, c, R.transpose() * a), rows, L, options.rank_tolerance);
-    if (mg.rank < mg.columns) {
+    const Eigen::Vector3d a_t = R.transpose() * a;
+    double restrained_part = 0.0;
+    for (int r : rows) {
+      if (r >= 3) restrained_part = std::max(restrained_part, std::abs(a_t[r - 3]));
+    }
+    Margin mg = ComputeMargin(Expand(s, c, a_t), rows, L, options.rank_tolerance);
+    if (restrained_part <= 1e-12) {  // same rule as AssessRelease's "already free"
+      ++out.already_free;
+    } else if (mg.rank < mg.columns) {
       ++out.self_motion;
     } else if (mg.margin <= options.margin_warning) {
       ++out.near;
     } else {
       ++out.safe;
     }
-    if (mg.margin < out.smallest_margin) {
+    if (restrained_part > 1e-12 && mg.margin < out.smallest_margin) {
       out.smallest_margin = mg.margin;
       out.worst_axis = a;
     }
   }
+  if (!std::isfinite(out.smallest_margin)) out.smallest_margin = 0.0;  // every axis already free
   return out;
 }
 

@@ -1,5 +1,6 @@
 #include "diagnostics/scaling.hpp"
 
+#include <Eigen/SVD>
 #include <cmath>
 #include <cstdio>
 
@@ -34,6 +35,21 @@ Eigen::MatrixXd ScaledRows(const Matrix6Xd& J, const std::vector<int>& rows, con
   for (Eigen::Index c = 0; c < J.cols(); ++c) {
     if (static_cast<size_t>(c) < prismatic.size() && prismatic[static_cast<size_t>(c)]) out.col(c) *= L;
   }
+  return out;
+}
+
+FullSvd ComputeFullSvd(const Eigen::MatrixXd& A) {
+  FullSvd out;
+  if (A.rows() == 0 || A.cols() == 0) {
+    out.singular_values.resize(0);
+    out.U = Eigen::MatrixXd::Identity(A.rows(), A.rows());
+    out.V = Eigen::MatrixXd::Identity(A.cols(), A.cols());
+    return out;
+  }
+  Eigen::JacobiSVD<Eigen::MatrixXd> svd(A, Eigen::ComputeFullU | Eigen::ComputeFullV);
+  out.singular_values = svd.singularValues();
+  out.U = svd.matrixU();
+  out.V = svd.matrixV();
   return out;
 }
 

@@ -24,6 +24,15 @@ double LengthScale(const Model& model, double length_scale);
 Eigen::MatrixXd ScaledRows(const Matrix6Xd& J, const std::vector<int>& rows, const std::vector<bool>& prismatic,
                            double L);
 
+/// Full SVD that also accepts matrices with no rows or no columns (Eigen's JacobiSVD does not):
+/// then the singular values are empty and U, V are identities of the right sizes.
+struct FullSvd {
+  Eigen::VectorXd singular_values;  ///< descending
+  Eigen::MatrixXd U;                ///< rows x rows
+  Eigen::MatrixXd V;                ///< cols x cols
+};
+FullSvd ComputeFullSvd(const Eigen::MatrixXd& A);
+
 /// Column flags from the model.
 std::vector<bool> PrismaticColumns(const Model& model);
 

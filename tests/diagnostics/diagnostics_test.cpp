@@ -237,6 +237,35 @@ TEST(Releases, BadAxesAreRejectedWithClearMessages) {
   EXPECT_NEAR(c.axis_world.norm(), 1.0, 1e-15);
 }
 
+TEST(Releases, AlreadyReleasedAxesAreNotCandidatesAndDegenerateModelsDoNotCrash) {
+  // planar_2r restrains x, y, rz: rx, ry, z are not offered, and an in-plane rotation axis only
+  // moves released dofs ("already free").
+  Model planar = Load("planar_2r.urdf");
+  auto candidates = isowrench::DefaultReleaseCandidates(planar, planar.nominal_posture());
+  for (const auto& c : candidates) {
+    EXPECT_NE(c.name, "rx");
+    EXPECT_NE(c.name, "ry");
+    EXPECT_NE(c.name, "z");
+  }
+  auto a = isowrench::AssessRelease(planar, planar.nominal_posture(), planar.muscle(0).name,
+                                    isowrench::MakeReleaseCandidate("in-plane", ReleaseKind::kRotation,
+                                                                    Eigen::Vector3d(1, 1, 0)),
+                                    QuickOptions());
+  EXPECT_THAT(a.verdict, HasSubstr("already free"));
+  auto sweep = isowrench::SweepReleaseAxes(planar, planar.nominal_posture(), 20, 3);
+  EXPECT_EQ(sweep.already_free + sweep.safe + sweep.near + sweep.self_motion, 20);
+  // Every transducer dof released: no restrained rows; everything is self-motion, no crash.
+  Model rat = Load("rat_hindlimb_5dof.urdf");
+  Model free_limb(isowrench::WithReleasedDofs(rat.description(), {"x", "y", "z", "rx", "ry", "rz"}));
+  auto c = isowrench::AnalyzeConstraints(free_limb, free_limb.nominal_posture());
+  EXPECT_EQ(c.rank, 0);
+  EXPECT_EQ(c.self_motion.size(), 5u);
+  auto f = isowrench::FindForbiddenAxes(free_limb, free_limb.nominal_posture());
+  EXPECT_EQ(f.first.dimension, 3);
+  auto cmp = isowrench::CompareReleases(free_limb, free_limb.nominal_posture(), "GP");
+  EXPECT_EQ(cmp.recommended, -1);
+}
+
 // ---- constraint class, self-motion, internal wrench ---------------------------------------
 
 TEST(Constraints, ClassesOfTheRatLimbs) {
