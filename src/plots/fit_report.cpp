@@ -250,7 +250,7 @@ std::string Title(const FitReport& r, const FitReportOptions& o) {
 std::vector<std::string> SummaryLines(const FitReport& r) {
   std::vector<std::string> lines;
   lines.push_back("Verdict: " + std::string(VerdictText(r.verdict)) +
-                  (r.verdict_message.empty() ? "" : ". " + r.verdict_message));
+                  (r.verdict_message.empty() ? "" : " — " + r.verdict_message));
   lines.push_back("Data: " + std::to_string(r.trial_count) + " trials" + (r.source.empty() ? "" : " from " + r.source) +
                   (r.sd_stated ? ", standard deviations stated per trial" : ", no standard deviations stated (default weights)") +
                   "; fit took " + util::FormatNumber(r.seconds, 3) + " s.");

@@ -19,6 +19,8 @@ constexpr double kAxisOvershoot = 1.15;
 constexpr double kMinAxisPx = 28.0;
 // Room for the axis labels beyond the axis ends (px).
 constexpr double kLabelPad = 12.0;
+// Half the width of the numbers line "(-0.01234, -0.01234, -0.01234) N·m" at 9 px (~5 px/char).
+constexpr double kMinHalfWidth = 88.0;
 const char* kAxisNames[3] = {"x", "y", "z"};
 
 Eigen::Vector2d AxisDirection(int axis, const GlyphOptions& options) {
@@ -54,8 +56,9 @@ GlyphBox MakeGlyphBox(const std::vector<Eigen::Vector3d>& values, double px_per_
     box.down = std::max(box.down, tip.y());
     box.up = std::max(box.up, -tip.y());
   }
-  box.right += kLabelPad;
-  box.left += kLabelPad;
+  // Wide enough for the numbers line under the glyph.
+  box.right = std::max(box.right + kLabelPad, kMinHalfWidth);
+  box.left = std::max(box.left + kLabelPad, kMinHalfWidth);
   box.up += kLabelPad;
   box.down += kLabelPad;
   return box;
@@ -140,9 +143,10 @@ void DrawGlyph(SvgWriter& svg, double x, double y, const GlyphBox& box, const Gl
   svg.Text(x + 10 + bar_px, bar_y + 4, Short(spec.scale_bar) + " " + spec.unit, 10, "start",
            {{"class", "scale-label"}});
   svg.Text(x + 4, bar_y + 20,
-           spec.symbol + " = (" + Short(spec.value.x()) + ", " + Short(spec.value.y()) + ", " +
-               Short(spec.value.z()) + ") " + spec.unit,
-           10, "start", {{"class", "numbers"}});
+           "(" + Short(spec.value.x()) + ", " + Short(spec.value.y()) + ", " + Short(spec.value.z()) + ") " +
+               spec.unit,
+           9, "start", {{"class", "numbers"}});
+  svg.Text(x + 2, y + 10, spec.quantity, 10, "start", {{"class", "glyph-label"}, {"fill", "#555555"}});
   svg.Close();
 }
 

@@ -156,7 +156,7 @@ TEST(FitReportHtml, ContainsTheBeforeAndAfterNumbersOfTheFit) {
   EXPECT_THAT(html, HasSubstr("<td>8.123e+04</td>"));
   EXPECT_THAT(html, HasSubstr("reduced χ² 1.068"));
   // Verdict, chosen effect with value ± SE and unit, the ranked candidates in order.
-  EXPECT_THAT(html, HasSubstr("Verdict: explained. the residual is at the noise level"));
+  EXPECT_THAT(html, HasSubstr("Verdict: explained — the residual is at the noise level"));
   EXPECT_THAT(html, HasSubstr("k_base = 1.234e+04 ± 57 N/m"));
   const size_t first = html.find("<tr class=\"chosen\"><td>1</td><td>base_isotropic</td><td>8.119e+04</td>");
   const size_t second = html.find("<td>2</td><td>sensor_offset</td><td>1.115e+04</td>");
@@ -225,7 +225,7 @@ TEST(FitReportHtml, IsSelfContained) {
 TEST(FitReportMarkdown, ContainsTheSameNumbersAsTheHtml) {
   const isowrench::FitReport r = MakeReport();
   const std::string md = isowrench::FitReportMarkdown(r);
-  for (const char* s : {"| fx (N) | 0.1234 N | 0.005012 N | 95.9 % |", "0.0001011 N·m", "**Verdict: explained.",
+  for (const char* s : {"| fx (N) | 0.1234 N | 0.005012 N | 95.9 % |", "0.0001011 N·m", "**Verdict: explained —",
                         "| 1 | **base_isotropic** | 8.119e+04 |", "| 2 | sensor_offset | 1.115e+04 |",
                         "k_base = 1.234e+04 ± 57 N/m"}) {
     EXPECT_THAT(md, HasSubstr(s)) << s;
