@@ -354,6 +354,8 @@ struct FitReport {
   /// Pairs/groups of effects that cannot be told apart from these data, one sentence each.
   std::vector<std::string> indistinguishable;
   AugmentedModel augmented;  ///< nominal + chosen effects (write with WriteAugmentedUrdf)
+  /// Other remarks, e.g. "base_per_axis simplified to base_isotropic" after the rounds.
+  std::vector<std::string> notes;
   double seconds = 0.0;      ///< wall time of the fit
 
   /// A few lines: verdict, chosen effects, error before/after.

@@ -113,6 +113,7 @@ nlohmann::json ReportJson(const FitReport& r, const std::string& urdf, const std
           {"sensor_offset", WrenchJson(r.augmented.sensor_offset)},
           {"rounds", rounds},
           {"indistinguishable", r.indistinguishable},
+          {"notes", r.notes},
           {"trials", trials},
           {"residual_sign", "measured - predicted, transducer axes, moment about the endpoint"},
           {"augmented_urdf", output.empty() ? nlohmann::json(nullptr) : nlohmann::json(output)},
@@ -178,6 +179,7 @@ void PrintReport(const FitReport& r, const FitCommandOptions& o) {
     }
     if (!f.identifiable) std::cout << "       warning: " << f.identifiability << "\n";
   }
+  for (const std::string& note : r.notes) std::cout << "  note: " << note << "\n";
   if (!r.indistinguishable.empty()) {
     std::cout << "\nEffects wrench data cannot tell apart at these postures:\n";
     for (const std::string& s : r.indistinguishable) std::cout << "  " << s << "\n";

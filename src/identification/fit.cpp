@@ -369,12 +369,13 @@ std::vector<int> AllIndices(size_t n) {
 
 /// Fill a CandidateFit for `effect`, the last free effect of the context (its parameters start
 /// at c.start.back(); earlier free effects are the already chosen ones, refitted jointly).
-CandidateFit MakeFit(const Context& c, const Effect& effect, const SolveResult& r, const Analysis& a, bool sd_stated) {
+CandidateFit MakeFit(const Context& c, const Effect& effect, const SolveResult& r, const Analysis& a, bool sd_stated,
+                     int which = -1) {
   CandidateFit f;
   f.effect = effect;
   const int n = static_cast<int>(6 * c.subset.size());
   const int k_total = c.parameter_count;
-  const int p0 = c.start.back();
+  const int p0 = which < 0 ? c.start.back() : c.start[which];
   for (size_t i = 0; i < effect.parameters.size(); ++i) {
     const EffectParameter& p = effect.parameters[i];
     double value = ident::ToUser(p, r.x[p0 + i]);
@@ -668,6 +669,54 @@ FitReport FitEffects(const Model& nominal, const std::vector<Trial>& trials, con
     report.rounds.push_back(std::move(r));
   }
 
+  // Simplify: a per-axis base compliance whose axes agree is replaced by the isotropic one when
+  // that lowers the BIC (the nested, simpler effect explains the data as well).
+  for (size_t i = 0; i < current.effects.size(); ++i) {
+    if (current.effects[i].effect.kind != EffectKind::kBasePerAxis) continue;
+    Effect iso;
+    bool found = false;
+    for (const Effect& e : CandidateEffects(nominal)) {
+      if (e.kind == EffectKind::kBaseIsotropic) {
+        iso = e;
+        found = true;
+      }
+    }
+    if (!found) break;
+    std::vector<AppliedEffect> alt = current.effects;
+    const std::vector<double>& k = alt[i].values;
+    alt[i] = {iso, {std::cbrt(k[0] * k[1] * k[2])}};
+    std::vector<Effect> free;
+    std::vector<double> x0;
+    for (const AppliedEffect& a : alt) {
+      free.push_back(a.effect);
+      for (size_t j = 0; j < a.values.size(); ++j) x0.push_back(ident::ToInternal(a.effect.parameters[j], a.values[j]));
+    }
+    Context c = MakeContext(nominal.description(), Vector6d::Zero(), free, trials, all, options);
+    SolveResult r = Solve(c, x0);
+    const int k_now = TotalParameters(current.effects);
+    double bic_now = Bic(chi2_current, n, k_now, sd_stated);
+    double bic_alt = Bic(r.chi2, n, c.parameter_count, sd_stated);
+    if (!r.usable || bic_alt >= bic_now) break;
+    Analysis a = Analyze(c, r.x, r.chi2, sd_stated);
+    std::vector<CandidateFit> fits;
+    for (size_t e = 0; e < alt.size(); ++e) {
+      CandidateFit f = MakeFit(c, alt[e].effect, r, a, sd_stated, static_cast<int>(e));
+      f.accepted = true;
+      f.verdict = "chosen";
+      alt[e].values = f.values;
+      fits.push_back(f);
+    }
+    report.notes.push_back("base_per_axis simplified to base_isotropic: the three axis stiffnesses agree (BIC " +
+                           util::FormatNumber(bic_now, 6) + " -> " + util::FormatNumber(bic_alt, 6) + ")");
+    current = ApplyEffects(nominal.description(), alt);
+    report.chosen = alt;
+    report.chosen_fits = fits;
+    Prediction p = PredictTrials(Model(current.description), trials, current.sensor_offset);
+    current_prediction = p.wrench;
+    chi2_current = ComputeResidualStats(trials, current_prediction, 0, options).chi2;
+    break;
+  }
+
   report.augmented = current;
   const int k_final = TotalParameters(current.effects);
   report.after = ComputeResidualStats(trials, current_prediction, k_final, options);
@@ -747,6 +796,7 @@ std::string FitReport::BriefReport() const {
     o << "\n";
   }
   for (const std::string& s : indistinguishable) o << "note: " << s << "\n";
+  for (const std::string& s : notes) o << "note: " << s << "\n";
   return o.str();
 }
 
