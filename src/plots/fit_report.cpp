@@ -119,11 +119,17 @@ std::string XYPlotSvg(const std::string& title, const std::string& xlabel, const
   svg.Element("rect", {{"x", Num(kL)}, {"y", Num(kT)}, {"width", Num(pw)}, {"height", Num(ph)}, {"fill", "none"},
                        {"stroke", "#999999"}});
   const double xs = NiceStep(xmax - xmin, 4), ys = NiceStep(ymax - ymin, 4);
-  for (double t = std::ceil(xmin / xs) * xs; t <= xmax; t += xs) {
+  // Ticks by integer index (t = k * step), at most kMaxTicks, so a step below the spacing of
+  // doubles near a large value cannot stall the loop.
+  constexpr int kMaxTicks = 12;
+  const double kx0 = std::ceil(xmin / xs), ky0 = std::ceil(ymin / ys);
+  for (int k = 0; k < kMaxTicks && std::isfinite(kx0) && (kx0 + k) * xs <= xmax; ++k) {
+    const double t = (kx0 + k) * xs;
     svg.Line(sx(t), kT + ph, sx(t), kT + ph + 4, "#666666", 1);
     svg.Text(sx(t), kT + ph + 14, util::FormatNumber(std::abs(t) < 1e-9 * xs ? 0.0 : t, 3), 9, "middle");
   }
-  for (double t = std::ceil(ymin / ys) * ys; t <= ymax; t += ys) {
+  for (int k = 0; k < kMaxTicks && std::isfinite(ky0) && (ky0 + k) * ys <= ymax; ++k) {
+    const double t = (ky0 + k) * ys;
     svg.Line(kL - 4, sy(t), kL, sy(t), "#666666", 1);
     svg.Text(kL - 6, sy(t) + 3, util::FormatNumber(std::abs(t) < 1e-9 * ys ? 0.0 : t, 3), 9, "end");
   }

@@ -263,6 +263,23 @@ TEST(WriteFitReport, FilesHoldTheRenderedReportAndAFailedWriteLeavesNothing) {
 }
 
 
+TEST(FitReportHtml, PlotsOfConstantOrNearlyConstantLargeValuesStillRender) {
+  // Axis ranges far below the spacing of doubles near the values (1e12 N +- 1e-9 N), and a
+  // component with no spread at all: the tick loop must end and every point must still parse.
+  isowrench::FitReport r = MakeReport();
+  for (size_t i = 0; i < r.trials.size(); ++i) {
+    r.trials[i].measured[0] = 1e12 + 1e-9 * static_cast<double>(i);
+    r.trials[i].before[1] = 0.0;
+    r.trials[i].after[1] = 0.0;
+  }
+  const std::vector<std::string> blocks = SvgBlocks(isowrench::FitReportHtml(r));
+  ASSERT_EQ(blocks.size(), 15u);
+  for (const std::string& b : blocks) {
+    tinyxml2::XMLDocument doc;
+    EXPECT_EQ(doc.Parse(b.c_str()), tinyxml2::XML_SUCCESS);
+  }
+}
+
 // End to end: a real fit (base compliance hidden in simulated data) rendered as HTML carries
 // that fit's own before/after RMS per component and plots every trial.
 TEST(FitReportHtml, RealFitReportCarriesItsOwnBeforeAndAfterNumbers) {
