@@ -391,6 +391,28 @@ TEST(FitLoop, TwoEffectsAreTracedInTwoRounds) {
   std::cout << "[two-effects] " << r.BriefReport();
 }
 
+TEST(FitLoop, TwoEffectsWhoseFirstFitIsBiasedAreStillTraced) {
+  // Fitted alone, a base compliance absorbs part of a force scale (round 1 is biased); the
+  // second round refits the first effect jointly, so both are found with their true values.
+  Model model = Rat();
+  std::vector<Trial> trials = Simulate(model, {"base_isotropic=3e6", "force_scale:GP=0.9"}, 207);
+  FitOptions o;
+  o.max_rounds = 3;
+  FitReport r = FitEffects(model, trials, o);
+  ASSERT_EQ(r.chosen.size(), 2u) << r.BriefReport();
+  EXPECT_EQ(r.verdict, FitVerdict::kExplained) << r.BriefReport();
+  for (size_t e = 0; e < 2; ++e) {
+    const std::string& id = r.chosen[e].effect.id;
+    if (id == "force_scale:GP") {
+      CheckParameter(r.chosen_fits[e], 0, 0.9);
+    } else {
+      EXPECT_TRUE(id == "base_isotropic" || id == "base_per_axis") << id;
+      for (size_t i = 0; i < r.chosen[e].values.size(); ++i) CheckParameter(r.chosen_fits[e], i, 3e6);
+    }
+  }
+  std::cout << "[two-effects-biased] " << r.BriefReport();
+}
+
 TEST(FitLoop, AnEffectOutsideTheLibraryEndsUnexplained) {
   // A passive stiffness on hip_ry (not a candidate) makes the residual structured; no candidate
   // can remove it, so the verdict must be "unexplained residual" and nothing is claimed.
