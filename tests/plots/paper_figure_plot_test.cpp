@@ -379,6 +379,51 @@ TEST(WritePaperFigure, PngIsWrittenOrItsAbsenceExplained) {
   }
 }
 
+// A stand-in rasterizer on PATH: `rsvg-convert -f png -o OUT IN` running `body` (sh).
+class FakeRasterizer {
+ public:
+  explicit FakeRasterizer(const std::string& body) {
+    const std::string script = bin_.path() + "/rsvg-convert";
+    std::ofstream(script) << "#!/bin/sh\n" << body << "\n";
+    fs::permissions(script, fs::perms::owner_all);
+    old_path_ = std::getenv("PATH") ? std::getenv("PATH") : "";
+    ::setenv("PATH", (bin_.path() + ":" + old_path_).c_str(), 1);
+  }
+  ~FakeRasterizer() { ::setenv("PATH", old_path_.c_str(), 1); }
+
+ private:
+  TempDir bin_;
+  std::string old_path_;
+};
+
+TEST(RasterizeSvgToPng, KeepsAPngOnlyWhenTheRasterizerMadeOne) {
+  TempDir dir;
+  const std::string svg = dir.path() + "/f.svg", png = dir.path() + "/f.png";
+  isowrench::WriteTextFile(svg, isowrench::WrenchGlyphSvg(Vector6d::Constant(0.01), "w"));
+  std::string message;
+  {
+    // $4 is the output path of "-f png -o OUT IN": write a PNG signature there.
+    FakeRasterizer fake("printf '\\211PNG\\r\\n\\032\\n' > \"$4\"");
+    EXPECT_THAT(isowrench::FindSvgRasterizer(), HasSubstr("rsvg-convert"));
+    EXPECT_TRUE(isowrench::RasterizeSvgToPng(svg, png, &message)) << message;
+    EXPECT_EQ(ReadAll(png).substr(0, 8), std::string("\x89PNG\r\n\x1a\n", 8));
+  }
+  fs::remove(png);
+  {
+    // Exit 0 but write something that is not a PNG: refused, nothing left behind.
+    FakeRasterizer fake("echo not-a-png > \"$4\"");
+    EXPECT_FALSE(isowrench::RasterizeSvgToPng(svg, png, &message));
+    EXPECT_THAT(message, HasSubstr("PNG skipped"));
+  }
+  {
+    // Fails half way: exit 1 after a partial write.
+    FakeRasterizer fake("printf '\\211PN' > \"$4\"; exit 1");
+    EXPECT_FALSE(isowrench::RasterizeSvgToPng(svg, png, &message));
+    EXPECT_THAT(message, HasSubstr("exit 1"));
+  }
+  EXPECT_EQ(dir.Files(), std::vector<std::string>{"f.svg"});
+}
+
 TEST(WritePaperFigure, MissingDirectoryThrowsAndWritesNothing) {
   TempDir dir;
   const std::string missing = dir.path() + "/no/such/dir";
