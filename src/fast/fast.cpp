@@ -27,6 +27,22 @@ namespace {
 // A path segment shorter than this has no direction (same rule as ComputeMuscleTorque).
 constexpr double kMinSegmentLength = 1e-9;
 
+// The hot functions are compiled twice, for x86-64-v3 (AVX2 + FMA: a multiply-add is one
+// instruction, 4 doubles per register) and for the baseline; the loader picks the one the CPU
+// runs (GNU ifunc). Other compilers/targets get the baseline only.
+#if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__) && defined(__linux__) && \
+    !defined(ISOWRENCH_NO_CLONES)
+#define ISOWRENCH_CLONES __attribute__((target_clones("arch=x86-64-v3", "default")))
+#else
+#define ISOWRENCH_CLONES
+#endif
+#if defined(__GNUC__)
+#define ISOWRENCH_INLINE inline __attribute__((always_inline))
+#else
+#define ISOWRENCH_INLINE inline
+#endif
+
+
 void SetAxisKind(FastJoint& joint) {
   const Eigen::Vector3d& a = joint.axis;
   for (int k = 0; k < 3; ++k) {
@@ -40,10 +56,50 @@ void SetAxisKind(FastJoint& joint) {
   joint.axis_kind = 3;
 }
 
+// sin and cos of one angle, to within an ulp or two, in about 50 instructions instead of the
+// ~120 of libm's sincos (which also handles huge arguments exactly): Cody-Waite reduction by
+// pi/2 with a three-part constant (exact products for |n| < 2^20), then fdlibm's
+// __kernel_sin / __kernel_cos polynomials on [-pi/4, pi/4]. Angles beyond kMaxReduced fall
+// back to std::sin/std::cos.
+ISOWRENCH_INLINE void SinCos(double x, double* sin_x, double* cos_x) {
+  constexpr double kMaxReduced = 1e5;  // rad; n = round(x 2/pi) < 2^17 keeps n * kPio2_1 exact
+  if (!(std::abs(x) < kMaxReduced)) {
+    *sin_x = std::sin(x);
+    *cos_x = std::cos(x);
+    return;
+  }
+  constexpr double kTwoOverPi = 6.36619772367581382433e-01;
+  constexpr double kPio2_1 = 1.57079632673412561417e+00;   // first 33 bits of pi/2
+  constexpr double kPio2_2 = 6.07710050630396597660e-11;   // next 33 bits
+  constexpr double kPio2_3 = 2.02226624871116645580e-21;   // next 33 bits
+  constexpr double kRound = 6755399441055744.0;            // 1.5 * 2^52: round to nearest
+  const double k = (x * kTwoOverPi + kRound) - kRound;
+  const long n = static_cast<long>(k);
+  const double r = ((x - k * kPio2_1) - k * kPio2_2) - k * kPio2_3;
+  const double z = r * r;
+  constexpr double S1 = -1.66666666666666324348e-01, S2 = 8.33333333332248946124e-03,
+                   S3 = -1.98412698298579493134e-04, S4 = 2.75573137070700676789e-06,
+                   S5 = -2.50507602534068634195e-08, S6 = 1.58969099521155010221e-10;
+  constexpr double C1 = 4.16666666666666019037e-02, C2 = -1.38888888888741095749e-03,
+                   C3 = 2.48015872894767294178e-05, C4 = -2.75573143513906633035e-07,
+                   C5 = 2.08757232129817482790e-09, C6 = -1.13596475577881948265e-11;
+  const double sin_r = r + r * z * (S1 + z * (S2 + z * (S3 + z * (S4 + z * (S5 + z * S6)))));
+  const double hz = 0.5 * z;
+  const double w = 1.0 - hz;
+  const double cos_r = w + (((1.0 - w) - hz) + z * z * (C1 + z * (C2 + z * (C3 + z * (C4 + z * (C5 + z * C6))))));
+  // Quadrant n mod 4: (sin, cos) = (s, c), (c, -s), (-s, -c), (-c, s).
+  const bool swap = n & 1;
+  const double sign_sin = (n & 2) ? -1.0 : 1.0;
+  const double sign_cos = ((n + 1) & 2) ? -1.0 : 1.0;
+  *sin_x = sign_sin * (swap ? cos_r : sin_r);
+  *cos_x = sign_cos * (swap ? sin_r : cos_r);
+}
+
 // M <- M * Rot(axis, q) for a joint.
-inline void RotateFrame(const FastJoint& j, double q, Eigen::Matrix3d& M) {
-  const double c = std::cos(q);
-  const double s = j.axis_sign * std::sin(q);
+ISOWRENCH_INLINE void RotateFrame(const FastJoint& j, double q, Eigen::Matrix3d& M) {
+  double c, s;
+  SinCos(q, &s, &c);
+  s *= j.axis_sign;
   switch (j.axis_kind) {
     case 0: {
       const Eigen::Vector3d m1 = M.col(1), m2 = M.col(2);
@@ -83,7 +139,7 @@ inline void RotateFrame(const FastJoint& j, double q, Eigen::Matrix3d& M) {
 
 // v is finite and >= 0: written without branches so a loop over entries vectorizes (NaN fails
 // both comparisons, +inf fails the second).
-inline bool NonNegativeFinite(double v) {
+ISOWRENCH_INLINE bool NonNegativeFinite(double v) {
   return (v >= 0.0) & (v <= std::numeric_limits<double>::max());
 }
 
@@ -142,13 +198,30 @@ FastWrench SolveByEigen(FastWorkspace::Impl& ws, int m, const double* J, const d
   return out;
 }
 
+// Inputs of a solve are checked, not trusted: negative or non-finite values give kInvalidInput.
+ISOWRENCH_INLINE bool ValidSolveInput(int m, const double* s_t, const double* s_p, const double* tau) {
+  bool ok = true;
+  for (int r = 0; r < 6; ++r) ok &= NonNegativeFinite(s_t[r]);
+  for (int i = 0; i < m; ++i) {
+    ok &= NonNegativeFinite(s_p[i]) & (std::abs(tau[i]) <= std::numeric_limits<double>::max());
+  }
+  return ok;
+}
+
+FastWrench Invalid(FastWorkspace::Impl& ws) {
+  ws.dtheta.setZero(ws.m);
+  ws.self_motion.resize(ws.m, 0);
+  return FastWrench{};
+}
+
 // K = J^T S_t J + S_p, Cholesky, two triangular solves, W = S_t J dtheta. N > 0 fixes m at
 // compile time (loops unroll); N = 0 uses the runtime m. J is 6 x m column-major.
 template <int N>
-FastWrench SolveKernel(FastWorkspace::Impl& ws, int m_runtime, const double* J, const double* s_t,
+ISOWRENCH_INLINE FastWrench SolveKernel(FastWorkspace::Impl& ws, int m_runtime, const double* J, const double* s_t,
                        const double* s_p, const double* tau, const FastOptions& options) {
   const int m = N > 0 ? N : m_runtime;
   constexpr int S = kFastMaxDofs;
+  if (!ValidSolveInput(m, s_t, s_p, tau)) return Invalid(ws);
   double* K = ws.K;
   double max_diag = 0.0;
   ISOWRENCH_UNROLL
@@ -222,7 +295,7 @@ FastWrench SolveKernel(FastWorkspace::Impl& ws, int m_runtime, const double* J, 
   return out;
 }
 
-FastWrench SolveDispatch(FastWorkspace::Impl& ws, const double* J, const double* s_t,
+ISOWRENCH_CLONES FastWrench SolveDispatch(FastWorkspace::Impl& ws, const double* J, const double* s_t,
                          const double* s_p, const double* tau, const FastOptions& options) {
   switch (ws.m) {
     case 1: return SolveKernel<1>(ws, 1, J, s_t, s_p, tau, options);
@@ -237,22 +310,6 @@ FastWrench SolveDispatch(FastWorkspace::Impl& ws, const double* J, const double*
     case 10: return SolveKernel<10>(ws, 10, J, s_t, s_p, tau, options);
     default: return SolveKernel<0>(ws, ws.m, J, s_t, s_p, tau, options);
   }
-}
-
-// Inputs of a solve are checked, not trusted: negative or non-finite values give kInvalidInput.
-bool ValidSolveInput(int m, const double* s_t, const double* s_p, const double* tau) {
-  bool ok = true;
-  for (int r = 0; r < 6; ++r) ok &= NonNegativeFinite(s_t[r]);
-  for (int i = 0; i < m; ++i) {
-    ok &= NonNegativeFinite(s_p[i]) & (std::abs(tau[i]) <= std::numeric_limits<double>::max());
-  }
-  return ok;
-}
-
-FastWrench Invalid(FastWorkspace::Impl& ws) {
-  ws.dtheta.setZero(ws.m);
-  ws.self_motion.resize(ws.m, 0);
-  return FastWrench{};
 }
 
 }  // namespace
@@ -372,7 +429,7 @@ const FastJointMatrix& FastWorkspace::self_motion() const { return impl_->self_m
 
 // ---- Evaluation -----------------------------------------------------------------------------
 
-bool ComputeFastKinematics(const CompiledModel& model, FastWorkspace& workspace,
+ISOWRENCH_CLONES bool ComputeFastKinematics(const CompiledModel& model, FastWorkspace& workspace,
                            const Eigen::Ref<const Eigen::VectorXd>& q, int muscle, double activation) {
   const CompiledModel::Data& d = model.data();
   FastWorkspace::Impl& ws = workspace.impl();
@@ -491,10 +548,7 @@ FastWrench SolveFastStatics(const CompiledModel& model, FastWorkspace& workspace
   FastWorkspace::Impl& ws = workspace.impl();
   const int m = model.dof_count();
   assert(ws.m == m);
-  if (stiffness.s_p.size() != m ||
-      !ValidSolveInput(m, stiffness.s_t.data(), stiffness.s_p.data(), ws.tau.data())) {
-    return Invalid(ws);
-  }
+  if (stiffness.s_p.size() != m) return Invalid(ws);
   return SolveDispatch(ws, ws.J.data(), stiffness.s_t.data(), stiffness.s_p.data(), ws.tau.data(),
                        options);
 }
@@ -511,10 +565,7 @@ FastWrench SolveStaticsFast(FastWorkspace& workspace, const Eigen::Ref<const Mat
                             const Eigen::Ref<const Eigen::VectorXd>& tau, const FastOptions& options) {
   FastWorkspace::Impl& ws = workspace.impl();
   const int m = ws.m;
-  if (J.cols() != m || s_p.size() != m || tau.size() != m || !J.allFinite() ||
-      !ValidSolveInput(m, s_t.data(), s_p.data(), tau.data())) {
-    return Invalid(ws);
-  }
+  if (J.cols() != m || s_p.size() != m || tau.size() != m || !J.allFinite()) return Invalid(ws);
   ws.J = J;
   ws.tau = tau;
   double s_p_copy[kFastMaxDofs];
