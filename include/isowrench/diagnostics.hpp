@@ -204,6 +204,13 @@ struct Diagnosis {
   ConstraintAnalysis constraints;
   WrenchEvaluation evaluation;         ///< Eq. 10 with the model's compliances
   std::vector<JointMotion> stiffness_null;  ///< basis of null(K): self-motion no spring holds
+  /// The part of W the compliances set: W - W_classic (pinv(J_r^T) tau, Eq. 15) written on the
+  /// internal-wrench basis, W - W_classic ~ sum_i c_i direction_i (c_i dimensionless, since
+  /// each direction is in N and N·m). Empty when there is no internal wrench.
+  Eigen::VectorXd internal_coefficients;
+  /// |D (W - W_classic - sum c_i direction_i)| / |D W| (D as in StiffnessSensitivity): 0 when
+  /// all of the difference is internal, i.e. when the spring-free joints carry all of tau.
+  double internal_residual = 0.0;
   SensitivityResult sensitivity;
   bool large_deflection_run = false;
   LargeDeflectionResult large_deflection;

@@ -85,6 +85,9 @@ nlohmann::json MuscleJson(const Diagnosis& d) {
                    {"small_motion_valid", e.statics.small_motion_valid},
                    {"validity_message", e.statics.validity_message}}},
       {"stiffness_null", null_k},
+      {"internal_coefficients", ToJson(d.internal_coefficients)},
+      {"internal_residual", d.internal_residual},
+      {"classic_wrench", WrenchJson(e.classic.wrench)},
       {"sensitivity", {{"ok", d.sensitivity.ok}, {"message", d.sensitivity.message}, {"entries", sens},
                        {"relative_definition", "|D dW| / |D W|, D = diag(1,1,1,1/L,1/L,1/L)"}}},
   };
@@ -136,8 +139,12 @@ void PrintMuscle(const Diagnosis& d) {
   const int w = 34;
   std::cout << "  " << WrenchHeader(w) << "\n  " << WrenchRow("  W, Eq. 10 (limb on transducer)", e.statics.wrench, w)
             << "\n";
+  for (Eigen::Index i = 0; i < d.internal_coefficients.size(); ++i) {
+    std::cout << "    internal part of W: W - pinv(J_r^T) tau = " << N(d.internal_coefficients[i]) << " x internal wrench "
+              << i + 1 << " (residual " << N(d.internal_residual, 2) << " of |W|)\n";
+  }
   PrintMotions("  null(K), self-motion no stiffness holds", d.stiffness_null, "none");
-  std::cout << "    sensitivity dW/dlog(k)" << (d.sensitivity.ok ? "" : ": " + d.sensitivity.message) << "\n";
+  std::cout << "    sensitivity dW/dlog(k): " << d.sensitivity.message << "\n";
   if (d.sensitivity.ok) {
     std::cout << "  " << WrenchHeader(w) << "   relative\n";
     for (const StiffnessSensitivity& s : d.sensitivity.entries) {

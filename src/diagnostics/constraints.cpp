@@ -1,6 +1,7 @@
 // Constraint class, self-motion (null(J_r)) and internal wrench (null(J_r^T)) of a restrained
 // limb, plus DiagnoseLimb which puts every diagnostic together.
 
+#include <Eigen/QR>
 #include <Eigen/SVD>
 #include <algorithm>
 #include <cmath>
@@ -258,6 +259,21 @@ Diagnosis DiagnoseLimb(const Model& model, const Eigen::VectorXd& q, const std::
     v /= v.cwiseAbs().maxCoeff();
     d.stiffness_null.push_back({v, DescribeJointMotion(model, v),
                                 InterpretMotion(model, q, v, centres, d.constraints.length_scale)});
+  }
+  if (!d.constraints.internal_wrench.empty() && d.evaluation.statics.ok()) {
+    const double L = d.constraints.length_scale;
+    const Eigen::Index k = static_cast<Eigen::Index>(d.constraints.internal_wrench.size());
+    Eigen::MatrixXd N(6, k);
+    for (Eigen::Index i = 0; i < k; ++i) {
+      N.col(i) = d.constraints.internal_wrench[static_cast<size_t>(i)].direction;
+      N.col(i).tail<3>() /= L;  // least squares in the D metric
+    }
+    Vector6d diff = d.evaluation.statics.wrench - d.evaluation.classic.wrench;
+    Vector6d diff_s = diff;
+    diff_s.tail<3>() /= L;
+    d.internal_coefficients = N.colPivHouseholderQr().solve(diff_s);
+    const double w = diagnostics::ScaledWrenchNorm(d.evaluation.statics.wrench, L);
+    d.internal_residual = w > 0 ? (diff_s - N * d.internal_coefficients).norm() / w : 0.0;
   }
   d.sensitivity = ComputeStiffnessSensitivity(model, d.evaluation, d.constraints.length_scale,
                                               options.statics.rank_tolerance);

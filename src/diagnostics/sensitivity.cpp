@@ -91,6 +91,9 @@ SensitivityResult ComputeStiffnessSensitivity(const Model& model, const WrenchEv
   out.ok = true;
   out.message = out.entries.empty() ? "no stiffness to vary" : "analytic dW/dlog k, K^+ on eigenvalues > " +
                                                                    util::FormatNumber(threshold, 3);
+  if (!any_base) {
+    out.message += "; the model has no base dofs (a rigid base): give --base-stiffness to see the base's effect";
+  }
   return out;
 }
 

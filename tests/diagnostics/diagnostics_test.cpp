@@ -495,6 +495,9 @@ TEST(Diagnosis, PutsEverythingTogether) {
   EXPECT_EQ(d.large_deflection.status, isowrench::LargeDeflectionStatus::kConverged);
   // Balanced 1e7 stiffness moves the ankle ~1e-8 m: the linear answer is good to ~1e-6.
   EXPECT_LT(d.large_deflection.wrench_relative_difference, 1e-5);
+  // No joint springs: W - pinv(J^T) tau lies entirely in null(J^T) (MODEL.md identities 3, 6).
+  ASSERT_EQ(d.internal_coefficients.size(), 1);
+  EXPECT_LT(d.internal_residual, 1e-10);
   EXPECT_THAT([&] { isowrench::DiagnoseLimb(model, model.nominal_posture(), "nosuch"); },
               ThrowsMessage<Error>(HasSubstr("nosuch")));
 }
