@@ -113,6 +113,11 @@ LargeDeflectionResult SolveLargeDeflection(const Model& model, const Eigen::Vect
   ValidatePosture(model, q);
   LargeDeflectionResult r;
   const int m = model.dof_count();
+  if (m == 0) {
+    r.status = LargeDeflectionStatus::kFailed;
+    r.message = "the model has no movable joints";
+    return r;
+  }
   const double Ls = model.chain_length() > 0 ? model.chain_length() : 1.0;
   // Linear answer for comparison.
   WrenchEvaluation lin = EvaluateWrench(model, q, muscle, activation);
