@@ -153,6 +153,14 @@ struct FitReportOptions {
   int markdown_trials = 15;
   /// Heading; empty = "Fit report: <model name>".
   std::string title;
+  /// The trials the fit used, in the order given to FitEffects (which FitReport::trials keeps).
+  /// With `model`, the HTML adds "residual vs posture": the residual size before and after
+  /// against each joint that varies across the trials (degrees, or mm for prismatic joints).
+  /// Not owned; null = no posture plots. @throws Error (from the renderers) if the count or the
+  /// CSV line numbers do not match the report's trials.
+  const std::vector<Trial>* trials = nullptr;
+  /// The model the trials were read against (joint types, for units). Not owned.
+  const Model* model = nullptr;
 };
 
 /// A self-contained HTML page (inline CSS and SVG, no scripts, no network) of a FitReport:
@@ -160,7 +168,8 @@ struct FitReportOptions {
 /// component before and after; the effects added with their parameters and standard errors;
 /// per round the candidates ranked by BIC with delta BIC, AICc, held-out error,
 /// identifiability, parameters and verdict; per component a measured-vs-predicted scatter and
-/// a residual-vs-trial plot (before in orange, after in blue); and the wrench glyphs of the
+/// a residual-vs-trial plot (before in orange, after in blue); residual size vs each varying
+/// joint when FitReportOptions::trials and ::model are given; and the wrench glyphs of the
 /// trials with the largest residual before the fit. Units: N and N·m, transducer axes.
 std::string FitReportHtml(const FitReport& report, const FitReportOptions& options = {});
 

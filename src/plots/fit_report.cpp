@@ -84,7 +84,7 @@ double NiceStep(double range, int target) {
 
 std::string XYPlotSvg(const std::string& title, const std::string& xlabel, const std::string& ylabel,
                       const std::vector<Series>& series, bool diagonal, bool zero_line) {
-  constexpr double kW = 280, kH = 230, kL = 58, kR = 12, kT = 24, kB = 40;
+  constexpr double kW = 280, kH = 240, kL = 58, kR = 12, kT = 34, kB = 40;
   double xmin = 1e300, xmax = -1e300, ymin = 1e300, ymax = -1e300;
   for (const Series& s : series) {
     for (const Eigen::Vector2d& p : s.points) {
@@ -149,8 +149,9 @@ std::string XYPlotSvg(const std::string& title, const std::string& xlabel, const
                              {"data-x", plots::Exact(p.x())}, {"data-y", plots::Exact(p.y())}});
     }
     svg.Close();
-    svg.Element("circle", {{"cx", Num(legend_x + 3)}, {"cy", Num(kT + 9)}, {"r", "3"}, {"fill", s.color}});
-    svg.Text(legend_x + 9, kT + 12, s.name, 9);
+    // Legend in the top margin, between the title and the plot area.
+    svg.Element("circle", {{"cx", Num(legend_x + 3)}, {"cy", Num(kT - 9)}, {"r", "3"}, {"fill", s.color}});
+    svg.Text(legend_x + 9, kT - 6, s.name, 9);
     legend_x += 12 + 5.5 * static_cast<double>(s.name.size()) + 10;
   }
   return svg.Finish(false);
@@ -278,14 +279,60 @@ std::string RoundLine(const FitRound& round) {
          ". " + round.summary;
 }
 
-void CheckOptions(const FitReportOptions& o) {
+void CheckOptions(const FitReport& r, const FitReportOptions& o) {
   if (o.glyph_trials < 0 || o.markdown_trials < 0) throw Error("fit report: glyph_trials and markdown_trials must be >= 0");
+  if (!o.trials) return;
+  if (o.trials->size() != r.trials.size()) {
+    throw Error("fit report: " + std::to_string(o.trials->size()) + " trials given for a report of " +
+                std::to_string(r.trials.size()) + " trials; pass the trials the fit used");
+  }
+  for (size_t k = 0; k < r.trials.size(); ++k) {
+    if ((*o.trials)[k].line != r.trials[k].line) {
+      throw Error("fit report: trial " + std::to_string(k + 1) + " comes from line " +
+                  std::to_string((*o.trials)[k].line) + " but the report's from line " +
+                  std::to_string(r.trials[k].line) + "; pass the trials in the order the fit used");
+    }
+  }
+}
+
+// Residual size before/after against each joint that varies across the trials.
+std::string PosturePlots(const FitReport& r, const std::vector<Trial>& trials, const Model& model) {
+  // Spread below this (rad or m) counts as a joint held fixed: nothing to plot against.
+  constexpr double kMinSpread = 1e-9;
+  std::string out;
+  const std::vector<std::string>& names =
+      trials.front().joint_names ? *trials.front().joint_names : model.joint_names();
+  for (size_t j = 0; j < names.size(); ++j) {
+    double lo = 1e300, hi = -1e300;
+    for (const Trial& t : trials) {
+      if (static_cast<Eigen::Index>(j) >= t.q.size()) return out;
+      lo = std::min(lo, t.q[static_cast<Eigen::Index>(j)]);
+      hi = std::max(hi, t.q[static_cast<Eigen::Index>(j)]);
+    }
+    if (!(hi - lo > kMinSpread)) continue;
+    const auto& model_names = model.joint_names();
+    const auto it = std::find(model_names.begin(), model_names.end(), names[j]);
+    const bool prismatic = it != model_names.end() &&
+                           model.joint(static_cast<int>(it - model_names.begin())).type == JointType::kPrismatic;
+    const double to_user = prismatic ? 1e3 : 180.0 / 3.14159265358979323846;
+    Series before{"before", kBeforeColor, "before", {}}, after{"after", kAfterColor, "after", {}};
+    for (size_t k = 0; k < trials.size(); ++k) {
+      const double x = trials[k].q[static_cast<Eigen::Index>(j)] * to_user;
+      before.points.emplace_back(x, r.trials[k].normalized_before);
+      after.points.emplace_back(x, r.trials[k].normalized_after);
+    }
+    out += "<div class=\"plot posture\" data-joint=\"" + XmlEscape(names[j]) + "\">" +
+           XYPlotSvg("residual size vs " + names[j], names[j] + (prismatic ? " (mm)" : " (°)"),
+                     "|weighted residual| / √6", {before, after}, false, true) +
+           "</div>\n";
+  }
+  return out;
 }
 
 }  // namespace
 
 std::string FitReportHtml(const FitReport& r, const FitReportOptions& o) {
-  CheckOptions(o);
+  CheckOptions(r, o);
   const std::string title = Title(r, o);
   std::string h;
   h += "<!DOCTYPE html>\n<html lang=\"en\">\n<head>\n<meta charset=\"utf-8\">\n<title>" + XmlEscape(title) + "</title>\n";
@@ -336,6 +383,11 @@ std::string FitReportHtml(const FitReport& r, const FitReportOptions& o) {
            "</div>\n";
     }
     h += "</div>\n";
+    if (o.trials && o.model && !o.trials->empty()) {
+      h += "<h2>Residual vs posture</h2>\n<p>Size of the weighted residual of each trial (noise multiples; "
+           "|weighted residual| / √6) against each joint that varies across the trials.</p>\n"
+           "<div class=\"plots\">\n" + PosturePlots(r, *o.trials, *o.model) + "</div>\n";
+    }
   }
 
   // Ranked candidates per round.
@@ -389,7 +441,7 @@ std::string FitReportHtml(const FitReport& r, const FitReportOptions& o) {
 }
 
 std::string FitReportMarkdown(const FitReport& r, const FitReportOptions& o) {
-  CheckOptions(o);
+  CheckOptions(r, o);
   std::string m = "# " + Title(r, o) + "\n\n";
   std::vector<std::string> summary = SummaryLines(r);
   m += "**" + summary[0] + "**\n\n";

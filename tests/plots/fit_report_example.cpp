@@ -29,7 +29,10 @@ int main(int argc, char** argv) {
     options.max_rounds = 2;
     isowrench::FitReport report = isowrench::FitEffects(model, trials, options);
     report.source = "simulated: base_isotropic=2e4 N/m, 30 postures, seed 3";
-    isowrench::WriteFitReportHtml(report, out + "/fit_report.html");
+    isowrench::FitReportOptions report_options;
+    report_options.trials = &trials;
+    report_options.model = &model;
+    isowrench::WriteFitReportHtml(report, out + "/fit_report.html", report_options);
     isowrench::WriteFitReportMarkdown(report, out + "/fit_report.md");
     std::cout << report.BriefReport() << "\n"
               << "wrote " << out << "/fit_report.html and " << out << "/fit_report.md\n";

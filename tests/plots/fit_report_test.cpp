@@ -8,6 +8,7 @@
 #include <tinyxml2.h>
 #include <unistd.h>
 
+#include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <regex>
@@ -15,6 +16,7 @@
 
 #include "isowrench/error.hpp"
 #include "isowrench/identification.hpp"
+#include "isowrench/model.hpp"
 #include "isowrench/plots.hpp"
 #include "svg_test_utils.hpp"
 
@@ -262,6 +264,47 @@ TEST(WriteFitReport, FilesHoldTheRenderedReportAndAFailedWriteLeavesNothing) {
   fs::remove_all(dir);
 }
 
+
+TEST(FitReportHtml, ResidualVsPosturePlotsEachJointThatVaries) {
+  const isowrench::Model model =
+      isowrench::Model::FromUrdfFile(std::string(ISOWRENCH_TEST_URDF_DIR) + "/rat_hindlimb_5dof.urdf");
+  const isowrench::FitReport r = MakeReport();
+  // The report's four trials at postures where only hip_rz and knee_rz vary.
+  std::vector<isowrench::Trial> trials;
+  for (size_t k = 0; k < r.trials.size(); ++k) {
+    isowrench::Trial t;
+    t.q = model.nominal_posture();
+    t.q[model.JointIndex("hip_rz")] += 0.1 * static_cast<double>(k);
+    t.q[model.JointIndex("knee_rz")] -= 0.05 * static_cast<double>(k);
+    t.line = r.trials[k].line;
+    trials.push_back(t);
+  }
+  isowrench::FitReportOptions options;
+  options.trials = &trials;
+  options.model = &model;
+  const std::string html = isowrench::FitReportHtml(r, options);
+  EXPECT_THAT(html, HasSubstr("<div class=\"plot posture\" data-joint=\"hip_rz\">"));
+  EXPECT_THAT(html, HasSubstr("<div class=\"plot posture\" data-joint=\"knee_rz\">"));
+  EXPECT_THAT(html, Not(HasSubstr("data-joint=\"hip_ry\"")));  // constant: nothing to show
+  // The hip_rz plot: x = posture in degrees, y = the trial's residual size.
+  const size_t at = html.find("data-joint=\"hip_rz\">");
+  const std::string block = SvgBlocks(html.substr(at))[0];
+  tinyxml2::XMLDocument doc;
+  ASSERT_EQ(doc.Parse(block.c_str()), tinyxml2::XML_SUCCESS);
+  for (const auto* series : ByClass(doc.RootElement(), "series")) {
+    const bool before = HasClass(series, "before");
+    const auto points = ByClass(series, "point");
+    ASSERT_EQ(points.size(), trials.size());
+    for (size_t k = 0; k < points.size(); ++k) {
+      EXPECT_NEAR(Num(points[k], "data-x"), trials[k].q[model.JointIndex("hip_rz")] * 180.0 / M_PI, 1e-12);
+      EXPECT_EQ(Num(points[k], "data-y"), before ? r.trials[k].normalized_before : r.trials[k].normalized_after);
+    }
+  }
+  // Trials that are not the fit's are refused, naming the mismatch.
+  trials.pop_back();
+  EXPECT_THAT([&] { isowrench::FitReportHtml(r, options); },
+              ThrowsMessage<isowrench::Error>(HasSubstr("3 trials given for a report of 4")));
+}
 
 TEST(FitReportHtml, PlotsOfConstantOrNearlyConstantLargeValuesStillRender) {
   // Axis ranges far below the spacing of doubles near the values (1e12 N +- 1e-9 N), and a
