@@ -8,7 +8,7 @@ PACKAGES=(
   liborocos-kdl-dev liburdfdom-dev libeigen3-dev libtinyxml2-dev
   libcli11-dev nlohmann-json3-dev libceres-dev
   libgtest-dev libgmock-dev libbenchmark-dev
-  python3 python3-numpy valgrind
+  python3 python3-numpy valgrind librsvg2-bin
 )
 
 missing=()
