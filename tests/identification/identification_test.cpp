@@ -234,56 +234,6 @@ struct DetectionCase {
   bool four_dof = false;               ///< use RatWithoutHipRx()
 };
 
-class Detection : public ::testing::TestWithParam<DetectionCase> {};
-
-TEST_P(Detection, NamesTheEffectRecoversItAndReachesTheNoise) {
-  const DetectionCase& c = GetParam();
-  Model model = c.four_dof ? RatWithoutHipRx() : Rat();
-  AppliedEffect truth = ParseEffectAssignment(model, c.effect);
-  std::vector<Trial> trials = Simulate(model, {c.effect}, 101);
-  FitReport r = FitEffects(model, trials, TestOptions());
-  ASSERT_FALSE(r.chosen.empty()) << r.BriefReport();
-  const std::string first = r.chosen[0].effect.id;
-  EXPECT_THAT(c.equivalent, ::testing::Contains(first)) << r.BriefReport();
-  EXPECT_EQ(r.verdict, FitVerdict::kExplained) << r.BriefReport();
-  EXPECT_EQ(r.chosen.size(), 1u) << r.BriefReport();
-  std::ostringstream line;
-  line << "[detection] " << c.effect << ": first = " << first << ", residual " << std::sqrt(r.before.reduced_chi2)
-       << " -> " << std::sqrt(r.after.reduced_chi2) << " x noise";
-  if (first == truth.effect.id) {
-    line << ", parameter errors (in SE):";
-    for (size_t i = 0; i < truth.values.size(); ++i) {
-      line << " " << truth.effect.parameters[i].name << " " << CheckParameter(r.chosen_fits[0], i, truth.values[i]);
-    }
-  } else if (first == "base_per_axis" && truth.effect.id == "base_isotropic") {
-    line << ", per-axis errors (in SE):";
-    for (size_t i = 0; i < 3; ++i) line << " " << CheckParameter(r.chosen_fits[0], i, truth.values[0]);
-  }
-  std::cout << line.str() << "\n";
-}
-
-INSTANTIATE_TEST_SUITE_P(
-    EachCandidate, Detection,
-    ::testing::Values(
-        DetectionCase{"base_isotropic=1e7", {"base_isotropic", "base_per_axis"}},
-        DetectionCase{"base_per_axis=3e6,3e7,1e7", {"base_per_axis"}},
-        DetectionCase{"extra_joint:hip_ry:x=1e6", {"extra_joint:hip_ry:x", "extra_joint:knee_rx:y"}, true},
-        DetectionCase{"transducer_anisotropy=0.1", {"transducer_anisotropy"}},
-        DetectionCase{"transducer_soft:rz=1e5", {"transducer_soft:rz"}},
-        DetectionCase{"misalignment=2,-1,1", {"misalignment"}},
-        DetectionCase{"sensor_offset=0.02,-0.01,0.01,0.001,0,-0.0005", {"sensor_offset"}},
-        DetectionCase{"force_scale:GP=0.85", {"force_scale:GP"}},
-        DetectionCase{"attachment:GP:0=1,-0.5,0.5", {"attachment:GP:0"}},
-        DetectionCase{"attachment:GP:1=1,-0.5,0.5", {"attachment:GP:1"}},
-        DetectionCase{"moment_reference=2,1,-1", {"moment_reference"}}),
-    [](const ::testing::TestParamInfo<DetectionCase>& info) {
-      std::string name = info.param.effect.substr(0, info.param.effect.find('='));
-      for (char& ch : name) {
-        if (!std::isalnum(static_cast<unsigned char>(ch))) ch = '_';
-      }
-      return name;
-    });
-
 const std::vector<DetectionCase>& AllCases() {
   static const std::vector<DetectionCase> cases = {
       {"base_isotropic=1e7", {"base_isotropic", "base_per_axis"}},
@@ -301,8 +251,10 @@ const std::vector<DetectionCase>& AllCases() {
 }
 
 TEST(FitLoop, DetectionRatesAndParameterErrorsOverSeeds) {
-  // Every candidate over 5 seeds: the rate at which the fit names it (or an equivalent) first
-  // and claims nothing else, and the parameter errors in units of the reported SE. If the
+  // Every candidate of the library, simulated at a realistic magnitude, over 5 seeds: the fit
+  // must name it (or an equivalent) first, claim nothing else, bring the residual to the noise
+  // (verdict kExplained) and recover each parameter within kSigmas reported SEs; the rate and
+  // the errors in units of the reported SE are printed for the closing note. If the
   // standard errors are honest, z = error / SE is ~N(0, 1): mean z^2 ~ 1. With ~100 z values
   // (correlated within an effect) mean z^2 within [0.4, 2.5] rejects SEs off by a factor ~1.6.
   const int seeds = 5;
@@ -316,6 +268,9 @@ TEST(FitLoop, DetectionRatesAndParameterErrorsOverSeeds) {
     for (int seed = 0; seed < seeds; ++seed) {
       FitReport r = FitEffects(model, Simulate(model, {c.effect}, 7000 + 13 * seed), TestOptions());
       ++runs;
+      if (seed == 0) {
+        std::cout << "[detection] " << c.effect << ": " << r.BriefReport();
+      }
       if (r.chosen.size() != 1 || r.verdict != FitVerdict::kExplained) continue;
       if (std::find(c.equivalent.begin(), c.equivalent.end(), r.chosen[0].effect.id) == c.equivalent.end()) {
         // Not named first: acceptable only when the report says the truth is indistinguishable.
@@ -335,6 +290,7 @@ TEST(FitLoop, DetectionRatesAndParameterErrorsOverSeeds) {
         z2 += z * z;
         ++nz;
         worst = std::max(worst, std::abs(z));
+        EXPECT_LE(std::abs(z), kSigmas) << c.effect << " seed " << seed << ": " << p.name << " = " << f.values[i];
       }
     }
     detected_total += detected;
