@@ -137,11 +137,6 @@ ISOWRENCH_INLINE void RotateFrame(const FastJoint& j, double q, Eigen::Matrix3d&
 #define ISOWRENCH_UNROLL
 #endif
 
-// v is finite and >= 0: written without branches so a loop over entries vectorizes (NaN fails
-// both comparisons, +inf fails the second).
-ISOWRENCH_INLINE bool NonNegativeFinite(double v) {
-  return (v >= 0.0) & (v <= std::numeric_limits<double>::max());
-}
 
 // The eigen-solve used when the Cholesky pivots say K is (nearly) singular: the same rank and
 // excitation decisions as SolveStatics, on the workspace's fixed-size buffers.
@@ -199,13 +194,20 @@ FastWrench SolveByEigen(FastWorkspace::Impl& ws, int m, const double* J, const d
 }
 
 // Inputs of a solve are checked, not trusted: negative or non-finite values give kInvalidInput.
+// Branch-free so it vectorises: 0 * v is 0 for finite v and NaN for inf/NaN, so the sum of
+// those is 0 exactly when every entry is finite; the minimum catches negative stiffness.
 ISOWRENCH_INLINE bool ValidSolveInput(int m, const double* s_t, const double* s_p, const double* tau) {
-  bool ok = true;
-  for (int r = 0; r < 6; ++r) ok &= NonNegativeFinite(s_t[r]);
-  for (int i = 0; i < m; ++i) {
-    ok &= NonNegativeFinite(s_p[i]) & (std::abs(tau[i]) <= std::numeric_limits<double>::max());
+  double nonfinite = 0.0;
+  double lowest = 0.0;
+  for (int r = 0; r < 6; ++r) {
+    nonfinite += 0.0 * s_t[r];
+    lowest = std::min(lowest, s_t[r]);
   }
-  return ok;
+  for (int i = 0; i < m; ++i) {
+    nonfinite += 0.0 * s_p[i] + 0.0 * tau[i];
+    lowest = std::min(lowest, s_p[i]);
+  }
+  return nonfinite == 0.0 && lowest >= 0.0;
 }
 
 FastWrench Invalid(FastWorkspace::Impl& ws) {
@@ -219,8 +221,8 @@ FastWrench Invalid(FastWorkspace::Impl& ws) {
 template <int N>
 ISOWRENCH_INLINE FastWrench SolveKernel(FastWorkspace::Impl& ws, int m_runtime, const double* J, const double* s_t,
                        const double* s_p, const double* tau, const FastOptions& options) {
-  const int m = N > 0 ? N : m_runtime;
   constexpr int S = kFastMaxDofs;
+  const int m = N > 0 ? N : std::min(m_runtime, S);  // workspaces never exceed S
   if (!ValidSolveInput(m, s_t, s_p, tau)) return Invalid(ws);
   double* K = ws.K;
   double max_diag = 0.0;
@@ -241,21 +243,20 @@ ISOWRENCH_INLINE FastWrench SolveKernel(FastWorkspace::Impl& ws, int m_runtime, 
   }
   // Cholesky K = L L^T, accepted only with every pivot clearly positive.
   const double pivot_floor = options.cholesky_pivot_tolerance * max_diag;
-  double* L = ws.L;
-  bool regular = max_diag > 0.0;
+  // Factor and reciprocal diagonal live in locals: once unrolled they stay in registers.
+  double L[S * S];
+  double inv_diag[S];
+  if (!(max_diag > 0.0)) return SolveByEigen(ws, m, J, s_t, tau, options);
   ISOWRENCH_UNROLL
-  for (int j = 0; j < m && regular; ++j) {
+  for (int j = 0; j < m; ++j) {
     double d = K[j * S + j];
     ISOWRENCH_UNROLL
     for (int k = 0; k < j; ++k) d -= L[j * S + k] * L[j * S + k];
-    if (!(d > pivot_floor)) {
-      regular = false;
-      break;
-    }
+    if (!(d > pivot_floor)) return SolveByEigen(ws, m, J, s_t, tau, options);
     const double l = std::sqrt(d);
     const double inv = 1.0 / l;
     L[j * S + j] = l;
-    ws.inv_diag[j] = inv;
+    inv_diag[j] = inv;
     ISOWRENCH_UNROLL
     for (int i = j + 1; i < m; ++i) {
       double v = K[i * S + j];
@@ -264,14 +265,13 @@ ISOWRENCH_INLINE FastWrench SolveKernel(FastWorkspace::Impl& ws, int m_runtime, 
       L[i * S + j] = v * inv;
     }
   }
-  if (!regular) return SolveByEigen(ws, m, J, s_t, tau, options);
   double y[S];
   ISOWRENCH_UNROLL
   for (int i = 0; i < m; ++i) {
     double v = tau[i];
     ISOWRENCH_UNROLL
     for (int k = 0; k < i; ++k) v -= L[i * S + k] * y[k];
-    y[i] = v * ws.inv_diag[i];
+    y[i] = v * inv_diag[i];
   }
   ws.dtheta.resize(m);
   double* x = ws.dtheta.data();
@@ -280,7 +280,7 @@ ISOWRENCH_INLINE FastWrench SolveKernel(FastWorkspace::Impl& ws, int m_runtime, 
     double v = y[i];
     ISOWRENCH_UNROLL
     for (int k = i + 1; k < m; ++k) v -= L[k * S + i] * x[k];
-    x[i] = v * ws.inv_diag[i];
+    x[i] = v * inv_diag[i];
   }
   FastWrench out;
   ISOWRENCH_UNROLL
@@ -399,8 +399,6 @@ FastWorkspace::Impl::Impl(int dofs) : m(dofs), eigen(dofs) {
   K_full.setZero(m, m);
   self_motion.resize(m, 0);
   for (double& v : K) v = 0.0;
-  for (double& v : L) v = 0.0;
-  for (double& v : inv_diag) v = 0.0;
 }
 
 FastWorkspace::FastWorkspace(const CompiledModel& model)
@@ -513,18 +511,23 @@ ISOWRENCH_CLONES bool ComputeFastKinematics(const CompiledModel& model, FastWork
     }
   }
   ws.length = 0.0;
-  ws.dL.setZero(m);
-  ws.tau.setZero(m);
-  for (int i = 0; i < n; ++i) ws.pulls[i].setZero();
+  ws.dL.resize(m);  // every entry is assigned by the sweep below
+  ws.tau.resize(m);
+  Eigen::Vector3d u_before = Eigen::Vector3d::Zero();  // u_{i-1}; zero before the origin
   for (int i = 1; i < n; ++i) {
     const Eigen::Vector3d segment = ws.points[i] - ws.points[i - 1];
     const double length = segment.norm();
-    if (!(length >= kMinSegmentLength)) return false;
+    if (!(length >= kMinSegmentLength)) {
+      ws.dL.setZero();
+      ws.tau.setZero();
+      return false;
+    }
     const Eigen::Vector3d u = segment / length;
     ws.length += length;
-    ws.pulls[i] += u;
-    ws.pulls[i - 1] -= u;
+    ws.pulls[i - 1] = u_before - u;
+    u_before = u;
   }
+  ws.pulls[n - 1] = u_before;
   Eigen::Vector3d pull_sum = Eigen::Vector3d::Zero();
   Eigen::Vector3d moment_sum = Eigen::Vector3d::Zero();
   const int sweep_count = static_cast<int>(mu.sweep_order.size());

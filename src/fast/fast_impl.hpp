@@ -75,8 +75,6 @@ struct FastWorkspace::Impl {
   double length = 0.0;
   // Statics.
   double K[kFastMaxDofs * kFastMaxDofs];  // row-major, lower triangle
-  double L[kFastMaxDofs * kFastMaxDofs];  // Cholesky factor, row-major, lower triangle
-  double inv_diag[kFastMaxDofs];
   FastJointVector dtheta;
   FastJointMatrix K_full;
   Eigen::SelfAdjointEigenSolver<FastJointMatrix> eigen;
