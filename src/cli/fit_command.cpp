@@ -7,6 +7,7 @@
 #include "cli/command.hpp"
 #include "isowrench/error.hpp"
 #include "isowrench/identification.hpp"
+#include "isowrench/plots.hpp"
 #include "util/text.hpp"
 
 namespace isowrench::cli {
@@ -16,6 +17,8 @@ struct FitCommandOptions {
   ModelOptions model;
   std::string data;
   std::string output;
+  std::string report_html;
+  std::string report_markdown;
   bool json = false;
   bool list_effects = false;
   int rounds = 3;
@@ -202,6 +205,8 @@ void PrintReport(const FitReport& r, const FitCommandOptions& o) {
   }
   std::cout << "\nfit took " << util::FormatNumber(r.seconds, 3) << " s\n";
   if (!o.output.empty()) std::cout << "wrote the augmented model to " << o.output << "\n";
+  if (!o.report_html.empty()) std::cout << "wrote the HTML report to " << o.report_html << "\n";
+  if (!o.report_markdown.empty()) std::cout << "wrote the markdown report to " << o.report_markdown << "\n";
 }
 
 const bool registered = RegisterCommand({
@@ -215,6 +220,9 @@ const bool registered = RegisterCommand({
       app.add_option("data", o->data, "Measured wrenches, CSV (format: docs/identification.md)");
       app.add_option("-o,--output", o->output, "Write the augmented model (URDF + chosen effects) here");
       app.add_flag("--json", o->json, "Print everything as JSON");
+      app.add_option("--report", o->report_html,
+                     "Also write a self-contained HTML report (plots, ranked candidates, glyphs) here");
+      app.add_option("--report-md", o->report_markdown, "Also write the report as markdown (lab notebooks) here");
       app.add_option("--rounds", o->rounds, "Most effects to add (default 3)");
       app.add_option("--folds", o->folds, "Cross-validation folds (default 5)");
       app.add_option("--candidates", o->candidates, "Only try these effect ids (default: the whole library)");
@@ -251,6 +259,11 @@ const bool registered = RegisterCommand({
         FitReport report = FitEffects(model, trials, options);
         report.source = o->data;
         if (!o->output.empty()) WriteAugmentedUrdf(report, o->output);
+        FitReportOptions report_options;
+        report_options.trials = &trials;
+        report_options.model = &model;
+        if (!o->report_html.empty()) WriteFitReportHtml(report, o->report_html, report_options);
+        if (!o->report_markdown.empty()) WriteFitReportMarkdown(report, o->report_markdown, report_options);
         if (o->json) {
           std::cout << ReportJson(report, o->model.urdf, o->data, o->output).dump(2) << "\n";
         } else {
