@@ -38,7 +38,8 @@ Vector6d FemurRemovedWrench(const Model& model, const Eigen::VectorXd& q, const 
                             double activation = 1.0);
 
 /// Directory of the shipped URDFs: $ISOWRENCH_URDF_DIR if set, else the source tree's urdf/
-/// when run from a build tree, else the installed share directory.
+/// when it still exists, else <dir of the running program>/../share/isowrench/urdf (an
+/// installed tool, wherever its prefix was moved), else the configured install directory.
 std::string DefaultUrdfDirectory();
 
 }  // namespace isowrench

@@ -1,6 +1,8 @@
 // The paper's Figures 2-4 recomputed from the shipped rat URDFs (docs/paper.md lists the
 // stiffness values the paper leaves unstated and the ones chosen here).
 
+#include <unistd.h>
+
 #include <cstdlib>
 #include <fstream>
 
@@ -101,8 +103,19 @@ Model LoadRat(const std::string& urdf_dir, const std::string& file) {
 
 std::string DefaultUrdfDirectory() {
   if (const char* env = std::getenv("ISOWRENCH_URDF_DIR")) return env;
-  for (const char* dir : {ISOWRENCH_SOURCE_URDF_DIR, ISOWRENCH_INSTALL_URDF_DIR}) {
-    std::ifstream probe(std::string(dir) + "/rat_hindlimb_5dof.urdf");
+  std::vector<std::string> candidates = {ISOWRENCH_SOURCE_URDF_DIR};
+  // An installed tool finds <prefix>/share/isowrench/urdf next to <prefix>/bin, wherever the
+  // prefix was moved to (cmake --install --prefix differs from the configured one).
+  char exe[4096];
+  ssize_t n = ::readlink("/proc/self/exe", exe, sizeof(exe) - 1);
+  if (n > 0) {
+    std::string path(exe, static_cast<size_t>(n));
+    size_t slash = path.rfind('/');
+    if (slash != std::string::npos) candidates.push_back(path.substr(0, slash) + "/../share/isowrench/urdf");
+  }
+  candidates.push_back(ISOWRENCH_INSTALL_URDF_DIR);
+  for (const std::string& dir : candidates) {
+    std::ifstream probe(dir + "/rat_hindlimb_5dof.urdf");
     if (probe) return dir;
   }
   return "urdf";
