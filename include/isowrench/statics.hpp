@@ -10,6 +10,7 @@
 #include <string>
 #include <vector>
 
+#include "isowrench/kinematics.hpp"
 #include "isowrench/model.hpp"
 
 namespace isowrench {
@@ -117,6 +118,12 @@ struct WrenchEvaluation {
 /// @throws Error for unknown muscle names or a posture of the wrong size / non-finite.
 WrenchEvaluation EvaluateWrench(const Model& model, const Eigen::VectorXd& q,
                                 const std::string& muscle, double activation = 1.0,
+                                const StaticsOptions& options = {});
+
+/// The same with a caller-owned workspace and a muscle index, for repeated evaluations (no new
+/// KinematicsWorkspace per call). @throws Error for a bad index or posture.
+WrenchEvaluation EvaluateWrench(const Model& model, KinematicsWorkspace& ws, const Eigen::VectorXd& q,
+                                int muscle_index, double activation = 1.0,
                                 const StaticsOptions& options = {});
 
 /// "hip_rx +1.00, knee_ry +0.97, knee_rx +0.26": a joint-space direction in named joints,

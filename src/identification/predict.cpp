@@ -39,25 +39,13 @@ void PredictSubsetReference(const Model& model, const std::vector<Trial>& trials
                             const Vector6d& sensor_offset, std::vector<Vector6d>* wrench, std::vector<bool>* ok,
                             std::string* message) {
   KinematicsWorkspace ws(model);
-  const TransducerSpec& t = model.transducer();
-  Vector6d s_t = t.stiffness;
-  for (int i = 0; i < 6; ++i) {
-    if (t.released[i]) s_t[i] = 0.0;
-  }
-  const Eigen::VectorXd s_p = model.joint_stiffness();
-  std::vector<bool> revolute(model.dof_count());
-  for (int i = 0; i < model.dof_count(); ++i) revolute[i] = model.joint(i).type == JointType::kRevolute;
-  StaticsOptions statics;
-  statics.leg_length = model.chain_length();
   TrialMapper mapper(model);
   Eigen::VectorXd q(model.dof_count());
   for (size_t k = 0; k < subset.size(); ++k) {
     const Trial& trial = trials[subset[k]];
     try {
       int muscle_index = mapper.Map(trial, &q);
-      Matrix6Xd J = EndpointJacobian(model, ws, q);
-      MuscleTorque mt = ComputeMuscleTorque(model, ws, q, muscle_index, trial.activation);
-      StaticsResult s = SolveStatics(J, s_t, s_p, mt.tau, statics, revolute);
+      const StaticsResult s = EvaluateWrench(model, ws, q, muscle_index, trial.activation).statics;
       if (!s.ok()) {
         if (message && message->empty()) {
           *message = "trial at line " + std::to_string(trial.line) + ": " + StatusName(s.status) + ": " + s.message;

@@ -14,11 +14,20 @@ namespace isowrench {
 WrenchEvaluation EvaluateWrench(const Model& model, const Eigen::VectorXd& q, const std::string& muscle,
                                 double activation, const StaticsOptions& options) {
   int muscle_index = model.MuscleIndex(muscle);
-  ValidatePosture(model, q);
   KinematicsWorkspace ws(model);
+  return EvaluateWrench(model, ws, q, muscle_index, activation, options);
+}
+
+WrenchEvaluation EvaluateWrench(const Model& model, KinematicsWorkspace& ws, const Eigen::VectorXd& q,
+                                int muscle_index, double activation, const StaticsOptions& options) {
+  if (muscle_index < 0 || muscle_index >= model.muscle_count()) {
+    throw Error("muscle index " + std::to_string(muscle_index) + " is out of range for model '" +
+                model.name() + "'");
+  }
+  ValidatePosture(model, q);
   WrenchEvaluation e;
   e.q = q;
-  e.muscle = muscle;
+  e.muscle = model.muscle(muscle_index).name;
   e.R_W_T = TransducerRotation(model, ws, q);
   e.jacobian = EndpointJacobian(model, ws, q);
   MuscleTorque mt = ComputeMuscleTorque(model, ws, q, muscle_index, activation);
