@@ -4,6 +4,7 @@
 //     ./isowrench_kernel_driver fast 10000   (one command line)
 // instructions per evaluation = Ir collected / evaluations (printed by the driver).
 
+#include <algorithm>
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
@@ -45,6 +46,18 @@ extern "C" __attribute__((noinline)) long isowrench_measured_loop(Setup& s, cons
     }
     return n * static_cast<long>(s.sets.size());
   }
+  if (std::strcmp(kernel, "batch") == 0 || std::strcmp(kernel, "batch-stiffness") == 0) {
+    // The lane kernel on one thread: n passes over the 1024 postures, with one or 20 sets.
+    const bool many = kernel[5] == '-';
+    const std::vector<isowrench::StiffnessSet> one = {st};
+    isowrench::BatchOptions options;
+    options.threads = 1;
+    for (long i = 0; i < n; ++i) {
+      isowrench::EvaluateBatch(s.compiled, s.postures, 0, many ? s.sets : one, s.out, 1.0, options);
+      g_sink += s.out[0].wrench[0];
+    }
+    return n * s.postures.cols() * static_cast<long>(many ? s.sets.size() : 1);
+  }
   if (std::strcmp(kernel, "kdl") == 0) {
     const Eigen::VectorXd s_p = st.s_p;
     for (long i = 0; i < n; ++i) {
@@ -59,19 +72,19 @@ extern "C" __attribute__((noinline)) long isowrench_measured_loop(Setup& s, cons
     }
     return n;
   }
-  std::fprintf(stderr, "unknown kernel '%s' (fast, fast-stiffness, kdl, reference)\n", kernel);
+  std::fprintf(stderr, "unknown kernel '%s' (fast, fast-stiffness, batch, batch-stiffness, kdl, reference)\n", kernel);
   std::exit(2);
 }
 
 int main(int argc, char** argv) {
   if (argc != 3) {
-    std::fprintf(stderr, "usage: %s fast|fast-stiffness|kdl|reference <count>\n", argv[0]);
+    std::fprintf(stderr, "usage: %s fast|fast-stiffness|batch|batch-stiffness|kdl|reference <count>\n", argv[0]);
     return 2;
   }
   Setup s;
   const long n = std::atol(argv[2]);
   // Warm-up and measurement both run inside the collected function: report their sum.
-  const long evaluations = isowrench_measured_loop(s, argv[1], 16) + isowrench_measured_loop(s, argv[1], n);
+  const long evaluations = isowrench_measured_loop(s, argv[1], std::min(16L, n)) + isowrench_measured_loop(s, argv[1], n);
   std::printf("%s: %ld evaluations collected (checksum %.6g)\n", argv[1], evaluations, g_sink);
   return 0;
 }

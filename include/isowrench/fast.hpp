@@ -184,15 +184,27 @@ struct BatchOptions {
   /// Worker threads (>= 1); each gets its own FastWorkspace. 2 uses both cores of a 2-core
   /// machine. More threads than postures are not started.
   int threads = 2;
-  /// Called on the calling thread with (postures done, postures total) every few hundred
-  /// postures and once at the end; may be empty.
+  /// Called on the calling thread with (evaluations done, evaluations total), an evaluation
+  /// being one posture with one stiffness set, after each unit of work it finishes and once at
+  /// the end; may be empty.
   std::function<void(long, long)> progress;
   FastOptions solve;
 };
 
 /// Evaluate muscle `muscle` at activation `activation` at every posture (one per column of
 /// `postures`, m x P, rad / m) with every stiffness set (S sets): P * S results in
-/// `out` (resized; index p * S + s). Kinematics are computed once per posture.
+/// `out` (resized; index p * S + s).
+///
+/// How: the work is cut into blocks of postures x stiffness sets spread over the threads (sets
+/// are split too when there are few postures, so one posture with many sets uses every
+/// thread). Inside a block, four evaluations run at once, one per lane of a 4-double SIMD
+/// register (AVX2 where the CPU has it): four postures share a stiffness set, or, for a
+/// posture left over, four sets share its kinematics. Kinematics are computed once per
+/// posture. An evaluation the lanes cannot decide (a Cholesky pivot at or below
+/// FastOptions::cholesky_pivot_tolerance: a singular or nearly singular K) is redone by the
+/// scalar path, so statuses, self-motion counts and kSelfMotionHeld wrenches are those of
+/// EvaluateFast; kOk wrenches agree with EvaluateFast to rounding (the lanes may fuse
+/// multiply-adds differently). Allocates only the output and one workspace per thread.
 /// @throws Error if postures has the wrong row count or a non-finite entry, the muscle index is
 ///         out of range, a stiffness set has the wrong size, or `stiffness` is empty.
 void EvaluateBatch(const CompiledModel& model, const Eigen::Ref<const Eigen::MatrixXd>& postures,

@@ -163,7 +163,7 @@ const bool registered = RegisterCommand({
         }
         std::vector<FastWrench> results;
         {
-          Progress progress("sweep", P);
+          Progress progress("sweep", P * static_cast<long>(sets.size()));
           BatchOptions batch;
           batch.threads = *threads;
           batch.solve.rank_tolerance = options->statics.rank_tolerance;

@@ -1,19 +1,139 @@
-// Batch evaluation: postures split in chunks over worker threads, one workspace per thread,
-// kinematics once per posture and one statics solve per stiffness set.
+// Batch evaluation: units of postures x stiffness sets over worker threads; in each, four
+// evaluations at a time in the lane kernel (four postures, or one posture and four sets), the
+// lanes it leaves undecided redone on the scalar path.
 
 #include <algorithm>
 #include <atomic>
+#include <cstdint>
+#include <cstring>
 #include <thread>
 
 #include "fast/fast_impl.hpp"
+#include "fast/lanes.hpp"
 #include "isowrench/error.hpp"
 
 namespace isowrench {
 namespace {
 
-// Postures handed to a worker at a time: large enough that the shared counter is touched rarely,
-// small enough that both threads finish together and progress moves smoothly.
-constexpr long kChunk = 256;
+// Work is cut into units of (a block of postures) x (a block of stiffness sets), handed out
+// through a shared counter. Posture blocks hold at most kMaxPostureBlock postures (a multiple
+// of the lane count) and are made small enough that each thread gets several units; when there
+// are too few postures for that, the stiffness sets are split too, so one posture with many
+// stiffness sets still uses every thread.
+constexpr long kMaxPostureBlock = 256;
+constexpr long kUnitsPerThread = 8;
+
+long RoundUpToLanes(long n) { return (n + kLanes - 1) / kLanes * kLanes; }
+
+// A set the solve accepts: finite, non-negative compliances (the scalar path's input check;
+// the torque is finite because postures and activation are).
+bool ValidStiffness(const StiffnessSet& s) {
+  return s.s_t.allFinite() && s.s_p.allFinite() && (s.s_t.array() >= 0.0).all() && (s.s_p.array() >= 0.0).all();
+}
+
+// One thread's evaluator: the lane workspace, plus one scalar workspace per lane for the
+// evaluations the lanes leave undecided (and for postures evaluated alone).
+class UnitEvaluator {
+ public:
+  UnitEvaluator(const CompiledModel& model, const Eigen::Ref<const Eigen::MatrixXd>& postures, int muscle,
+                const std::vector<StiffnessSet>& stiffness, const std::vector<char>& valid, double activation,
+                const FastOptions& options, FastWrench* results)
+      : model_(model), postures_(postures), muscle_(muscle), stiffness_(stiffness), valid_(valid),
+        activation_(activation), options_(options), results_(results), lanes_(model),
+        scalar_{FastWorkspace(model), FastWorkspace(model), FastWorkspace(model), FastWorkspace(model)} {}
+
+  // Postures [p0, p1) x sets [s0, s1).
+  void Run(long p0, long p1, long s0, long s1) {
+    long p = p0;
+    // Groups of kLanes postures in the lanes; a short tail too when there are too few sets to
+    // fill the lanes instead.
+    while (p < p1 && (p1 - p >= kLanes || s1 - s0 < kLanes)) {
+      const int lanes = static_cast<int>(std::min<long>(kLanes, p1 - p));
+      PostureLanes(p, lanes, s0, s1);
+      p += lanes;
+    }
+    for (; p < p1; ++p) SetLanes(p, s0, s1);
+  }
+
+ private:
+  FastWrench& Result(long p, long s) { return results_[p * static_cast<long>(stiffness_.size()) + s]; }
+
+  // Postures p .. p + lanes - 1 in lanes 0 .. lanes - 1 (the last repeated in padding lanes).
+  void PostureLanes(long p, int lanes, long s0, long s1) {
+    const double* q[kLanes];
+    for (int l = 0; l < kLanes; ++l) q[l] = postures_.col(p + std::min(l, lanes - 1)).data();
+    const unsigned coincident = LaneKinematics(model_, lanes_, q, muscle_, activation_);
+    bool scalar_ready[kLanes] = {false, false, false, false};
+    FastWrench* out[kLanes];
+    for (long s = s0; s < s1; ++s) {
+      if (!valid_[static_cast<size_t>(s)]) {
+        for (int l = 0; l < lanes; ++l) Result(p + l, s) = FastWrench{};
+        continue;
+      }
+      const StiffnessSet* sets[kLanes] = {&stiffness_[s], &stiffness_[s], &stiffness_[s], &stiffness_[s]};
+      for (int l = 0; l < kLanes; ++l) out[l] = l < lanes ? &Result(p + l, s) : &padding_;
+      const unsigned undecided = LaneSolve(model_, lanes_, sets, options_, out);
+      for (int l = 0; l < lanes; ++l) {
+        if (coincident & (1u << l)) {
+          Result(p + l, s) = FastWrench{};
+        } else if (undecided & (1u << l)) {
+          if (!scalar_ready[l]) {
+            ComputeFastKinematics(model_, scalar_[l], postures_.col(p + l), muscle_, activation_);
+            scalar_ready[l] = true;
+          }
+          Result(p + l, s) = SolveFastStatics(model_, scalar_[l], stiffness_[s], options_);
+        }
+      }
+    }
+  }
+
+  // One posture, its kinematics broadcast to every lane, kLanes stiffness sets at a time.
+  void SetLanes(long p, long s0, long s1) {
+    FastWorkspace& ws = scalar_[0];
+    if (!ComputeFastKinematics(model_, ws, postures_.col(p), muscle_, activation_)) {
+      for (long s = s0; s < s1; ++s) Result(p, s) = FastWrench{};
+      return;
+    }
+    LaneBroadcast(ws, lanes_);
+    long group[kLanes];
+    int filled = 0;
+    auto flush = [&] {
+      const StiffnessSet* sets[kLanes];
+      FastWrench* out[kLanes];
+      for (int l = 0; l < kLanes; ++l) {
+        const int from = std::min(l, filled - 1);  // padding lanes repeat the last set
+        sets[l] = &stiffness_[group[from]];
+        out[l] = l < filled ? &Result(p, group[l]) : &padding_;
+      }
+      const unsigned undecided = LaneSolve(model_, lanes_, sets, options_, out);
+      for (int l = 0; l < filled; ++l) {
+        if (undecided & (1u << l)) Result(p, group[l]) = SolveFastStatics(model_, ws, stiffness_[group[l]], options_);
+      }
+      filled = 0;
+    };
+    for (long s = s0; s < s1; ++s) {
+      if (!valid_[static_cast<size_t>(s)]) {
+        Result(p, s) = FastWrench{};
+        continue;
+      }
+      group[filled++] = s;
+      if (filled == kLanes) flush();
+    }
+    if (filled > 0) flush();
+  }
+
+  const CompiledModel& model_;
+  const Eigen::Ref<const Eigen::MatrixXd>& postures_;
+  const int muscle_;
+  const std::vector<StiffnessSet>& stiffness_;
+  const std::vector<char>& valid_;
+  const double activation_;
+  const FastOptions& options_;
+  FastWrench* const results_;
+  LaneWorkspace lanes_;
+  FastWorkspace scalar_[kLanes];
+  FastWrench padding_;
+};
 
 }  // namespace
 
@@ -25,7 +145,27 @@ void EvaluateBatch(const CompiledModel& model, const Eigen::Ref<const Eigen::Mat
     throw Error("EvaluateBatch: postures have " + std::to_string(postures.rows()) + " rows; model '" +
                 model.model().name() + "' has " + std::to_string(m) + " joints");
   }
-  if (!postures.allFinite()) throw Error("EvaluateBatch: a posture has a non-finite entry");
+  {
+    // An entry is inf or NaN when its exponent bits are all set: one vectorisable pass of
+    // integer ORs, then a search for the culprit only if there is one.
+    constexpr std::uint64_t kExponent = 0x7ff0000000000000ull;
+    std::uint64_t nonfinite = 0;
+    for (Eigen::Index p = 0; p < postures.cols(); ++p) {
+      const double* q = postures.col(p).data();
+      for (int i = 0; i < m; ++i) {
+        std::uint64_t bits;
+        std::memcpy(&bits, q + i, sizeof bits);
+        nonfinite |= (bits & kExponent) == kExponent;
+      }
+    }
+    if (nonfinite != 0) {
+      for (Eigen::Index p = 0; p < postures.cols(); ++p) {
+        if (!postures.col(p).allFinite()) {
+          throw Error("EvaluateBatch: posture " + std::to_string(p) + " has a non-finite entry");
+        }
+      }
+    }
+  }
   if (muscle < 0 || muscle >= model.muscle_count()) {
     throw Error("EvaluateBatch: muscle index " + std::to_string(muscle) + " is out of range (model '" +
                 model.model().name() + "' has " + std::to_string(model.muscle_count()) + " muscles)");
@@ -41,34 +181,44 @@ void EvaluateBatch(const CompiledModel& model, const Eigen::Ref<const Eigen::Mat
   if (!std::isfinite(activation)) throw Error("EvaluateBatch: activation is not finite");
   const long P = static_cast<long>(postures.cols());
   const long S = static_cast<long>(stiffness.size());
-  out.assign(static_cast<size_t>(P * S), FastWrench{});
+  const long total = P * S;
+  out.assign(static_cast<size_t>(total), FastWrench{});
   if (P == 0) {
     if (options.progress) options.progress(0, 0);
     return;
   }
-  const long chunks = (P + kChunk - 1) / kChunk;
-  const int threads = static_cast<int>(std::clamp<long>(options.threads, 1, chunks));
-  std::atomic<long> next_chunk{0};
+  std::vector<char> valid(stiffness.size());
+  for (size_t s = 0; s < stiffness.size(); ++s) valid[s] = ValidStiffness(stiffness[s]);
+
+  // Units: posture blocks, and set blocks when the posture blocks alone are too few.
+  const long threads_wanted = std::max(1, options.threads);
+  const long wanted_units = threads_wanted * kUnitsPerThread;
+  const long posture_block =
+      std::clamp<long>(RoundUpToLanes((P + wanted_units - 1) / wanted_units), kLanes, kMaxPostureBlock);
+  const long posture_units = (P + posture_block - 1) / posture_block;
+  long set_block = S;
+  if (posture_units < wanted_units) {
+    const long set_units_wanted = (wanted_units + posture_units - 1) / posture_units;
+    set_block = std::max<long>(kLanes, RoundUpToLanes((S + set_units_wanted - 1) / set_units_wanted));
+  }
+  const long set_units = (S + set_block - 1) / set_block;
+  const long units = posture_units * set_units;
+  const int threads = static_cast<int>(std::clamp<long>(threads_wanted, 1, units));
+  std::atomic<long> next_unit{0};
   std::atomic<long> done{0};
   FastWrench* results = out.data();
 
   auto work = [&](bool report) {
-    FastWorkspace ws(model);
+    UnitEvaluator evaluator(model, postures, muscle, stiffness, valid, activation, options.solve, results);
     for (;;) {
-      const long chunk = next_chunk.fetch_add(1, std::memory_order_relaxed);
-      if (chunk >= chunks) break;
-      const long begin = chunk * kChunk;
-      const long end = std::min(P, begin + kChunk);
-      for (long p = begin; p < end; ++p) {
-        FastWrench* row = results + p * S;
-        if (!ComputeFastKinematics(model, ws, postures.col(p), muscle, activation)) {
-          for (long s = 0; s < S; ++s) row[s] = FastWrench{};
-          continue;
-        }
-        for (long s = 0; s < S; ++s) row[s] = SolveFastStatics(model, ws, stiffness[s], options.solve);
-      }
-      const long total_done = done.fetch_add(end - begin, std::memory_order_relaxed) + (end - begin);
-      if (report && options.progress) options.progress(total_done, P);
+      const long unit = next_unit.fetch_add(1, std::memory_order_relaxed);
+      if (unit >= units) break;
+      const long p0 = unit / set_units * posture_block, p1 = std::min(P, p0 + posture_block);
+      const long s0 = unit % set_units * set_block, s1 = std::min(S, s0 + set_block);
+      evaluator.Run(p0, p1, s0, s1);
+      const long count = (p1 - p0) * (s1 - s0);
+      const long total_done = done.fetch_add(count, std::memory_order_relaxed) + count;
+      if (report && options.progress) options.progress(total_done, total);
     }
   };
   std::vector<std::thread> helpers;
@@ -76,7 +226,7 @@ void EvaluateBatch(const CompiledModel& model, const Eigen::Ref<const Eigen::Mat
   for (int t = 1; t < threads; ++t) helpers.emplace_back(work, false);
   work(true);
   for (std::thread& t : helpers) t.join();
-  if (options.progress) options.progress(P, P);
+  if (options.progress) options.progress(total, total);
 }
 
 }  // namespace isowrench

@@ -314,11 +314,51 @@ TEST(FastPath, RawMatrixSolveSeparatesHeldAndExcitedSelfMotion) {
             StaticsStatus::kInvalidInput);
 }
 
+// The batch runs the lane kernel (four evaluations per SIMD register), which sums in the same
+// order as the scalar path but may fuse multiply-adds differently. Statuses and self-motion
+// counts must be identical. Wrenches must agree to the accuracy a backward-stable solve of K
+// promises, 16 m eps cond(K) relative to the largest entry (at least 1e-12): the stiffness sets
+// here reach cond(K) ~ 1e10, where a one-ulp change in K moves W by ~1e-6. A wrong index, lane
+// or sign gives O(1) differences.
+::testing::AssertionResult BatchMatchesSingle(const CompiledModel& compiled, const Eigen::MatrixXd& postures,
+                                              const std::vector<StiffnessSet>& sets,
+                                              const std::vector<FastWrench>& batch, double activation,
+                                              const std::string& label) {
+  FastWorkspace ws(compiled);
+  if (batch.size() != static_cast<size_t>(postures.cols()) * sets.size()) {
+    return ::testing::AssertionFailure() << label << ": " << batch.size() << " results";
+  }
+  for (int p = 0; p < postures.cols(); ++p) {
+    for (size_t s = 0; s < sets.size(); ++s) {
+      const FastWrench single = isowrench::EvaluateFast(compiled, ws, postures.col(p), 0, sets[s], activation);
+      const FastWrench& b = batch[static_cast<size_t>(p) * sets.size() + s];
+      const std::string where = label + ", posture " + std::to_string(p) + ", set " + std::to_string(s);
+      if (b.status != single.status || b.self_motion_count != single.self_motion_count) {
+        return ::testing::AssertionFailure() << where << ": status " << static_cast<int>(b.status) << " vs "
+                                             << static_cast<int>(single.status);
+      }
+      if (!b.wrench.allFinite()) return ::testing::AssertionFailure() << where << ": non-finite wrench";
+      double tolerance = kKinematicsRelTol;
+      if (single.status == StaticsStatus::kOk) {
+        const Eigen::MatrixXd J = ws.jacobian();
+        const Eigen::MatrixXd K = J.transpose() * sets[s].s_t.asDiagonal() * J +
+                                  Eigen::MatrixXd(sets[s].s_p.asDiagonal());
+        const Eigen::VectorXd lambda = Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd>(K).eigenvalues();
+        const double cond = lambda.maxCoeff() / lambda.minCoeff();
+        tolerance = std::max(tolerance, 16.0 * static_cast<double>(K.rows()) * kEps * cond);
+      }
+      auto near = Near(b.wrench, single.wrench, tolerance, where);
+      if (!near) return near;
+    }
+  }
+  return ::testing::AssertionSuccess();
+}
+
 TEST(FastPath, BatchEqualsSingleEvaluationsOnBothThreads) {
   Model model = Model::FromUrdfFile(std::string(ISOWRENCH_TEST_URDF_DIR) + "/rat_hindlimb_5dof_base.urdf");
   CompiledModel compiled(model);
   std::mt19937 rng(7);
-  constexpr int kPostures = 700;  // several chunks, so both threads take work
+  constexpr int kPostures = 701;  // many units for both threads, and a tail of one posture
   Eigen::MatrixXd postures(model.dof_count(), kPostures);
   for (int p = 0; p < kPostures; ++p) postures.col(p) = RandomPosture(model, rng);
   std::vector<StiffnessSet> sets;
@@ -337,19 +377,83 @@ TEST(FastPath, BatchEqualsSingleEvaluationsOnBothThreads) {
     last_total = total;
   };
   isowrench::EvaluateBatch(compiled, postures, 0, sets, batch, 0.8, options);
-  ASSERT_EQ(batch.size(), static_cast<size_t>(kPostures) * sets.size());
-  EXPECT_EQ(last_done, kPostures);
-  EXPECT_EQ(last_total, kPostures);
-  FastWorkspace ws(compiled);
-  for (int p = 0; p < kPostures; ++p) {
-    for (size_t s = 0; s < sets.size(); ++s) {
-      const FastWrench single = isowrench::EvaluateFast(compiled, ws, postures.col(p), 0, sets[s], 0.8);
-      const FastWrench& b = batch[static_cast<size_t>(p) * sets.size() + s];
-      ASSERT_EQ(b.status, single.status) << "posture " << p << ", set " << s;
-      // Same code on the same inputs: bitwise equal.
-      ASSERT_TRUE((b.wrench.array() == single.wrench.array()).all()) << "posture " << p << ", set " << s;
+  const long evaluations = kPostures * static_cast<long>(sets.size());
+  EXPECT_EQ(last_done, evaluations);
+  EXPECT_EQ(last_total, evaluations);
+  EXPECT_TRUE(BatchMatchesSingle(compiled, postures, sets, batch, 0.8, "rat_hindlimb_5dof_base"));
+}
+
+// Every model, both lane layouts (four postures per register; one posture and four stiffness
+// sets per register), padded lanes, and the lanes the kernel hands back to the scalar path:
+// a singular K (no S_p; no S_t at all) and an invalid set.
+TEST(FastPath, BatchLanesEqualSingleOnEveryModelIncludingUndecidedLanes) {
+  bool saw_self_motion = false, saw_invalid = false;
+  for (const Case& c : AllModels()) {
+    SCOPED_TRACE(c.label);
+    CompiledModel compiled(c.model);
+    std::mt19937 rng(11);
+    constexpr int kPostures = 13;  // 3 groups of 4 and a tail of 1
+    Eigen::MatrixXd postures(c.model.dof_count(), kPostures);
+    for (int p = 0; p < kPostures; ++p) postures.col(p) = RandomPosture(c.model, rng);
+    postures.col(5).setZero();  // straight chain: a singular K without joint stiffness
+    std::vector<StiffnessSet> sets;
+    sets.push_back(compiled.model_stiffness());
+    StiffnessSet soft = compiled.model_stiffness();
+    soft.s_t.tail<3>() *= 1e-3;
+    sets.push_back(soft);
+    StiffnessSet no_joints = compiled.model_stiffness();
+    no_joints.s_p.setZero();
+    sets.push_back(no_joints);
+    StiffnessSet nothing = no_joints;
+    nothing.s_t.setZero();
+    sets.push_back(nothing);
+    StiffnessSet negative = compiled.model_stiffness();
+    negative.s_t[2] = -1.0;
+    sets.push_back(negative);
+    for (int threads : {1, 2}) {
+      isowrench::BatchOptions options;
+      options.threads = threads;
+      std::vector<FastWrench> batch;
+      isowrench::EvaluateBatch(compiled, postures, 0, sets, batch, 0.7, options);
+      EXPECT_TRUE(BatchMatchesSingle(compiled, postures, sets, batch, 0.7, "postures x sets"));
+      for (const FastWrench& w : batch) {
+        saw_self_motion |= w.status == StaticsStatus::kSelfMotion || w.status == StaticsStatus::kSelfMotionHeld;
+        saw_invalid |= w.status == StaticsStatus::kInvalidInput;
+      }
     }
+    // One posture, 11 sets: the sets go across the lanes (two full groups and a padded one).
+    std::vector<StiffnessSet> many;
+    for (int k = 0; k < 11; ++k) {
+      StiffnessSet s = k % 5 == 4 ? sets[2] : compiled.model_stiffness();
+      s.s_t.tail<3>() *= std::pow(10.0, -0.4 * k);
+      many.push_back(s);
+    }
+    many[7] = negative;
+    std::vector<FastWrench> batch;
+    isowrench::EvaluateBatch(compiled, postures.leftCols(1), 0, many, batch, 1.0);
+    EXPECT_TRUE(BatchMatchesSingle(compiled, postures.leftCols(1), many, batch, 1.0, "one posture x sets"));
   }
+  EXPECT_TRUE(saw_self_motion);  // the scalar fallback ran
+  EXPECT_TRUE(saw_invalid);
+}
+
+// The lane sin/cos: quadrant boundaries, negative angles, and angles beyond the reduction's
+// range (handed to std::sin / std::cos) give the scalar path's wrench.
+TEST(FastPath, BatchLaneAnglesAcrossQuadrantsAndHugeAnglesEqualSingle) {
+  Model model = Model::FromUrdfFile(std::string(ISOWRENCH_TEST_URDF_DIR) + "/planar_2r.urdf");
+  CompiledModel compiled(model);
+  const std::vector<double> angles = {0.0,          kPi / 4,      kPi / 2,    -kPi / 2,    kPi - 1e-9,
+                                      -kPi,         3 * kPi / 2,  7.0,        -123.456,    99999.5,
+                                      1e5 + 0.25,   -2.5e6,       1e12,       kPi / 4 - 1e-15};
+  Eigen::MatrixXd postures(2, static_cast<int>(angles.size()));
+  for (size_t i = 0; i < angles.size(); ++i) {
+    postures(0, static_cast<int>(i)) = angles[i];
+    postures(1, static_cast<int>(i)) = angles[angles.size() - 1 - i] + 0.3;
+  }
+  std::vector<StiffnessSet> sets = {compiled.model_stiffness()};
+  std::vector<FastWrench> batch;
+  isowrench::EvaluateBatch(compiled, postures, 0, sets, batch);
+  EXPECT_TRUE(BatchMatchesSingle(compiled, postures, sets, batch, 1.0, "planar_2r angles"));
 }
 
 TEST(FastPath, BatchRejectsBadInputNamingIt) {
@@ -382,6 +486,16 @@ TEST(FastPath, CoincidentPathPointsGiveInvalidInputNotNaN) {
                                                compiled.model_stiffness());
   EXPECT_EQ(w.status, StaticsStatus::kInvalidInput);
   EXPECT_TRUE(w.wrench.allFinite());
+  // The lane kernel flags the same lanes (here all five postures, set by set).
+  Eigen::MatrixXd postures(2, 5);
+  for (int p = 0; p < 5; ++p) postures.col(p) = model.nominal_posture() * (1.0 + 0.1 * p);
+  std::vector<FastWrench> batch;
+  isowrench::EvaluateBatch(compiled, postures, 1, {compiled.model_stiffness(), compiled.model_stiffness()}, batch);
+  ASSERT_EQ(batch.size(), 10u);
+  for (const FastWrench& b : batch) {
+    EXPECT_EQ(b.status, StaticsStatus::kInvalidInput);
+    EXPECT_TRUE((b.wrench.array() == 0.0).all());
+  }
 }
 
 }  // namespace

@@ -1,0 +1,50 @@
+#pragma once
+// Private: the batch kernel, four evaluations at once, one per lane of a 4-double SIMD register
+// (AVX2 on x86-64-v3; two SSE2 registers per lane group on older CPUs). The same kernel as
+// ComputeFastKinematics + SolveFastStatics; a lane it cannot decide is flagged and the caller
+// redoes it on the scalar path, which owns the eigen-solve and the self-motion report.
+
+#include <memory>
+
+#include "isowrench/fast.hpp"
+
+namespace isowrench {
+
+/// Evaluations per lane group.
+inline constexpr int kLanes = 4;
+
+/// Scratch of the lane kernel for one thread: the lane kinematics (frames, J, tau) of up to four
+/// postures. Constructed once; the functions below never allocate.
+class LaneWorkspace {
+ public:
+  explicit LaneWorkspace(const CompiledModel& model);
+  ~LaneWorkspace();
+  LaneWorkspace(const LaneWorkspace&) = delete;
+  LaneWorkspace& operator=(const LaneWorkspace&) = delete;
+
+  struct Impl;
+  Impl& impl() { return *impl_; }
+
+ private:
+  std::unique_ptr<Impl> impl_;
+};
+
+/// Kinematics and muscle torque (muscle `muscle`, force = activation * max_force) of posture
+/// q[l] (dof_count() entries each) in lane l. Returns the bitmask of lanes (bit l) where two
+/// consecutive path points coincide; the scalar path gives kInvalidInput there.
+unsigned LaneKinematics(const CompiledModel& model, LaneWorkspace& ws, const double* const q[kLanes],
+                        int muscle, double activation);
+
+/// Puts the Jacobian and torque of the scalar workspace (after ComputeFastKinematics) in every
+/// lane: one posture, a different stiffness set per lane.
+void LaneBroadcast(const FastWorkspace& scalar, LaneWorkspace& ws);
+
+/// The statics of lane l with stiffness set *sets[l] (each checked by the caller: sizes match,
+/// entries finite and >= 0), writing *out[l] with status kOk. Returns the bitmask of lanes left
+/// undecided (a Cholesky pivot at or below FastOptions::cholesky_pivot_tolerance, or a
+/// non-finite result); their *out[l] is not written and the caller solves them on the scalar
+/// path.
+unsigned LaneSolve(const CompiledModel& model, LaneWorkspace& ws, const StiffnessSet* const sets[kLanes],
+                   const FastOptions& options, FastWrench* const out[kLanes]);
+
+}  // namespace isowrench
