@@ -62,7 +62,7 @@ class UnitEvaluator {
   void PostureLanes(long p, int lanes, long s0, long s1) {
     const double* q[kLanes];
     for (int l = 0; l < kLanes; ++l) q[l] = postures_.col(p + std::min(l, lanes - 1)).data();
-    const unsigned coincident = LaneKinematics(model_, lanes_, q, muscle_, activation_);
+    const unsigned scalar_lanes = LaneKinematics(model_, lanes_, q, muscle_, activation_);
     bool scalar_ready[kLanes] = {false, false, false, false};
     FastWrench* out[kLanes];
     for (long s = s0; s < s1; ++s) {
@@ -72,11 +72,9 @@ class UnitEvaluator {
       }
       const StiffnessSet* sets[kLanes] = {&stiffness_[s], &stiffness_[s], &stiffness_[s], &stiffness_[s]};
       for (int l = 0; l < kLanes; ++l) out[l] = l < lanes ? &Result(p + l, s) : &padding_;
-      const unsigned undecided = LaneSolve(model_, lanes_, sets, options_, out);
+      const unsigned undecided = LaneSolve(model_, lanes_, sets, options_, out) & ~scalar_lanes;
       for (int l = 0; l < lanes; ++l) {
-        if (coincident & (1u << l)) {
-          Result(p + l, s) = FastWrench{};
-        } else if (undecided & (1u << l)) {
+        if (undecided & (1u << l)) {
           if (!scalar_ready[l]) {
             ComputeFastKinematics(model_, scalar_[l], postures_.col(p + l), muscle_, activation_);
             scalar_ready[l] = true;
@@ -84,6 +82,10 @@ class UnitEvaluator {
           Result(p + l, s) = SolveFastStatics(model_, scalar_[l], stiffness_[s], options_);
         }
       }
+    }
+    // Lanes the kinematics handed back (last: SetLanes reuses the lane workspace).
+    for (int l = 0; l < lanes; ++l) {
+      if (scalar_lanes & (1u << l)) SetLanes(p + l, s0, s1);
     }
   }
 

@@ -56,16 +56,10 @@ ISOWRENCH_LANE_INLINE void Sqrt(const V& x, V& out) {
 // Per-lane sin and cos: the polynomial and Cody-Waite reduction of SinCos in fast.cpp, with the
 // quadrant read from the low bits of x 2/pi + 1.5 * 2^52 (its mantissa holds round(x 2/pi),
 // two's complement modulo 4) and applied by selects and sign-bit flips instead of branches.
-// Valid for |x| < kMaxReduced in every lane; LaneKinematics checks that once per call and
-// otherwise takes std::sin / std::cos (kReduce = false).
+// Valid for |x| < kMaxReduced; LaneKinematics hands lanes with larger angles to the scalar
+// path (which uses std::sin / std::cos there).
 constexpr double kMaxReduced = 1e5;
-template <bool kReduce>
 ISOWRENCH_LANE_INLINE void SinCos(const V& x, V& sin_x, V& cos_x) {
-  if (!kReduce) {
-    sin_x = V{std::sin(x[0]), std::sin(x[1]), std::sin(x[2]), std::sin(x[3])};
-    cos_x = V{std::cos(x[0]), std::cos(x[1]), std::cos(x[2]), std::cos(x[3])};
-    return;
-  }
   constexpr double kTwoOverPi = 6.36619772367581382433e-01;
   constexpr double kPio2_1 = 1.57079632673412561417e+00;
   constexpr double kPio2_2 = 6.07710050630396597660e-11;
@@ -146,10 +140,9 @@ ISOWRENCH_LANE_INLINE void Cross(const V* a, const V* b, V* out) {
 }
 
 // M <- M Rot(axis, q) per lane (RotateFrame in fast.cpp).
-template <bool kReduce>
 ISOWRENCH_LANE_INLINE void RotateFrame(const FastJoint& j, const V& q, V* M) {
   V s, c;
-  SinCos<kReduce>(q, s, c);
+  SinCos(q, s, c);
   s *= j.axis_sign;
   auto rotate_columns = [&](int a, int b) {  // (col a, col b) <- (c a + s b, c b - s a)
     for (int i = 0; i < 3; ++i) {
@@ -188,7 +181,6 @@ ISOWRENCH_LANE_INLINE void RotateFrame(const FastJoint& j, const V& q, V* M) {
 
 // Forward kinematics with the running frame (M, o) kept in registers: per joint its world axis
 // and origin are stored, its frame only where a path point hangs on it.
-template <bool kReduce>
 ISOWRENCH_LANE_INLINE void ForwardKinematics(const CompiledModel::Data& d, LaneWorkspace::Impl& ws, V* M, V* o) {
   const int m = d.m;
   for (int k = 0; k < m; ++k) {
@@ -221,7 +213,7 @@ ISOWRENCH_LANE_INLINE void ForwardKinematics(const CompiledModel::Data& d, LaneW
       default: MulConst(M, j.axis, z); break;
     }
     if (j.revolute) {
-      RotateFrame<kReduce>(j, ws.q[k], M);
+      RotateFrame(j, ws.q[k], M);
     } else {
       for (int i = 0; i < 3; ++i) o[i] += z[i] * ws.q[k];
     }
@@ -250,11 +242,7 @@ ISOWRENCH_LANE_CLONES unsigned LaneKinematics(const CompiledModel& model, LaneWo
   }
   V R_last[9];
   V o[3];
-  if (Bits(out_of_range) == 0) {
-    ForwardKinematics<true>(d, ws, R_last, o);
-  } else {
-    ForwardKinematics<false>(d, ws, R_last, o);
-  }
+  ForwardKinematics(d, ws, R_last, o);
   V endpoint[3];
   MulConst(R_last, d.endpoint, endpoint);
   for (int i = 0; i < 3; ++i) endpoint[i] += o[i];
@@ -352,10 +340,10 @@ ISOWRENCH_LANE_CLONES unsigned LaneKinematics(const CompiledModel& model, LaneWo
     }
     ws.tau[k] = minus_force * dL;
   }
-  return Bits(coincident);
+  return Bits(coincident | out_of_range);
 }
 
-void LaneBroadcast(const FastWorkspace& scalar, LaneWorkspace& workspace) {
+ISOWRENCH_LANE_CLONES void LaneBroadcast(const FastWorkspace& scalar, LaneWorkspace& workspace) {
   LaneWorkspace::Impl& ws = workspace.impl();
   const FastWorkspace::Impl& s = scalar.impl();
   for (int k = 0; k < ws.m; ++k) {
@@ -439,7 +427,7 @@ ISOWRENCH_LANE_INLINE void SolveLanesKernel(LaneWorkspace::Impl& ws, int m_runti
 }
 
 // Returns the undecided lanes' bitmask.
-ISOWRENCH_LANE_CLONES unsigned SolveLanesDispatch(LaneWorkspace::Impl& ws, const V* s_t, const V* s_p,
+ISOWRENCH_LANE_INLINE unsigned SolveLanesDispatch(LaneWorkspace::Impl& ws, const V* s_t, const V* s_p,
                                                   const FastOptions& options, V* wrench) {
   VI undecided;
   switch (ws.m) {
@@ -458,7 +446,8 @@ ISOWRENCH_LANE_CLONES unsigned SolveLanesDispatch(LaneWorkspace::Impl& ws, const
 
 }  // namespace
 
-unsigned LaneSolve(const CompiledModel& model, LaneWorkspace& workspace, const StiffnessSet* const sets[kLanes],
+ISOWRENCH_LANE_CLONES unsigned LaneSolve(const CompiledModel& model, LaneWorkspace& workspace,
+                                         const StiffnessSet* const sets[kLanes],
                    const FastOptions& options, FastWrench* const out[kLanes]) {
   LaneWorkspace::Impl& ws = workspace.impl();
   const int m = model.dof_count();

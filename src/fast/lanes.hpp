@@ -30,8 +30,9 @@ class LaneWorkspace {
 };
 
 /// Kinematics and muscle torque (muscle `muscle`, force = activation * max_force) of posture
-/// q[l] (dof_count() entries each) in lane l. Returns the bitmask of lanes (bit l) where two
-/// consecutive path points coincide; the scalar path gives kInvalidInput there.
+/// q[l] (dof_count() entries each) in lane l. Returns the bitmask of lanes (bit l) the caller
+/// must evaluate on the scalar path instead: two consecutive path points coincide (kInvalidInput
+/// there), or a revolute angle has |q| >= 1e5 rad, beyond the lane sin/cos range reduction.
 unsigned LaneKinematics(const CompiledModel& model, LaneWorkspace& ws, const double* const q[kLanes],
                         int muscle, double activation);
 
