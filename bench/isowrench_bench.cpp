@@ -123,6 +123,29 @@ void BM_Sweep181x181x20(benchmark::State& state) {
 }
 BENCHMARK(BM_Sweep181x181x20)->UseRealTime()->Unit(benchmark::kMillisecond);
 
+// The fitting target: 1,000 simulated trials (rat_hindlimb_5dof.urdf, a base compliance
+// of 1e7 N/m as the truth, the default noise) fitted against the whole candidate-effect library:
+// the full loop of isowrench::FitEffects (rounds, cross-validation, decisions). One item = one
+// whole fit.
+void BM_Fit1000TrialsWholeLibrary(benchmark::State& state) {
+  const isowrench::Model nominal =
+      isowrench::Model::FromUrdfFile(std::string(ISOWRENCH_BENCH_URDF_DIR) + "/rat_hindlimb_5dof.urdf");
+  isowrench::SimulationOptions simulation;
+  simulation.postures = 1000;
+  simulation.seed = 3;
+  const std::vector<isowrench::Trial> trials = isowrench::SimulateTrials(
+      nominal, isowrench::ApplyEffects(nominal.description(), {isowrench::ParseEffectAssignment(nominal, "base_isotropic=1e7")}),
+      simulation);
+  std::size_t candidates = 0;
+  for (auto _ : state) {
+    const isowrench::FitReport report = isowrench::FitEffects(nominal, trials);
+    candidates = report.rounds.empty() ? 0 : report.rounds.front().candidates.size();
+    benchmark::DoNotOptimize(report.rounds.size());
+  }
+  state.counters["candidates"] = static_cast<double>(candidates);
+}
+BENCHMARK(BM_Fit1000TrialsWholeLibrary)->Unit(benchmark::kSecond)->UseRealTime()->Iterations(3);
+
 // Console output as usual, plus a record of every run for the summary.
 class RecordingReporter : public benchmark::ConsoleReporter {
  public:
