@@ -13,6 +13,7 @@
 
 #include <cassert>
 #include <cmath>
+#include <cstring>
 #include <limits>
 #include <map>
 #include <string>
@@ -38,8 +39,10 @@ constexpr double kMinSegmentLength = 1e-9;
 #endif
 #if defined(__GNUC__)
 #define ISOWRENCH_INLINE inline __attribute__((always_inline))
+#define ISOWRENCH_NOINLINE __attribute__((noinline))
 #else
 #define ISOWRENCH_INLINE inline
+#define ISOWRENCH_NOINLINE
 #endif
 
 
@@ -95,36 +98,52 @@ ISOWRENCH_INLINE void SinCos(double x, double* sin_x, double* cos_x) {
   *cos_x = sign_cos * (swap ? sin_r : cos_r);
 }
 
-// M <- M * Rot(axis, q) for a joint.
-ISOWRENCH_INLINE void RotateFrame(const FastJoint& j, double q, Eigen::Matrix3d& M) {
-  double c, s;
-  SinCos(q, &s, &c);
-  s *= j.axis_sign;
-  switch (j.axis_kind) {
-    case 0: {
-      const Eigen::Vector3d m1 = M.col(1), m2 = M.col(2);
-      M.col(1) = c * m1 + s * m2;
-      M.col(2) = c * m2 - s * m1;
-      break;
-    }
-    case 1: {
-      const Eigen::Vector3d m0 = M.col(0), m2 = M.col(2);
-      M.col(0) = c * m0 - s * m2;
-      M.col(2) = s * m0 + c * m2;
-      break;
-    }
-    case 2: {
-      const Eigen::Vector3d m0 = M.col(0), m1 = M.col(1);
-      M.col(0) = c * m0 + s * m1;
-      M.col(1) = c * m1 - s * m0;
-      break;
-    }
-    default: {
-      const Eigen::Matrix3d rot = Eigen::AngleAxisd(q, j.axis).toRotationMatrix();
-      M = (M * rot).eval();
-      break;
+// M <- M R0 for 3x3 column-major arrays (R0 a fixed origin rotation).
+ISOWRENCH_INLINE void MultiplyRotation(double* M, const double* R0) {
+  double P[9];
+  for (int c = 0; c < 3; ++c) {
+    for (int r = 0; r < 3; ++r) {
+      P[3 * c + r] = M[r] * R0[3 * c] + M[3 + r] * R0[3 * c + 1] + M[6 + r] * R0[3 * c + 2];
     }
   }
+  for (int i = 0; i < 9; ++i) M[i] = P[i];
+}
+
+// World axis z = sign * column K of M, then (revolute) M <- M Rot(e_K, q) given c = cos q and
+// s = sign * sin q; a prismatic joint passes turn = false.
+template <int K>
+ISOWRENCH_INLINE void AxisAndTurn(double* M, double sign, double c, double s, double* z,
+                                  bool turn = true) {
+  z[0] = sign * M[3 * K];
+  z[1] = sign * M[3 * K + 1];
+  z[2] = sign * M[3 * K + 2];
+  if (!turn) return;
+  constexpr int A = 3 * ((K + 1) % 3), B = 3 * ((K + 2) % 3);  // the two columns that turn
+  const double a0 = M[A], a1 = M[A + 1], a2 = M[A + 2];
+  const double b0 = M[B], b1 = M[B + 1], b2 = M[B + 2];
+  M[A] = c * a0 + s * b0;
+  M[A + 1] = c * a1 + s * b1;
+  M[A + 2] = c * a2 + s * b2;
+  M[B] = c * b0 - s * a0;
+  M[B + 1] = c * b1 - s * a1;
+  M[B + 2] = c * b2 - s * a2;
+}
+
+// The same for a general unit axis, out of line (no shipped chain has one); M goes through a
+// copy so that the caller's frame never has its address taken and stays in registers.
+ISOWRENCH_NOINLINE void GeneralAxisAndTurnOutOfLine(Eigen::Matrix3d& M, const FastJoint& j, double q,
+                                                    double* z, bool turn) {
+  Eigen::Map<Eigen::Vector3d>(z).noalias() = M * j.axis;
+  if (turn) {
+    const Eigen::Matrix3d rot = Eigen::AngleAxisd(q, j.axis).toRotationMatrix();
+    M = (M * rot).eval();
+  }
+}
+ISOWRENCH_INLINE void GeneralAxisAndTurn(double* M, const FastJoint& j, double q, double* z, bool turn) {
+  Eigen::Matrix3d copy;
+  for (int i = 0; i < 9; ++i) copy.data()[i] = M[i];
+  GeneralAxisAndTurnOutOfLine(copy, j, q, z, turn);
+  for (int i = 0; i < 9; ++i) M[i] = copy.data()[i];
 }
 
 // Full unrolling of the statics loops when m is a compile-time constant (N > 0): the 8-dof
@@ -138,6 +157,18 @@ ISOWRENCH_INLINE void RotateFrame(const FastJoint& j, double q, Eigen::Matrix3d&
 #endif
 
 
+#if defined(__GNUC__)
+#define ISOWRENCH_VECTOR_KERNEL 1
+// 4-double vectors (GCC/Clang vector extensions): one AVX register in the x86-64-v3 clone, two
+// SSE2 registers in the baseline.
+typedef double V4 __attribute__((vector_size(32)));
+// Macros rather than functions: a V4 passed or returned by value would draw GCC's -Wpsabi note
+// (the ABI of a 32-byte vector argument depends on AVX being enabled).
+#define ISOWRENCH_V4_SPLAT(x) (V4{(x), (x), (x), (x)})
+#define ISOWRENCH_V4_LOAD(v, p) std::memcpy(&(v), (p), sizeof(V4))
+#define ISOWRENCH_V4_STORE(p, v) std::memcpy((p), &(v), sizeof(V4))
+#endif
+
 // The eigen-solve used when the Cholesky pivots say K is (nearly) singular: the same rank and
 // excitation decisions as SolveStatics, on the workspace's fixed-size buffers.
 FastWrench SolveByEigen(FastWorkspace::Impl& ws, int m, const double* J, const double* s_t,
@@ -146,7 +177,7 @@ FastWrench SolveByEigen(FastWorkspace::Impl& ws, int m, const double* J, const d
   FastJointMatrix& K = ws.K_full;
   K.resize(m, m);
   for (int i = 0; i < m; ++i) {
-    for (int j = 0; j <= i; ++j) K(i, j) = K(j, i) = ws.K[i * kFastMaxDofs + j];
+    for (int j = 0; j <= i; ++j) K(i, j) = K(j, i) = ws.K[j * kFastMaxDofs + i];  // upper triangle
   }
   ws.eigen.compute(K);
   const auto& lambda = ws.eigen.eigenvalues();
@@ -216,8 +247,75 @@ FastWrench Invalid(FastWorkspace::Impl& ws) {
   return FastWrench{};
 }
 
-// K = J^T S_t J + S_p, Cholesky, two triangular solves, W = S_t J dtheta. N > 0 fixes m at
-// compile time (loops unroll); N = 0 uses the runtime m. J is 6 x m column-major.
+// Every solve keeps K = J^T S_t J + S_p in ws.K as its upper triangle by rows (K_ij, j >= i, at
+// ws.K[i * kFastMaxDofs + j]): the eigen fallback reads it from there. The factor is kept as
+// U = L^T (K = U^T U), row j of U at U[j * kFastMaxDofs + k], k >= j; both kernels below form
+// the same products and sums in the same order (up to the compiler's fusing of multiply-adds):
+// K_ij = sum_r (s_r J_rj) J_ri, the pivot d_j = K_jj - sum_{k<j} U_kj^2 and, for i > j,
+// U_ji = (K_ji - sum_{k<j} U_kj U_ki) / sqrt(d_j).
+
+// Forward and back substitution with U (only its strict upper triangle and the reciprocal
+// diagonal are read), then W = S_t J dtheta. N > 0 fixes m at compile time (loops unroll).
+template <int N>
+ISOWRENCH_INLINE FastWrench Substitute(FastWorkspace::Impl& ws, int m, const double* U, const double* inv_diag,
+                                       const double* J, const double* s_t, const double* tau) {
+  constexpr int S = kFastMaxDofs;
+  double y[S];
+  ISOWRENCH_UNROLL
+  for (int i = 0; i < m; ++i) {
+    double v = tau[i];
+    ISOWRENCH_UNROLL
+    for (int k = 0; k < i; ++k) v -= U[k * S + i] * y[k];
+    y[i] = v * inv_diag[i];
+  }
+  ws.dtheta.resize(m);
+  double* x = ws.dtheta.data();
+  ISOWRENCH_UNROLL
+  for (int i = m - 1; i >= 0; --i) {
+    double v = y[i];
+    ISOWRENCH_UNROLL
+    for (int k = i + 1; k < m; ++k) v -= U[i * S + k] * x[k];
+    x[i] = v * inv_diag[i];
+  }
+  FastWrench out;
+#if defined(ISOWRENCH_VECTOR_KERNEL)
+  if (N > 0) {
+    // W on 4-double vectors: rows 0-3 and rows 2-5 of each column of J (rows 2 and 3 twice),
+    // the same sums in the same order as below.
+    V4 head = ISOWRENCH_V4_SPLAT(0.0), tail = ISOWRENCH_V4_SPLAT(0.0);
+    ISOWRENCH_UNROLL
+    for (int j = 0; j < m; ++j) {
+      V4 c0, c1;
+      ISOWRENCH_V4_LOAD(c0, J + 6 * j);
+      ISOWRENCH_V4_LOAD(c1, J + 6 * j + 2);
+      const V4 xj = ISOWRENCH_V4_SPLAT(x[j]);
+      head += c0 * xj;
+      tail += c1 * xj;
+    }
+    V4 s0, s1;
+    ISOWRENCH_V4_LOAD(s0, s_t);
+    ISOWRENCH_V4_LOAD(s1, s_t + 2);
+    head *= s0;
+    tail *= s1;
+    ISOWRENCH_V4_STORE(out.wrench.data(), head);
+    ISOWRENCH_V4_STORE(out.wrench.data() + 2, tail);
+  } else
+#endif
+  {
+    ISOWRENCH_UNROLL
+    for (int r = 0; r < 6; ++r) {
+      double v = 0.0;
+      ISOWRENCH_UNROLL
+      for (int j = 0; j < m; ++j) v += J[j * 6 + r] * x[j];
+      out.wrench[r] = s_t[r] * v;
+    }
+  }
+  out.status = StaticsStatus::kOk;
+  ws.self_motion.resize(m, 0);
+  return out;
+}
+
+// K, Cholesky, the solves, on scalars: any m (N = 0: the runtime m).
 template <int N>
 ISOWRENCH_INLINE FastWrench SolveKernel(FastWorkspace::Impl& ws, int m_runtime, const double* J, const double* s_t,
                        const double* s_p, const double* tau, const FastOptions& options) {
@@ -228,76 +326,152 @@ ISOWRENCH_INLINE FastWrench SolveKernel(FastWorkspace::Impl& ws, int m_runtime, 
   double max_diag = 0.0;
   ISOWRENCH_UNROLL
   for (int i = 0; i < m; ++i) {
-    double sj[6];
     ISOWRENCH_UNROLL
-    for (int r = 0; r < 6; ++r) sj[r] = s_t[r] * J[i * 6 + r];
-    ISOWRENCH_UNROLL
-    for (int j = 0; j <= i; ++j) {
+    for (int j = i; j < m; ++j) {
       double sum = 0.0;
       ISOWRENCH_UNROLL
-      for (int r = 0; r < 6; ++r) sum += sj[r] * J[j * 6 + r];
+      for (int r = 0; r < 6; ++r) sum += (s_t[r] * J[j * 6 + r]) * J[i * 6 + r];
       K[i * S + j] = sum;
     }
     K[i * S + i] += s_p[i];
     max_diag = std::max(max_diag, K[i * S + i]);
   }
-  // Cholesky K = L L^T, accepted only with every pivot clearly positive.
+  // Cholesky K = U^T U (left-looking), accepted only with every pivot clearly positive.
   const double pivot_floor = options.cholesky_pivot_tolerance * max_diag;
-  // Factor and reciprocal diagonal live in locals: once unrolled they stay in registers.
-  double L[S * S];
+  double U[S * S];
   double inv_diag[S];
   if (!(max_diag > 0.0)) return SolveByEigen(ws, m, J, s_t, tau, options);
   ISOWRENCH_UNROLL
   for (int j = 0; j < m; ++j) {
     double d = K[j * S + j];
     ISOWRENCH_UNROLL
-    for (int k = 0; k < j; ++k) d -= L[j * S + k] * L[j * S + k];
+    for (int k = 0; k < j; ++k) d -= U[k * S + j] * U[k * S + j];
     if (!(d > pivot_floor)) return SolveByEigen(ws, m, J, s_t, tau, options);
-    const double l = std::sqrt(d);
-    const double inv = 1.0 / l;
-    L[j * S + j] = l;
+    const double inv = 1.0 / std::sqrt(d);
     inv_diag[j] = inv;
     ISOWRENCH_UNROLL
     for (int i = j + 1; i < m; ++i) {
-      double v = K[i * S + j];
+      double v = K[j * S + i];
       ISOWRENCH_UNROLL
-      for (int k = 0; k < j; ++k) v -= L[i * S + k] * L[j * S + k];
-      L[i * S + j] = v * inv;
+      for (int k = 0; k < j; ++k) v -= U[k * S + i] * U[k * S + j];
+      U[j * S + i] = v * inv;
     }
   }
-  double y[S];
+  return Substitute<N>(ws, m, U, inv_diag, J, s_t, tau);
+}
+
+#if defined(ISOWRENCH_VECTOR_KERNEL)
+// The kernel on V4, for 1 <= N <= 10 (the dispatch below). K is built by rows,
+// K(i, :) = sum_r J_ri (s_r J(r, :)) from the rows of J (ws.J_rows), and factored right-looking
+// (row j of U, then the rank-1 update of the rows below it), both in blocks of 4 columns of
+// the upper triangle; the entries of a block left of the diagonal and beyond m are computed
+// too (from the zero columns of J_rows beyond m) and ignored.
+
+// Branch-free check of the solve inputs (as ValidSolveInput), m = N entries of s_p and tau.
+template <int N>
+ISOWRENCH_INLINE bool ValidSolveInputV4(const double* s_t, const double* s_p, const double* tau) {
+  if (N < 4) return ValidSolveInput(N, s_t, s_p, tau);
+  const V4 zero = ISOWRENCH_V4_SPLAT(0.0);
+  // Blocks of 4 covering [0, N), the last one overlapping its neighbour when 4 does not divide N.
+  V4 st0, st1;
+  ISOWRENCH_V4_LOAD(st0, s_t);
+  ISOWRENCH_V4_LOAD(st1, s_t + 2);
+  V4 nonfinite = st0 * zero + st1 * zero;
+  V4 lowest = st0 < st1 ? st0 : st1;
   ISOWRENCH_UNROLL
-  for (int i = 0; i < m; ++i) {
-    double v = tau[i];
-    ISOWRENCH_UNROLL
-    for (int k = 0; k < i; ++k) v -= L[i * S + k] * y[k];
-    y[i] = v * inv_diag[i];
+  for (int b = 0; b < (N + 3) / 4; ++b) {
+    const int at = std::min(4 * b, N - 4);
+    V4 p, t;
+    ISOWRENCH_V4_LOAD(p, s_p + at);
+    ISOWRENCH_V4_LOAD(t, tau + at);
+    nonfinite += p * zero + t * zero;
+    lowest = lowest < p ? lowest : p;
   }
-  ws.dtheta.resize(m);
-  double* x = ws.dtheta.data();
-  ISOWRENCH_UNROLL
-  for (int i = m - 1; i >= 0; --i) {
-    double v = y[i];
-    ISOWRENCH_UNROLL
-    for (int k = i + 1; k < m; ++k) v -= L[k * S + i] * x[k];
-    x[i] = v * inv_diag[i];
-  }
-  FastWrench out;
+  const double nf = (nonfinite[0] + nonfinite[1]) + (nonfinite[2] + nonfinite[3]);
+  const double lo = std::min(std::min(lowest[0], lowest[1]), std::min(lowest[2], lowest[3]));
+  return nf == 0.0 && lo >= 0.0;
+}
+
+template <int N>
+ISOWRENCH_INLINE FastWrench SolveKernelV4(FastWorkspace::Impl& ws, const double* J, const double* s_t,
+                                          const double* s_p, const double* tau, const FastOptions& options) {
+  static_assert(N >= 1 && 4 * ((N + 3) / 4) <= kFastMaxDofs, "blocks within a row of J_rows");
+  constexpr int S = kFastMaxDofs;
+  constexpr int B = (N + 3) / 4;  // blocks of 4 columns
+  if (!ValidSolveInputV4<N>(s_t, s_p, tau)) return Invalid(ws);
+  const double* Jr = ws.J_rows;
+  V4 Jv[6][B], sJ[6][B];
   ISOWRENCH_UNROLL
   for (int r = 0; r < 6; ++r) {
-    double v = 0.0;
+    const V4 s = ISOWRENCH_V4_SPLAT(s_t[r]);
     ISOWRENCH_UNROLL
-    for (int j = 0; j < m; ++j) v += J[j * 6 + r] * x[j];
-    out.wrench[r] = s_t[r] * v;
+    for (int b = 0; b < B; ++b) {
+      ISOWRENCH_V4_LOAD(Jv[r][b], Jr + r * S + 4 * b);
+      sJ[r][b] = s * Jv[r][b];
+    }
   }
-  out.status = StaticsStatus::kOk;
-  ws.self_motion.resize(m, 0);
-  return out;
+  // A: the rows of K (blocks b >= i / 4), updated in place into the trailing matrix.
+  V4 A[N][B];
+  double* K = ws.K;
+  double max_diag = 0.0;
+  ISOWRENCH_UNROLL
+  for (int i = 0; i < N; ++i) {
+    ISOWRENCH_UNROLL
+    for (int b = i / 4; b < B; ++b) {
+      V4 acc = ISOWRENCH_V4_SPLAT(Jr[i]) * sJ[0][b];
+      ISOWRENCH_UNROLL
+      for (int r = 1; r < 6; ++r) acc += ISOWRENCH_V4_SPLAT(Jr[r * S + i]) * sJ[r][b];
+      A[i][b] = acc;
+    }
+    V4 diagonal = ISOWRENCH_V4_SPLAT(0.0);
+    diagonal[i % 4] = s_p[i];
+    A[i][i / 4] += diagonal;
+    ISOWRENCH_UNROLL
+    for (int b = i / 4; b < B; ++b) ISOWRENCH_V4_STORE(K + i * S + 4 * b, A[i][b]);
+    max_diag = std::max(max_diag, K[i * S + i]);
+  }
+  const double pivot_floor = options.cholesky_pivot_tolerance * max_diag;
+  if (!(max_diag > 0.0)) return SolveByEigen(ws, N, J, s_t, tau, options);
+  double U[N * S];
+  double inv_diag[N];
+  ISOWRENCH_UNROLL
+  for (int j = 0; j < N; ++j) {
+    const double d = A[j][j / 4][j % 4];
+    if (!(d > pivot_floor)) return SolveByEigen(ws, N, J, s_t, tau, options);
+    const double inv = 1.0 / std::sqrt(d);
+    inv_diag[j] = inv;
+    V4 u[B];
+    ISOWRENCH_UNROLL
+    for (int b = j / 4; b < B; ++b) {
+      u[b] = A[j][b] * ISOWRENCH_V4_SPLAT(inv);
+      ISOWRENCH_V4_STORE(U + j * S + 4 * b, u[b]);
+    }
+    ISOWRENCH_UNROLL
+    for (int i = j + 1; i < N; ++i) {
+      const V4 u_i = ISOWRENCH_V4_SPLAT(u[i / 4][i % 4]);
+      ISOWRENCH_UNROLL
+      for (int b = i / 4; b < B; ++b) A[i][b] -= u_i * u[b];
+    }
+  }
+  return Substitute<N>(ws, N, U, inv_diag, J, s_t, tau);
 }
+#endif
 
 ISOWRENCH_CLONES FastWrench SolveDispatch(FastWorkspace::Impl& ws, const double* J, const double* s_t,
                          const double* s_p, const double* tau, const FastOptions& options) {
   switch (ws.m) {
+#if defined(ISOWRENCH_VECTOR_KERNEL)
+    case 1: return SolveKernelV4<1>(ws, J, s_t, s_p, tau, options);
+    case 2: return SolveKernelV4<2>(ws, J, s_t, s_p, tau, options);
+    case 3: return SolveKernelV4<3>(ws, J, s_t, s_p, tau, options);
+    case 4: return SolveKernelV4<4>(ws, J, s_t, s_p, tau, options);
+    case 5: return SolveKernelV4<5>(ws, J, s_t, s_p, tau, options);
+    case 6: return SolveKernelV4<6>(ws, J, s_t, s_p, tau, options);
+    case 7: return SolveKernelV4<7>(ws, J, s_t, s_p, tau, options);
+    case 8: return SolveKernelV4<8>(ws, J, s_t, s_p, tau, options);
+    case 9: return SolveKernelV4<9>(ws, J, s_t, s_p, tau, options);
+    case 10: return SolveKernelV4<10>(ws, J, s_t, s_p, tau, options);
+#else
     case 1: return SolveKernel<1>(ws, 1, J, s_t, s_p, tau, options);
     case 2: return SolveKernel<2>(ws, 2, J, s_t, s_p, tau, options);
     case 3: return SolveKernel<3>(ws, 3, J, s_t, s_p, tau, options);
@@ -308,6 +482,7 @@ ISOWRENCH_CLONES FastWrench SolveDispatch(FastWorkspace::Impl& ws, const double*
     case 8: return SolveKernel<8>(ws, 8, J, s_t, s_p, tau, options);
     case 9: return SolveKernel<9>(ws, 9, J, s_t, s_p, tau, options);
     case 10: return SolveKernel<10>(ws, 10, J, s_t, s_p, tau, options);
+#endif
     default: return SolveKernel<0>(ws, ws.m, J, s_t, s_p, tau, options);
   }
 }
@@ -399,6 +574,7 @@ FastWorkspace::Impl::Impl(int dofs) : m(dofs), eigen(dofs) {
   K_full.setZero(m, m);
   self_motion.resize(m, 0);
   for (double& v : K) v = 0.0;
+  for (double& v : J_rows) v = 0.0;
 }
 
 FastWorkspace::FastWorkspace(const CompiledModel& model)
@@ -427,6 +603,49 @@ const FastJointMatrix& FastWorkspace::self_motion() const { return impl_->self_m
 
 // ---- Evaluation -----------------------------------------------------------------------------
 
+namespace {
+
+// Column k of the endpoint Jacobian (reference point p_E, world axes turned into transducer
+// axes by T = R_W_T unless `rotate` is false), stored column-major in J and row-major in J_rows.
+ISOWRENCH_INLINE void JacobianColumn(FastWorkspace::Impl& ws, int k, bool revolute, const double* pe,
+                                     bool rotate, const double* T) {
+  constexpr int S = kFastMaxDofs;
+  const double* z = ws.axis[k].data();
+  double v[3], w[3];
+  if (revolute) {
+    const double* ok = ws.origin[k].data();
+    const double d0 = pe[0] - ok[0], d1 = pe[1] - ok[1], d2 = pe[2] - ok[2];
+    v[0] = z[1] * d2 - z[2] * d1;
+    v[1] = z[2] * d0 - z[0] * d2;
+    v[2] = z[0] * d1 - z[1] * d0;
+    w[0] = z[0];
+    w[1] = z[1];
+    w[2] = z[2];
+  } else {
+    v[0] = z[0];
+    v[1] = z[1];
+    v[2] = z[2];
+    w[0] = w[1] = w[2] = 0.0;
+  }
+  if (rotate) {  // R_W_T^T v, R_W_T^T w
+    const double v0 = v[0], v1 = v[1], v2 = v[2], w0 = w[0], w1 = w[1], w2 = w[2];
+    for (int i = 0; i < 3; ++i) {
+      v[i] = T[3 * i] * v0 + T[3 * i + 1] * v1 + T[3 * i + 2] * v2;
+      w[i] = T[3 * i] * w0 + T[3 * i + 1] * w1 + T[3 * i + 2] * w2;
+    }
+  }
+  double* col = ws.J.data() + 6 * k;
+  double* Jr = ws.J_rows;
+  for (int r = 0; r < 3; ++r) {
+    col[r] = v[r];
+    col[r + 3] = w[r];
+    Jr[r * S + k] = v[r];
+    Jr[(r + 3) * S + k] = w[r];
+  }
+}
+
+}  // namespace
+
 ISOWRENCH_CLONES bool ComputeFastKinematics(const CompiledModel& model, FastWorkspace& workspace,
                            const Eigen::Ref<const Eigen::VectorXd>& q, int muscle, double activation) {
   const CompiledModel::Data& d = model.data();
@@ -434,115 +653,156 @@ ISOWRENCH_CLONES bool ComputeFastKinematics(const CompiledModel& model, FastWork
   const int m = d.m;
   assert(q.size() == m && ws.m == m);
   assert(muscle >= 0 && muscle < static_cast<int>(d.muscles.size()));
-
-  // Forward kinematics along the chain.
-  for (int k = 0; k < m; ++k) {
-    const FastJoint& j = d.joints[k];
-    Eigen::Matrix3d& M = ws.R[k];
-    Eigen::Vector3d joint_origin;
-    if (k == 0) {
-      M = j.origin_rotation;
-      joint_origin = j.origin_translation;
-    } else {
-      const Eigen::Matrix3d& R = ws.R[k - 1];
-      joint_origin = j.translation_is_zero ? ws.origin[k - 1]
-                                           : Eigen::Vector3d(ws.origin[k - 1] + R * j.origin_translation);
-      if (j.rotation_is_identity) {
-        M = R;
-      } else {
-        M.noalias() = R * j.origin_rotation;
-      }
-    }
-    Eigen::Vector3d& z = ws.axis[k];
-    if (j.axis_kind < 3) {
-      z = j.axis_sign * M.col(j.axis_kind);
-    } else {
-      z.noalias() = M * j.axis;
-    }
-    if (j.revolute) {
-      RotateFrame(j, q[k], M);
-      ws.origin[k] = joint_origin;
-    } else {
-      ws.origin[k] = joint_origin + z * q[k];
-    }
-  }
-  const Eigen::Matrix3d& R_last = ws.R[m - 1];
-  ws.endpoint.noalias() = R_last * d.endpoint;
-  ws.endpoint += ws.origin[m - 1];
-
-  // Endpoint Jacobian in world axes, then in transducer axes.
-  ws.J.resize(6, m);
-  for (int k = 0; k < m; ++k) {
-    const Eigen::Vector3d& z = ws.axis[k];
-    if (d.joints[k].revolute) {
-      ws.J.col(k).head<3>() = z.cross(ws.endpoint - ws.origin[k]);
-      ws.J.col(k).tail<3>() = z;
-    } else {
-      ws.J.col(k).head<3>() = z;
-      ws.J.col(k).tail<3>().setZero();
-    }
-  }
-  if (d.transducer_identity) {
-    ws.R_W_T.setIdentity();
-  } else {
-    if (d.transducer_in_world) {
-      ws.R_W_T = d.transducer_rotation;
-    } else {
-      ws.R_W_T.noalias() = R_last * d.transducer_rotation;
-    }
-    for (int k = 0; k < m; ++k) {
-      const Eigen::Vector3d v = ws.R_W_T.transpose() * ws.J.col(k).head<3>();
-      const Eigen::Vector3d w = ws.R_W_T.transpose() * ws.J.col(k).tail<3>();
-      ws.J.col(k).head<3>() = v;
-      ws.J.col(k).tail<3>() = w;
-    }
-  }
-
-  // Muscle: point positions, unit segment directions, pulls, then the backward sweep.
+  const FastJoint* joints = d.joints.data();
+  const double* qv = q.data();
   const FastMuscle& mu = d.muscles[muscle];
   const int n = static_cast<int>(mu.points.size());
+  const FastPathPoint* pts = mu.points.data();
+  const int* order = mu.sweep_order.data();  // points by decreasing frame, ground ones left out
+  const int sweep_count = static_cast<int>(mu.sweep_order.size());
+
+  // Path points on ground are fixed in world; the others are placed as soon as their frame is
+  // known (walking sweep_order from its end: increasing frames), so that no frame is stored.
   for (int i = 0; i < n; ++i) {
-    const FastPathPoint& p = mu.points[i];
-    if (p.frame < 0) {
-      ws.points[i] = p.position;
+    if (pts[i].frame < 0) ws.points[i] = pts[i].position;
+  }
+  int next_point = sweep_count - 1;
+
+  // Forward kinematics along the chain. The current frame lives in locals (registers): rotation
+  // M column-major (M[3 c + r]) and origin o; it starts as the world frame.
+  double M[9] = {1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0};
+  double o[3] = {0.0, 0.0, 0.0};
+  for (int k = 0; k < m; ++k) {
+    const FastJoint& j = joints[k];
+    if (!j.translation_is_zero) {  // joint origin o + M p0
+      const double* t = j.origin_translation.data();
+      const double t0 = t[0], t1 = t[1], t2 = t[2];
+      const double p0 = M[0] * t0 + M[3] * t1 + M[6] * t2;
+      const double p1 = M[1] * t0 + M[4] * t1 + M[7] * t2;
+      const double p2 = M[2] * t0 + M[5] * t1 + M[8] * t2;
+      o[0] = o[0] + p0;
+      o[1] = o[1] + p1;
+      o[2] = o[2] + p2;
+    }
+    if (!j.rotation_is_identity) MultiplyRotation(M, j.origin_rotation.data());
+    double* z = ws.axis[k].data();
+    const double qk = qv[k];
+    if (j.revolute) {
+      double c, s;
+      SinCos(qk, &s, &c);
+      s *= j.axis_sign;
+      switch (j.axis_kind) {
+        case 0: AxisAndTurn<0>(M, j.axis_sign, c, s, z); break;
+        case 1: AxisAndTurn<1>(M, j.axis_sign, c, s, z); break;
+        case 2: AxisAndTurn<2>(M, j.axis_sign, c, s, z); break;
+        default: GeneralAxisAndTurn(M, j, qk, z, true); break;
+      }
     } else {
-      ws.points[i].noalias() = ws.R[p.frame] * p.position;
-      ws.points[i] += ws.origin[p.frame];
+      switch (j.axis_kind) {
+        case 0: AxisAndTurn<0>(M, j.axis_sign, 1.0, 0.0, z, false); break;
+        case 1: AxisAndTurn<1>(M, j.axis_sign, 1.0, 0.0, z, false); break;
+        case 2: AxisAndTurn<2>(M, j.axis_sign, 1.0, 0.0, z, false); break;
+        default: GeneralAxisAndTurn(M, j, qk, z, false); break;
+      }
+      o[0] = o[0] + z[0] * qk;
+      o[1] = o[1] + z[1] * qk;
+      o[2] = o[2] + z[2] * qk;
+    }
+    double* ok = ws.origin[k].data();
+    ok[0] = o[0];
+    ok[1] = o[1];
+    ok[2] = o[2];
+    while (next_point >= 0 && pts[order[next_point]].frame == k) {  // x = M a + o
+      const int i = order[next_point--];
+      const double* a = pts[i].position.data();
+      const double a0 = a[0], a1 = a[1], a2 = a[2];
+      double* x = ws.points[i].data();
+      x[0] = (M[0] * a0 + M[3] * a1 + M[6] * a2) + o[0];
+      x[1] = (M[1] * a0 + M[4] * a1 + M[7] * a2) + o[1];
+      x[2] = (M[2] * a0 + M[5] * a1 + M[8] * a2) + o[2];
     }
   }
-  ws.length = 0.0;
+  const double e0 = d.endpoint[0], e1 = d.endpoint[1], e2 = d.endpoint[2];
+  const double pe[3] = {(M[0] * e0 + M[3] * e1 + M[6] * e2) + o[0],
+                        (M[1] * e0 + M[4] * e1 + M[7] * e2) + o[1],
+                        (M[2] * e0 + M[5] * e1 + M[8] * e2) + o[2]};
+  ws.endpoint = Eigen::Vector3d(pe[0], pe[1], pe[2]);
+  const bool rotate = !d.transducer_identity;
+  if (!rotate) {
+    ws.R_W_T.setIdentity();
+  } else if (d.transducer_in_world) {
+    ws.R_W_T = d.transducer_rotation;
+  } else {
+    ws.R_W_T.noalias() = Eigen::Map<const Eigen::Matrix3d>(M) * d.transducer_rotation;
+  }
+  const double* T = ws.R_W_T.data();
+  ws.J.resize(6, m);
   ws.dL.resize(m);  // every entry is assigned by the sweep below
   ws.tau.resize(m);
-  Eigen::Vector3d u_before = Eigen::Vector3d::Zero();  // u_{i-1}; zero before the origin
+
+  // Muscle: unit segment directions and pulls.
+  double total_length = 0.0;
+  double ub0 = 0.0, ub1 = 0.0, ub2 = 0.0;  // u_{i-1}; zero before the origin
   for (int i = 1; i < n; ++i) {
-    const Eigen::Vector3d segment = ws.points[i] - ws.points[i - 1];
-    const double length = segment.norm();
+    const double* a = ws.points[i - 1].data();
+    const double* b = ws.points[i].data();
+    const double s0 = b[0] - a[0], s1 = b[1] - a[1], s2 = b[2] - a[2];
+    const double length = std::sqrt(s0 * s0 + s1 * s1 + s2 * s2);
     if (!(length >= kMinSegmentLength)) {
+      ws.length = total_length;
+      for (int k = 0; k < m; ++k) JacobianColumn(ws, k, joints[k].revolute, pe, rotate, T);
       ws.dL.setZero();
       ws.tau.setZero();
       return false;
     }
-    const Eigen::Vector3d u = segment / length;
-    ws.length += length;
-    ws.pulls[i - 1] = u_before - u;
-    u_before = u;
+    const double u0 = s0 / length, u1 = s1 / length, u2 = s2 / length;
+    total_length += length;
+    double* g = ws.pulls[i - 1].data();
+    g[0] = ub0 - u0;
+    g[1] = ub1 - u1;
+    g[2] = ub2 - u2;
+    ub0 = u0;
+    ub1 = u1;
+    ub2 = u2;
   }
-  ws.pulls[n - 1] = u_before;
-  Eigen::Vector3d pull_sum = Eigen::Vector3d::Zero();
-  Eigen::Vector3d moment_sum = Eigen::Vector3d::Zero();
-  const int sweep_count = static_cast<int>(mu.sweep_order.size());
+  ws.length = total_length;
+  ws.pulls[n - 1] = Eigen::Vector3d(ub0, ub1, ub2);
+
+  // Backward sweep over the joints: the Jacobian column and dL/dtheta_k of each joint.
+  double ps0 = 0.0, ps1 = 0.0, ps2 = 0.0;  // sum of pulls distal to joint k
+  double ms0 = 0.0, ms1 = 0.0, ms2 = 0.0;  // sum of their moments about the world origin
   int next = 0;
+  double* dL = ws.dL.data();
+  double* tau = ws.tau.data();
+  const double minus_force = -(activation * mu.max_force);
   for (int k = m - 1; k >= 0; --k) {
-    while (next < sweep_count && mu.points[mu.sweep_order[next]].frame == k) {
-      const int i = mu.sweep_order[next++];
-      pull_sum += ws.pulls[i];
-      moment_sum += ws.points[i].cross(ws.pulls[i]);
+    while (next < sweep_count && pts[order[next]].frame == k) {
+      const int i = order[next++];
+      const double* x = ws.points[i].data();
+      const double* g = ws.pulls[i].data();
+      ps0 += g[0];
+      ps1 += g[1];
+      ps2 += g[2];
+      ms0 += x[1] * g[2] - x[2] * g[1];
+      ms1 += x[2] * g[0] - x[0] * g[2];
+      ms2 += x[0] * g[1] - x[1] * g[0];
     }
-    const Eigen::Vector3d& z = ws.axis[k];
-    ws.dL[k] = d.joints[k].revolute ? z.dot(moment_sum - ws.origin[k].cross(pull_sum)) : z.dot(pull_sum);
+    const bool revolute = joints[k].revolute;
+    JacobianColumn(ws, k, revolute, pe, rotate, T);
+    const double* z = ws.axis[k].data();
+    double v;
+    if (revolute) {
+      const double* ok = ws.origin[k].data();
+      const double w0 = ms0 - (ok[1] * ps2 - ok[2] * ps1);
+      const double w1 = ms1 - (ok[2] * ps0 - ok[0] * ps2);
+      const double w2 = ms2 - (ok[0] * ps1 - ok[1] * ps0);
+      v = z[0] * w0 + z[1] * w1 + z[2] * w2;
+    } else {
+      v = z[0] * ps0 + z[1] * ps1 + z[2] * ps2;
+    }
+    dL[k] = v;
+    tau[k] = minus_force * v;
   }
-  const double force = activation * mu.max_force;
-  ws.tau = -force * ws.dL;
   return true;
 }
 
@@ -570,6 +830,9 @@ FastWrench SolveStaticsFast(FastWorkspace& workspace, const Eigen::Ref<const Mat
   const int m = ws.m;
   if (J.cols() != m || s_p.size() != m || tau.size() != m || !J.allFinite()) return Invalid(ws);
   ws.J = J;
+  for (int r = 0; r < 6; ++r) {
+    for (int k = 0; k < m; ++k) ws.J_rows[r * kFastMaxDofs + k] = J(r, k);
+  }
   ws.tau = tau;
   double s_p_copy[kFastMaxDofs];
   for (int i = 0; i < m; ++i) s_p_copy[i] = s_p[i];

@@ -79,6 +79,10 @@ struct FastWorkspace::Impl {
   FastJointMatrix K_full;
   Eigen::SelfAdjointEigenSolver<FastJointMatrix> eigen;
   FastJointMatrix self_motion;
+  /// J of the last kinematics (or SolveStaticsFast) row-major, row r at r * kFastMaxDofs (the
+  /// same values as J): the statics build K from rows of J (vectorisable). Entries beyond m
+  /// stay 0.
+  double J_rows[6 * kFastMaxDofs];
 };
 
 }  // namespace isowrench
