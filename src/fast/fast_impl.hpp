@@ -60,13 +60,13 @@ struct CompiledModel::Data {
 struct FastWorkspace::Impl {
   explicit Impl(int dofs);
   int m = 0;
-  // Kinematics of the last posture: per movable joint the frame after its motion, its world
-  // axis and its origin (a point on the axis).
-  std::array<Eigen::Matrix3d, kFastMaxDofs> R;
+  // Kinematics of the last posture: per movable joint its world axis and origin (a point on
+  // the axis); per path point of the muscle its world position and pull dL/dx (a sum of unit
+  // segment directions).
   std::array<Eigen::Vector3d, kFastMaxDofs> origin;
   std::array<Eigen::Vector3d, kFastMaxDofs> axis;
   std::array<Eigen::Vector3d, kFastMaxPathPoints> points;
-  std::array<Eigen::Vector3d, kFastMaxPathPoints> pulls;  // dL/dx at each point (unit-vector sums)  // world positions of path points
+  std::array<Eigen::Vector3d, kFastMaxPathPoints> pulls;
   Eigen::Vector3d endpoint = Eigen::Vector3d::Zero();
   Eigen::Matrix3d R_W_T = Eigen::Matrix3d::Identity();
   FastJacobian J;
@@ -74,7 +74,7 @@ struct FastWorkspace::Impl {
   FastJointVector tau;
   double length = 0.0;
   // Statics.
-  double K[kFastMaxDofs * kFastMaxDofs];  // row-major, lower triangle
+  double K[kFastMaxDofs * kFastMaxDofs];  // upper triangle by rows: K_ij (j >= i) at i * 16 + j
   FastJointVector dtheta;
   FastJointMatrix K_full;
   Eigen::SelfAdjointEigenSolver<FastJointMatrix> eigen;
