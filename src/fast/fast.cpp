@@ -19,31 +19,14 @@
 #include <string>
 
 #include "fast/fast_impl.hpp"
+#include "fast/simd.hpp"
 #include "isowrench/error.hpp"
 #include "model/model_impl.hpp"
 
 namespace isowrench {
 namespace {
 
-// A path segment shorter than this has no direction (same rule as ComputeMuscleTorque).
-constexpr double kMinSegmentLength = 1e-9;
 
-// The hot functions are compiled twice, for x86-64-v3 (AVX2 + FMA: a multiply-add is one
-// instruction, 4 doubles per register) and for the baseline; the loader picks the one the CPU
-// runs (GNU ifunc). Other compilers/targets get the baseline only.
-#if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__) && defined(__linux__) && \
-    !defined(ISOWRENCH_NO_CLONES)
-#define ISOWRENCH_CLONES __attribute__((target_clones("arch=x86-64-v3", "default")))
-#else
-#define ISOWRENCH_CLONES
-#endif
-#if defined(__GNUC__)
-#define ISOWRENCH_INLINE inline __attribute__((always_inline))
-#define ISOWRENCH_NOINLINE __attribute__((noinline))
-#else
-#define ISOWRENCH_INLINE inline
-#define ISOWRENCH_NOINLINE
-#endif
 
 
 void SetAxisKind(FastJoint& joint) {
@@ -146,28 +129,6 @@ ISOWRENCH_INLINE void GeneralAxisAndTurn(double* M, const FastJoint& j, double q
   for (int i = 0; i < 9; ++i) M[i] = copy.data()[i];
 }
 
-// Full unrolling of the statics loops when m is a compile-time constant (N > 0): the 8-dof
-// kernel's K, Cholesky and solves become straight-line code the compiler keeps in registers.
-#if defined(__GNUC__) && !defined(__clang__)
-#define ISOWRENCH_UNROLL _Pragma("GCC unroll 16")
-#elif defined(__clang__)
-#define ISOWRENCH_UNROLL _Pragma("unroll")
-#else
-#define ISOWRENCH_UNROLL
-#endif
-
-
-#if defined(__GNUC__)
-#define ISOWRENCH_VECTOR_KERNEL 1
-// 4-double vectors (GCC/Clang vector extensions): one AVX register in the x86-64-v3 clone, two
-// SSE2 registers in the baseline.
-typedef double V4 __attribute__((vector_size(32)));
-// Macros rather than functions: a V4 passed or returned by value would draw GCC's -Wpsabi note
-// (the ABI of a 32-byte vector argument depends on AVX being enabled).
-#define ISOWRENCH_V4_SPLAT(x) (V4{(x), (x), (x), (x)})
-#define ISOWRENCH_V4_LOAD(v, p) std::memcpy(&(v), (p), sizeof(V4))
-#define ISOWRENCH_V4_STORE(p, v) std::memcpy((p), &(v), sizeof(V4))
-#endif
 
 // The eigen-solve used when the Cholesky pivots say K is (nearly) singular: the same rank and
 // excitation decisions as SolveStatics, on the workspace's fixed-size buffers.
@@ -278,7 +239,6 @@ ISOWRENCH_INLINE FastWrench Substitute(FastWorkspace::Impl& ws, int m, const dou
     x[i] = v * inv_diag[i];
   }
   FastWrench out;
-#if defined(ISOWRENCH_VECTOR_KERNEL)
   if (N > 0) {
     // W on 4-double vectors: rows 0-3 and rows 2-5 of each column of J (rows 2 and 3 twice),
     // the same sums in the same order as below.
@@ -299,9 +259,7 @@ ISOWRENCH_INLINE FastWrench Substitute(FastWorkspace::Impl& ws, int m, const dou
     tail *= s1;
     ISOWRENCH_V4_STORE(out.wrench.data(), head);
     ISOWRENCH_V4_STORE(out.wrench.data() + 2, tail);
-  } else
-#endif
-  {
+  } else {
     ISOWRENCH_UNROLL
     for (int r = 0; r < 6; ++r) {
       double v = 0.0;
@@ -360,7 +318,6 @@ ISOWRENCH_INLINE FastWrench SolveKernel(FastWorkspace::Impl& ws, int m_runtime, 
   return Substitute<N>(ws, m, U, inv_diag, J, s_t, tau);
 }
 
-#if defined(ISOWRENCH_VECTOR_KERNEL)
 // The kernel on V4, for 1 <= N <= 10 (the dispatch below). K is built by rows,
 // K(i, :) = sum_r J_ri (s_r J(r, :)) from the rows of J (ws.J_rows), and factored right-looking
 // (row j of U, then the rank-1 update of the rows below it), both in blocks of 4 columns of
@@ -455,12 +412,10 @@ ISOWRENCH_INLINE FastWrench SolveKernelV4(FastWorkspace::Impl& ws, const double*
   }
   return Substitute<N>(ws, N, U, inv_diag, J, s_t, tau);
 }
-#endif
 
 ISOWRENCH_CLONES FastWrench SolveDispatch(FastWorkspace::Impl& ws, const double* J, const double* s_t,
                          const double* s_p, const double* tau, const FastOptions& options) {
   switch (ws.m) {
-#if defined(ISOWRENCH_VECTOR_KERNEL)
     case 1: return SolveKernelV4<1>(ws, J, s_t, s_p, tau, options);
     case 2: return SolveKernelV4<2>(ws, J, s_t, s_p, tau, options);
     case 3: return SolveKernelV4<3>(ws, J, s_t, s_p, tau, options);
@@ -471,18 +426,6 @@ ISOWRENCH_CLONES FastWrench SolveDispatch(FastWorkspace::Impl& ws, const double*
     case 8: return SolveKernelV4<8>(ws, J, s_t, s_p, tau, options);
     case 9: return SolveKernelV4<9>(ws, J, s_t, s_p, tau, options);
     case 10: return SolveKernelV4<10>(ws, J, s_t, s_p, tau, options);
-#else
-    case 1: return SolveKernel<1>(ws, 1, J, s_t, s_p, tau, options);
-    case 2: return SolveKernel<2>(ws, 2, J, s_t, s_p, tau, options);
-    case 3: return SolveKernel<3>(ws, 3, J, s_t, s_p, tau, options);
-    case 4: return SolveKernel<4>(ws, 4, J, s_t, s_p, tau, options);
-    case 5: return SolveKernel<5>(ws, 5, J, s_t, s_p, tau, options);
-    case 6: return SolveKernel<6>(ws, 6, J, s_t, s_p, tau, options);
-    case 7: return SolveKernel<7>(ws, 7, J, s_t, s_p, tau, options);
-    case 8: return SolveKernel<8>(ws, 8, J, s_t, s_p, tau, options);
-    case 9: return SolveKernel<9>(ws, 9, J, s_t, s_p, tau, options);
-    case 10: return SolveKernel<10>(ws, 10, J, s_t, s_p, tau, options);
-#endif
     default: return SolveKernel<0>(ws, ws.m, J, s_t, s_p, tau, options);
   }
 }
@@ -748,7 +691,7 @@ ISOWRENCH_CLONES bool ComputeFastKinematics(const CompiledModel& model, FastWork
     const double* b = ws.points[i].data();
     const double s0 = b[0] - a[0], s1 = b[1] - a[1], s2 = b[2] - a[2];
     const double length = std::sqrt(s0 * s0 + s1 * s1 + s2 * s2);
-    if (!(length >= kMinSegmentLength)) {
+    if (!(length >= kFastMinSegmentLength)) {
       ws.length = total_length;
       for (int k = 0; k < m; ++k) JacobianColumn(ws, k, joints[k].revolute, pe, rotate, T);
       ws.dL.setZero();

@@ -38,6 +38,9 @@ struct FastMuscle {
   std::vector<int> sweep_order;
 };
 
+/// A path segment shorter than this (m) has no direction (same rule as ComputeMuscleTorque).
+inline constexpr double kFastMinSegmentLength = 1e-9;
+
 /// Most path points per muscle the workspace holds.
 inline constexpr int kFastMaxPathPoints = 64;
 

@@ -1,9 +1,9 @@
 // The lane kernel: ComputeFastKinematics and SolveFastStatics written on 4-double vectors (GCC
 // vector extensions), one evaluation per lane. The chain's structure (joint types, axes, path
 // point frames) is the same in every lane, so every branch below is uniform across lanes; only
-// the numbers differ. The formulas are those of fast.cpp, step for step (see its header for
-// the kinematics and the backward muscle sweep); tests/fast/ prove the lanes equal to the
-// scalar path, including padded and undecided lanes.
+// the numbers differ. The formulas are those of fast.cpp (see its header for the kinematics
+// and the backward muscle sweep); tests/fast/ prove the lanes equal to the scalar path to
+// rounding, including padded and undecided lanes.
 
 #include "fast/lanes.hpp"
 
@@ -13,43 +13,22 @@
 #include <cstring>
 
 #include "fast/fast_impl.hpp"
+#include "fast/simd.hpp"
 
 namespace isowrench {
 namespace {
 
-// Four doubles / four 64-bit integers, one per lane. Helpers take them by reference: the
-// default (SSE2) clone then has no AVX-sized argument passing to warn about.
-typedef double V __attribute__((vector_size(32)));
-typedef std::int64_t VI __attribute__((vector_size(32)));
-
-#if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__) && defined(__linux__) && \
-    !defined(ISOWRENCH_NO_CLONES)
-#define ISOWRENCH_LANE_CLONES __attribute__((target_clones("arch=x86-64-v3", "default")))
-#else
-#define ISOWRENCH_LANE_CLONES
-#endif
-#if defined(__GNUC__) && !defined(__clang__)
-#define ISOWRENCH_LANE_UNROLL _Pragma("GCC unroll 16")
-#else
-#define ISOWRENCH_LANE_UNROLL
-#endif
-#define ISOWRENCH_LANE_INLINE inline __attribute__((always_inline))
-
-// Same rule as fast.cpp: a path segment shorter than this has no direction.
-constexpr double kMinSegmentLength = 1e-9;
-
-// A constant in every lane (a macro: functions returning 32-byte vectors change the ABI of the
-// default, pre-AVX clone).
-#define ISOWRENCH_SPLAT(x) (V{(x), (x), (x), (x)})
+using V = V4;
+using VI = V4i;
 
 // Lane mask (all bits set where true) to a bitmask, bit l for lane l.
-ISOWRENCH_LANE_INLINE unsigned Bits(const VI& mask) {
+ISOWRENCH_INLINE unsigned Bits(const VI& mask) {
   unsigned bits = 0;
   for (int l = 0; l < kLanes; ++l) bits |= mask[l] != 0 ? 1u << l : 0u;
   return bits;
 }
 
-ISOWRENCH_LANE_INLINE void Sqrt(const V& x, V& out) {
+ISOWRENCH_INLINE void Sqrt(const V& x, V& out) {
   for (int l = 0; l < kLanes; ++l) out[l] = std::sqrt(x[l]);
 }
 
@@ -59,7 +38,7 @@ ISOWRENCH_LANE_INLINE void Sqrt(const V& x, V& out) {
 // Valid for |x| < kMaxReduced; LaneKinematics hands lanes with larger angles to the scalar
 // path (which uses std::sin / std::cos there).
 constexpr double kMaxReduced = 1e5;
-ISOWRENCH_LANE_INLINE void SinCos(const V& x, V& sin_x, V& cos_x) {
+ISOWRENCH_INLINE void SinCos(const V& x, V& sin_x, V& cos_x) {
   constexpr double kTwoOverPi = 6.36619772367581382433e-01;
   constexpr double kPio2_1 = 1.57079632673412561417e+00;
   constexpr double kPio2_2 = 6.07710050630396597660e-11;
@@ -124,23 +103,23 @@ LaneWorkspace::~LaneWorkspace() = default;
 namespace {
 
 // out = A * c for a lane frame A and a constant vector c.
-ISOWRENCH_LANE_INLINE void MulConst(const V* A, const Eigen::Vector3d& c, V* out) {
+ISOWRENCH_INLINE void MulConst(const V* A, const Eigen::Vector3d& c, V* out) {
   for (int i = 0; i < 3; ++i) out[i] = A[3 * i] * c[0] + A[3 * i + 1] * c[1] + A[3 * i + 2] * c[2];
 }
 
 // out = A^T v for lane frames and vectors.
-ISOWRENCH_LANE_INLINE void MulTransposed(const V* A, const V* v, V* out) {
+ISOWRENCH_INLINE void MulTransposed(const V* A, const V* v, V* out) {
   for (int i = 0; i < 3; ++i) out[i] = A[i] * v[0] + A[3 + i] * v[1] + A[6 + i] * v[2];
 }
 
-ISOWRENCH_LANE_INLINE void Cross(const V* a, const V* b, V* out) {
+ISOWRENCH_INLINE void Cross(const V* a, const V* b, V* out) {
   out[0] = a[1] * b[2] - a[2] * b[1];
   out[1] = a[2] * b[0] - a[0] * b[2];
   out[2] = a[0] * b[1] - a[1] * b[0];
 }
 
 // M <- M Rot(axis, q) per lane (RotateFrame in fast.cpp).
-ISOWRENCH_LANE_INLINE void RotateFrame(const FastJoint& j, const V& q, V* M) {
+ISOWRENCH_INLINE void RotateFrame(const FastJoint& j, const V& q, V* M) {
   V s, c;
   SinCos(q, s, c);
   s *= j.axis_sign;
@@ -161,7 +140,7 @@ ISOWRENCH_LANE_INLINE void RotateFrame(const FastJoint& j, const V& q, V* M) {
       const V t = 1.0 - c;
       V rot[9];
       for (int r = 0; r < 3; ++r) {
-        for (int k = 0; k < 3; ++k) rot[3 * r + k] = t * (a[r] * a[k]) + (r == k ? c : ISOWRENCH_SPLAT(0.0));
+        for (int k = 0; k < 3; ++k) rot[3 * r + k] = t * (a[r] * a[k]) + (r == k ? c : ISOWRENCH_V4_SPLAT(0.0));
       }
       rot[1] -= s * a[2];
       rot[2] += s * a[1];
@@ -181,13 +160,13 @@ ISOWRENCH_LANE_INLINE void RotateFrame(const FastJoint& j, const V& q, V* M) {
 
 // Forward kinematics with the running frame (M, o) kept in registers: per joint its world axis
 // and origin are stored, its frame only where a path point hangs on it.
-ISOWRENCH_LANE_INLINE void ForwardKinematics(const CompiledModel::Data& d, LaneWorkspace::Impl& ws, V* M, V* o) {
+ISOWRENCH_INLINE void ForwardKinematics(const CompiledModel::Data& d, LaneWorkspace::Impl& ws, V* M, V* o) {
   const int m = d.m;
   for (int k = 0; k < m; ++k) {
     const FastJoint& j = d.joints[k];
     if (k == 0) {
-      for (int i = 0; i < 9; ++i) M[i] = ISOWRENCH_SPLAT(j.origin_rotation(i / 3, i % 3));
-      for (int i = 0; i < 3; ++i) o[i] = ISOWRENCH_SPLAT(j.origin_translation[i]);
+      for (int i = 0; i < 9; ++i) M[i] = ISOWRENCH_V4_SPLAT(j.origin_rotation(i / 3, i % 3));
+      for (int i = 0; i < 3; ++i) o[i] = ISOWRENCH_V4_SPLAT(j.origin_translation[i]);
     } else {
       if (!j.translation_is_zero) {
         V step[3];
@@ -226,7 +205,7 @@ ISOWRENCH_LANE_INLINE void ForwardKinematics(const CompiledModel::Data& d, LaneW
 
 }  // namespace
 
-ISOWRENCH_LANE_CLONES unsigned LaneKinematics(const CompiledModel& model, LaneWorkspace& workspace,
+ISOWRENCH_CLONES unsigned LaneKinematics(const CompiledModel& model, LaneWorkspace& workspace,
                                               const double* const q[kLanes], int muscle, double activation) {
   const CompiledModel::Data& d = model.data();
   LaneWorkspace::Impl& ws = workspace.impl();
@@ -259,14 +238,14 @@ ISOWRENCH_LANE_CLONES unsigned LaneKinematics(const CompiledModel& model, LaneWo
     } else {
       for (int i = 0; i < 3; ++i) {
         col[i] = z[i];
-        col[3 + i] = ISOWRENCH_SPLAT(0.0);
+        col[3 + i] = ISOWRENCH_V4_SPLAT(0.0);
       }
     }
   }
   if (!d.transducer_identity) {
     V R_W_T[9];
     if (d.transducer_in_world) {
-      for (int i = 0; i < 9; ++i) R_W_T[i] = ISOWRENCH_SPLAT(d.transducer_rotation(i / 3, i % 3));
+      for (int i = 0; i < 9; ++i) R_W_T[i] = ISOWRENCH_V4_SPLAT(d.transducer_rotation(i / 3, i % 3));
     } else {
       for (int r = 0; r < 3; ++r) {
         for (int c = 0; c < 3; ++c) {
@@ -293,20 +272,20 @@ ISOWRENCH_LANE_CLONES unsigned LaneKinematics(const CompiledModel& model, LaneWo
   for (int i = 0; i < n; ++i) {
     const FastPathPoint& p = mu.points[i];
     if (p.frame < 0) {
-      for (int c = 0; c < 3; ++c) ws.points[i][c] = ISOWRENCH_SPLAT(p.position[c]);
+      for (int c = 0; c < 3; ++c) ws.points[i][c] = ISOWRENCH_V4_SPLAT(p.position[c]);
     } else {
       MulConst(ws.R[p.frame], p.position, ws.points[i]);
       for (int c = 0; c < 3; ++c) ws.points[i][c] += ws.origin[p.frame][c];
     }
   }
   VI coincident = VI{0, 0, 0, 0};
-  V u_before[3] = {ISOWRENCH_SPLAT(0.0), ISOWRENCH_SPLAT(0.0), ISOWRENCH_SPLAT(0.0)};
+  V u_before[3] = {ISOWRENCH_V4_SPLAT(0.0), ISOWRENCH_V4_SPLAT(0.0), ISOWRENCH_V4_SPLAT(0.0)};
   for (int i = 1; i < n; ++i) {
     V segment[3];
     for (int c = 0; c < 3; ++c) segment[c] = ws.points[i][c] - ws.points[i - 1][c];
     V length;
     Sqrt(segment[0] * segment[0] + segment[1] * segment[1] + segment[2] * segment[2], length);
-    coincident |= (length >= kMinSegmentLength) == 0;
+    coincident |= (length >= kFastMinSegmentLength) == 0;
     for (int c = 0; c < 3; ++c) {
       const V u = segment[c] / length;
       ws.pulls[i - 1][c] = u_before[c] - u;
@@ -314,11 +293,11 @@ ISOWRENCH_LANE_CLONES unsigned LaneKinematics(const CompiledModel& model, LaneWo
     }
   }
   for (int c = 0; c < 3; ++c) ws.pulls[n - 1][c] = u_before[c];
-  V pull_sum[3] = {ISOWRENCH_SPLAT(0.0), ISOWRENCH_SPLAT(0.0), ISOWRENCH_SPLAT(0.0)};
-  V moment_sum[3] = {ISOWRENCH_SPLAT(0.0), ISOWRENCH_SPLAT(0.0), ISOWRENCH_SPLAT(0.0)};
+  V pull_sum[3] = {ISOWRENCH_V4_SPLAT(0.0), ISOWRENCH_V4_SPLAT(0.0), ISOWRENCH_V4_SPLAT(0.0)};
+  V moment_sum[3] = {ISOWRENCH_V4_SPLAT(0.0), ISOWRENCH_V4_SPLAT(0.0), ISOWRENCH_V4_SPLAT(0.0)};
   const int sweep_count = static_cast<int>(mu.sweep_order.size());
   int next = 0;
-  const V minus_force = ISOWRENCH_SPLAT(-activation * mu.max_force);
+  const V minus_force = ISOWRENCH_V4_SPLAT(-activation * mu.max_force);
   for (int k = m - 1; k >= 0; --k) {
     while (next < sweep_count && mu.points[mu.sweep_order[next]].frame == k) {
       const int i = mu.sweep_order[next++];
@@ -343,12 +322,12 @@ ISOWRENCH_LANE_CLONES unsigned LaneKinematics(const CompiledModel& model, LaneWo
   return Bits(coincident | out_of_range);
 }
 
-ISOWRENCH_LANE_CLONES void LaneBroadcast(const FastWorkspace& scalar, LaneWorkspace& workspace) {
+ISOWRENCH_CLONES void LaneBroadcast(const FastWorkspace& scalar, LaneWorkspace& workspace) {
   LaneWorkspace::Impl& ws = workspace.impl();
   const FastWorkspace::Impl& s = scalar.impl();
   for (int k = 0; k < ws.m; ++k) {
-    for (int r = 0; r < 6; ++r) ws.J[k][r] = ISOWRENCH_SPLAT(s.J(r, k));
-    ws.tau[k] = ISOWRENCH_SPLAT(s.tau[k]);
+    for (int r = 0; r < 6; ++r) ws.J[k][r] = ISOWRENCH_V4_SPLAT(s.J(r, k));
+    ws.tau[k] = ISOWRENCH_V4_SPLAT(s.tau[k]);
   }
 }
 
@@ -357,22 +336,22 @@ namespace {
 // SolveKernel of fast.cpp on lanes: K = J^T S_t J + S_p (lower triangle), Cholesky with the
 // same pivot rule, two triangular solves, W = S_t J dtheta. Returns the undecided lanes' mask.
 template <int N>
-ISOWRENCH_LANE_INLINE void SolveLanesKernel(LaneWorkspace::Impl& ws, int m_runtime, const V* s_t, const V* s_p,
+ISOWRENCH_INLINE void SolveLanesKernel(LaneWorkspace::Impl& ws, int m_runtime, const V* s_t, const V* s_p,
                                             const FastOptions& options, V* wrench, VI& undecided) {
   constexpr int S = kFastMaxDofs;
   const int m = N > 0 ? N : std::min(m_runtime, S);
   V* K = ws.K;
   V* L = ws.L;
-  V max_diag = ISOWRENCH_SPLAT(0.0);
-  ISOWRENCH_LANE_UNROLL
+  V max_diag = ISOWRENCH_V4_SPLAT(0.0);
+  ISOWRENCH_UNROLL
   for (int i = 0; i < m; ++i) {
     V sj[6];
-    ISOWRENCH_LANE_UNROLL
+    ISOWRENCH_UNROLL
     for (int r = 0; r < 6; ++r) sj[r] = s_t[r] * ws.J[i][r];
-    ISOWRENCH_LANE_UNROLL
+    ISOWRENCH_UNROLL
     for (int j = 0; j <= i; ++j) {
       V sum = sj[0] * ws.J[j][0];
-      ISOWRENCH_LANE_UNROLL
+      ISOWRENCH_UNROLL
       for (int r = 1; r < 6; ++r) sum += sj[r] * ws.J[j][r];
       K[i * S + j] = sum;
     }
@@ -382,44 +361,44 @@ ISOWRENCH_LANE_INLINE void SolveLanesKernel(LaneWorkspace::Impl& ws, int m_runti
   const V pivot_floor = options.cholesky_pivot_tolerance * max_diag;
   undecided = (max_diag > 0.0) == 0;
   V inv_diag[S];
-  ISOWRENCH_LANE_UNROLL
+  ISOWRENCH_UNROLL
   for (int j = 0; j < m; ++j) {
     V d = K[j * S + j];
-    ISOWRENCH_LANE_UNROLL
+    ISOWRENCH_UNROLL
     for (int k = 0; k < j; ++k) d -= L[j * S + k] * L[j * S + k];
     undecided |= (d > pivot_floor) == 0;
     V l;
     Sqrt(d, l);
     const V inv = 1.0 / l;
     inv_diag[j] = inv;
-    ISOWRENCH_LANE_UNROLL
+    ISOWRENCH_UNROLL
     for (int i = j + 1; i < m; ++i) {
       V v = K[i * S + j];
-      ISOWRENCH_LANE_UNROLL
+      ISOWRENCH_UNROLL
       for (int k = 0; k < j; ++k) v -= L[i * S + k] * L[j * S + k];
       L[i * S + j] = v * inv;
     }
   }
   V y[S];
-  ISOWRENCH_LANE_UNROLL
+  ISOWRENCH_UNROLL
   for (int i = 0; i < m; ++i) {
     V v = ws.tau[i];
-    ISOWRENCH_LANE_UNROLL
+    ISOWRENCH_UNROLL
     for (int k = 0; k < i; ++k) v -= L[i * S + k] * y[k];
     y[i] = v * inv_diag[i];
   }
   V* x = ws.x;
-  ISOWRENCH_LANE_UNROLL
+  ISOWRENCH_UNROLL
   for (int i = m - 1; i >= 0; --i) {
     V v = y[i];
-    ISOWRENCH_LANE_UNROLL
+    ISOWRENCH_UNROLL
     for (int k = i + 1; k < m; ++k) v -= L[k * S + i] * x[k];
     x[i] = v * inv_diag[i];
   }
-  ISOWRENCH_LANE_UNROLL
+  ISOWRENCH_UNROLL
   for (int r = 0; r < 6; ++r) {
     V v = ws.J[0][r] * x[0];
-    ISOWRENCH_LANE_UNROLL
+    ISOWRENCH_UNROLL
     for (int j = 1; j < m; ++j) v += ws.J[j][r] * x[j];
     wrench[r] = s_t[r] * v;
     undecided |= (wrench[r] - wrench[r]) != 0.0;  // inf or NaN
@@ -427,7 +406,7 @@ ISOWRENCH_LANE_INLINE void SolveLanesKernel(LaneWorkspace::Impl& ws, int m_runti
 }
 
 // Returns the undecided lanes' bitmask.
-ISOWRENCH_LANE_INLINE unsigned SolveLanesDispatch(LaneWorkspace::Impl& ws, const V* s_t, const V* s_p,
+ISOWRENCH_INLINE unsigned SolveLanesDispatch(LaneWorkspace::Impl& ws, const V* s_t, const V* s_p,
                                                   const FastOptions& options, V* wrench) {
   VI undecided;
   switch (ws.m) {
@@ -446,7 +425,7 @@ ISOWRENCH_LANE_INLINE unsigned SolveLanesDispatch(LaneWorkspace::Impl& ws, const
 
 }  // namespace
 
-ISOWRENCH_LANE_CLONES unsigned LaneSolve(const CompiledModel& model, LaneWorkspace& workspace,
+ISOWRENCH_CLONES unsigned LaneSolve(const CompiledModel& model, LaneWorkspace& workspace,
                                          const StiffnessSet* const sets[kLanes],
                    const FastOptions& options, FastWrench* const out[kLanes]) {
   LaneWorkspace::Impl& ws = workspace.impl();
@@ -454,8 +433,8 @@ ISOWRENCH_LANE_CLONES unsigned LaneSolve(const CompiledModel& model, LaneWorkspa
   V s_t[6];
   V s_p[kFastMaxDofs];
   if (sets[0] == sets[1] && sets[0] == sets[2] && sets[0] == sets[3]) {  // four postures, one set
-    for (int r = 0; r < 6; ++r) s_t[r] = ISOWRENCH_SPLAT(sets[0]->s_t[r]);
-    for (int i = 0; i < m; ++i) s_p[i] = ISOWRENCH_SPLAT(sets[0]->s_p[i]);
+    for (int r = 0; r < 6; ++r) s_t[r] = ISOWRENCH_V4_SPLAT(sets[0]->s_t[r]);
+    for (int i = 0; i < m; ++i) s_p[i] = ISOWRENCH_V4_SPLAT(sets[0]->s_p[i]);
   } else {
     for (int r = 0; r < 6; ++r) s_t[r] = V{sets[0]->s_t[r], sets[1]->s_t[r], sets[2]->s_t[r], sets[3]->s_t[r]};
     for (int i = 0; i < m; ++i) s_p[i] = V{sets[0]->s_p[i], sets[1]->s_p[i], sets[2]->s_p[i], sets[3]->s_p[i]};
