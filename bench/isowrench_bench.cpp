@@ -120,6 +120,7 @@ void BM_Sweep181x181x20(benchmark::State& state) {
     benchmark::DoNotOptimize(out.data());
   }
   state.SetItemsProcessed(state.iterations() * 181L * 181L * static_cast<long>(f.sets.size()));
+  state.counters["threads"] = options.threads;
 }
 BENCHMARK(BM_Sweep181x181x20)->UseRealTime()->Unit(benchmark::kMillisecond);
 
