@@ -43,36 +43,18 @@ void SetAxisKind(FastJoint& joint) {
 }
 
 // sin and cos of one angle, to within an ulp or two, in about 50 instructions instead of the
-// ~120 of libm's sincos (which also handles huge arguments exactly): Cody-Waite reduction by
-// pi/2 with a three-part constant (exact products for |n| < 2^20), then fdlibm's
-// __kernel_sin / __kernel_cos polynomials on [-pi/4, pi/4]. Angles beyond kMaxReduced fall
-// back to std::sin/std::cos.
+// ~120 of libm's sincos (which also handles huge arguments exactly): sincos::Kernel (simd.hpp)
+// and the quadrant. Angles beyond sincos::kMaxReduced fall back to std::sin/std::cos.
 ISOWRENCH_INLINE void SinCos(double x, double* sin_x, double* cos_x) {
-  constexpr double kMaxReduced = 1e5;  // rad; n = round(x 2/pi) < 2^17 keeps n * kPio2_1 exact
-  if (!(std::abs(x) < kMaxReduced)) {
+  if (!(std::abs(x) < sincos::kMaxReduced)) {
     *sin_x = std::sin(x);
     *cos_x = std::cos(x);
     return;
   }
-  constexpr double kTwoOverPi = 6.36619772367581382433e-01;
-  constexpr double kPio2_1 = 1.57079632673412561417e+00;   // first 33 bits of pi/2
-  constexpr double kPio2_2 = 6.07710050630396597660e-11;   // next 33 bits
-  constexpr double kPio2_3 = 2.02226624871116645580e-21;   // next 33 bits
-  constexpr double kRound = 6755399441055744.0;            // 1.5 * 2^52: round to nearest
-  const double k = (x * kTwoOverPi + kRound) - kRound;
+  const double k = (x * sincos::kTwoOverPi + sincos::kRound) - sincos::kRound;
   const long n = static_cast<long>(k);
-  const double r = ((x - k * kPio2_1) - k * kPio2_2) - k * kPio2_3;
-  const double z = r * r;
-  constexpr double S1 = -1.66666666666666324348e-01, S2 = 8.33333333332248946124e-03,
-                   S3 = -1.98412698298579493134e-04, S4 = 2.75573137070700676789e-06,
-                   S5 = -2.50507602534068634195e-08, S6 = 1.58969099521155010221e-10;
-  constexpr double C1 = 4.16666666666666019037e-02, C2 = -1.38888888888741095749e-03,
-                   C3 = 2.48015872894767294178e-05, C4 = -2.75573143513906633035e-07,
-                   C5 = 2.08757232129817482790e-09, C6 = -1.13596475577881948265e-11;
-  const double sin_r = r + r * z * (S1 + z * (S2 + z * (S3 + z * (S4 + z * (S5 + z * S6)))));
-  const double hz = 0.5 * z;
-  const double w = 1.0 - hz;
-  const double cos_r = w + (((1.0 - w) - hz) + z * z * (C1 + z * (C2 + z * (C3 + z * (C4 + z * (C5 + z * C6))))));
+  double sin_r, cos_r;
+  sincos::Kernel(x, k, sin_r, cos_r);
   // Quadrant n mod 4: (sin, cos) = (s, c), (c, -s), (-s, -c), (-c, s).
   const bool swap = n & 1;
   const double sign_sin = (n & 2) ? -1.0 : 1.0;
@@ -222,22 +204,9 @@ ISOWRENCH_INLINE FastWrench Substitute(FastWorkspace::Impl& ws, int m, const dou
                                        const double* J, const double* s_t, const double* tau) {
   constexpr int S = kFastMaxDofs;
   double y[S];
-  ISOWRENCH_UNROLL
-  for (int i = 0; i < m; ++i) {
-    double v = tau[i];
-    ISOWRENCH_UNROLL
-    for (int k = 0; k < i; ++k) v -= U[k * S + i] * y[k];
-    y[i] = v * inv_diag[i];
-  }
   ws.dtheta.resize(m);
   double* x = ws.dtheta.data();
-  ISOWRENCH_UNROLL
-  for (int i = m - 1; i >= 0; --i) {
-    double v = y[i];
-    ISOWRENCH_UNROLL
-    for (int k = i + 1; k < m; ++k) v -= U[i * S + k] * x[k];
-    x[i] = v * inv_diag[i];
-  }
+  SolveWithFactor<N>(m, U, inv_diag, tau, y, x);
   FastWrench out;
   if (N > 0) {
     // W on 4-double vectors: rows 0-3 and rows 2-5 of each column of J (rows 2 and 3 twice),

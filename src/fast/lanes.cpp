@@ -35,30 +35,14 @@ ISOWRENCH_INLINE void Sqrt(const V& x, V& out) {
 // Per-lane sin and cos: the polynomial and Cody-Waite reduction of SinCos in fast.cpp, with the
 // quadrant read from the low bits of x 2/pi + 1.5 * 2^52 (its mantissa holds round(x 2/pi),
 // two's complement modulo 4) and applied by selects and sign-bit flips instead of branches.
-// Valid for |x| < kMaxReduced; LaneKinematics hands lanes with larger angles to the scalar
-// path (which uses std::sin / std::cos there).
-constexpr double kMaxReduced = 1e5;
+// Valid for |x| < sincos::kMaxReduced; LaneKinematics hands lanes with larger angles to the
+// scalar path (which uses std::sin / std::cos there).
 ISOWRENCH_INLINE void SinCos(const V& x, V& sin_x, V& cos_x) {
-  constexpr double kTwoOverPi = 6.36619772367581382433e-01;
-  constexpr double kPio2_1 = 1.57079632673412561417e+00;
-  constexpr double kPio2_2 = 6.07710050630396597660e-11;
-  constexpr double kPio2_3 = 2.02226624871116645580e-21;
-  constexpr double kRound = 6755399441055744.0;  // 1.5 * 2^52
-  const V shifted = x * kTwoOverPi + kRound;
+  const V shifted = x * sincos::kTwoOverPi + sincos::kRound;
   const VI n = (VI)shifted;  // GCC vector casts keep the bits
-  const V k = shifted - kRound;
-  const V r = ((x - k * kPio2_1) - k * kPio2_2) - k * kPio2_3;
-  const V z = r * r;
-  constexpr double S1 = -1.66666666666666324348e-01, S2 = 8.33333333332248946124e-03,
-                   S3 = -1.98412698298579493134e-04, S4 = 2.75573137070700676789e-06,
-                   S5 = -2.50507602534068634195e-08, S6 = 1.58969099521155010221e-10;
-  constexpr double C1 = 4.16666666666666019037e-02, C2 = -1.38888888888741095749e-03,
-                   C3 = 2.48015872894767294178e-05, C4 = -2.75573143513906633035e-07,
-                   C5 = 2.08757232129817482790e-09, C6 = -1.13596475577881948265e-11;
-  const V sin_r = r + r * z * (S1 + z * (S2 + z * (S3 + z * (S4 + z * (S5 + z * S6)))));
-  const V hz = 0.5 * z;
-  const V w = 1.0 - hz;
-  const V cos_r = w + (((1.0 - w) - hz) + z * z * (C1 + z * (C2 + z * (C3 + z * (C4 + z * (C5 + z * C6))))));
+  const V k = shifted - sincos::kRound;
+  V sin_r, cos_r;
+  sincos::Kernel(x, k, sin_r, cos_r);
   // Quadrant n mod 4: (sin, cos) = (s, c), (c, -s), (-s, -c), (-c, s).
   const VI swap = (n & 1) != 0;
   const V s = swap ? cos_r : sin_r;
@@ -83,8 +67,8 @@ struct LaneWorkspace::Impl {
   bool frame_needed[kFastMaxDofs] = {};  // a path point of some muscle hangs on frame k
   V J[kFastMaxDofs][6];  // column k: [v; w] in transducer axes
   V tau[kFastMaxDofs];
-  V K[kFastMaxDofs * kFastMaxDofs];  // statics: lower triangles of K and its Cholesky factor
-  V L[kFastMaxDofs * kFastMaxDofs];
+  V K[kFastMaxDofs * kFastMaxDofs];  // statics: lower triangle of K by rows,
+  V U[kFastMaxDofs * kFastMaxDofs];  // its Cholesky factor U = L^T (upper triangle by rows)
   V x[kFastMaxDofs];  // dtheta
 };
 
@@ -216,7 +200,7 @@ ISOWRENCH_CLONES unsigned LaneKinematics(const CompiledModel& model, LaneWorkspa
     ws.q[k] = V{q[0][k], q[1][k], q[2][k], q[3][k]};
     if (d.joints[k].revolute) {
       const V magnitude = (V)((VI)ws.q[k] & 0x7fffffffffffffff);
-      out_of_range |= (magnitude < kMaxReduced) == 0;
+      out_of_range |= (magnitude < sincos::kMaxReduced) == 0;
     }
   }
   V R_last[9];
@@ -341,7 +325,7 @@ ISOWRENCH_INLINE void SolveLanesKernel(LaneWorkspace::Impl& ws, int m_runtime, c
   constexpr int S = kFastMaxDofs;
   const int m = N > 0 ? N : std::min(m_runtime, S);
   V* K = ws.K;
-  V* L = ws.L;
+  V* U = ws.U;
   V max_diag = ISOWRENCH_V4_SPLAT(0.0);
   ISOWRENCH_UNROLL
   for (int i = 0; i < m; ++i) {
@@ -365,7 +349,7 @@ ISOWRENCH_INLINE void SolveLanesKernel(LaneWorkspace::Impl& ws, int m_runtime, c
   for (int j = 0; j < m; ++j) {
     V d = K[j * S + j];
     ISOWRENCH_UNROLL
-    for (int k = 0; k < j; ++k) d -= L[j * S + k] * L[j * S + k];
+    for (int k = 0; k < j; ++k) d -= U[k * S + j] * U[k * S + j];
     undecided |= (d > pivot_floor) == 0;
     V l;
     Sqrt(d, l);
@@ -375,26 +359,13 @@ ISOWRENCH_INLINE void SolveLanesKernel(LaneWorkspace::Impl& ws, int m_runtime, c
     for (int i = j + 1; i < m; ++i) {
       V v = K[i * S + j];
       ISOWRENCH_UNROLL
-      for (int k = 0; k < j; ++k) v -= L[i * S + k] * L[j * S + k];
-      L[i * S + j] = v * inv;
+      for (int k = 0; k < j; ++k) v -= U[k * S + i] * U[k * S + j];
+      U[j * S + i] = v * inv;
     }
   }
   V y[S];
-  ISOWRENCH_UNROLL
-  for (int i = 0; i < m; ++i) {
-    V v = ws.tau[i];
-    ISOWRENCH_UNROLL
-    for (int k = 0; k < i; ++k) v -= L[i * S + k] * y[k];
-    y[i] = v * inv_diag[i];
-  }
   V* x = ws.x;
-  ISOWRENCH_UNROLL
-  for (int i = m - 1; i >= 0; --i) {
-    V v = y[i];
-    ISOWRENCH_UNROLL
-    for (int k = i + 1; k < m; ++k) v -= L[k * S + i] * x[k];
-    x[i] = v * inv_diag[i];
-  }
+  SolveWithFactor<N>(m, U, inv_diag, ws.tau, y, x);
   ISOWRENCH_UNROLL
   for (int r = 0; r < 6; ++r) {
     V v = ws.J[0][r] * x[0];
