@@ -26,9 +26,6 @@
 namespace isowrench {
 namespace {
 
-
-
-
 void SetAxisKind(FastJoint& joint) {
   const Eigen::Vector3d& a = joint.axis;
   for (int k = 0; k < 3; ++k) {
@@ -110,7 +107,6 @@ ISOWRENCH_INLINE void GeneralAxisAndTurn(double* M, const FastJoint& j, double q
   GeneralAxisAndTurnOutOfLine(copy, j, q, z, turn);
   for (int i = 0; i < 9; ++i) M[i] = copy.data()[i];
 }
-
 
 // The eigen-solve used when the Cholesky pivots say K is (nearly) singular: the same rank and
 // excitation decisions as SolveStatics, on the workspace's fixed-size buffers.
