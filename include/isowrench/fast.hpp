@@ -181,8 +181,8 @@ FastWrench SolveStaticsFast(FastWorkspace& ws, const Eigen::Ref<const Matrix6Xd>
 
 /// Options of EvaluateBatch.
 struct BatchOptions {
-  /// Worker threads (>= 1); each gets its own FastWorkspace. 2 uses both cores of a 2-core
-  /// machine. More threads than postures are not started.
+  /// Worker threads (>= 1); each gets its own workspaces. 2 uses both cores of a 2-core
+  /// machine. More threads than blocks of work are not started.
   int threads = 2;
   /// Called on the calling thread with (evaluations done, evaluations total), an evaluation
   /// being one posture with one stiffness set, after each unit of work it finishes and once at
@@ -200,11 +200,13 @@ struct BatchOptions {
 /// thread). Inside a block, four evaluations run at once, one per lane of a 4-double SIMD
 /// register (AVX2 where the CPU has it): four postures share a stiffness set, or, for a
 /// posture left over, four sets share its kinematics. Kinematics are computed once per
-/// posture. An evaluation the lanes cannot decide (a Cholesky pivot at or below
-/// FastOptions::cholesky_pivot_tolerance: a singular or nearly singular K) is redone by the
-/// scalar path, so statuses, self-motion counts and kSelfMotionHeld wrenches are those of
-/// EvaluateFast; kOk wrenches agree with EvaluateFast to rounding (the lanes may fuse
-/// multiply-adds differently). Allocates only the output and one workspace per thread.
+/// posture. An evaluation the lanes cannot decide is redone by the scalar path: a Cholesky
+/// pivot at or below FastOptions::cholesky_pivot_tolerance (a singular or nearly singular K),
+/// a non-finite result, coincident path points, or a revolute angle |q| >= 1e5 rad. So
+/// statuses, self-motion counts and kSelfMotionHeld wrenches are those of EvaluateFast; kOk
+/// wrenches agree with EvaluateFast to rounding (the lanes may fuse multiply-adds
+/// differently, which moves W by about eps cond(K)). Allocates only the output and the
+/// workspaces of each thread.
 /// @throws Error if postures has the wrong row count or a non-finite entry, the muscle index is
 ///         out of range, a stiffness set has the wrong size, or `stiffness` is empty.
 void EvaluateBatch(const CompiledModel& model, const Eigen::Ref<const Eigen::MatrixXd>& postures,
