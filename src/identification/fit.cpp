@@ -512,6 +512,14 @@ FitReport FitEffects(const Model& nominal, const std::vector<Trial>& trials, con
   std::vector<Vector6d> current_prediction = nominal_prediction.wrench;
   report.before = ComputeResidualStats(trials, current_prediction, 0, options);
   double chi2_current = report.before.chi2;
+  // Make `effects` (with their fits) the current model: its prediction and chi2.
+  auto adopt = [&](const std::vector<AppliedEffect>& effects, const std::vector<CandidateFit>& fits) {
+    current = ApplyEffects(nominal.description(), effects);
+    report.chosen = effects;
+    report.chosen_fits = fits;
+    current_prediction = PredictTrials(Model(current.description), trials, current.sensor_offset).wrench;
+    chi2_current = ComputeResidualStats(trials, current_prediction, 0, options).chi2;
+  };
 
   for (int round = 1; round <= options.max_rounds; ++round) {
     FitRound r;
@@ -660,12 +668,7 @@ FitReport FitEffects(const Model& nominal, const std::vector<Trial>& trials, con
         }
       }
     }
-    current = ApplyEffects(nominal.description(), chosen);
-    report.chosen = chosen;
-    report.chosen_fits = chosen_fits;
-    Prediction p = PredictTrials(Model(current.description), trials, current.sensor_offset);
-    current_prediction = p.wrench;
-    chi2_current = ComputeResidualStats(trials, current_prediction, 0, options).chi2;
+    adopt(chosen, chosen_fits);
     report.rounds.push_back(std::move(r));
   }
 
@@ -708,12 +711,7 @@ FitReport FitEffects(const Model& nominal, const std::vector<Trial>& trials, con
     }
     report.notes.push_back("base_per_axis simplified to base_isotropic: the three axis stiffnesses agree (BIC " +
                            util::FormatNumber(bic_now, 6) + " -> " + util::FormatNumber(bic_alt, 6) + ")");
-    current = ApplyEffects(nominal.description(), alt);
-    report.chosen = alt;
-    report.chosen_fits = fits;
-    Prediction p = PredictTrials(Model(current.description), trials, current.sensor_offset);
-    current_prediction = p.wrench;
-    chi2_current = ComputeResidualStats(trials, current_prediction, 0, options).chi2;
+    adopt(alt, fits);
     break;
   }
 

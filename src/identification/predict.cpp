@@ -33,26 +33,26 @@ std::vector<int> JointMap(const Model& model, const std::vector<std::string>& na
 
 namespace {
 
-/// Reference path (KDL kinematics + SolveStatics), used when the fast path cannot compile the
-/// model (more than kFastMaxDofs joints).
-void PredictSubsetReference(const Model& model, const std::vector<Trial>& trials, const std::vector<int>& subset,
-                            const Vector6d& sensor_offset, std::vector<Vector6d>* wrench, std::vector<bool>* ok,
-                            std::string* message) {
-  KinematicsWorkspace ws(model);
+/// The loop over the trials of `subset` both prediction paths share: map each trial's joints and
+/// muscle, then `evaluate(q, muscle_index, trial, &w)` returns "" with w set, or why the model
+/// cannot predict the trial. The first failure's reason goes to `message`.
+template <class Evaluate>
+void PredictEach(const Model& model, const std::vector<Trial>& trials, const std::vector<int>& subset,
+                 const Vector6d& sensor_offset, std::vector<Vector6d>* wrench, std::vector<bool>* ok,
+                 std::string* message, Evaluate evaluate) {
   TrialMapper mapper(model);
   Eigen::VectorXd q(model.dof_count());
+  Vector6d w = Vector6d::Zero();
   for (size_t k = 0; k < subset.size(); ++k) {
     const Trial& trial = trials[subset[k]];
     try {
-      int muscle_index = mapper.Map(trial, &q);
-      const StaticsResult s = EvaluateWrench(model, ws, q, muscle_index, trial.activation).statics;
-      if (!s.ok()) {
-        if (message && message->empty()) {
-          *message = "trial at line " + std::to_string(trial.line) + ": " + StatusName(s.status) + ": " + s.message;
-        }
+      const int muscle_index = mapper.Map(trial, &q);
+      const std::string failure = evaluate(q, muscle_index, trial, &w);
+      if (!failure.empty()) {
+        if (message && message->empty()) *message = "trial at line " + std::to_string(trial.line) + ": " + failure;
         continue;
       }
-      (*wrench)[k] = s.wrench + sensor_offset;
+      (*wrench)[k] = w + sensor_offset;
       (*ok)[k] = true;
     } catch (const Error& e) {
       if (message && message->empty()) *message = e.what();
@@ -94,33 +94,33 @@ void PredictSubset(const Model& model, const std::vector<Trial>& trials, const s
   wrench->assign(subset.size(), Vector6d::Zero());
   ok->assign(subset.size(), false);
   if (model.dof_count() > kFastMaxDofs || model.dof_count() < 1) {
-    PredictSubsetReference(model, trials, subset, sensor_offset, wrench, ok, message);
+    // Reference path (KDL kinematics + SolveStatics): the fast path cannot compile the model.
+    KinematicsWorkspace kinematics(model);
+    PredictEach(model, trials, subset, sensor_offset, wrench, ok, message,
+                [&](const Eigen::VectorXd& q, int muscle_index, const Trial& trial, Vector6d* w) -> std::string {
+                  const StaticsResult s = EvaluateWrench(model, kinematics, q, muscle_index, trial.activation).statics;
+                  if (!s.ok()) return std::string(StatusName(s.status)) + ": " + s.message;
+                  *w = s.wrench;
+                  return "";
+                });
     return;
   }
   CompiledModel compiled(model);
   FastWorkspace ws(compiled);
   const StiffnessSet stiffness = compiled.model_stiffness();
-  TrialMapper mapper(model);
-  Eigen::VectorXd q(model.dof_count());
-  for (size_t k = 0; k < subset.size(); ++k) {
-    const Trial& trial = trials[subset[k]];
-    try {
-      int muscle_index = mapper.Map(trial, &q);
-      if (!q.allFinite() || !std::isfinite(trial.activation)) throw Error("trial at line " + std::to_string(trial.line) + ": non-finite posture or activation");
-      FastWrench w = EvaluateFast(compiled, ws, q, muscle_index, stiffness, trial.activation);
-      if (w.status != StaticsStatus::kOk && w.status != StaticsStatus::kSelfMotionHeld) {
-        if (message && message->empty()) {
-          *message = "trial at line " + std::to_string(trial.line) + ": " + StatusName(w.status) +
-                     " (the model cannot hold this posture; see `isowrench wrench`)";
-        }
-        continue;
-      }
-      (*wrench)[k] = w.wrench + sensor_offset;
-      (*ok)[k] = true;
-    } catch (const Error& e) {
-      if (message && message->empty()) *message = e.what();
-    }
-  }
+  PredictEach(model, trials, subset, sensor_offset, wrench, ok, message,
+              [&](const Eigen::VectorXd& q, int muscle_index, const Trial& trial, Vector6d* w) -> std::string {
+                if (!q.allFinite() || !std::isfinite(trial.activation)) {
+                  throw Error("trial at line " + std::to_string(trial.line) + ": non-finite posture or activation");
+                }
+                const FastWrench f = EvaluateFast(compiled, ws, q, muscle_index, stiffness, trial.activation);
+                if (f.status != StaticsStatus::kOk && f.status != StaticsStatus::kSelfMotionHeld) {
+                  return std::string(StatusName(f.status)) +
+                         " (the model cannot hold this posture; see `isowrench wrench`)";
+                }
+                *w = f.wrench;
+                return "";
+              });
 }
 
 }  // namespace ident
