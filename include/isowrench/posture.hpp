@@ -16,6 +16,11 @@ namespace isowrench {
 Eigen::VectorXd ApplyPostureAssignments(const Model& model, Eigen::VectorXd q,
                                         const std::string& assignments);
 
+/// A joint value in user units (degrees for revolute joints, mm for prismatic ones) in the
+/// model's units (rad, m), and back.
+double JointValueFromUserUnits(JointType type, double user_value);
+double JointValueToUserUnits(JointType type, double model_value);
+
 /// Set one joint from a user value (degrees or mm). @throws Error as above.
 void SetJointFromUserUnits(const Model& model, Eigen::VectorXd& q, const std::string& joint,
                            double value);

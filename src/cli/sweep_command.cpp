@@ -19,7 +19,6 @@
 namespace isowrench::cli {
 namespace {
 
-constexpr double kPi = 3.14159265358979323846;
 // Largest sweep accepted: the results are held in memory (64 bytes each) before the CSV is
 // written; 5e7 evaluations is 3.2 GB.
 constexpr double kMaxEvaluations = 5e7;
@@ -59,7 +58,7 @@ GridAxis ParseGrid(const Model& model, const std::string& text) {
   for (long k = 0; k < static_cast<long>(count); ++k) {
     const double v = from + static_cast<double>(k) * step;
     axis.user_values.push_back(v);
-    axis.model_values.push_back(axis.prismatic ? v * 1e-3 : v * kPi / 180.0);
+    axis.model_values.push_back(JointValueFromUserUnits(model.joint(axis.column).type, v));
   }
   return axis;
 }

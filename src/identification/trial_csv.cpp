@@ -8,13 +8,13 @@
 
 #include "identification/identification_impl.hpp"
 #include "isowrench/error.hpp"
+#include "isowrench/posture.hpp"
 #include "util/atomic_file.hpp"
 #include "util/text.hpp"
 
 namespace isowrench {
 namespace {
 
-constexpr double kPi = 3.14159265358979323846;
 const char* kWrenchColumns[6] = {"fx", "fy", "fz", "mx", "my", "mz"};
 const char* kSdColumns[6] = {"sd_fx", "sd_fy", "sd_fz", "sd_mx", "sd_my", "sd_mz"};
 
@@ -155,7 +155,7 @@ bool TrialReader::Next(Trial* trial) {
       int j = m.joint_column[c];
       if (j < 0) continue;
       double v = number(static_cast<int>(c));
-      t.q[j] = m.model->joint(j).type == JointType::kPrismatic ? v * 1e-3 : v * kPi / 180.0;
+      t.q[j] = JointValueFromUserUnits(m.model->joint(j).type, v);
     }
     t.muscle = fields[m.muscle_column];
     try {
@@ -213,7 +213,7 @@ void WriteTrialsCsv(const Model& model, const std::vector<Trial>& trials, std::o
       q = t.q;
     }
     for (int j = 0; j < q.size(); ++j) {
-      double v = model.joint(j).type == JointType::kPrismatic ? q[j] * 1e3 : q[j] * 180.0 / kPi;
+      double v = JointValueToUserUnits(model.joint(j).type, q[j]);
       out << util::FormatNumber(v, 10) << ",";
     }
     out << t.muscle << "," << util::FormatNumber(t.activation, 10);

@@ -22,10 +22,18 @@ void ValidatePosture(const Model& model, const Eigen::VectorXd& q) {
   }
 }
 
+double JointValueFromUserUnits(JointType type, double user_value) {
+  return type == JointType::kPrismatic ? user_value * 1e-3 : user_value * M_PI / 180.0;
+}
+
+double JointValueToUserUnits(JointType type, double model_value) {
+  return type == JointType::kPrismatic ? model_value * 1e3 : model_value * 180.0 / M_PI;
+}
+
 void SetJointFromUserUnits(const Model& model, Eigen::VectorXd& q, const std::string& joint, double value) {
   int index = model.JointIndex(joint);
   if (!std::isfinite(value)) throw Error("posture of joint '" + joint + "' is not finite");
-  q[index] = model.joint(index).type == JointType::kPrismatic ? value * 1e-3 : value * M_PI / 180.0;
+  q[index] = JointValueFromUserUnits(model.joint(index).type, value);
 }
 
 Eigen::VectorXd ApplyPostureAssignments(const Model& model, Eigen::VectorXd q, const std::string& assignments) {
@@ -47,7 +55,7 @@ std::string FormatPosture(const Model& model, const Eigen::VectorXd& q, bool all
   for (int i = 0; i < model.dof_count() && i < q.size(); ++i) {
     if (!all && q[i] == 0.0) continue;
     bool prismatic = model.joint(i).type == JointType::kPrismatic;
-    double value = prismatic ? q[i] * 1e3 : q[i] * 180.0 / M_PI;
+    double value = JointValueToUserUnits(model.joint(i).type, q[i]);
     items.push_back(model.joint_names()[i] + "=" + util::FormatNumber(value, 6) + (prismatic ? " mm" : "°"));
   }
   return items.empty() ? "all joints at 0" : util::Join(items, ", ");
