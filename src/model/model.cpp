@@ -82,7 +82,7 @@ void Validate(const LimbDescription& d) {
   }
   for (const auto& [joint, value] : d.nominal_posture) {
     auto it = std::find_if(d.joints.begin(), d.joints.end(),
-                           [&](const JointSpec& j) { return j.name == joint; });
+                           [&name = joint](const JointSpec& j) { return j.name == name; });
     if (it == d.joints.end() || it->type == JointType::kFixed) {
       throw Error(model + ": nominal posture names unknown or fixed joint '" + joint + "'");
     }
