@@ -4,6 +4,7 @@
 #include <cmath>
 
 #include "isowrench/error.hpp"
+#include "isowrench/input_checks.hpp"
 #include "isowrench/model.hpp"
 #include "util/text.hpp"
 
@@ -26,6 +27,7 @@ void CheckStiffness(double stiffness, const std::string& what) {
     throw Error(what + ": stiffness " + util::FormatNumber(stiffness) +
                 " must be finite and >= 0");
   }
+  CheckStiffnessValue(stiffness, what);  // <= kMaxStiffness
 }
 
 bool HasLink(const LimbDescription& d, const std::string& name) {
@@ -167,6 +169,7 @@ LimbDescription WithTransducerStiffness(LimbDescription d, const Vector6d& stiff
       throw Error(std::string("transducer stiffness ") + DofName(i) + " = " +
                   util::FormatNumber(stiffness[i]) + " must be finite and >= 0");
     }
+    CheckStiffnessValue(stiffness[i], std::string("WithTransducerStiffness: transducer ") + DofName(i));
   }
   d.transducer.stiffness = stiffness;
   return d;

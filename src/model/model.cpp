@@ -5,6 +5,7 @@
 #include <set>
 
 #include "isowrench/error.hpp"
+#include "isowrench/input_checks.hpp"
 #include "isowrench/model.hpp"
 #include "model/model_impl.hpp"
 #include "util/text.hpp"
@@ -48,6 +49,7 @@ void Validate(const LimbDescription& d) {
     if (!std::isfinite(j.stiffness) || j.stiffness < 0) {
       throw Error(what + ": stiffness " + util::FormatNumber(j.stiffness) + " must be finite and >= 0");
     }
+    CheckStiffnessValue(j.stiffness, what);
   }
   if (movable == 0) throw Error(model + " has no movable joint");
   const TransducerSpec& t = d.transducer;
@@ -64,6 +66,7 @@ void Validate(const LimbDescription& d) {
       throw Error(model + ": transducer stiffness " + DofName(i) + " = " +
                   util::FormatNumber(t.stiffness[i]) + " must be finite and >= 0");
     }
+    CheckStiffnessValue(t.stiffness[i], model + ": transducer " + DofName(i));
   }
   std::set<std::string> muscles;
   for (const MuscleSpec& m : d.muscles) {

@@ -15,7 +15,9 @@
 #include <sstream>
 
 #include "isowrench/error.hpp"
+#include "isowrench/input_checks.hpp"
 #include "isowrench/model.hpp"
+#include "model/urdf_checks.hpp"
 #include "util/text.hpp"
 
 namespace isowrench {
@@ -121,6 +123,10 @@ LimbDescription ReadUrdfString(const std::string& xml, const std::string& source
   }
   const tinyxml2::XMLElement* robot = doc.FirstChildElement("robot");
   if (!robot) throw Error(r.source + ": no <robot> element: not a URDF file");
+  // Before anything walks the joints: urdfdom and the chain walk below loop forever on a
+  // joint loop, so the tree structure is checked first; then every isowrench: attribute.
+  urdf_checks::CheckJointTree(*robot, r.source);
+  urdf_checks::CheckExtensionAttributes(*robot, r.source);
 
   // Pass 1 (tinyxml2): joint types we refuse, line numbers for messages.
   std::map<std::string, const tinyxml2::XMLElement*> joint_elements;
@@ -234,7 +240,12 @@ LimbDescription ReadUrdfString(const std::string& xml, const std::string& source
       r.Fail(e, "joint '" + name + "' is not on the chain from '" + d.root_link + "' to the "
                     "endpoint link '" + endpoint_link + "'");
     }
-    r.Fail(e, "unknown joint '" + name + "'");
+    std::vector<std::string> movable;
+    for (const JointSpec& j : d.joints) {
+      if (j.type != JointType::kFixed) movable.push_back(j.name);
+    }
+    r.Fail(e, "unknown joint '" + name + "'" + DidYouMean(name, movable) + "; the movable joints are " +
+                  util::Join(movable, ", "));
   };
   auto check_link = [&](const tinyxml2::XMLElement* e, const std::string& name) {
     if (std::find(d.links.begin(), d.links.end(), name) != d.links.end()) return;
@@ -275,6 +286,8 @@ LimbDescription ReadUrdfString(const std::string& xml, const std::string& source
         r.Fail(transducer, "transducer stiffness " + std::string(DofName(i)) + " = " +
                                util::FormatNumber(stiffness[i]) + " is negative");
       }
+      CheckStiffnessValue(stiffness[i], r.Where(transducer) + ": <isowrench:transducer> attribute stiffness, " +
+                                            DofName(i));
       t.stiffness[i] = stiffness[i];
     }
   }
@@ -309,6 +322,7 @@ LimbDescription ReadUrdfString(const std::string& xml, const std::string& source
         if (j.stiffness < 0) {
           r.Fail(e, "joint '" + j.name + "': stiffness " + s + " is negative");
         }
+        CheckStiffnessValue(j.stiffness, r.Where(e) + ": <isowrench:joint name=\"" + j.name + "\"> attribute stiffness");
       }
     } else if (tag == "isowrench:muscle") {
       MuscleSpec m;
@@ -352,6 +366,17 @@ LimbDescription ReadUrdfString(const std::string& xml, const std::string& source
       d.nominal_posture.emplace_back(name, q);
     }
   }
+  urdf_checks::WarnImplausibleDimensions(d, [&](const std::string& joint) {
+    if (joint.rfind("muscle:", 0) == 0) {
+      std::string muscle = joint.substr(7);
+      for (auto* e = robot->FirstChildElement("isowrench:muscle"); e; e = e->NextSiblingElement("isowrench:muscle")) {
+        const char* n = e->Attribute("name");
+        if (n && muscle == n) return r.Where(e);
+      }
+    }
+    auto it = joint_elements.find(joint);
+    return it != joint_elements.end() ? r.Where(it->second) : r.Where(transducer);
+  });
   return d;
 }
 

@@ -1,0 +1,84 @@
+#pragma once
+/// @file
+/// Limits on user input and the warning channel for input that is legal but implausible.
+///
+/// Errors (isowrench::Error) stop a run; warnings do not: they report input that is probably a
+/// mistake (a 45 m phalanx, a CSV without a joint column, an angle far outside the joint's
+/// range) and let the run continue. Every warning is a complete sentence naming the culprit.
+
+#include <functional>
+#include <memory>
+#include <string>
+#include <vector>
+
+namespace isowrench {
+
+/// Largest stiffness isowrench accepts (N/m for translations, N·m/rad for rotations).
+///
+/// Why 1e15: the stiffest thing a limb experiment can contain is a short steel part; a
+/// 10 cm x 10 cm steel bar 1 mm long has E·A/L = 2e11 Pa · 1e-2 m² / 1e-3 m = 2e12 N/m, and
+/// rigid six-axis transducers are 1e7..1e9 N/m and 1e3..1e6 N·m/rad (datasheets, docs/model.md).
+/// 1e15 is three decades above anything physical and still leaves the statics far from
+/// overflow: K = J^T S J sums products of stiffness and squared lever arms (metres), so its
+/// entries stay below ~1e18 for limbs under 30 m, i.e. 290 decades below DBL_MAX. A rigid
+/// connection is written as a released dof's complement (omit the joint) or as a large but
+/// physical stiffness, never as 1e308.
+constexpr double kMaxStiffness = 1e15;
+
+/// Largest force (N) or moment (N·m) magnitude a measured wrench may hold: no muscle or
+/// transducer in a limb experiment comes near 1e6 N (a hundred tonnes-force).
+constexpr double kMaxMeasuredWrench = 1e6;
+
+/// Plausible range of one limb segment (distance between consecutive joint centres, or from
+/// the last joint to the endpoint), in metres: from a mouse phalanx (~1 mm) to an elephant's
+/// leg segment (~2 m). Lengths of 0 (co-located joints of a ball or universal joint) are fine.
+constexpr double kMinSegmentLength = 1e-3;
+constexpr double kMaxSegmentLength = 2.0;
+
+/// Plausible straight-line muscle path length at the nominal posture (m): 1 mm .. 2 m.
+constexpr double kMinMuscleLength = 1e-3;
+constexpr double kMaxMuscleLength = 2.0;
+
+/// Receives warnings. The default handler writes "isowrench: warning: <message>" to stderr.
+using WarningHandler = std::function<void(const std::string& message)>;
+
+/// Install a process-wide warning handler (thread-safe); returns the previous one. An empty
+/// handler restores the default (stderr).
+WarningHandler SetWarningHandler(WarningHandler handler);
+
+/// Report a warning through the current handler (thread-safe).
+void Warn(const std::string& message);
+
+/// Collects the warnings issued during its lifetime instead of printing them (tests, GUIs);
+/// restores the previous handler on destruction. Not for concurrent use from several threads
+/// with different collectors.
+class WarningCollector {
+ public:
+  WarningCollector();
+  ~WarningCollector();
+  WarningCollector(const WarningCollector&) = delete;
+  WarningCollector& operator=(const WarningCollector&) = delete;
+  /// The warnings so far, in order.
+  std::vector<std::string> warnings() const;
+  /// All warnings joined by newlines (for substring assertions).
+  std::string text() const;
+
+ private:
+  struct State;
+  std::shared_ptr<State> state_;
+  WarningHandler previous_;
+};
+
+/// Check a stiffness value: finite, >= 0 and <= kMaxStiffness.
+/// @throws Error "<where>: stiffness <value> <unit> ..." naming the rule that failed; `where`
+///         says where the value came from (file:line and element, a CLI option, an API call).
+void CheckStiffnessValue(double stiffness, const std::string& where);
+
+/// The name in `candidates` closest to `name` by edit distance (Levenshtein, case-insensitive),
+/// or "" if none is close (distance > max(2, |name| / 3)).
+std::string ClosestName(const std::string& name, const std::vector<std::string>& candidates);
+
+/// " (did you mean 'x'?)" for ClosestName, or "" when nothing is close.
+std::string DidYouMean(const std::string& name, const std::vector<std::string>& candidates);
+
+}  // namespace isowrench

@@ -1,0 +1,198 @@
+// Structure, attribute and plausibility checks of a URDF (see urdf_checks.hpp).
+
+#include "model/urdf_checks.hpp"
+
+#include <Eigen/Geometry>
+#include <algorithm>
+#include <cmath>
+#include <map>
+#include <set>
+
+#include "isowrench/error.hpp"
+#include "isowrench/input_checks.hpp"
+#include "util/text.hpp"
+
+namespace isowrench::urdf_checks {
+namespace {
+
+constexpr const char* kPrefix = "isowrench:";
+
+std::string Line(const std::string& source, const tinyxml2::XMLElement& e) {
+  return source + ":" + std::to_string(e.GetLineNum());
+}
+
+std::string LinkOf(const tinyxml2::XMLElement& joint, const char* child) {
+  const tinyxml2::XMLElement* e = joint.FirstChildElement(child);
+  const char* link = e ? e->Attribute("link") : nullptr;
+  return link ? link : "";
+}
+
+struct JointInfo {
+  std::string name;
+  std::string parent;
+  std::string child;
+  const tinyxml2::XMLElement* element;
+};
+
+}  // namespace
+
+void CheckJointTree(const tinyxml2::XMLElement& robot, const std::string& source) {
+  std::vector<JointInfo> joints;
+  for (auto* e = robot.FirstChildElement("joint"); e; e = e->NextSiblingElement("joint")) {
+    const char* name = e->Attribute("name");
+    joints.push_back({name ? name : "", LinkOf(*e, "parent"), LinkOf(*e, "child"), e});
+  }
+  // child link -> the joint whose child it is
+  std::map<std::string, size_t> parent_joint;
+  for (size_t i = 0; i < joints.size(); ++i) {
+    const JointInfo& j = joints[i];
+    if (j.parent.empty() || j.child.empty()) continue;  // urdfdom reports the missing element
+    if (j.parent == j.child) {
+      throw Error(Line(source, *j.element) + ": joint '" + j.name + "' has link '" + j.parent +
+                  "' as both parent and child; a joint connects two different links");
+    }
+    auto [it, inserted] = parent_joint.emplace(j.child, i);
+    if (!inserted) {
+      const JointInfo& first = joints[it->second];
+      throw Error(Line(source, *j.element) + ": link '" + j.child + "' has two parents: it is the child of joint '" +
+                  first.name + "' (line " + std::to_string(first.element->GetLineNum()) + ") and of joint '" +
+                  j.name + "'; URDF joints must form a tree");
+    }
+  }
+  // Each link has at most one parent joint, so following parents from any link either ends at
+  // a root or enters a loop. Colour links: 0 unvisited, 1 on the current walk, 2 done.
+  std::map<std::string, int> state;
+  for (const auto& start : parent_joint) {
+    if (state[start.first] != 0) continue;
+    std::vector<std::string> walk;
+    std::string link = start.first;
+    while (true) {
+      int& s = state[link];
+      if (s == 2) break;
+      if (s == 1) {
+        // loop: the links from `link`'s first appearance in `walk` to the end
+        auto first = std::find(walk.begin(), walk.end(), link);
+        std::vector<std::string> names;
+        const tinyxml2::XMLElement* element = nullptr;
+        for (auto l = first; l != walk.end(); ++l) {
+          const JointInfo& j = joints[parent_joint.at(*l)];
+          names.push_back("'" + j.name + "' (" + j.parent + " -> " + j.child + ")");
+          if (!element || j.element->GetLineNum() < element->GetLineNum()) element = j.element;
+        }
+        throw Error(Line(source, *element) + ": joints " + util::Join(names, ", ") +
+                    " form a loop; URDF joints must form a tree from one root link");
+      }
+      s = 1;
+      walk.push_back(link);
+      auto p = parent_joint.find(link);
+      if (p == parent_joint.end()) break;
+      link = joints[p->second].parent;
+    }
+    for (const std::string& l : walk) state[l] = 2;
+  }
+}
+
+const std::vector<std::string>& AllowedAttributes(const std::string& local_name) {
+  // One table per element. Function elements and coordinate/coupling/moving elements follow
+  // the shared contract in docs/urdf-extensions.md.
+  static const std::map<std::string, std::vector<std::string>> kTables = {
+      {"joint", {"name", "role", "stiffness", "locked"}},
+      {"transducer", {"link", "xyz", "rpy", "axes", "stiffness", "preset", "released"}},
+      {"muscle", {"name", "max_force"}},
+      {"point", {"link", "xyz", "active_coordinate", "active_range"}},
+      {"posture", {"joint", "degrees", "value"}},
+      {"coordinate", {"name", "type", "default", "lower", "upper", "locked"}},
+      {"coupling", {"joint", "coordinate"}},
+      {"moving", {"axis", "coordinate"}},
+      {"constant", {"value"}},
+      {"linear", {"slope", "intercept"}},
+      {"simm_spline", {"x", "y"}},
+      {"natural_cubic_spline", {"x", "y"}},
+      {"piecewise_linear", {"x", "y"}},
+      {"polynomial", {"coefficients"}},
+      {"multiplier", {"scale"}},
+  };
+  static const std::vector<std::string> kNone;
+  auto it = kTables.find(local_name);
+  return it == kTables.end() ? kNone : it->second;
+}
+
+void CheckExtensionAttributes(const tinyxml2::XMLElement& robot, const std::string& source) {
+  // Iterative depth-first walk (no recursion: input depth is unbounded).
+  std::vector<const tinyxml2::XMLElement*> stack;
+  for (auto* e = robot.FirstChildElement(); e; e = e->NextSiblingElement()) stack.push_back(e);
+  while (!stack.empty()) {
+    const tinyxml2::XMLElement* e = stack.back();
+    stack.pop_back();
+    for (auto* c = e->FirstChildElement(); c; c = c->NextSiblingElement()) stack.push_back(c);
+    std::string tag = e->Name();
+    if (tag.rfind(kPrefix, 0) != 0) continue;
+    const std::vector<std::string>& allowed = AllowedAttributes(tag.substr(std::string(kPrefix).size()));
+    if (allowed.empty()) continue;
+    for (const tinyxml2::XMLAttribute* a = e->FirstAttribute(); a; a = a->Next()) {
+      std::string name = a->Name();
+      if (std::find(allowed.begin(), allowed.end(), name) != allowed.end()) continue;
+      if (name.rfind("xmlns", 0) == 0) continue;
+      throw Error(Line(source, *e) + ": <" + tag + "> has no attribute '" + name + "'" +
+                  DidYouMean(name, allowed) + "; its attributes are " + util::Join(allowed, ", "));
+    }
+  }
+}
+
+void WarnImplausibleDimensions(const LimbDescription& d,
+                               const std::function<std::string(const std::string&)>& where) {
+  auto implausible = [](double length, double lo, double hi) {
+    return length > hi || (length > 0 && length < lo);
+  };
+  auto range = [](double lo, double hi) {
+    return util::FormatNumber(lo * 1000) + " mm .. " + util::FormatNumber(hi) + " m";
+  };
+  // Segment lengths: joint origin offsets (a chain of co-located joints has length 0).
+  std::map<std::string, Eigen::Isometry3d> frame;  // link -> world pose at the nominal posture
+  frame[d.root_link] = Eigen::Isometry3d::Identity();
+  for (const JointSpec& j : d.joints) {
+    double length = j.origin.translation().norm();
+    if (implausible(length, kMinSegmentLength, kMaxSegmentLength)) {
+      Warn(where(j.name) + ": joint '" + j.name + "' sits " + util::FormatNumber(length) +
+           " m from the origin of link '" + j.parent_link + "', outside the plausible segment length of a limb (" +
+           range(kMinSegmentLength, kMaxSegmentLength) + "); URDF lengths are in metres");
+    }
+    double q = 0;
+    for (const auto& [name, value] : d.nominal_posture) {
+      if (name == j.name) q = value;
+    }
+    Eigen::Isometry3d motion = Eigen::Isometry3d::Identity();
+    if (j.type == JointType::kRevolute) motion.linear() = Eigen::AngleAxisd(q, j.axis).toRotationMatrix();
+    if (j.type == JointType::kPrismatic) motion.translation() = q * j.axis;
+    auto parent = frame.find(j.parent_link);
+    if (parent != frame.end()) frame[j.child_link] = parent->second * j.origin * motion;
+  }
+  double endpoint = d.transducer.endpoint.norm();
+  if (implausible(endpoint, kMinSegmentLength, kMaxSegmentLength)) {
+    Warn(where("") + ": the endpoint sits " + util::FormatNumber(endpoint) + " m from the origin of link '" +
+         d.transducer.link + "', outside the plausible segment length of a limb (" +
+         range(kMinSegmentLength, kMaxSegmentLength) + "); URDF lengths are in metres");
+  }
+  for (const MuscleSpec& m : d.muscles) {
+    double length = 0;
+    bool known = true;
+    Eigen::Vector3d previous = Eigen::Vector3d::Zero();
+    for (size_t i = 0; i < m.path.size(); ++i) {
+      auto f = frame.find(m.path[i].link);
+      if (f == frame.end() || !m.path[i].position.allFinite()) {
+        known = false;
+        break;
+      }
+      Eigen::Vector3d p = f->second * m.path[i].position;
+      if (i > 0) length += (p - previous).norm();
+      previous = p;
+    }
+    if (known && std::isfinite(length) && (length < kMinMuscleLength || length > kMaxMuscleLength)) {
+      Warn(where("muscle:" + m.name) + ": muscle '" + m.name + "' is " + util::FormatNumber(length) +
+           " m long at the nominal posture, outside the plausible muscle length of a limb (" +
+           range(kMinMuscleLength, kMaxMuscleLength) + "); URDF lengths are in metres");
+    }
+  }
+}
+
+}  // namespace isowrench::urdf_checks

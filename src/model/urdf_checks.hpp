@@ -1,0 +1,37 @@
+#pragma once
+// Private checks of a URDF before and after it is read (src/model/urdf_reader.cpp calls them):
+// the joint tree's structure (so urdfdom never sees a loop), the attributes of every isowrench:
+// element (one table per element, with "did you mean" suggestions), and the plausibility of the
+// limb's dimensions (warnings).
+
+#include <tinyxml2.h>
+
+#include <functional>
+#include <string>
+#include <vector>
+
+#include "isowrench/model.hpp"
+
+namespace isowrench::urdf_checks {
+
+/// The joints of <robot> must form a tree: no joint whose parent link is its child link, no
+/// link that is the child of two joints, no loop of joints. Runs in O(joints log joints).
+/// @throws Error "<source>:<line>: ..." naming the joints involved.
+void CheckJointTree(const tinyxml2::XMLElement& robot, const std::string& source);
+
+/// Every attribute of every isowrench: element inside `robot` (at any depth) must be one the
+/// element understands. Elements without a table (unknown ones) are left to their parser.
+/// @throws Error "<source>:<line>: <isowrench:joint> has no attribute 'stifness' (did you mean
+///         'stiffness'?); its attributes are name, role, stiffness, locked".
+void CheckExtensionAttributes(const tinyxml2::XMLElement& robot, const std::string& source);
+
+/// The attribute names an isowrench element (local name, e.g. "joint") accepts; empty for an
+/// element without a table.
+const std::vector<std::string>& AllowedAttributes(const std::string& local_name);
+
+/// Warn (isowrench::Warn) about segment lengths and muscle lengths outside the plausible ranges
+/// of include/isowrench/input_checks.hpp. `where(joint_name)` gives "file:line" for messages.
+void WarnImplausibleDimensions(const LimbDescription& d,
+                               const std::function<std::string(const std::string&)>& where);
+
+}  // namespace isowrench::urdf_checks

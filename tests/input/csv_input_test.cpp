@@ -1,0 +1,2 @@
+// Trial CSV input (filled in with the CSV defects).
+#include <gtest/gtest.h>
