@@ -1,0 +1,61 @@
+#pragma once
+/// @file
+/// Streaming access to trial CSV files (format in docs/identification.md), beside TrialReader,
+/// ReadTrialsCsv and WriteTrialsCsv of isowrench/identification.hpp.
+///
+/// Reading follows RFC 4180: comma separators, fields optionally in double quotes (a quote
+/// inside a quoted field is doubled; quoted fields may hold commas and line breaks), CRLF or LF
+/// line ends, and a UTF-8 byte-order mark before the header is skipped (spreadsheets and pandas
+/// write it). Files that use ';' separators or decimal commas are refused with a message saying
+/// so. Measured values are range-checked (|force| and |moment| <= kMaxMeasuredWrench,
+/// activation in [0, 1]); a missing limb joint column and angles beyond a full turn warn through
+/// isowrench::Warn. Memory does not grow with the number of rows; one record is limited to
+/// kMaxCsvRecordBytes.
+
+#include <functional>
+#include <memory>
+#include <ostream>
+#include <string>
+#include <vector>
+
+#include "isowrench/identification.hpp"
+
+namespace isowrench {
+
+/// Largest CSV record (one row, quoted line breaks included) the reader accepts, bytes.
+constexpr size_t kMaxCsvRecordBytes = size_t(1) << 20;
+
+/// Progress of a long read: rows so far and the fraction of the file's bytes consumed (0..1,
+/// or -1 when the size is unknown).
+using TrialProgress = std::function<void(long rows, double fraction)>;
+
+/// Stream every trial of a CSV file through `on_trial`, one at a time (bounded memory).
+/// `progress`, when set, is called about every `progress_every` rows and once at the end.
+/// @returns the number of trials. @throws Error as TrialReader, or if the file cannot be
+///          opened or holds no trial.
+long ForEachTrial(const Model& model, const std::string& path,
+                  const std::function<void(const Trial&)>& on_trial, const TrialProgress& progress = {},
+                  long progress_every = 100000);
+
+/// A progress callback that rewrites one line on stderr ("reading data.csv: 300000 rows, 42%")
+/// when stderr is a terminal, and prints nothing otherwise.
+TrialProgress TerminalProgress(const std::string& what);
+
+/// Streaming writer of the CSV format TrialReader reads: the header on construction, then one
+/// row per Write (bounded memory, for simulations of any size).
+class TrialCsvWriter {
+ public:
+  /// `with_sd`: write the sd_* columns (every trial then needs has_sd).
+  TrialCsvWriter(const Model& model, std::ostream& out, bool with_sd);
+  ~TrialCsvWriter();
+  TrialCsvWriter(const TrialCsvWriter&) = delete;
+  TrialCsvWriter& operator=(const TrialCsvWriter&) = delete;
+  /// Write one trial (joint values in degrees / mm, %.10g). @throws Error for a non-finite value.
+  void Write(const Trial& trial);
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace isowrench
