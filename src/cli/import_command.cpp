@@ -1,0 +1,86 @@
+// `isowrench import MODEL.osim -o MODEL.urdf --clamp BODY --endpoint BODY[:x,y,z]`: an OpenSim
+// model as an isowrench URDF (include/isowrench/opensim.hpp, docs/opensim.md).
+
+#include <iostream>
+
+#include "cli/command.hpp"
+#include "isowrench/error.hpp"
+#include "isowrench/opensim.hpp"
+#include "util/text.hpp"
+
+namespace isowrench::cli {
+namespace {
+
+// "tibia" or "tibia:0.01,-0.2,0" (m, in the body's frame).
+void ParseEndpoint(const std::string& text, OpenSimImportOptions& options) {
+  const size_t colon = text.find(':');
+  options.endpoint_body = util::Trim(text.substr(0, colon));
+  if (colon == std::string::npos) return;
+  std::vector<std::string> parts = util::Split(text.substr(colon + 1), ",");
+  if (parts.size() != 3) {
+    throw Error("--endpoint '" + text + "': the point after ':' must be three numbers x,y,z (m)");
+  }
+  for (int i = 0; i < 3; ++i) {
+    options.endpoint_point[i] = util::ParseDoubleOrThrow(parts[i], "--endpoint '" + text + "'");
+  }
+}
+
+const bool registered = RegisterCommand({
+    "import",
+    "Import an OpenSim model (.osim) as an isowrench URDF: the chain from the clamped body to the "
+    "endpoint body, coordinates, spline couplings and muscles (docs/opensim.md)",
+    80,
+    [](CLI::App& app) -> std::function<int()> {
+      struct Args {
+        std::string osim, output, endpoint;
+        OpenSimImportOptions options;
+        std::vector<std::string> unlock;
+        bool report = false;
+      };
+      auto a = std::make_shared<Args>();
+      app.add_option("model", a->osim, "OpenSim model (.osim, document versions 30000-40600)")
+          ->required();
+      app.add_option("-o,--output", a->output, "URDF file to write (written only on success)")
+          ->required();
+      app.add_option("--clamp", a->options.clamp_body,
+                     "The body bolted in the experiment (e.g. pelvis or femur_r); the joints from "
+                     "ground to it are fixed at their default coordinates")
+          ->required();
+      app.add_option("--endpoint", a->endpoint,
+                     "BODY or BODY:x,y,z - the body carrying the transducer and the endpoint in "
+                     "its frame in metres (default its origin)")
+          ->required();
+      app.add_option("--unlock", a->unlock, "Coordinates locked in the .osim to import as free")
+          ->delimiter(',');
+      app.add_flag("--report", a->report,
+                   "Print the bodies, joints and their URDF expansion, coordinates and muscles");
+      return [a]() {
+        ParseEndpoint(a->endpoint, a->options);
+        a->options.unlock = a->unlock;
+        const OpenSimImport import = ImportOpenSimFile(a->osim, a->options);
+        const LimbDescription& d = import.description;
+        WriteUrdfFile(d, a->output);
+        if (a->report) std::cout << FormatOpenSimReport(import);
+        size_t movable = 0, coupled = 0, locked = 0;
+        for (const JointSpec& j : d.joints) {
+          if (j.type == JointType::kFixed) continue;
+          ++movable;
+          if (j.coordinate != j.name) ++coupled;
+        }
+        for (const CoordinateSpec& c : d.coordinates) locked += c.locked ? 1 : 0;
+        std::cout << "wrote " << a->output << ": " << d.coordinates.size() << " coordinate"
+                  << (d.coordinates.size() == 1 ? "" : "s") << " (" << locked << " locked), "
+                  << movable << " movable URDF joints (" << coupled << " coupled), "
+                  << d.muscles.size() << " muscle" << (d.muscles.size() == 1 ? "" : "s")
+                  << ", endpoint on " << d.transducer.link << "; " << import.warnings.size()
+                  << " warning" << (import.warnings.size() == 1 ? "" : "s") << "\n";
+        if (!a->report) {
+          for (const std::string& w : import.warnings) std::cout << "  ! " << w << "\n";
+        }
+        return 0;
+      };
+    },
+});
+
+}  // namespace
+}  // namespace isowrench::cli

@@ -1,0 +1,448 @@
+// osim::Model -> LimbDescription: the chain from the clamped body to the endpoint body, its
+// coordinates and couplings, and the muscles on it (include/isowrench/opensim.hpp).
+
+#include <algorithm>
+#include <cmath>
+#include <fstream>
+#include <set>
+#include <sstream>
+
+#include "isowrench/error.hpp"
+#include "isowrench/opensim.hpp"
+#include "opensim/osim_model.hpp"
+#include "util/text.hpp"
+
+namespace isowrench {
+namespace {
+
+using osim::Axis;
+
+std::string Num(double v) { return util::FormatNumber(v, 6); }
+
+// A transform equal to the identity up to rounding of the products that built it.
+bool IsIdentity(const Eigen::Isometry3d& X) {
+  constexpr double kTiny = 1e-15;
+  return X.translation().cwiseAbs().maxCoeff() <= kTiny &&
+         (X.linear() - Eigen::Matrix3d::Identity()).cwiseAbs().maxCoeff() <= kTiny;
+}
+
+std::string Closest(const std::vector<std::string>& names) {
+  std::string list;
+  for (size_t i = 0; i < names.size() && i < 12; ++i) list += (i ? ", " : "") + names[i];
+  if (names.size() > 12) list += ", ...";
+  return list;
+}
+
+struct Builder {
+  const osim::Model& m;
+  const OpenSimImportOptions& options;
+  OpenSimImport out;
+
+  std::vector<const osim::Joint*> baked;  // ground -> clamp
+  std::vector<const osim::Joint*> chain;  // clamp -> endpoint
+  std::set<std::string> chain_bodies;     // clamp and the bodies after it on the path
+  std::map<std::string, Eigen::Isometry3d> X_G_baked;  // ground and bodies up to the clamp
+  std::map<std::string, double> defaults;
+
+  [[noreturn]] void Fail(const std::string& what) const { throw Error(m.source + ": " + what); }
+
+  const osim::Joint* ParentJoint(const std::string& body) const {
+    const osim::Joint* found = nullptr;
+    for (const osim::Joint& j : m.joints) {
+      if (j.child_body != body) continue;
+      if (found) {
+        throw Error(m.source + ":" + std::to_string(j.line) + ": body '" + body +
+                    "' is the child of two joints ('" + found->name + "' and '" + j.name +
+                    "'); closed loops are not supported");
+      }
+      found = &j;
+    }
+    return found;
+  }
+
+  void CheckBody(const std::string& body, const char* option) const {
+    if (std::find(m.bodies.begin(), m.bodies.end(), body) == m.bodies.end()) {
+      Fail(std::string(option) + " body '" + body + "' does not exist; the bodies are " +
+           Closest(m.bodies));
+    }
+  }
+
+  void ChoosePath() {
+    CheckBody(options.clamp_body, "--clamp");
+    CheckBody(options.endpoint_body, "--endpoint");
+    std::vector<const osim::Joint*> path;  // ground -> endpoint
+    std::vector<std::string> names = {options.endpoint_body};
+    for (std::string body = options.endpoint_body; body != m.ground;) {
+      const osim::Joint* j = ParentJoint(body);
+      if (!j) Fail("body '" + body + "' is connected to the ground by no joint");
+      if (path.size() > m.joints.size()) Fail("the joints form a loop above body '" + body + "'");
+      path.insert(path.begin(), j);
+      body = j->parent_body;
+      names.insert(names.begin(), body);
+    }
+    auto clamp = std::find(names.begin(), names.end(), options.clamp_body);
+    if (clamp == names.end()) {
+      Fail("--clamp body '" + options.clamp_body + "' is not on the path from ground to the " +
+           "--endpoint body '" + options.endpoint_body + "' (" + util::Join(names, " -> ") +
+           "); clamp a body between the ground and the endpoint");
+    }
+    if (options.clamp_body == options.endpoint_body) {
+      Fail("--clamp and --endpoint are the same body '" + options.clamp_body +
+           "': no joint would be left between them");
+    }
+    const size_t k = clamp - names.begin();  // joints [0, k) are baked
+    for (size_t i = 0; i < path.size(); ++i) (i < k ? baked : chain).push_back(path[i]);
+    for (size_t i = k; i < names.size(); ++i) chain_bodies.insert(names[i]);
+    for (const auto& [name, c] : m.coordinates) defaults[name] = c.default_value;
+    Eigen::Isometry3d X = Eigen::Isometry3d::Identity();
+    X_G_baked[m.ground] = X;
+    for (const osim::Joint* j : baked) {
+      X = X * osim::JointTransform(m, *j, defaults);
+      X_G_baked[j->child_body] = X;
+    }
+  }
+
+  void Build() {
+    ChoosePath();
+    for (const std::string& u : options.unlock) {
+      if (!m.coordinates.count(u)) {
+        std::vector<std::string> names;
+        for (const auto& [name, c] : m.coordinates) names.push_back(name);
+        Fail("--unlock names coordinate '" + u + "', which does not exist; the coordinates are " +
+             Closest(names));
+      }
+    }
+    LimbDescription& d = out.description;
+    d.name = m.name;
+    d.source = m.source;
+    d.root_link = m.ground;
+    d.links = {m.ground};
+    std::set<std::string> used_names(m.bodies.begin(), m.bodies.end());
+    auto unique = [&](const std::string& name) {
+      if (!used_names.insert(name).second) {
+        Fail("the generated URDF name '" + name + "' collides with a body, joint or coordinate " +
+             "of the same name; rename one in the .osim");
+      }
+      return name;
+    };
+    if (options.clamp_body != m.ground) {
+      JointSpec clamp;
+      clamp.name = unique(options.clamp_body + "_clamp");
+      clamp.type = JointType::kFixed;
+      clamp.parent_link = m.ground;
+      clamp.child_link = options.clamp_body;
+      clamp.origin = X_G_baked.at(options.clamp_body);
+      d.joints.push_back(clamp);
+      d.links.push_back(options.clamp_body);
+    }
+    // Which axis carries each coordinate with the identity: the first, in emission order.
+    std::map<std::string, const Axis*> carrier;
+    auto emission = [](const osim::Joint& j) {
+      std::vector<const Axis*> order;
+      for (const Axis& a : j.axes) if (!a.rotation) order.push_back(&a);
+      for (const Axis& a : j.axes) if (a.rotation) order.push_back(&a);
+      return order;
+    };
+    auto constant = [](const Axis& a) {
+      return a.coordinate.empty() || a.function.kind() == FunctionKind::kConstant ||
+             (a.function.is_linear() && a.function.slope() == 0.0);
+    };
+    for (const osim::Joint* j : chain) {
+      for (const Axis* a : emission(*j)) {
+        if (!constant(*a) && a->function.is_identity() && !carrier.count(a->coordinate)) {
+          carrier[a->coordinate] = a;
+        }
+      }
+    }
+    OpenSimReportTable joints{"Joints (OpenSim -> URDF)",
+                              {"joint", "type", "parent -> child", "URDF joints"}, {}};
+    for (const osim::Joint* j : chain) {
+      std::vector<std::string> expansion;
+      Eigen::Isometry3d pending = j->X_Pb_P;
+      std::string link = j->parent_body;
+      size_t first = d.joints.size();
+      for (const Axis* a : emission(*j)) {
+        if (constant(*a)) {
+          pending = pending * osim::AxisMotion(*a, a->function.Value(0.0));
+          continue;
+        }
+        JointSpec s;
+        const bool carries = carrier.count(a->coordinate) && carrier[a->coordinate] == a;
+        s.name = unique(carries ? a->coordinate : j->name + "_" + a->name);
+        s.type = a->rotation ? JointType::kRevolute : JointType::kPrismatic;
+        s.parent_link = link;
+        s.child_link = unique(j->name + "_" + a->name + "_link");
+        s.origin = pending;
+        s.axis = a->axis;
+        s.coordinate = a->coordinate;
+        s.coupling = carries ? Function::Linear(1, 0) : a->function;
+        pending = Eigen::Isometry3d::Identity();
+        link = s.child_link;
+        std::string text = s.name + " (" + (a->rotation ? "revolute" : "prismatic") + ", " +
+                           a->name;
+        if (!carries) {
+          text += std::string(", ") + (a->function.is_linear() ? "mimic" : "coupling") + " " +
+                  FunctionKindName(a->function.kind()) + " of " + a->coordinate;
+        }
+        expansion.push_back(text + ")");
+        d.joints.push_back(s);
+        d.links.push_back(s.child_link);
+      }
+      const Eigen::Isometry3d last = pending * j->X_Cb_C.inverse();
+      if (d.joints.size() > first && IsIdentity(last)) {
+        // The last movable joint ends in the child body itself.
+        JointSpec& s = d.joints.back();
+        used_names.erase(s.child_link);
+        s.child_link = j->child_body;
+        d.links.back() = j->child_body;
+      } else {
+        JointSpec f;
+        f.name = unique(d.joints.size() > first ? j->name + "_child_offset" : j->name);
+        f.type = JointType::kFixed;
+        f.parent_link = link;
+        f.child_link = j->child_body;
+        f.origin = last;
+        d.joints.push_back(f);
+        d.links.push_back(j->child_body);
+        expansion.push_back(f.name + " (fixed)");
+      }
+      joints.rows.push_back({j->name, j->type, j->parent_body + " -> " + j->child_body,
+                             util::Join(expansion, "; ")});
+    }
+    // Coordinates of the chain joints: the columns.
+    OpenSimReportTable coordinates{
+        "Coordinates (independent: one column each)",
+        {"coordinate", "unit", "default", "range", "locked", "carried by / drives"}, {}};
+    for (const osim::Joint* j : chain) {
+      for (const std::string& name : j->coordinates) {
+        const osim::Coordinate& c = m.coordinates.at(name);
+        CoordinateSpec spec;
+        spec.name = name;
+        spec.type = c.rotational ? JointType::kRevolute : JointType::kPrismatic;
+        spec.default_value = c.default_value;
+        spec.lower = c.lower;
+        spec.upper = c.upper;
+        spec.locked = c.locked && std::find(options.unlock.begin(), options.unlock.end(), name) ==
+                                      options.unlock.end();
+        spec.joint = carrier.count(name) ? name : "";
+        if (!carrier.count(name)) unique(name);
+        d.coordinates.push_back(spec);
+        std::vector<std::string> driven;
+        for (const JointSpec& s : d.joints) {
+          if (s.type != JointType::kFixed && s.coordinate == name && s.name != name) {
+            driven.push_back(s.name);
+          }
+        }
+        std::string role = carrier.count(name) ? "joint " + name : "free-standing";
+        if (!driven.empty()) role += "; drives " + util::Join(driven, ", ");
+        const double scale = c.rotational ? 180.0 / M_PI : 1e3;
+        coordinates.rows.push_back(
+            {name, c.rotational ? "deg" : "mm", Num(c.default_value * scale),
+             std::isfinite(c.lower) ? Num(c.lower * scale) + " .. " + Num(c.upper * scale) : "-",
+             spec.locked ? "locked" : (c.locked ? "unlocked" : "no"), role});
+      }
+    }
+    for (const osim::Joint* j : baked) {
+      for (const std::string& name : j->coordinates) {
+        coordinates.rows.push_back(
+            {name, m.coordinates.at(name).rotational ? "deg" : "mm",
+             Num(m.coordinates.at(name).default_value *
+                 (m.coordinates.at(name).rotational ? 180.0 / M_PI : 1e3)),
+             "-", "baked", "fixed at its default (joint '" + j->name + "' is above the clamp)"});
+      }
+    }
+    d.transducer.link = options.endpoint_body;
+    d.transducer.endpoint = options.endpoint_point;
+    d.transducer.axes_in_world = true;
+    d = NormalizeCoordinates(d);
+    // The .osim default values are the nominal posture (written as isowrench:posture).
+    for (const CoordinateSpec& c : d.coordinates) d.nominal_posture.emplace_back(c.name, c.default_value);
+    out.tables.push_back(joints);
+    out.tables.push_back(coordinates);
+    Muscles();
+    Bodies();
+    UnitsCheck();
+    for (const std::string& w : m.warnings) out.warnings.push_back(w);
+    out.version = m.version;
+  }
+
+  void Bodies() {
+    OpenSimReportTable bodies{"Bodies", {"body", "role"}, {}};
+    for (const std::string& b : m.bodies) {
+      std::string role;
+      if (b == options.clamp_body) role = "clamped (fixed to the world)";
+      else if (b == options.endpoint_body) role = "endpoint (transducer)";
+      else if (chain_bodies.count(b)) role = "chain";
+      else if (X_G_baked.count(b)) role = b == m.ground ? "ground (world frame)" : "above the clamp: baked at default coordinates";
+      else role = "dropped (off the clamp -> endpoint path)";
+      bodies.rows.push_back({b, role});
+    }
+    out.tables.insert(out.tables.begin(), bodies);
+  }
+
+  void Muscles() {
+    OpenSimReportTable muscles{"Muscles", {"muscle", "type", "max force (N)", "points", "status"},
+                               {}};
+    for (const osim::Muscle& muscle : m.muscles) {
+      std::string problem;
+      MuscleSpec spec;
+      spec.name = muscle.name;
+      spec.max_force = muscle.max_force;
+      for (const osim::Point& p : muscle.points) {
+        if (!problem.empty()) break;
+        PathPoint point;
+        if (chain_bodies.count(p.body)) {
+          point.link = p.body;
+          point.position = p.X_body_frame * p.location;
+        } else if (X_G_baked.count(p.body)) {
+          point.link = m.ground;
+          point.position = X_G_baked.at(p.body) * (p.X_body_frame * p.location);
+        } else {
+          problem = "point '" + p.name + "' is on body '" + p.body +
+                    "', which is off the imported chain";
+          break;
+        }
+        if (p.moving || p.conditional) {
+          // Coordinates baked above the clamp are constants: such points are ordinary.
+          std::vector<std::string> used;
+          if (p.conditional) used.push_back(p.condition_coordinate);
+          for (int i = 0; p.moving && i < 3; ++i) {
+            if (!p.moving_coordinates[i].empty()) used.push_back(p.moving_coordinates[i]);
+          }
+          bool depends_on_chain = false;
+          for (const std::string& c : used) {
+            for (const osim::Joint* j : chain) {
+              depends_on_chain |= std::find(j->coordinates.begin(), j->coordinates.end(), c) !=
+                                  j->coordinates.end();
+            }
+          }
+          if (depends_on_chain) {
+            problem = p.type + " '" + p.name + "' depends on a chain coordinate (" +
+                      util::Join(used, ", ") + "); moving and conditional points are not yet " +
+                      "supported by the isowrench engine";
+            break;
+          }
+          if (p.conditional) {
+            const double q = defaults.at(p.condition_coordinate);
+            if (q < p.range[0] - 1e-5 || q > p.range[1] + 1e-5) continue;  // inactive
+          }
+          if (p.moving) {
+            Eigen::Vector3d r;
+            for (int i = 0; i < 3; ++i) {
+              double q = 0.0;
+              if (!p.moving_coordinates[i].empty()) {
+                const osim::Coordinate& c = m.coordinates.at(p.moving_coordinates[i]);
+                q = std::clamp(c.default_value, c.lower, c.upper);
+              }
+              r[i] = p.functions[i].Value(q);
+            }
+            point.position = point.link == m.ground ? X_G_baked.at(p.body) * (p.X_body_frame * r)
+                                                    : p.X_body_frame * r;
+          }
+        }
+        spec.path.push_back(point);
+      }
+      if (problem.empty() && !(muscle.max_force > 0.0)) {
+        problem = "max_isometric_force " + Num(muscle.max_force) + " N is not positive";
+      }
+      if (problem.empty() && spec.path.size() < 2) problem = "fewer than two points remain";
+      std::string status = "imported";
+      if (!problem.empty()) {
+        status = "skipped: " + problem;
+        out.warnings.push_back("muscle '" + muscle.name + "' (line " + std::to_string(muscle.line) +
+                               ") skipped: " + problem);
+      } else {
+        out.description.muscles.push_back(spec);
+        for (const std::string& w : muscle.wraps) {
+          auto body = m.wrap_object_body.find(w);
+          std::string where = body == m.wrap_object_body.end()
+                                  ? ""
+                                  : " (" + m.wrap_object_type.at(w) + " on " + body->second + ")";
+          out.warnings.push_back("muscle '" + muscle.name + "' wraps over '" + w + "'" + where +
+                                 ": wrapping is not modelled; its path is straight between its "
+                                 "points, so length and moment arms differ where it wraps");
+          status = "imported; wrap '" + w + "' ignored";
+        }
+      }
+      muscles.rows.push_back({muscle.name, muscle.type, Num(muscle.max_force),
+                              std::to_string(muscle.points.size()), status});
+    }
+    out.tables.push_back(muscles);
+  }
+
+  void UnitsCheck() {
+    double largest = 0.0;
+    for (const osim::Joint& j : m.joints) {
+      largest = std::max({largest, j.X_Pb_P.translation().norm(), j.X_Cb_C.translation().norm()});
+    }
+    for (const osim::Muscle& muscle : m.muscles) {
+      for (const osim::Point& p : muscle.points) largest = std::max(largest, p.location.norm());
+    }
+    std::string units = m.length_units;
+    std::transform(units.begin(), units.end(), units.begin(), ::tolower);
+    const bool says_mm = units.find("mm") != std::string::npos || units.find("milli") != std::string::npos;
+    const bool says_cm = units.find("cm") != std::string::npos || units.find("centi") != std::string::npos;
+    // Limb offsets in metres are below a metre; the same limb in mm has offsets of 10s of mm.
+    if ((says_mm || says_cm) && largest < 1.0) {
+      out.warnings.push_back("<length_units> says '" + m.length_units + "' but the largest offset is " +
+                             Num(largest) + ": the values look like metres; read as metres, nothing "
+                             "rescaled");
+    } else if (!says_mm && !says_cm && largest > 5.0) {
+      out.warnings.push_back("the largest offset is " + Num(largest) + " m (<length_units> '" +
+                             m.length_units + "'): the values look like millimetres; read as "
+                             "metres, nothing rescaled");
+    }
+  }
+};
+
+}  // namespace
+
+OpenSimImport ImportOpenSimString(const std::string& xml, const std::string& source_name,
+                                  const OpenSimImportOptions& options) {
+  const std::string source = source_name.empty() ? "<string>" : source_name;
+  osim::Model model = osim::ReadModel(xml, source);
+  Builder builder{model, options, {}, {}, {}, {}, {}, {}};
+  builder.Build();
+  return std::move(builder.out);
+}
+
+OpenSimImport ImportOpenSimFile(const std::string& path, const OpenSimImportOptions& options) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw Error("cannot open OpenSim model '" + path + "'");
+  std::stringstream buffer;
+  buffer << in.rdbuf();
+  return ImportOpenSimString(buffer.str(), path, options);
+}
+
+std::string FormatOpenSimReport(const OpenSimImport& import) {
+  std::ostringstream o;
+  for (const OpenSimReportTable& t : import.tables) {
+    std::vector<size_t> width(t.header.size(), 0);
+    for (size_t i = 0; i < t.header.size(); ++i) width[i] = t.header[i].size();
+    for (const auto& row : t.rows) {
+      for (size_t i = 0; i < row.size() && i < width.size(); ++i) {
+        width[i] = std::max(width[i], row[i].size());
+      }
+    }
+    o << t.title << "\n";
+    auto line = [&](const std::vector<std::string>& cells) {
+      std::string s = " ";
+      for (size_t i = 0; i < cells.size(); ++i) {
+        std::string cell = cells[i];
+        if (i + 1 < cells.size()) cell.resize(std::max(width[i], cell.size()), ' ');
+        s += " " + cell;
+      }
+      o << s << "\n";
+    };
+    line(t.header);
+    for (const auto& row : t.rows) line(row);
+    o << "\n";
+  }
+  if (!import.warnings.empty()) {
+    o << "Warnings (" << import.warnings.size() << ")\n";
+    for (const std::string& w : import.warnings) o << "  ! " << w << "\n";
+  }
+  return o.str();
+}
+
+}  // namespace isowrench
