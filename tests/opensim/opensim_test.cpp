@@ -1,0 +1,490 @@
+// OpenSim import against an independent evaluation of OpenSim's semantics written out here
+// (shared/OPENSIM.md): X_G_child = X_G_parentbody X_parentbody_P X_PC(q) X_childbody_C^-1,
+// body-fixed XYZ offset orientations, CustomJoint rotations as a body-fixed sequence and
+// translations in P (not rotated), SimmSplines whose knots are sampled from cubics (so the
+// spline is the cubic inside the knots and its end tangent outside), FreeJoint translations in
+// the parent frame. Fixture: tests/opensim/data/hindlimb.osim.
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include <fstream>
+#include <functional>
+#include <map>
+#include <sstream>
+
+#include "isowrench/error.hpp"
+#include "isowrench/kinematics.hpp"
+#include "isowrench/opensim.hpp"
+
+namespace isowrench {
+namespace {
+
+using ::testing::AllOf;
+using ::testing::HasSubstr;
+using ::testing::ThrowsMessage;
+using Eigen::Isometry3d;
+using Eigen::Matrix3d;
+using Eigen::Vector3d;
+
+const std::string kFixture = std::string(ISOWRENCH_TEST_OSIM_DIR) + "/hindlimb.osim";
+
+// Positions: sums of a few products of numbers below 0.1 m: rounding ~1e-17; spec 1e-9 m.
+constexpr double kPosition = 1e-12;
+// Central differences with h = 1e-6: truncation h^2 |f'''| ~ 1e-13, round-off eps L / h ~ 1e-11.
+constexpr double kStep = 1e-6;
+constexpr double kMomentArm = 1e-9;  // m (the bar)
+constexpr double kJacobian = 1e-8;   // the bar
+
+// ---- the independent OpenSim evaluation ------------------------------------------------------
+
+Matrix3d Rx(double a) {
+  Matrix3d R;
+  R << 1, 0, 0, 0, std::cos(a), -std::sin(a), 0, std::sin(a), std::cos(a);
+  return R;
+}
+Matrix3d Ry(double a) {
+  Matrix3d R;
+  R << std::cos(a), 0, std::sin(a), 0, 1, 0, -std::sin(a), 0, std::cos(a);
+  return R;
+}
+Matrix3d Rz(double a) {
+  Matrix3d R;
+  R << std::cos(a), -std::sin(a), 0, std::sin(a), std::cos(a), 0, 0, 0, 1;
+  return R;
+}
+Isometry3d Pose(const Matrix3d& R, const Vector3d& p) {
+  Isometry3d X = Isometry3d::Identity();
+  X.linear() = R;
+  X.translation() = p;
+  return X;
+}
+// An offset frame: translation, then body-fixed X-Y-Z orientation.
+Isometry3d Frame(const Vector3d& t, const Vector3d& xyz) {
+  return Pose(Rx(xyz.x()) * Ry(xyz.y()) * Rz(xyz.z()), t);
+}
+
+// The cubics the fixture's SimmSpline knots were sampled from, and OpenSim's rule outside.
+struct Cubic {
+  double c0, c1, c2, c3;
+  double f(double q) const { return c0 + q * (c1 + q * (c2 + q * c3)); }
+  double df(double q) const { return c1 + q * (2 * c2 + 3 * c3 * q); }
+};
+constexpr double kLo = -2.0944, kHi = 0.17453;
+double Spline(const Cubic& c, double q) {
+  if (q < kLo) return c.f(kLo) + (q - kLo) * c.df(kLo);
+  if (q > kHi) return c.f(kHi) + (q - kHi) * c.df(kHi);
+  return c.f(q);
+}
+const Cubic kKneeTx{0.001, 0.002, -0.0015, 0.0004};
+const Cubic kKneeTy{-0.0005, 0.001, 0.003, -0.0002};
+const Cubic kKneeAdd{0.0, 0.02, 0.05, 0.01};
+
+struct Posture {
+  double hip_flexion = 0.2, hip_adduction = 0.0, hip_rotation = 0.1, knee = -0.5, ankle = 0.1;
+};
+
+// ground_pelvis FreeJoint at its defaults: translation in the parent frame, rotation XYZ.
+Isometry3d GroundPelvis() {
+  return Frame({0.01, 0.02, 0.03}, {0, 0, 0.1}) *
+         Pose(Rx(0.1) * Ry(-0.2) * Rz(0.3), {0.05, 0.1, -0.02});
+}
+Isometry3d Hip(const Posture& p) {
+  return Frame({-0.01, -0.005, 0.008}, {0.1, 0, 0.2}) *
+         Pose(Rz(p.hip_flexion) * Rx(p.hip_adduction) * Ry(p.hip_rotation), Vector3d::Zero()) *
+         Frame({0.001, 0.002, 0}, {0, 0.05, 0}).inverse();
+}
+Isometry3d Knee(const Posture& p) {
+  const double k = p.knee;
+  // translation2's axis is written (0 2 0): OpenSim normalises it.
+  const Vector3d t(Spline(kKneeTx, k), Spline(kKneeTy, k), 0.5 * (0.002 * k + 0.001));
+  return Frame({0, -0.035, 0}, {0, 0, 0}) *
+         Pose(Rz(k) * Rx(Spline(kKneeAdd, k)) * Ry(0.05), t);
+}
+Isometry3d Ankle(const Posture& p) {
+  return Frame({0, -0.04, 0}, {0, 0, -0.3}) * Pose(Rz(p.ankle), Vector3d::Zero()) *
+         Frame({0.002, 0, 0}, {0.1, 0, 0}).inverse();
+}
+
+struct World {
+  Isometry3d pelvis, femur, tibia, foot;
+};
+World Bodies(const Posture& p) {
+  World w;
+  w.pelvis = GroundPelvis();
+  w.femur = w.pelvis * Hip(p);
+  w.tibia = w.femur * Knee(p);
+  w.foot = w.tibia * Ankle(p);
+  return w;
+}
+const Vector3d kEndpointOnFoot(0.01, -0.005, 0.0);
+
+double Length(const std::vector<Vector3d>& points) {
+  double L = 0;
+  for (size_t i = 1; i < points.size(); ++i) L += (points[i] - points[i - 1]).norm();
+  return L;
+}
+double GmLength(const Posture& p) {
+  World w = Bodies(p);
+  return Length({w.pelvis * Vector3d(0.01, 0.005, 0.002), w.femur * Vector3d(0.003, -0.01, 0.001)});
+}
+double VasLength(const Posture& p) {
+  World w = Bodies(p);
+  return Length({w.femur * Vector3d(0.002, -0.02, 0.003), w.tibia * Vector3d(0.004, -0.005, 0.001)});
+}
+double SolLength(const Posture& p) {
+  World w = Bodies(p);
+  return Length({w.tibia * Vector3d(-0.002, -0.01, 0), w.foot * Vector3d(-0.006, 0.001, 0.001)});
+}
+
+double& Coordinate(Posture& p, const std::string& name) {
+  if (name == "hip_flexion") return p.hip_flexion;
+  if (name == "hip_adduction") return p.hip_adduction;
+  if (name == "hip_rotation") return p.hip_rotation;
+  if (name == "knee_angle") return p.knee;
+  if (name == "ankle_angle") return p.ankle;
+  ADD_FAILURE() << "unknown coordinate " << name;
+  static double dummy;
+  return dummy;
+}
+
+// Postures over the coordinate ranges, the knee also exactly at and beyond its end knots.
+std::vector<Posture> Postures() {
+  std::vector<Posture> out;
+  const double knees[] = {-2.2, kLo, -1.0, -0.3, kHi, 0.25};
+  const double hips[][3] = {{0.2, 0.0, 0.1}, {-0.9, 0.4, -0.3}, {0.8, -0.45, 0.45}};
+  for (double k : knees) {
+    for (const auto& h : hips) {
+      Posture p;
+      p.hip_flexion = h[0];
+      p.hip_adduction = h[1];
+      p.hip_rotation = h[2];
+      p.knee = k;
+      p.ankle = -0.7 + 0.3 * (k + 2.2);
+      out.push_back(p);
+    }
+  }
+  return out;
+}
+
+// ---- the imported description, evaluated as URDF semantics with couplings -------------------
+
+// child pose = parent pose * origin * motion(axis, coupling(q_coordinate)); no engine needed.
+std::map<std::string, Isometry3d> LinkPoses(const LimbDescription& d, const Posture& posture) {
+  Posture p = posture;
+  std::map<std::string, Isometry3d> X;
+  X[d.root_link] = Isometry3d::Identity();
+  for (const JointSpec& j : d.joints) {
+    Isometry3d motion = Isometry3d::Identity();
+    if (j.type != JointType::kFixed) {
+      const double value = j.coupling.Value(Coordinate(p, j.coordinate));
+      if (j.type == JointType::kRevolute) {
+        motion.linear() = Eigen::AngleAxisd(value, j.axis).toRotationMatrix();
+      } else {
+        motion.translation() = value * j.axis;
+      }
+    }
+    X[j.child_link] = X.at(j.parent_link) * j.origin * motion;
+  }
+  return X;
+}
+
+double ImportedLength(const LimbDescription& d, const std::string& muscle, const Posture& p) {
+  auto X = LinkPoses(d, p);
+  for (const MuscleSpec& m : d.muscles) {
+    if (m.name != muscle) continue;
+    std::vector<Vector3d> points;
+    for (const PathPoint& pt : m.path) points.push_back(X.at(pt.link) * pt.position);
+    return Length(points);
+  }
+  ADD_FAILURE() << "no muscle " << muscle;
+  return 0;
+}
+
+OpenSimImport Import(const std::string& clamp, const std::string& endpoint,
+                     std::vector<std::string> unlock = {}) {
+  OpenSimImportOptions options;
+  options.clamp_body = clamp;
+  options.endpoint_body = endpoint;
+  options.endpoint_point = kEndpointOnFoot;
+  options.unlock = std::move(unlock);
+  return ImportOpenSimFile(kFixture, options);
+}
+
+// ---- structure -------------------------------------------------------------------------------
+
+TEST(OpenSimImport, CoordinatesCouplingsAndLockedFlags) {
+  const OpenSimImport import = Import("pelvis", "foot");
+  const LimbDescription& d = import.description;
+  std::vector<std::string> names;
+  for (const CoordinateSpec& c : d.coordinates) names.push_back(c.name);
+  EXPECT_THAT(names, ::testing::ElementsAre("hip_flexion", "hip_adduction", "hip_rotation",
+                                            "knee_angle", "ankle_angle"));
+  for (const CoordinateSpec& c : d.coordinates) {
+    EXPECT_EQ(c.locked, c.name == "hip_rotation") << c.name;
+    EXPECT_EQ(c.joint, c.name) << "every coordinate here is carried by a joint of its name";
+  }
+  EXPECT_NEAR(FindCoordinate(d, "knee_angle").lower, -2.0944, 0);
+  EXPECT_EQ(FindCoordinate(d, "knee_angle").default_value, -0.5);
+  std::map<std::string, const JointSpec*> joints;
+  for (const JointSpec& j : d.joints) joints[j.name] = &j;
+  ASSERT_TRUE(joints.count("knee_translation1"));
+  EXPECT_EQ(joints["knee_translation1"]->coordinate, "knee_angle");
+  EXPECT_EQ(joints["knee_translation1"]->coupling.kind(), FunctionKind::kSimmSpline);
+  // MultiplierFunction(0.5, LinearFunction 0.002 q + 0.001) is linear: a mimic.
+  ASSERT_TRUE(joints.count("knee_translation3"));
+  EXPECT_TRUE(joints["knee_translation3"]->coupling.is_linear());
+  EXPECT_DOUBLE_EQ(joints["knee_translation3"]->coupling.slope(), 0.001);
+  EXPECT_DOUBLE_EQ(joints["knee_translation3"]->coupling.intercept(), 0.0005);
+  // The constant rotation3 of the knee and the constant-zero hip translations make no joints.
+  EXPECT_FALSE(joints.count("knee_rotation3"));
+  EXPECT_FALSE(joints.count("hip_translation1"));
+  // --unlock frees the locked coordinate.
+  EXPECT_FALSE(FindCoordinate(Import("pelvis", "foot", {"hip_rotation"}).description,
+                              "hip_rotation").locked);
+}
+
+TEST(OpenSimImport, MusclesWrapsAndSkippedMusclesAreReported) {
+  const OpenSimImport import = Import("pelvis", "foot");
+  std::vector<std::string> muscles;
+  for (const MuscleSpec& m : import.description.muscles) muscles.push_back(m.name);
+  EXPECT_THAT(muscles, ::testing::ElementsAre("GM", "VAS", "SOL"));
+  EXPECT_EQ(import.description.muscles[1].max_force, 3.0);
+  auto warned = [&](const std::string& a, const std::string& b) {
+    for (const std::string& w : import.warnings) {
+      if (w.find(a) != std::string::npos && w.find(b) != std::string::npos) return true;
+    }
+    return false;
+  };
+  EXPECT_TRUE(warned("'VAS'", "wraps over 'knee_cyl' (WrapCylinder on femur)"));
+  EXPECT_TRUE(warned("'PAT'", "body 'patella', which is off the imported chain"));
+  EXPECT_TRUE(warned("'GAS'", "ConditionalPathPoint 'GAS-P2'"));
+  EXPECT_TRUE(warned("'RF'", "MovingPathPoint 'RF-P2'"));
+  const std::string report = FormatOpenSimReport(import);
+  EXPECT_THAT(report, AllOf(HasSubstr("marker  dropped"), HasSubstr("hip_rotation"),
+                            HasSubstr("locked"), HasSubstr("PinJoint")));
+}
+
+// ---- kinematics against the independent evaluation -------------------------------------------
+
+TEST(OpenSimImport, EndpointAndMuscleLengthsMatchOpenSimTransforms) {
+  const LimbDescription d = Import("pelvis", "foot").description;
+  for (const Posture& p : Postures()) {
+    const World w = Bodies(p);
+    auto X = LinkPoses(d, p);
+    EXPECT_LT((X.at("foot") * kEndpointOnFoot - w.foot * kEndpointOnFoot).norm(), kPosition)
+        << "knee " << p.knee;
+    EXPECT_LT((X.at("foot").linear() - w.foot.linear()).norm(), kPosition);
+    EXPECT_NEAR(ImportedLength(d, "GM", p), GmLength(p), kPosition);
+    EXPECT_NEAR(ImportedLength(d, "VAS", p), VasLength(p), kPosition);
+    EXPECT_NEAR(ImportedLength(d, "SOL", p), SolLength(p), kPosition);
+  }
+}
+
+TEST(OpenSimImport, ClampBakesTheJointsAboveItAtTheirDefaults) {
+  // Clamp the femur: ground_pelvis and the hip are fixed at the defaults, GM's pelvis point is
+  // on the ground, and the world positions are still those of the .osim.
+  const OpenSimImport import = Import("femur", "foot");
+  const LimbDescription& d = import.description;
+  EXPECT_EQ(d.coordinates.size(), 2u);  // knee_angle, ankle_angle
+  const MuscleSpec& gm = d.muscles.front();
+  ASSERT_EQ(gm.name, "GM");
+  EXPECT_EQ(gm.path[0].link, "ground");
+  EXPECT_LT((gm.path[0].position - GroundPelvis() * Vector3d(0.01, 0.005, 0.002)).norm(),
+            kPosition);
+  for (const Posture& p : Postures()) {
+    Posture at_default = p;
+    at_default.hip_flexion = 0.2;
+    at_default.hip_adduction = 0.0;
+    at_default.hip_rotation = 0.1;
+    auto X = LinkPoses(d, at_default);
+    EXPECT_LT((X.at("foot") * kEndpointOnFoot - Bodies(at_default).foot * kEndpointOnFoot).norm(),
+              kPosition);
+  }
+}
+
+// The engine's answer (Model + kinematics) for the imported model, with the Jacobian and the
+// moment arms against central differences of the independent evaluation.
+void CheckEngine(const LimbDescription& d, const std::vector<Posture>& postures,
+                 const std::vector<std::string>& muscles,
+                 const std::map<std::string, std::function<double(const Posture&)>>& lengths,
+                 bool at_foot) {
+  Model model(d);
+  if (model.dof_count() != static_cast<int>(d.coordinates.size())) {
+    GTEST_SKIP() << "the engine does not map couplings to coordinates yet (" << model.dof_count()
+                 << " columns for " << d.coordinates.size() << " coordinates)";
+  }
+  KinematicsWorkspace ws(model);
+  const std::vector<std::string>& columns = model.joint_names();
+  auto endpoint = [&](const Posture& p) {
+    World w = Bodies(p);
+    return at_foot ? Vector3d(w.foot * kEndpointOnFoot) : Vector3d(w.femur * kEndpointOnFoot);
+  };
+  auto rotation = [&](const Posture& p) {
+    World w = Bodies(p);
+    return at_foot ? Matrix3d(w.foot.linear()) : Matrix3d(w.femur.linear());
+  };
+  for (const Posture& p0 : postures) {
+    Posture p = p0;
+    Eigen::VectorXd q(columns.size());
+    for (size_t i = 0; i < columns.size(); ++i) q[i] = Coordinate(p, columns[i]);
+    EXPECT_LT((EndpointPose(model, ws, q).translation() - endpoint(p)).norm(), 1e-9);
+    const Matrix6Xd J = EndpointJacobianWorld(model, ws, q);
+    for (size_t i = 0; i < columns.size(); ++i) {
+      Posture plus = p, minus = p;
+      Coordinate(plus, columns[i]) += kStep;
+      Coordinate(minus, columns[i]) -= kStep;
+      const Vector3d v = (endpoint(plus) - endpoint(minus)) / (2 * kStep);
+      const Matrix3d W = (rotation(plus) - rotation(minus)) / (2 * kStep) * rotation(p).transpose();
+      const Vector3d w(W(2, 1), W(0, 2), W(1, 0));
+      EXPECT_LT((J.col(i).head<3>() - v).norm(), kJacobian) << columns[i] << " knee " << p.knee;
+      EXPECT_LT((J.col(i).tail<3>() - w).norm(), kJacobian) << columns[i];
+      for (const std::string& name : muscles) {
+        const auto& L = lengths.at(name);
+        const double r = -(L(plus) - L(minus)) / (2 * kStep);  // OpenSim: r = -dL/dq
+        const MuscleTorque t = ComputeMuscleTorque(model, ws, q, model.MuscleIndex(name));
+        EXPECT_NEAR(-t.dL_dq[i], r, kMomentArm) << name << " about " << columns[i];
+      }
+    }
+    for (const std::string& name : muscles) {
+      const MuscleTorque t = ComputeMuscleTorque(model, ws, q, model.MuscleIndex(name));
+      EXPECT_NEAR(t.length, lengths.at(name)(p), 1e-9) << name;
+    }
+  }
+}
+
+TEST(OpenSimImport, EngineMatchesOnTheUncoupledHip) {
+  // pelvis -> femur: three revolute coordinates, offsets with orientations, a locked one.
+  OpenSimImportOptions options;
+  options.clamp_body = "pelvis";
+  options.endpoint_body = "femur";
+  options.endpoint_point = kEndpointOnFoot;
+  const LimbDescription d = ImportOpenSimFile(kFixture, options).description;
+  std::vector<Posture> postures;
+  for (const Posture& p : Postures()) {
+    if (p.knee == kLo) postures.push_back(p);
+  }
+  CheckEngine(d, postures, {"GM"}, {{"GM", GmLength}}, false);
+}
+
+TEST(OpenSimImport, EngineMatchesOnTheSplineCoupledKnee) {
+  const LimbDescription d = Import("pelvis", "foot").description;
+  std::vector<Posture> postures;
+  for (const Posture& p : Postures()) {
+    // Central differences straddling an end knot see the jump of f'' there: keep away.
+    if (std::abs(p.knee - kLo) > 1e-3 && std::abs(p.knee - kHi) > 1e-3) postures.push_back(p);
+  }
+  CheckEngine(d, postures, {"GM", "VAS", "SOL"},
+              {{"GM", GmLength}, {"VAS", VasLength}, {"SOL", SolLength}}, true);
+}
+
+TEST(OpenSimImport, WrittenUrdfReadsBackToTheSameKinematics) {
+  const LimbDescription d = Import("pelvis", "foot").description;
+  const LimbDescription back = ReadUrdfString(WriteUrdfString(d), "imported.urdf");
+  EXPECT_EQ(back.coordinates.size(), d.coordinates.size());
+  EXPECT_TRUE(FindCoordinate(back, "hip_rotation").locked);
+  EXPECT_EQ(back.muscles.size(), d.muscles.size());
+  for (const Posture& p : Postures()) {
+    auto X = LinkPoses(back, p);
+    EXPECT_LT((X.at("foot") * kEndpointOnFoot - Bodies(p).foot * kEndpointOnFoot).norm(),
+              kPosition);
+  }
+}
+
+// ---- bad input -------------------------------------------------------------------------------
+
+std::string FixtureText() {
+  std::ifstream in(kFixture);
+  std::stringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+// The fixture with `from` replaced by `to` (first occurrence), and the 1-based line of it.
+std::pair<std::string, int> Edited(const std::string& from, const std::string& to) {
+  std::string text = FixtureText();
+  const size_t at = text.find(from);
+  EXPECT_NE(at, std::string::npos) << from;
+  const int line = 1 + static_cast<int>(std::count(text.begin(), text.begin() + at, '\n'));
+  text.replace(at, from.size(), to);
+  return {text, line};
+}
+
+void ExpectError(const std::string& text, const std::string& where, const std::string& what,
+                 const std::string& clamp = "pelvis", const std::string& endpoint = "foot") {
+  OpenSimImportOptions options;
+  options.clamp_body = clamp;
+  options.endpoint_body = endpoint;
+  EXPECT_THAT([&] { ImportOpenSimString(text, "hindlimb.osim", options); },
+              ThrowsMessage<Error>(AllOf(HasSubstr(where), HasSubstr(what))));
+}
+
+TEST(OpenSimImportErrors, NameFileLineJointAxisAndRule) {
+  {
+    auto [text, line] = Edited("</BodySet>", "");
+    ExpectError(text, "hindlimb.osim:", "malformed XML");
+  }
+  {
+    std::string text = Edited("<PinJoint name=\"ankle\">", "<EllipsoidJoint name=\"ankle\">").first;
+    const int line = Edited("<PinJoint name=\"ankle\">", "").second;
+    const size_t close = text.find("</PinJoint>");
+    text.replace(close, 11, "</EllipsoidJoint>");
+    ExpectError(text, "hindlimb.osim:" + std::to_string(line) + ":",
+                "joint 'ankle' has the type 'EllipsoidJoint', which is not supported");
+  }
+  {
+    std::string text = FixtureText();
+    const std::string from = "<SimmSpline name=\"function\">";
+    const size_t at = text.find(from, text.find("<TransformAxis name=\"rotation2\">", text.find("name=\"knee\"")));
+    const int line = 1 + static_cast<int>(std::count(text.begin(), text.begin() + at, '\n'));
+    text.replace(at, from.size(), "<GCVSpline name=\"function\">");
+    text.replace(text.find("</SimmSpline>", at), 13, "</GCVSpline>");
+    ExpectError(text, "hindlimb.osim:" + std::to_string(line) + ":",
+                "joint 'knee' axis 'rotation2': function type 'GCVSpline' is not supported");
+  }
+  {
+    auto [text, line] = Edited("<x> -2.0944 -1.7 -1.2 -0.6 0 0.17453</x>",
+                               "<x> -2.0944 -1.7 -1.2 -1.3 0 0.17453</x>");
+    ExpectError(text, "hindlimb.osim:" + std::to_string(line - 1) + ":",
+                "SimmSpline knots must be strictly increasing: x[3] = -1.3 is below x[2] = -1.2");
+  }
+  {
+    auto [text, line] = Edited("<x> -2.0944 -1.7 -1.2 -0.6 0 0.17453</x>",
+                               "<x> -2.0944 -1.7 nan -0.6 0 0.17453</x>");
+    ExpectError(text, "hindlimb.osim:" + std::to_string(line) + ":", "'nan' is not finite");
+  }
+  {
+    const std::string hip_rotation3 =
+        "<coordinates>hip_rotation</coordinates>\n              <axis>0 1 0</axis>";
+    auto [text, line] = Edited(hip_rotation3, "<coordinates>hip_rotation</coordinates>\n"
+                                              "              <axis>0 0 2</axis>");
+    ExpectError(text, "hindlimb.osim:" + std::to_string(line - 1) + ":",
+                "joint 'hip': axes 'rotation1' and 'rotation3' are collinear");
+  }
+  {
+    auto [text, line] = Edited("<socket_child_frame>foot_offset</socket_child_frame>", "");
+    ExpectError(text, "hindlimb.osim:", "joint 'ankle' has no <socket_child_frame>");
+  }
+  {
+    auto [text, line] = Edited("<socket_parent>/bodyset/tibia</socket_parent>\n              <translation>0 -0.04 0</translation>",
+                               "<socket_parent>/bodyset/shank</socket_parent>\n              <translation>0 -0.04 0</translation>");
+    ExpectError(text, "hindlimb.osim:", "'/bodyset/shank' names no body of the model");
+  }
+  {
+    auto [text, line] = Edited("<PinJoint name=\"ankle\">", "<PinJoint name=\"ankle\"><reverse>true</reverse>");
+    ExpectError(text, "hindlimb.osim:" + std::to_string(line) + ":", "joint 'ankle' is reversed");
+  }
+  const std::string text = FixtureText();
+  ExpectError(text, "hindlimb.osim", "--clamp body 'patella' is not on the path from ground",
+              "patella", "foot");
+  ExpectError(text, "hindlimb.osim", "--endpoint body 'paw' does not exist", "pelvis", "paw");
+  OpenSimImportOptions unlock;
+  unlock.clamp_body = "pelvis";
+  unlock.endpoint_body = "foot";
+  unlock.unlock = {"hip_rot"};
+  EXPECT_THAT([&] { ImportOpenSimString(text, "hindlimb.osim", unlock); },
+              ThrowsMessage<Error>(HasSubstr("--unlock names coordinate 'hip_rot', which does not exist")));
+}
+
+}  // namespace
+}  // namespace isowrench
