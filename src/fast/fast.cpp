@@ -26,19 +26,6 @@
 namespace isowrench {
 namespace {
 
-void SetAxisKind(FastJoint& joint) {
-  const Eigen::Vector3d& a = joint.axis;
-  for (int k = 0; k < 3; ++k) {
-    const int k1 = (k + 1) % 3, k2 = (k + 2) % 3;
-    if (a[k1] == 0.0 && a[k2] == 0.0 && std::abs(a[k]) == 1.0) {
-      joint.axis_kind = k;
-      joint.axis_sign = a[k];
-      return;
-    }
-  }
-  joint.axis_kind = 3;
-}
-
 // sin and cos of one angle, to within an ulp or two, in about 50 instructions instead of the
 // ~120 of libm's sincos (which also handles huge arguments exactly): sincos::Kernel (simd.hpp)
 // and the quadrant. Angles beyond sincos::kMaxReduced fall back to std::sin/std::cos.
@@ -401,63 +388,7 @@ ISOWRENCH_CLONES FastWrench SolveDispatch(FastWorkspace::Impl& ws, const double*
 
 CompiledModel::CompiledModel(const Model& model) {
   auto data = std::make_shared<Data>(model);
-  const LimbDescription& d = model.description();
-  data->m = model.dof_count();
-  if (data->m > kFastMaxDofs) {
-    throw Error("model '" + model.name() + "' has " + std::to_string(data->m) +
-                " movable joints; the fast path handles at most " + std::to_string(kFastMaxDofs));
-  }
-  // Walk the chain, folding fixed joints into the next movable joint (or the endpoint).
-  std::map<std::string, std::pair<int, Eigen::Isometry3d>> link_frames;
-  Eigen::Isometry3d since_last = Eigen::Isometry3d::Identity();
-  int frame = -1;
-  link_frames[d.root_link] = {-1, since_last};
-  for (const JointSpec& j : d.joints) {
-    if (j.type == JointType::kFixed) {
-      since_last = since_last * j.origin;
-      link_frames[j.child_link] = {frame, since_last};
-      continue;
-    }
-    const Eigen::Isometry3d origin = since_last * j.origin;
-    FastJoint fj;
-    fj.origin_rotation = origin.linear();
-    fj.origin_translation = origin.translation();
-    fj.rotation_is_identity = fj.origin_rotation == Eigen::Matrix3d::Identity();
-    fj.translation_is_zero = fj.origin_translation == Eigen::Vector3d::Zero();
-    fj.axis = j.axis;
-    fj.revolute = j.type == JointType::kRevolute;
-    SetAxisKind(fj);
-    data->joints.push_back(fj);
-    ++frame;
-    since_last = Eigen::Isometry3d::Identity();
-    link_frames[j.child_link] = {frame, since_last};
-  }
-  assert(frame + 1 == data->m);
-  const TransducerSpec& t = d.transducer;
-  data->endpoint = since_last * t.endpoint;
-  data->transducer_in_world = t.axes_in_world;
-  data->transducer_rotation = t.axes_in_world ? t.rotation : Eigen::Matrix3d(since_last.linear() * t.rotation);
-  data->transducer_identity = t.axes_in_world && t.rotation == Eigen::Matrix3d::Identity();
-
-  for (int i = 0; i < model.muscle_count(); ++i) {
-    const MuscleSpec& spec = model.muscle(i);
-    if (static_cast<int>(spec.path.size()) > kFastMaxPathPoints) {
-      throw Error("muscle '" + spec.name + "' has " + std::to_string(spec.path.size()) +
-                  " path points; the fast path handles at most " + std::to_string(kFastMaxPathPoints));
-    }
-    FastMuscle muscle;
-    muscle.max_force = spec.max_force;
-    for (const PathPoint& p : spec.path) {
-      const auto& [f, offset] = link_frames.at(p.link);
-      muscle.points.push_back({f, offset * p.position});
-    }
-    for (int f = data->m - 1; f >= 0; --f) {
-      for (size_t k = 0; k < muscle.points.size(); ++k) {
-        if (muscle.points[k].frame == f) muscle.sweep_order.push_back(static_cast<int>(k));
-      }
-    }
-    data->muscles.push_back(std::move(muscle));
-  }
+  const TransducerSpec& t = model.transducer();
   data->stiffness.s_t = t.stiffness;
   for (int i = 0; i < 6; ++i) {
     if (t.released[i]) data->stiffness.s_t[i] = 0.0;
@@ -466,9 +397,9 @@ CompiledModel::CompiledModel(const Model& model) {
   data_ = data;
 }
 
-int CompiledModel::dof_count() const { return data_->m; }
-int CompiledModel::muscle_count() const { return static_cast<int>(data_->muscles.size()); }
-bool CompiledModel::revolute(int column) const { return data_->joints.at(column).revolute; }
+int CompiledModel::dof_count() const { return data_->flat().m; }
+int CompiledModel::muscle_count() const { return static_cast<int>(data_->flat().muscles.size()); }
+bool CompiledModel::revolute(int column) const { return data_->flat().joints.at(column).revolute; }
 StiffnessSet CompiledModel::model_stiffness() const { return data_->stiffness; }
 const Model& CompiledModel::model() const { return data_->model; }
 
@@ -554,16 +485,21 @@ ISOWRENCH_INLINE void JacobianColumn(FastWorkspace::Impl& ws, int k, bool revolu
 
 }  // namespace
 
-ISOWRENCH_CLONES bool ComputeFastKinematics(const CompiledModel& model, FastWorkspace& workspace,
-                           const Eigen::Ref<const Eigen::VectorXd>& q, int muscle, double activation) {
-  const CompiledModel::Data& d = model.data();
-  FastWorkspace::Impl& ws = workspace.impl();
+namespace {
+
+const FastMuscle kNoMuscle{};  // the muscle of a kinematics call without one
+
+// The kinematics kernel. kFrames: also store each movable joint's world rotation in ws.frames,
+// accept muscle < 0 (no muscle) and world_axes (J in world axes); the evaluation path
+// instantiates it with kFrames = false, where those are compile-time off.
+template <bool kFrames>
+ISOWRENCH_INLINE bool Kinematics(const FlatChain& d, FastWorkspace::Impl& ws, const double* qv, int muscle,
+                                 double activation, bool world_axes) {
   const int m = d.m;
-  assert(q.size() == m && ws.m == m);
-  assert(muscle >= 0 && muscle < static_cast<int>(d.muscles.size()));
+  assert(ws.m == m);
+  assert(muscle < static_cast<int>(d.muscles.size()) && (kFrames || muscle >= 0));
   const FastJoint* joints = d.joints.data();
-  const double* qv = q.data();
-  const FastMuscle& mu = d.muscles[muscle];
+  const FastMuscle& mu = (kFrames && muscle < 0) ? kNoMuscle : d.muscles[muscle];
   const int n = static_cast<int>(mu.points.size());
   const FastPathPoint* pts = mu.points.data();
   const int* order = mu.sweep_order.data();  // points by decreasing frame, ground ones left out
@@ -620,6 +556,9 @@ ISOWRENCH_CLONES bool ComputeFastKinematics(const CompiledModel& model, FastWork
     ok[0] = o[0];
     ok[1] = o[1];
     ok[2] = o[2];
+    if (kFrames) {
+      for (int i = 0; i < 9; ++i) ws.frames[k].data()[i] = M[i];
+    }
     while (next_point >= 0 && pts[order[next_point]].frame == k) {  // x = M a + o
       const int i = order[next_point--];
       const double* a = pts[i].position.data();
@@ -635,8 +574,8 @@ ISOWRENCH_CLONES bool ComputeFastKinematics(const CompiledModel& model, FastWork
                         (M[1] * e0 + M[4] * e1 + M[7] * e2) + o[1],
                         (M[2] * e0 + M[5] * e1 + M[8] * e2) + o[2]};
   ws.endpoint = Eigen::Vector3d(pe[0], pe[1], pe[2]);
-  const bool rotate = !d.transducer_identity;
-  if (!rotate) {
+  const bool rotate = !d.transducer_identity && !(kFrames && world_axes);
+  if (d.transducer_identity) {
     ws.R_W_T.setIdentity();
   } else if (d.transducer_in_world) {
     ws.R_W_T = d.transducer_rotation;
@@ -647,6 +586,14 @@ ISOWRENCH_CLONES bool ComputeFastKinematics(const CompiledModel& model, FastWork
   ws.J.resize(6, m);
   ws.dL.resize(m);  // every entry is assigned by the sweep below
   ws.tau.resize(m);
+
+  if (kFrames && n == 0) {
+    ws.length = 0.0;
+    for (int k = 0; k < m; ++k) JacobianColumn(ws, k, joints[k].revolute, pe, rotate, T);
+    ws.dL.setZero();
+    ws.tau.setZero();
+    return true;
+  }
 
   // Muscle: unit segment directions and pulls.
   double total_length = 0.0;
@@ -712,6 +659,20 @@ ISOWRENCH_CLONES bool ComputeFastKinematics(const CompiledModel& model, FastWork
     tau[k] = minus_force * v;
   }
   return true;
+}
+
+}  // namespace
+
+ISOWRENCH_CLONES bool ComputeFastKinematics(const CompiledModel& model, FastWorkspace& workspace,
+                                            const Eigen::Ref<const Eigen::VectorXd>& q, int muscle,
+                                            double activation) {
+  assert(q.size() == model.dof_count());
+  return Kinematics<false>(model.data().flat(), workspace.impl(), q.data(), muscle, activation, false);
+}
+
+bool ComputeKinematicsWithFrames(const FlatChain& chain, FastWorkspace::Impl& ws, const double* q, int muscle,
+                                 double activation, bool world_axes) {
+  return Kinematics<true>(chain, ws, q, muscle, activation, world_axes);
 }
 
 FastWrench SolveFastStatics(const CompiledModel& model, FastWorkspace& workspace,

@@ -1,5 +1,5 @@
 #pragma once
-// Private: the flat chain of CompiledModel and the buffers of FastWorkspace.
+// Private: the buffers of FastWorkspace and the kinematics kernel every evaluation runs.
 
 #include <Eigen/Eigenvalues>
 #include <array>
@@ -7,57 +7,18 @@
 #include <vector>
 
 #include "isowrench/fast.hpp"
+#include "model/model_impl.hpp"
 
 namespace isowrench {
-
-/// One movable joint, relative to the frame after the previous movable joint (world for the
-/// first one), with the fixed joints in between folded into `origin_*`.
-struct FastJoint {
-  Eigen::Matrix3d origin_rotation = Eigen::Matrix3d::Identity();
-  Eigen::Vector3d origin_translation = Eigen::Vector3d::Zero();
-  bool rotation_is_identity = true;
-  bool translation_is_zero = true;
-  Eigen::Vector3d axis = Eigen::Vector3d::UnitZ();  ///< unit, in the joint frame
-  /// 0/1/2: axis = axis_sign * unit x/y/z (specialised rotation); 3: general axis.
-  int axis_kind = 3;
-  double axis_sign = 1.0;
-  bool revolute = true;
-};
-
-/// A muscle path point in the frame after movable joint `frame` (-1 = world).
-struct FastPathPoint {
-  int frame = -1;
-  Eigen::Vector3d position = Eigen::Vector3d::Zero();  ///< m, in that frame
-};
-
-struct FastMuscle {
-  double max_force = 0.0;
-  std::vector<FastPathPoint> points;  ///< path order
-  /// Point indices ordered by decreasing frame (ground points left out): the order of the
-  /// backward torque sweep.
-  std::vector<int> sweep_order;
-};
 
 /// A path segment shorter than this (m) has no direction (same rule as ComputeMuscleTorque).
 inline constexpr double kFastMinSegmentLength = 1e-9;
 
-/// Most path points per muscle the workspace holds.
-inline constexpr int kFastMaxPathPoints = 64;
-
 struct CompiledModel::Data {
   explicit Data(Model m) : model(std::move(m)) {}
   Model model;
-  int m = 0;
-  std::vector<FastJoint> joints;
-  std::vector<FastMuscle> muscles;
-  /// Endpoint in the frame after the last movable joint (m).
-  Eigen::Vector3d endpoint = Eigen::Vector3d::Zero();
-  /// Transducer axes: R_W_T = rotation (axes_in_world) or R_last * rotation (turning with
-  /// the distal bone; fixed joints after the last movable one folded in).
-  bool transducer_in_world = true;
-  Eigen::Matrix3d transducer_rotation = Eigen::Matrix3d::Identity();
-  bool transducer_identity = true;  ///< in world and R_W_T = I: no rotation of J needed
   StiffnessSet stiffness;
+  const FlatChain& flat() const { return model.impl().flat; }
 };
 
 struct FastWorkspace::Impl {
@@ -70,6 +31,9 @@ struct FastWorkspace::Impl {
   std::array<Eigen::Vector3d, kFastMaxDofs> axis;
   std::array<Eigen::Vector3d, kFastMaxPathPoints> points;
   std::array<Eigen::Vector3d, kFastMaxPathPoints> pulls;
+  /// World rotation of the frame after each movable joint; written only by the kernel with
+  /// frames (the public kinematics functions), not by the evaluation path.
+  std::array<Eigen::Matrix3d, kFastMaxDofs> frames;
   Eigen::Vector3d endpoint = Eigen::Vector3d::Zero();
   Eigen::Matrix3d R_W_T = Eigen::Matrix3d::Identity();
   FastJacobian J;
@@ -87,5 +51,12 @@ struct FastWorkspace::Impl {
   /// stay 0.
   double J_rows[6 * kFastMaxDofs];
 };
+
+/// The kinematics kernel of ComputeFastKinematics with every movable joint's world rotation
+/// stored in ws.frames, for the public kinematics functions. `muscle` < 0: no muscle (dL and
+/// tau zero). `world_axes`: J in world axes instead of transducer axes. Returns false when two
+/// consecutive path points coincide (as ComputeFastKinematics). q: chain.m entries.
+bool ComputeKinematicsWithFrames(const FlatChain& chain, FastWorkspace::Impl& ws, const double* q,
+                                 int muscle, double activation, bool world_axes);
 
 }  // namespace isowrench

@@ -75,7 +75,7 @@ struct LaneWorkspace::Impl {
 // The buffers are written before they are read; only the flags are initialised.
 LaneWorkspace::LaneWorkspace(const CompiledModel& model) : impl_(new Impl) {
   impl_->m = model.dof_count();
-  for (const FastMuscle& muscle : model.data().muscles) {
+  for (const FastMuscle& muscle : model.data().flat().muscles) {
     for (const FastPathPoint& p : muscle.points) {
       if (p.frame >= 0) impl_->frame_needed[p.frame] = true;
     }
@@ -144,7 +144,7 @@ ISOWRENCH_INLINE void RotateFrame(const FastJoint& j, const V& q, V* M) {
 
 // Forward kinematics with the running frame (M, o) kept in registers: per joint its world axis
 // and origin are stored, its frame only where a path point hangs on it.
-ISOWRENCH_INLINE void ForwardKinematics(const CompiledModel::Data& d, LaneWorkspace::Impl& ws, V* M, V* o) {
+ISOWRENCH_INLINE void ForwardKinematics(const FlatChain& d, LaneWorkspace::Impl& ws, V* M, V* o) {
   const int m = d.m;
   for (int k = 0; k < m; ++k) {
     const FastJoint& j = d.joints[k];
@@ -191,7 +191,7 @@ ISOWRENCH_INLINE void ForwardKinematics(const CompiledModel::Data& d, LaneWorksp
 
 ISOWRENCH_CLONES unsigned LaneKinematics(const CompiledModel& model, LaneWorkspace& workspace,
                                               const double* const q[kLanes], int muscle, double activation) {
-  const CompiledModel::Data& d = model.data();
+  const FlatChain& d = model.data().flat();
   LaneWorkspace::Impl& ws = workspace.impl();
   const int m = d.m;
   // Postures, and whether every revolute angle is within the fast sin/cos range.

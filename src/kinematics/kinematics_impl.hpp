@@ -1,25 +1,20 @@
 #pragma once
-// Private: KDL solvers behind KinematicsWorkspace. Each workspace owns a copy of the chain
-// because KDL::Joint caches its last pose in mutable members (not thread-safe to share).
+// Private: KinematicsWorkspace holds the buffers of the one kinematics kernel (fast/fast.cpp).
 
-#include <kdl/chain.hpp>
-#include <kdl/chainfksolverpos_recursive.hpp>
-#include <kdl/chainjnttojacsolver.hpp>
-#include <kdl/jacobian.hpp>
-#include <kdl/jntarray.hpp>
-
+#include "fast/fast_impl.hpp"
 #include "isowrench/kinematics.hpp"
 
 namespace isowrench {
 
 struct KinematicsWorkspace::Impl {
-  explicit Impl(const KDL::Chain& c)
-      : chain(c), fk(chain), jac_solver(chain), q(chain.getNrOfJoints()), jac(chain.getNrOfJoints()) {}
-  KDL::Chain chain;
-  KDL::ChainFkSolverPos_recursive fk;
-  KDL::ChainJntToJacSolver jac_solver;
-  KDL::JntArray q;
-  KDL::Jacobian jac;
+  explicit Impl(int dofs) : buffers(dofs) {}
+  FastWorkspace::Impl buffers;
 };
+
+/// Validate q and run the kernel with frames on `ws` (see ComputeKinematicsWithFrames); returns
+/// the buffers holding the results. @throws Error for a bad posture, muscle index or
+/// activation, or coincident path points of the muscle (naming the muscle and the points).
+FastWorkspace::Impl& RunKinematics(const Model& model, KinematicsWorkspace& ws, const Eigen::VectorXd& q,
+                                   int muscle, double activation, bool world_axes);
 
 }  // namespace isowrench

@@ -1,10 +1,12 @@
-// Model: validation of a LimbDescription and its KDL chain.
+// Model: validation of a LimbDescription, its compiled flat chain, and the KDL chain built from
+// it for the tests' independent cross-check.
 
 #include <algorithm>
 #include <cmath>
 #include <set>
 
 #include "isowrench/error.hpp"
+#include "isowrench/fast.hpp"
 #include "isowrench/input_checks.hpp"
 #include "isowrench/model.hpp"
 #include "model/model_impl.hpp"
@@ -114,22 +116,95 @@ KDL::Chain BuildKdlChain(const LimbDescription& d) {
   return chain;
 }
 
+namespace {
+
+void SetAxisKind(FastJoint& joint) {
+  const Eigen::Vector3d& a = joint.axis;
+  for (int k = 0; k < 3; ++k) {
+    const int k1 = (k + 1) % 3, k2 = (k + 2) % 3;
+    if (a[k1] == 0.0 && a[k2] == 0.0 && std::abs(a[k]) == 1.0) {
+      joint.axis_kind = k;
+      joint.axis_sign = a[k];
+      return;
+    }
+  }
+  joint.axis_kind = 3;
+}
+
+// Walk the chain, folding fixed joints into the next movable joint (or the endpoint).
+FlatChain Compile(const LimbDescription& d) {
+  FlatChain flat;
+  const std::string model = "model '" + d.name + "'";
+  Eigen::Isometry3d since_last = Eigen::Isometry3d::Identity();
+  int frame = -1;
+  flat.links[d.root_link] = {-1, since_last};
+  for (const JointSpec& j : d.joints) {
+    if (j.type == JointType::kFixed) {
+      since_last = since_last * j.origin;
+      flat.links[j.child_link] = {frame, since_last};
+      continue;
+    }
+    const Eigen::Isometry3d origin = since_last * j.origin;
+    FastJoint fj;
+    fj.origin_rotation = origin.linear();
+    fj.origin_translation = origin.translation();
+    fj.rotation_is_identity = fj.origin_rotation == Eigen::Matrix3d::Identity();
+    fj.translation_is_zero = fj.origin_translation == Eigen::Vector3d::Zero();
+    fj.axis = j.axis;
+    fj.revolute = j.type == JointType::kRevolute;
+    SetAxisKind(fj);
+    flat.joints.push_back(fj);
+    ++frame;
+    since_last = Eigen::Isometry3d::Identity();
+    flat.links[j.child_link] = {frame, since_last};
+  }
+  flat.m = frame + 1;
+  if (flat.m > kFastMaxDofs) {
+    throw Error(model + " has " + std::to_string(flat.m) + " movable joints; isowrench handles at most " +
+                std::to_string(kFastMaxDofs));
+  }
+  const TransducerSpec& t = d.transducer;
+  flat.endpoint = since_last * t.endpoint;
+  flat.endpoint_rotation = since_last.linear();
+  flat.transducer_in_world = t.axes_in_world;
+  flat.transducer_rotation = t.axes_in_world ? t.rotation : Eigen::Matrix3d(since_last.linear() * t.rotation);
+  flat.transducer_identity = t.axes_in_world && t.rotation == Eigen::Matrix3d::Identity();
+  for (const MuscleSpec& spec : d.muscles) {
+    if (static_cast<int>(spec.path.size()) > kFastMaxPathPoints) {
+      throw Error(model + ", muscle '" + spec.name + "' has " + std::to_string(spec.path.size()) +
+                  " path points; isowrench handles at most " + std::to_string(kFastMaxPathPoints));
+    }
+    FastMuscle muscle;
+    muscle.max_force = spec.max_force;
+    for (const PathPoint& p : spec.path) {
+      const LinkFrame& link = flat.links.at(p.link);
+      muscle.points.push_back({link.frame, link.offset * p.position});
+    }
+    for (int f = flat.m - 1; f >= 0; --f) {
+      for (size_t k = 0; k < muscle.points.size(); ++k) {
+        if (muscle.points[k].frame == f) muscle.sweep_order.push_back(static_cast<int>(k));
+      }
+    }
+    flat.muscles.push_back(std::move(muscle));
+  }
+  return flat;
+}
+
+}  // namespace
+
 Model::Model(LimbDescription description) {
   Validate(description);
   auto impl = std::make_shared<Impl>();
-  impl->chain = BuildKdlChain(description);
-  impl->link_segments[description.root_link] = 0;
+  impl->flat = Compile(description);
   double length = 0.0;
   for (size_t i = 0; i < description.joints.size(); ++i) {
     const JointSpec& j = description.joints[i];
-    impl->link_segments[j.child_link] = static_cast<int>(i) + 1;
     length += j.origin.translation().norm();
     if (j.type == JointType::kFixed) continue;
     impl->movable.push_back(static_cast<int>(i));
     impl->joint_names.push_back(j.name);
     impl->revolute.push_back(j.type == JointType::kRevolute);
   }
-  impl->endpoint_link_segments = static_cast<int>(description.joints.size());
   impl->chain_length = length + description.transducer.endpoint.norm();
   impl->description = std::move(description);
   impl_ = impl;

@@ -1,5 +1,7 @@
 #pragma once
-// Private: what a Model holds besides its description (the KDL chain and index maps).
+// Private: what a Model holds besides its description: the chain compiled to a flat structure,
+// the one form every kinematics and statics evaluation runs on (src/fast/fast.cpp for scalars,
+// src/fast/lanes.cpp for the SIMD lanes of the batch).
 
 #include <kdl/chain.hpp>
 #include <map>
@@ -10,20 +12,75 @@
 
 namespace isowrench {
 
+/// Most path points per muscle (the workspaces hold this many).
+inline constexpr int kFastMaxPathPoints = 64;
+
+/// One movable joint, relative to the frame after the previous movable joint (world for the
+/// first one), with the fixed joints in between folded into `origin_*`.
+struct FastJoint {
+  Eigen::Matrix3d origin_rotation = Eigen::Matrix3d::Identity();
+  Eigen::Vector3d origin_translation = Eigen::Vector3d::Zero();
+  bool rotation_is_identity = true;
+  bool translation_is_zero = true;
+  Eigen::Vector3d axis = Eigen::Vector3d::UnitZ();  ///< unit, in the joint frame
+  /// 0/1/2: axis = axis_sign * unit x/y/z (specialised rotation); 3: general axis.
+  int axis_kind = 3;
+  double axis_sign = 1.0;
+  bool revolute = true;
+};
+
+/// A muscle path point in the frame after movable joint `frame` (-1 = world).
+struct FastPathPoint {
+  int frame = -1;
+  Eigen::Vector3d position = Eigen::Vector3d::Zero();  ///< m, in that frame
+};
+
+struct FastMuscle {
+  double max_force = 0.0;
+  std::vector<FastPathPoint> points;  ///< path order
+  /// Point indices ordered by decreasing frame (ground points left out): the order of the
+  /// backward torque sweep.
+  std::vector<int> sweep_order;
+};
+
+/// A link's frame: the frame after movable joint `frame` (-1 = world) times `offset` (the
+/// fixed joints after it folded in).
+struct LinkFrame {
+  int frame = -1;
+  Eigen::Isometry3d offset = Eigen::Isometry3d::Identity();
+};
+
+/// The chain compiled to flat arrays: per movable joint its fixed transform from the previous
+/// movable joint's frame (fixed joints folded in), axis and type; per muscle path point its
+/// movable-joint frame and offset; the endpoint and transducer axes.
+struct FlatChain {
+  int m = 0;  ///< movable joints
+  std::vector<FastJoint> joints;
+  std::vector<FastMuscle> muscles;
+  std::map<std::string, LinkFrame> links;
+  /// Endpoint in the frame after the last movable joint (m), and the endpoint link's rotation
+  /// in that frame (fixed joints after the last movable one).
+  Eigen::Vector3d endpoint = Eigen::Vector3d::Zero();
+  Eigen::Matrix3d endpoint_rotation = Eigen::Matrix3d::Identity();
+  /// Transducer axes: R_W_T = rotation (axes_in_world) or R_last * rotation (turning with
+  /// the distal bone; fixed joints after the last movable one folded in).
+  bool transducer_in_world = true;
+  Eigen::Matrix3d transducer_rotation = Eigen::Matrix3d::Identity();
+  bool transducer_identity = true;  ///< in world and R_W_T = I: no rotation of J needed
+};
+
 struct Model::Impl {
   LimbDescription description;
-  /// One KDL segment per description joint (fixed ones as Joint::None), then one fixed
-  /// "isowrench_endpoint" segment whose tip is the endpoint.
-  KDL::Chain chain;
   std::vector<int> movable;               ///< description.joints index of each column
   std::vector<std::string> joint_names;   ///< column order
   std::vector<bool> revolute;             ///< column order
-  std::map<std::string, int> link_segments;  ///< link -> KDL segment count ending at its frame
-  int endpoint_link_segments = 0;         ///< segment count ending at the endpoint link
+  FlatChain flat;
   double chain_length = 0.0;
 };
 
-/// Build the KDL chain for a validated description (used by Model and by tests).
+/// Build the KDL chain for a validated description: the independent reference the tests and
+/// the benchmark baseline compare the engine with (one KDL segment per description joint, fixed
+/// ones as Joint::None, then one fixed "isowrench_endpoint" segment whose tip is the endpoint).
 KDL::Chain BuildKdlChain(const LimbDescription& description);
 
 }  // namespace isowrench

@@ -6,6 +6,7 @@
 #include "isowrench/kinematics.hpp"
 #include "isowrench/posture.hpp"
 #include "isowrench/statics.hpp"
+#include "kinematics/kinematics_impl.hpp"
 #include "model/model_impl.hpp"
 #include "util/text.hpp"
 
@@ -28,12 +29,13 @@ WrenchEvaluation EvaluateWrench(const Model& model, KinematicsWorkspace& ws, con
   WrenchEvaluation e;
   e.q = q;
   e.muscle = model.muscle(muscle_index).name;
-  e.R_W_T = TransducerRotation(model, ws, q);
-  e.jacobian = EndpointJacobian(model, ws, q);
-  MuscleTorque mt = ComputeMuscleTorque(model, ws, q, muscle_index, activation);
-  e.muscle_length = mt.length;
-  e.muscle_force = mt.force;
-  e.tau = mt.tau;
+  // One run of the kinematics kernel: J in transducer axes, R_W_T and the muscle torque.
+  const FastWorkspace::Impl& k = RunKinematics(model, ws, q, muscle_index, activation, false);
+  e.R_W_T = k.R_W_T;
+  e.jacobian = k.J;
+  e.muscle_length = k.length;
+  e.muscle_force = activation * model.muscle(muscle_index).max_force;
+  e.tau = k.tau;
   const TransducerSpec& t = model.transducer();
   std::array<bool, 6> restrained;
   e.s_t = t.stiffness;
