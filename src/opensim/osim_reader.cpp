@@ -634,12 +634,14 @@ struct Reader {
         }
       }
     }
-    if (const Xml* fs = m->FirstChildElement("ForceSet")) {
-      if (const Xml* objects = fs->FirstChildElement("objects")) {
-        for (const Xml* f = objects->FirstChildElement(); f; f = f->NextSiblingElement()) {
-          if (f->FirstChildElement("GeometryPath") && f->FirstChildElement("max_isometric_force")) {
-            ReadMuscle(f);
-          }
+    // Muscles: in the ForceSet, or (4.x) among the model's own <components>.
+    std::vector<const Xml*> holders;
+    if (const Xml* fs = m->FirstChildElement("ForceSet")) holders.push_back(fs->FirstChildElement("objects"));
+    holders.push_back(m->FirstChildElement("components"));
+    for (const Xml* holder : holders) {
+      for (const Xml* f = holder ? holder->FirstChildElement() : nullptr; f; f = f->NextSiblingElement()) {
+        if (f->FirstChildElement("GeometryPath") && f->FirstChildElement("max_isometric_force")) {
+          ReadMuscle(f);
         }
       }
     }
