@@ -1,6 +1,6 @@
 #pragma once
 /// @file
-/// Closing the loop with measured data (MODEL.md "Closing the loop with measured data"):
+/// Closing the loop with measured data (docs/model.md "Closing the loop with measured data"):
 /// read measured wrenches (CSV, docs/identification.md), predict them with a model, fit a
 /// library of candidate effects (each a parameterized change of the model) by nonlinear least
 /// squares, decide which effect the data support (information criterion + K-fold
@@ -12,6 +12,7 @@
 
 #include <Eigen/Core>
 #include <istream>
+#include <map>
 #include <memory>
 #include <string>
 #include <vector>
@@ -81,24 +82,12 @@ void WriteTrialsCsv(const Model& model, const std::vector<Trial>& trials, std::o
 
 // ---- Candidate effects -------------------------------------------------------------------------
 
-/// The kinds of effect the library can add to a model.
-enum class EffectKind {
-  kBaseIsotropic,          ///< base compliance, one stiffness for x y z (N/m)
-  kBasePerAxis,            ///< base compliance, stiffness per world axis (N/m, 3 parameters)
-  kExtraJoint,             ///< an extra revolute dof after `joint`, about `axis`, with stiffness
-  kTransducerAnisotropy,   ///< rotational transducer stiffness scaled by a factor (translation kept)
-  kTransducerSoftDof,      ///< one transducer dof partially released (its stiffness, N/m or N·m/rad)
-  kTransducerMisalignment, ///< transducer axes rotated by a small rotation vector (deg, 3 parameters)
-  kSensorOffset,           ///< constant wrench added to every reading (N, N·m; 6 parameters)
-  kMuscleForceScale,       ///< a muscle's max force scaled by a factor
-  kAttachmentOffset,       ///< one muscle path point moved (mm, in its link's frame; 3 parameters)
-  kMomentReferenceOffset,  ///< endpoint (moment reference point) moved (mm, in its link's frame)
-};
+/// Where in the prediction an effect acts (the order the prediction applies them):
+/// the recorded posture, the model (URDF description), the muscle force, the measurement chain.
+enum class EffectStage { kPosture, kModel, kForce, kMeasurement };
 
-/// Stable kind name used in effect ids: "base_isotropic", "base_per_axis", "extra_joint",
-/// "transducer_anisotropy", "transducer_soft", "misalignment", "sensor_offset",
-/// "force_scale", "attachment", "moment_reference".
-const char* EffectKindName(EffectKind kind);
+/// "posture", "model", "muscle force", "measurement".
+const char* EffectStageName(EffectStage stage);
 
 /// How a parameter is handled by the least squares: stiffnesses and factors by log10 (so the
 /// problem is well scaled over decades), the rest linearly in their user unit.
@@ -115,23 +104,49 @@ struct EffectParameter {
   double upper = 0.0;
 };
 
-/// A candidate effect: what it changes and its parameters (values given separately).
+/// A candidate effect: what it changes and its parameters (values given separately). Effects
+/// come from the effect registry (src/identification/effects/, one file per kind).
 struct Effect {
-  EffectKind kind = EffectKind::kSensorOffset;
+  /// Registry kind, the id's first part: "base_isotropic", "base_per_axis", "extra_joint",
+  /// "transducer_anisotropy", "transducer_soft", "misalignment", "sensor_offset",
+  /// "force_scale", "attachment", "moment_reference", "trial_force", "joint_offset", "gain",
+  /// "crosstalk", "coactivation", "sensor_origin".
+  std::string kind;
   /// Unique id, e.g. "base_isotropic", "extra_joint:knee_rx:y", "transducer_soft:rz",
-  /// "force_scale:GP", "attachment:GP:1" (path point index), "moment_reference".
+  /// "force_scale:GP", "attachment:GP:1" (path point index), "gain:fx", "joint_offset:knee_rz".
   std::string id;
   std::string description;  ///< one readable sentence
-  std::string joint;        ///< kExtraJoint: insert after this joint
-  Eigen::Vector3d axis = Eigen::Vector3d::UnitZ();  ///< kExtraJoint: axis in that joint's child frame
-  int dof = -1;             ///< kTransducerSoftDof: 0..5 (x y z rx ry rz)
-  std::string muscle;       ///< kMuscleForceScale, kAttachmentOffset
-  int point = -1;           ///< kAttachmentOffset: path point index
+  EffectStage stage = EffectStage::kModel;
+  std::string joint;        ///< extra_joint: insert after this joint; joint_offset: the column
+  Eigen::Vector3d axis = Eigen::Vector3d::UnitZ();  ///< extra_joint: axis in that joint's child frame
+  int dof = -1;             ///< transducer_soft, gain: 0..5 (x y z rx ry rz / fx fy fz mx my mz)
+  std::string muscle;       ///< force_scale, attachment, coactivation
+  int point = -1;           ///< attachment: path point index
   std::vector<EffectParameter> parameters;
-  /// True when the effect changes the prediction only by post-processing the nominal wrench
-  /// (sensor offset, force scale): no model rebuild needed.
+  /// True when the effect does not change the model (stage other than kModel): the fit then
+  /// reuses one model for all its evaluations.
   bool post_processing = false;
+  /// True when the parameters are not fitted by least squares but profiled per trial in
+  /// closed form (trial_force: one factor per trial; its parameter is the spread).
+  bool per_trial = false;
+  /// Effect ids (or kinds, ending in ':') this effect is known to be confounded with.
+  std::vector<std::string> confounders;
+  /// Effect ids that cannot be in one model with this one (they edit the same thing).
+  std::vector<std::string> excludes;
 };
+
+/// What the registry says about one kind (for --list-effects and the docs).
+struct EffectKindInfo {
+  std::string kind;         ///< e.g. "gain"
+  std::string id_pattern;   ///< e.g. "gain:AXIS (AXIS one of fx fy fz mx my mz)"
+  EffectStage stage = EffectStage::kModel;
+  std::string summary;      ///< what it changes, one paragraph
+  std::string parameters;   ///< names, units, scale and range
+  std::string confounders;  ///< known confounders, one sentence
+};
+
+/// Every kind in the registry, sorted by kind name.
+std::vector<EffectKindInfo> EffectKinds();
 
 /// The candidate library for a model (every kind that applies to it): base compliance
 /// (isotropic and per axis; skipped when the model already has base joints), an extra joint
@@ -144,9 +159,9 @@ std::vector<Effect> CandidateEffects(const Model& model, const std::vector<std::
 /// Find an effect by id in CandidateEffects(model). @throws Error listing the known ids.
 Effect FindEffect(const Model& model, const std::string& id);
 
-/// A description with the effect applied at `values` (user units, one per parameter).
-/// Post-processing effects: kMuscleForceScale scales max_force; kSensorOffset is returned
-/// unchanged (it is not a model property; see ApplyEffectToWrench).
+/// A description with the effect applied at `values` (user units, one per parameter). Effects
+/// outside the model (measurement chain, posture, per-trial force) return it unchanged; use
+/// ApplyEffects for the whole augmented model.
 /// @throws Error for a wrong number of values, non-finite values or bad names.
 LimbDescription ApplyEffect(LimbDescription description, const Effect& effect,
                             const std::vector<double>& values);
@@ -157,11 +172,29 @@ struct AppliedEffect {
   std::vector<double> values;  ///< user units
 };
 
-/// Description + applied effects, plus the sensor offset that no URDF can hold (N, N·m).
+/// Description + applied effects, plus what no URDF can hold: the recorded-posture offsets,
+/// the force corrections and the measurement chain. The reading of a trial is
+///   W  = Eq. 10 wrench of the trial's muscle at (recorded posture + posture_offset), plus
+///        coactivation[j] * (wrench of muscle j at full activation) for every other muscle j,
+///   W' = [f; m - sensor_origin x f]     (moment about the transducer's true origin),
+///   reading = trial factor * calibration * W' + sensor_offset.
 struct AugmentedModel {
   LimbDescription description;
-  Vector6d sensor_offset = Vector6d::Zero();
+  Vector6d sensor_offset = Vector6d::Zero();  ///< N, N·m, transducer axes
   std::vector<AppliedEffect> effects;
+  /// Added to the recorded value of a column (rad or m), by column name (joint_offset).
+  std::map<std::string, double> posture_offset;
+  /// Muscle -> fraction of its max force with which it also pulls in trials of other muscles.
+  std::map<std::string, double> coactivation;
+  /// Per-trial force factors are fitted in closed form (trial_force).
+  bool trial_force = false;
+  /// Spread (sd of ln factor) used when simulating per-trial factors.
+  double trial_force_spread = 0.0;
+  /// Offset of the transducer's moment origin (m, transducer axes).
+  Eigen::Vector3d sensor_origin = Eigen::Vector3d::Zero();
+  /// Calibration error of the transducer: reading = calibration * W' (gain on the diagonal,
+  /// crosstalk off it), dimensionless for f<-f and m<-m, m for m<-f, 1/m for f<-m.
+  Matrix6d calibration = Matrix6d::Identity();
 };
 
 /// Apply effects in order. @throws Error as ApplyEffect.
@@ -180,6 +213,12 @@ struct Prediction {
 };
 Prediction PredictTrials(const Model& model, const std::vector<Trial>& trials,
                          const Vector6d& sensor_offset = Vector6d::Zero());
+
+/// Predicted readings of an augmented model (the chain in AugmentedModel's comment). With
+/// trial_force the per-trial factors are solved in closed form against each trial's measured
+/// wrench (weighted least squares) and returned in `factors` (1 otherwise).
+Prediction PredictTrials(const AugmentedModel& model, const std::vector<Trial>& trials,
+                         std::vector<double>* factors = nullptr);
 
 // ---- Simulation ------------------------------------------------------------------------------
 
@@ -203,6 +242,13 @@ struct SimulationOptions {
   double sd_floor = 1e-9;
   /// Muscles used, cycled over trials; empty = all muscles of the model.
   std::vector<std::string> muscles;
+  /// Noise distribution: 0 = Gaussian; otherwise Student-t with this many degrees of freedom
+  /// (> 2), scaled so its standard deviation is the stated noise.
+  int noise_dof = 0;
+  /// Fraction of trials made gross outliers (in [0, 0.5]): their wrench gets an extra error of
+  /// outlier_size stated noise sd per component, random signs.
+  double outlier_fraction = 0.0;
+  double outlier_size = 50.0;
   /// Centre of the posture sampling in the columns of the nominal model (rad / m); empty =
   /// the nominal posture.
   Eigen::VectorXd center;
@@ -223,8 +269,28 @@ AppliedEffect ParseEffectAssignment(const Model& model, const std::string& text)
 
 // ---- Fitting ------------------------------------------------------------------------------
 
+/// Loss applied to each trial's (row's) weighted residual norm.
+enum class RobustLoss {
+  kNone,    ///< plain least squares
+  kHuber,   ///< quadratic up to loss_scale noise multiples, linear beyond
+  kCauchy,  ///< log(1 + u^2 / loss_scale^2): outliers have bounded influence
+};
+/// "none", "huber", "cauchy".
+const char* RobustLossName(RobustLoss loss);
+/// Parse "none" | "huber" | "cauchy". @throws Error naming the value and the choices.
+RobustLoss ParseRobustLoss(const std::string& text);
+
 /// Options of FitEffects. Each states the inequality it controls.
 struct FitOptions {
+  /// Robust loss on each row's RMS noise multiple u = sqrt(row chi2 / 6) (default Huber with
+  /// its knee at loss_scale = 2 stated noise sd: Gaussian rows are nearly unaffected).
+  RobustLoss loss = RobustLoss::kHuber;
+  double loss_scale = 2.0;
+  /// A row is flagged an outlier when u > outlier_threshold after the fit (with a robust loss);
+  /// flagged rows are left out of the verdict's noise comparison.
+  double outlier_threshold = 3.0;
+  /// Candidates fitted in parallel on this many threads (0 = hardware concurrency).
+  int threads = 0;
   /// At most this many effects are added (rounds).
   int max_rounds = 3;
   /// Folds for cross-validation (>= 2; fewer trials than folds disables CV).
@@ -357,6 +423,29 @@ struct FitReport {
   /// Other remarks, e.g. "base_per_axis simplified to base_isotropic" after the rounds.
   std::vector<std::string> notes;
   double seconds = 0.0;      ///< wall time of the fit
+
+  /// Robust loss used, and the CSV line numbers of the rows flagged as outliers.
+  RobustLoss loss = RobustLoss::kHuber;
+  std::vector<long> outlier_rows;
+  /// Correlation matrix of all chosen parameters (joint fit), labels "effect.parameter", and
+  /// one sentence per pair with |r| > 0.9 (confounded).
+  std::vector<std::string> correlation_labels;
+  Eigen::MatrixXd correlations;
+  std::vector<std::string> confounded;
+  /// trial_force: the per-trial factors (one per trial, in trial order), the spread (sd of ln
+  /// factor) and the lines of trials whose factor is far from the rest (> 3 robust sd).
+  std::vector<double> trial_factors;
+  double trial_force_spread = 0.0;
+  std::vector<long> trial_force_outliers;
+  /// Where the residual lives when it stays above the noise (empty otherwise).
+  struct TraceItem {
+    std::string variable;  ///< "trial order", "coordinate hip_rz", "length of GP", "muscle GP axis fx"
+    double share = 0.0;    ///< fraction of the excess chi^2 it explains (0..1)
+    std::string note;
+  };
+  std::vector<TraceItem> trace;
+  std::string trace_summary;
+  std::string closest_rejected;  ///< the best candidate of the last round that was not chosen
 
   /// A few lines: verdict, chosen effects, error before/after.
   std::string BriefReport() const;

@@ -46,7 +46,7 @@ nlohmann::json EffectJson(const Effect& e) {
     params.push_back({{"name", p.name}, {"unit", p.unit}, {"scale", p.scale == ParameterScale::kLog10 ? "log10" : "linear"},
                       {"neutral", p.neutral}, {"initial", p.initial}, {"lower", p.lower}, {"upper", p.upper}});
   }
-  return {{"id", e.id}, {"kind", EffectKindName(e.kind)}, {"description", e.description}, {"parameters", params}};
+  return {{"id", e.id}, {"kind", e.kind}, {"stage", EffectStageName(e.stage)}, {"description", e.description}, {"parameters", params}};
 }
 
 nlohmann::json CandidateJson(const CandidateFit& f) {

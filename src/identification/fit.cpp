@@ -1,16 +1,24 @@
-// Fitting candidate effects (Ceres, numeric central differences), deciding between them
-// (BIC + K-fold cross-validation + identifiability), the round loop and the report.
+// Fitting candidate effects (Ceres, numeric central differences, robust loss per row) and
+// deciding between them in staged steps: screen the candidates a round may try, fit them (in
+// parallel), cross-validate the best, select, adopt the winner (joint refit); after the rounds
+// simplify, then report (outliers, verdict, correlations, per-trial force factors, trace).
 
 #include <ceres/ceres.h>
+#include <glog/logging.h>
 
 #include <Eigen/SVD>
 #include <algorithm>
+#include <atomic>
 #include <chrono>
-#include <map>
 #include <cmath>
+#include <limits>
+#include <map>
+#include <mutex>
 #include <numeric>
 #include <sstream>
+#include <thread>
 
+#include "identification/effect_type.hpp"
 #include "identification/identification_impl.hpp"
 #include "isowrench/error.hpp"
 #include "util/atomic_file.hpp"
@@ -24,83 +32,135 @@ constexpr double kAtBoundFraction = 1e-4;
 /// A parameter is "not determined" when its standard error exceeds this fraction of its
 /// (internal) search range: the data do not pin it down inside the range.
 constexpr double kUndeterminedFraction = 0.25;
+/// Chosen parameters with |correlation| above this are named as confounded pairs.
+constexpr double kConfoundedCorrelation = 0.9;
+/// A per-trial force factor is flagged when |ln f - median| exceeds this many robust sd.
+constexpr double kFarFactor = 3.0;
+/// At most this fraction of the rows can be flagged as outliers.
+constexpr double kMaxOutlierFraction = 0.15;
+/// Trace items explaining less than this share of the residual are not listed.
+constexpr double kTraceMinShare = 0.05;
+
+/// Ceres logs through glog: initialise it once, silently (no "Logging before
+/// InitGoogleLogging" banner, no residual block dumps); the fit reports through its own results.
+void SilenceCeres() {
+  static std::once_flag once;
+  std::call_once(once, [] {
+    if (!google::IsGoogleLoggingInitialized()) google::InitGoogleLogging("isowrench");
+    FLAGS_logtostderr = false;
+    FLAGS_alsologtostderr = false;
+    FLAGS_stderrthreshold = google::GLOG_FATAL;
+    FLAGS_minloglevel = google::GLOG_FATAL;
+  });
+}
+
+/// Robust loss of one row: rho(s) for the row's chi2 s (6 components), in chi2 units.
+double RowLoss(double s, const FitOptions& o) {
+  if (o.loss == RobustLoss::kNone || !(s > 0)) return s;
+  const double k = o.loss_scale;
+  const double u = std::sqrt(s / 6.0);  // RMS noise multiple of the row
+  if (o.loss == RobustLoss::kHuber) return u <= k ? s : 6.0 * (2.0 * k * u - k * k);
+  return 6.0 * k * k * std::log1p(u * u / (k * k));
+}
 
 /// Everything the residual functor needs; owned by the caller for the duration of a solve.
 struct Context {
-  const LimbDescription* base = nullptr;
-  Vector6d base_offset = Vector6d::Zero();
+  AugmentedModel base;               ///< current model: fixed effects already applied
   std::vector<Effect> free;          ///< effects whose parameters are fitted, in order
   std::vector<int> start;            ///< first internal parameter of each free effect
-  int parameter_count = 0;
+  int parameter_count = 0;           ///< least-squares parameters (per-trial ones excluded)
   const std::vector<Trial>* trials = nullptr;
   std::vector<int> subset;
   std::vector<double> weights;       ///< 6 per subset entry
-  bool post_only = false;
-  std::vector<Vector6d> base_prediction;  ///< post_only: prediction of `base` without base_offset
   FitOptions options;
+  bool rebuild = true;               ///< a free model-stage effect: build a model per evaluation
+  std::shared_ptr<const Model> model;  ///< otherwise the base model, built once
+  bool cached = false;               ///< no free posture effect either: raw wrenches once
+  ident::RawWrenches raw;
+  std::vector<std::string> others;   ///< coactivated muscles (base and free)
+  std::string setup_message;         ///< why the base model cannot be evaluated, if so
+
+  int FreeCount(int e) const { return free[e].per_trial ? 0 : static_cast<int>(free[e].parameters.size()); }
 
   std::vector<double> UserValues(const double* x, int e) const {
     std::vector<double> v;
     const Effect& effect = free[e];
-    for (size_t i = 0; i < effect.parameters.size(); ++i) v.push_back(ident::ToUser(effect.parameters[i], x[start[e] + i]));
+    for (size_t i = 0; i < effect.parameters.size(); ++i) {
+      v.push_back(effect.per_trial ? 0.0 : ident::ToUser(effect.parameters[i], x[start[e] + i]));
+    }
     return v;
   }
 
+  /// Parameters the information criteria count: least squares plus per-trial factors.
+  int CountedParameters() const {
+    int k = parameter_count;
+    for (const Effect& e : free) k += e.per_trial ? static_cast<int>(subset.size()) : 0;
+    return k;
+  }
+
   /// Predicted readings of the subset at internal parameters x; false if any trial fails.
-  bool Predict(const double* x, std::vector<Vector6d>* out, std::string* message = nullptr) const {
-    if (post_only) {
-      *out = base_prediction;
-      Vector6d offset = base_offset;
-      for (size_t e = 0; e < free.size(); ++e) {
-        std::vector<double> v = UserValues(x, static_cast<int>(e));
-        if (free[e].kind == EffectKind::kSensorOffset) {
-          for (int c = 0; c < 6; ++c) offset[c] += v[c];
-        } else if (free[e].kind == EffectKind::kMuscleForceScale) {
-          for (size_t k = 0; k < subset.size(); ++k) {
-            if ((*trials)[subset[k]].muscle == free[e].muscle) (*out)[k] *= v[0];
-          }
-        }
-      }
-      for (Vector6d& w : *out) w += offset;
-      return true;
-    }
+  bool Predict(const double* x, std::vector<Vector6d>* out, std::string* message = nullptr,
+               std::vector<double>* factors = nullptr) const {
     try {
-      LimbDescription d = *base;
-      Vector6d offset = base_offset;
+      AugmentedModel m = base;
       for (size_t e = 0; e < free.size(); ++e) {
-        std::vector<double> v = UserValues(x, static_cast<int>(e));
-        d = ApplyEffect(std::move(d), free[e], v);
-        if (free[e].kind == EffectKind::kSensorOffset) {
-          for (int c = 0; c < 6; ++c) offset[c] += v[c];
+        ident::TypeOf(free[e]).Apply(free[e], UserValues(x, static_cast<int>(e)), &m);
+      }
+      for (const auto& c : m.coactivation) {
+        if (std::find(others.begin(), others.end(), c.first) == others.end()) {
+          throw Error("coactivation of '" + c.first + "' was not prepared");
         }
       }
-      Model model(std::move(d));
-      std::vector<bool> ok;
-      std::string msg;
-      ident::PredictSubset(model, *trials, subset, offset, out, &ok, &msg);
-      for (bool b : ok) {
-        if (!b) {
-          if (message) *message = msg;
-          return false;
-        }
+      if (cached) {
+        ident::ComposeReadings(m, *trials, subset, raw, options, out, factors);
+        return raw.all_ok() || Fail(raw.message, message);
+      }
+      ident::RawWrenches r;
+      if (rebuild) {
+        Model built(m.description);
+        r = ident::EvaluateRaw(built, m.posture_offset, others, *trials, subset);
+      } else {
+        r = ident::EvaluateRaw(*model, m.posture_offset, others, *trials, subset);
+      }
+      if (!r.all_ok()) return Fail(r.message, message);
+      ident::ComposeReadings(m, *trials, subset, r, options, out, factors);
+      for (const Vector6d& w : *out) {
+        if (!w.allFinite()) return Fail("a predicted reading is not finite", message);
       }
       return true;
     } catch (const Error& e) {
-      if (message) *message = e.what();
-      return false;
+      return Fail(e.what(), message);
     }
   }
 
-  double Chi2(const std::vector<Vector6d>& prediction) const {
-    double chi2 = 0.0;
+  static bool Fail(const std::string& why, std::string* message) {
+    if (message) *message = why;
+    return false;
+  }
+
+  /// Row chi2 (plain weighted squares) of subset entry k.
+  double RowChi2(size_t k, const Vector6d& prediction) const {
+    const Trial& t = (*trials)[subset[k]];
+    double s = 0;
+    for (int c = 0; c < 6; ++c) s += std::pow(weights[6 * k + c] * (t.wrench[c] - prediction[c]), 2);
+    return s;
+  }
+
+  /// Robust cost: sum of RowLoss over the rows (= chi2 without a robust loss).
+  double Cost(const std::vector<Vector6d>& prediction) const {
+    double cost = 0.0;
+    for (size_t k = 0; k < subset.size(); ++k) cost += RowLoss(RowChi2(k, prediction[k]), options);
+    return cost;
+  }
+
+  /// Residuals whose squares sum to Cost: each row's weighted residual times sqrt(rho(s) / s).
+  void Residuals(const std::vector<Vector6d>& prediction, double* residuals) const {
     for (size_t k = 0; k < subset.size(); ++k) {
       const Trial& t = (*trials)[subset[k]];
-      for (int c = 0; c < 6; ++c) {
-        double r = weights[6 * k + c] * (t.wrench[c] - prediction[k][c]);
-        chi2 += r * r;
-      }
+      const double s = RowChi2(k, prediction[k]);
+      const double scale = s > 0 ? std::sqrt(RowLoss(s, options) / s) : 1.0;
+      for (int c = 0; c < 6; ++c) residuals[6 * k + c] = scale * weights[6 * k + c] * (t.wrench[c] - prediction[k][c]);
     }
-    return chi2;
   }
 };
 
@@ -109,11 +169,9 @@ struct ResidualFunctor {
   bool operator()(double const* const* parameters, double* residuals) const {
     std::vector<Vector6d> prediction;
     if (!context->Predict(parameters[0], &prediction)) return false;
-    for (size_t k = 0; k < context->subset.size(); ++k) {
-      const Trial& t = (*context->trials)[context->subset[k]];
-      for (int c = 0; c < 6; ++c) {
-        residuals[6 * k + c] = context->weights[6 * k + c] * (t.wrench[c] - prediction[k][c]);
-      }
+    context->Residuals(prediction, residuals);
+    for (size_t i = 0; i < 6 * context->subset.size(); ++i) {
+      if (!std::isfinite(residuals[i])) return false;
     }
     return true;
   }
@@ -121,69 +179,84 @@ struct ResidualFunctor {
 
 using CostFunction = ceres::DynamicNumericDiffCostFunction<ResidualFunctor, ceres::CENTRAL>;
 
-Context MakeContext(const LimbDescription& base, const Vector6d& base_offset, const std::vector<Effect>& free,
-                    const std::vector<Trial>& trials, const std::vector<int>& subset, const FitOptions& options) {
+Context MakeContext(const AugmentedModel& base, const std::vector<Effect>& free, const std::vector<Trial>& trials,
+                    const std::vector<int>& subset, const FitOptions& options) {
   Context c;
-  c.base = &base;
-  c.base_offset = base_offset;
+  c.base = base;
   c.free = free;
   c.trials = &trials;
   c.subset = subset;
   c.options = options;
-  for (const Effect& e : free) {
+  for (size_t e = 0; e < free.size(); ++e) {
     c.start.push_back(c.parameter_count);
-    c.parameter_count += static_cast<int>(e.parameters.size());
+    c.parameter_count += c.FreeCount(static_cast<int>(e));
   }
   c.weights.resize(6 * subset.size());
   for (size_t k = 0; k < subset.size(); ++k) {
     for (int j = 0; j < 6; ++j) c.weights[6 * k + j] = ident::Weight(trials[subset[k]], j, options);
   }
-  c.post_only = std::all_of(free.begin(), free.end(), [](const Effect& e) { return e.post_processing; });
-  if (c.post_only) {
-    Model model(base);
-    std::vector<bool> ok;
-    std::string message;
-    ident::PredictSubset(model, trials, subset, Vector6d::Zero(), &c.base_prediction, &ok, &message);
-    if (std::find(ok.begin(), ok.end(), false) != ok.end()) c.post_only = false;  // let Predict report it
+  c.others = ident::CoactivatedMuscles(base);
+  bool posture = false;
+  c.rebuild = false;
+  for (const Effect& e : free) {
+    if (e.kind == "coactivation" && std::find(c.others.begin(), c.others.end(), e.muscle) == c.others.end()) {
+      c.others.push_back(e.muscle);
+    }
+    posture |= e.stage == EffectStage::kPosture;
+    c.rebuild |= e.stage == EffectStage::kModel;
+  }
+  if (!c.rebuild) {
+    try {
+      c.model = std::make_shared<const Model>(base.description);
+      if (!posture) {
+        c.raw = ident::EvaluateRaw(*c.model, base.posture_offset, c.others, trials, subset);
+        c.cached = true;
+      }
+    } catch (const Error& e) {
+      c.rebuild = true;  // let Predict report it
+      c.setup_message = e.what();
+    }
   }
   return c;
 }
 
 struct SolveResult {
   std::vector<double> x;
-  double chi2 = 0.0;
+  double cost = 0.0;  ///< robust cost at x (chi2 without a robust loss)
   bool usable = false;
   std::string message;
 };
 
-std::vector<double> Lower(const Context& c) {
+std::vector<double> Bounds(const Context& c, bool upper) {
   std::vector<double> v;
-  for (const Effect& e : c.free) {
-    for (const EffectParameter& p : e.parameters) v.push_back(ident::ToInternal(p, p.lower));
-  }
-  return v;
-}
-std::vector<double> Upper(const Context& c) {
-  std::vector<double> v;
-  for (const Effect& e : c.free) {
-    for (const EffectParameter& p : e.parameters) v.push_back(ident::ToInternal(p, p.upper));
+  for (size_t e = 0; e < c.free.size(); ++e) {
+    if (c.free[e].per_trial) continue;
+    for (const EffectParameter& p : c.free[e].parameters) v.push_back(ident::ToInternal(p, upper ? p.upper : p.lower));
   }
   return v;
 }
 
 SolveResult Solve(const Context& c, std::vector<double> x) {
   SolveResult out;
-  std::vector<double> lo = Lower(c), hi = Upper(c);
-  for (int i = 0; i < c.parameter_count; ++i) x[i] = std::min(std::max(x[i], lo[i]), hi[i]);
   std::vector<Vector6d> prediction;
   std::string message;
+  if (c.parameter_count == 0) {
+    // Only per-trial (closed-form) parameters: nothing for the least squares.
+    out.x = x;
+    out.usable = c.Predict(x.data(), &prediction, &message);
+    out.cost = out.usable ? c.Cost(prediction) : 0.0;
+    out.message = out.usable ? "closed form" : "the model cannot be evaluated: " + message;
+    return out;
+  }
+  std::vector<double> lo = Bounds(c, false), hi = Bounds(c, true);
+  for (int i = 0; i < c.parameter_count; ++i) x[i] = std::min(std::max(x[i], lo[i]), hi[i]);
   if (!c.Predict(x.data(), &prediction, &message)) {
     out.x = x;
     out.message = "the model cannot be evaluated at the starting point: " + message;
     return out;
   }
-  ceres::Problem::Options problem_options;
-  ceres::Problem problem(problem_options);
+  SilenceCeres();
+  ceres::Problem problem;
   auto* cost = new CostFunction(new ResidualFunctor{&c});
   cost->AddParameterBlock(c.parameter_count);
   cost->SetNumResiduals(static_cast<int>(6 * c.subset.size()));
@@ -207,40 +280,38 @@ SolveResult Solve(const Context& c, std::vector<double> x) {
   if (!c.Predict(x.data(), &prediction, &message)) {
     out.usable = false;
     out.message = "the model cannot be evaluated at the solution: " + message;
-    out.chi2 = 2.0 * summary.final_cost;
+    out.cost = 2.0 * summary.final_cost;
   } else {
-    out.chi2 = c.Chi2(prediction);
+    out.cost = c.Cost(prediction);
   }
   if (summary.termination_type == ceres::NO_CONVERGENCE && summary.IsSolutionUsable()) {
     // Hitting the iteration limit with a usable point still gives a valid (upper) cost.
     out.usable = true;
     out.message = "iteration limit reached: " + summary.message;
   }
+  if (!std::isfinite(out.cost)) out.usable = false;
   return out;
 }
 
 /// Multi-start for single log10 parameters (stiffness or factor): a stiffness far on the rigid
-/// side has no gradient, so also start two decades either side.
+/// side has no gradient, so also start two decades either side when the first solve failed or
+/// stopped on a search limit away from the value at which the effect vanishes.
 SolveResult SolveWithStarts(const Context& c, const std::vector<double>& x0) {
   SolveResult best = Solve(c, x0);
   const Effect& last = c.free.back();
-  if (last.parameters.size() == 1 && last.parameters[0].scale == ParameterScale::kLog10) {
-    // Multi-start on the candidate's single log10 parameter (stiffness or factor): retry only
-    // when the first solve failed or stopped on a search limit away from the value at which
-    // the effect vanishes (a flat, saturated region); the rigid side is a real answer.
-    const int k = c.parameter_count - 1;
-    const EffectParameter& p = last.parameters[0];
-    double lo = ident::ToInternal(p, p.lower), hi = ident::ToInternal(p, p.upper);
-    double x = best.x.empty() ? x0[k] : best.x[k];
-    bool at_limit = x - lo <= kAtBoundFraction * (hi - lo) || hi - x <= kAtBoundFraction * (hi - lo);
-    bool far_from_neutral = std::abs(x - ident::ToInternal(p, p.neutral)) > 1.0;
-    if (best.usable && !(at_limit && far_from_neutral)) return best;
-    for (double shift : {-2.0, 2.0}) {
-      std::vector<double> start = x0;
-      start[k] += shift;
-      SolveResult r = Solve(c, start);
-      if (r.usable && (!best.usable || r.chi2 < best.chi2)) best = r;
-    }
+  if (last.per_trial || last.parameters.size() != 1 || last.parameters[0].scale != ParameterScale::kLog10) return best;
+  const int k = c.parameter_count - 1;
+  const EffectParameter& p = last.parameters[0];
+  double lo = ident::ToInternal(p, p.lower), hi = ident::ToInternal(p, p.upper);
+  double x = best.x.empty() ? x0[k] : best.x[k];
+  bool at_limit = x - lo <= kAtBoundFraction * (hi - lo) || hi - x <= kAtBoundFraction * (hi - lo);
+  bool far_from_neutral = std::abs(x - ident::ToInternal(p, p.neutral)) > 1.0;
+  if (best.usable && !(at_limit && far_from_neutral)) return best;
+  for (double shift : {-2.0, 2.0}) {
+    std::vector<double> start = x0;
+    start[k] += shift;
+    SolveResult r = Solve(c, start);
+    if (r.usable && (!best.usable || r.cost < best.cost)) best = r;
   }
   return best;
 }
@@ -268,25 +339,27 @@ struct Analysis {
   std::string reason;
 };
 
-std::string ParameterLabel(const Context& c, int i) {
+std::string ParameterLabel(const Context& c, int i, bool always_prefix = false) {
   for (size_t e = 0; e < c.free.size(); ++e) {
     int local = i - c.start[e];
-    if (local >= 0 && local < static_cast<int>(c.free[e].parameters.size())) {
-      return (c.free.size() > 1 ? c.free[e].id + "." : std::string()) + c.free[e].parameters[local].name;
+    if (local >= 0 && local < c.FreeCount(static_cast<int>(e))) {
+      return (c.free.size() > 1 || always_prefix ? c.free[e].id + "." : std::string()) +
+             c.free[e].parameters[local].name;
     }
   }
   return "?";
 }
 
 /// Whitened Jacobian at x, SVD, covariance, correlations, identifiability.
-Analysis Analyze(const Context& c, const std::vector<double>& x, double chi2, bool sd_stated) {
+Analysis Analyze(const Context& c, const std::vector<double>& x, double cost, bool sd_stated) {
   Analysis a;
   const int p = c.parameter_count;
   const int n = static_cast<int>(6 * c.subset.size());
   a.se_internal.assign(p, 0.0);
   a.at_bound.assign(p, false);
   a.correlation = Eigen::MatrixXd::Identity(p, p);
-  std::vector<double> lo = Lower(c), hi = Upper(c);
+  if (p == 0) return a;
+  std::vector<double> lo = Bounds(c, false), hi = Bounds(c, true);
   std::vector<std::string> reasons;
   for (int i = 0; i < p; ++i) {
     double range = hi[i] - lo[i];
@@ -295,14 +368,14 @@ Analysis Analyze(const Context& c, const std::vector<double>& x, double chi2, bo
       reasons.push_back(ParameterLabel(c, i) + " ended on its search limit (only bounded by the data)");
     }
   }
-  CostFunction cost(new ResidualFunctor{&c});
-  cost.AddParameterBlock(p);
-  cost.SetNumResiduals(n);
+  CostFunction cost_function(new ResidualFunctor{&c});
+  cost_function.AddParameterBlock(p);
+  cost_function.SetNumResiduals(n);
   Eigen::VectorXd residuals(n);
   Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> J(n, p);
   const double* parameters[1] = {x.data()};
   double* jacobians[1] = {J.data()};
-  if (!cost.Evaluate(parameters, residuals.data(), jacobians) || !J.allFinite()) {
+  if (!cost_function.Evaluate(parameters, residuals.data(), jacobians) || !J.allFinite()) {
     a.identifiable = false;
     a.reason = "the Jacobian cannot be evaluated at the solution";
     return a;
@@ -321,8 +394,8 @@ Analysis Analyze(const Context& c, const std::vector<double>& x, double chi2, bo
     reasons.push_back("the parameters are not jointly identifiable (singular value ratio " +
                       util::FormatNumber(s[0] > 0 ? s[p - 1] / s[0] : 0.0, 3) + ")");
   } else {
-    int dof = std::max(1, n - p);
-    double scale = sd_stated ? std::max(1.0, chi2 / dof) : chi2 / dof;
+    int dof = std::max(1, n - c.CountedParameters());
+    double scale = sd_stated ? std::max(1.0, cost / dof) : cost / dof;
     Eigen::MatrixXd V = svd.matrixV();
     Eigen::MatrixXd cov = V * s.cwiseInverse().cwiseAbs2().asDiagonal() * V.transpose() * scale;
     for (int i = 0; i < p; ++i) a.se_internal[i] = std::sqrt(std::max(0.0, cov(i, i)));
@@ -344,20 +417,30 @@ Analysis Analyze(const Context& c, const std::vector<double>& x, double chi2, bo
       }
     }
   }
+  if (!a.correlation.allFinite()) a.correlation = Eigen::MatrixXd::Identity(p, p);
+  for (double& se : a.se_internal) {
+    if (!std::isfinite(se)) se = 0.0;
+  }
   a.identifiable = reasons.empty();
   a.reason = util::Join(reasons, "; ");
   return a;
 }
 
-std::vector<double> InitialInternal(const Effect& e) {
+std::vector<double> InternalValues(const Effect& e, const std::vector<double>* values) {
   std::vector<double> x;
-  for (const EffectParameter& p : e.parameters) x.push_back(ident::ToInternal(p, p.initial));
+  if (e.per_trial) return x;
+  for (size_t i = 0; i < e.parameters.size(); ++i) {
+    const EffectParameter& p = e.parameters[i];
+    x.push_back(ident::ToInternal(p, values ? (*values)[i] : p.initial));
+  }
   return x;
 }
 
-int TotalParameters(const std::vector<AppliedEffect>& effects) {
+int TotalParameters(const std::vector<AppliedEffect>& effects, int trial_count) {
   int k = 0;
-  for (const AppliedEffect& a : effects) k += static_cast<int>(a.effect.parameters.size());
+  for (const AppliedEffect& a : effects) {
+    k += a.effect.per_trial ? trial_count : static_cast<int>(a.effect.parameters.size());
+  }
   return k;
 }
 
@@ -367,29 +450,58 @@ std::vector<int> AllIndices(size_t n) {
   return v;
 }
 
-/// Fill a CandidateFit for `effect`, the last free effect of the context (its parameters start
-/// at c.start.back(); earlier free effects are the already chosen ones, refitted jointly).
-CandidateFit MakeFit(const Context& c, const Effect& effect, const SolveResult& r, const Analysis& a, bool sd_stated,
-                     int which = -1) {
+/// Robust spread of values: 1.4826 x median absolute deviation (about the median).
+double RobustSpread(std::vector<double> v, double* median_out = nullptr) {
+  if (v.empty()) return 0.0;
+  std::sort(v.begin(), v.end());
+  const double median = v[v.size() / 2];
+  if (median_out) *median_out = median;
+  for (double& x : v) x = std::abs(x - median);
+  std::sort(v.begin(), v.end());
+  return 1.4826 * v[v.size() / 2];
+}
+
+/// Fill a CandidateFit for free effect `which` (default: the last) of the context; earlier free
+/// effects are the already chosen ones, refitted jointly.
+CandidateFit MakeFit(const Context& c, const SolveResult& r, const Analysis& a, bool sd_stated, int which = -1) {
+  const int e = which < 0 ? static_cast<int>(c.free.size()) - 1 : which;
+  const Effect& effect = c.free[e];
   CandidateFit f;
   f.effect = effect;
   const int n = static_cast<int>(6 * c.subset.size());
-  const int k_total = c.parameter_count;
-  const int p0 = which < 0 ? c.start.back() : c.start[which];
-  for (size_t i = 0; i < effect.parameters.size(); ++i) {
-    const EffectParameter& p = effect.parameters[i];
-    double value = ident::ToUser(p, r.x[p0 + i]);
-    f.values.push_back(value);
-    double se = a.se_internal[p0 + i];
-    f.log10_standard_errors.push_back(p.scale == ParameterScale::kLog10 ? se : 0.0);
-    f.standard_errors.push_back(p.scale == ParameterScale::kLog10 ? value * std::log(10.0) * se : se);
-    f.at_bound.push_back(a.at_bound[p0 + i]);
+  const int p0 = c.start[e];
+  if (effect.per_trial) {
+    // The per-trial factors are solved in closed form; the spread of ln(factor) is the value.
+    std::vector<Vector6d> prediction;
+    std::vector<double> factors;
+    double spread = 0.0;
+    if (r.usable && c.Predict(r.x.data(), &prediction, nullptr, &factors)) {
+      std::vector<double> logs;
+      for (double v : factors) logs.push_back(std::log(std::max(v, 1e-12)));
+      spread = RobustSpread(logs);
+    }
+    f.values.assign(effect.parameters.size(), spread);
+    f.standard_errors.assign(effect.parameters.size(), 0.0);
+    f.log10_standard_errors.assign(effect.parameters.size(), 0.0);
+    f.at_bound.assign(effect.parameters.size(), false);
+    f.correlation = Eigen::MatrixXd::Identity(effect.parameters.size(), effect.parameters.size());
+  } else {
+    for (size_t i = 0; i < effect.parameters.size(); ++i) {
+      const EffectParameter& p = effect.parameters[i];
+      double value = ident::ToUser(p, r.x[p0 + i]);
+      f.values.push_back(value);
+      double se = a.se_internal[p0 + i];
+      f.log10_standard_errors.push_back(p.scale == ParameterScale::kLog10 ? se : 0.0);
+      f.standard_errors.push_back(p.scale == ParameterScale::kLog10 ? value * std::log(10.0) * se : se);
+      f.at_bound.push_back(a.at_bound[p0 + i]);
+    }
+    const int pn = static_cast<int>(effect.parameters.size());
+    f.correlation = a.correlation.block(p0, p0, pn, pn);
   }
-  const int pn = static_cast<int>(effect.parameters.size());
-  f.correlation = a.correlation.block(p0, p0, pn, pn);
-  f.cost = r.chi2;
-  f.bic = Bic(r.chi2, n, k_total, sd_stated);
-  f.aic = Aicc(r.chi2, n, k_total, sd_stated);
+  const int k_total = c.CountedParameters();
+  f.cost = r.cost;
+  f.bic = Bic(r.cost, n, k_total, sd_stated);
+  f.aic = Aicc(r.cost, n, k_total, sd_stated);
   f.identifiable = a.identifiable;
   f.identifiability = a.reason;
   f.converged = r.usable;
@@ -400,24 +512,23 @@ CandidateFit MakeFit(const Context& c, const Effect& effect, const SolveResult& 
 /// Fit `effect` jointly with the already chosen effects `previous` (their values are the start)
 /// on the trials in `subset`. `start` (optional) is a full internal start vector; the solution's
 /// full internal vector goes to `x_out`.
-CandidateFit FitOnSubset(const LimbDescription& base, const Vector6d& base_offset,
-                         const std::vector<AppliedEffect>& previous, const Effect& effect,
+CandidateFit FitOnSubset(const AugmentedModel& base, const std::vector<AppliedEffect>& previous, const Effect& effect,
                          const std::vector<Trial>& trials, const std::vector<int>& subset, const FitOptions& options,
                          const std::vector<double>* start, bool analyze, std::vector<double>* x_out = nullptr) {
-  bool sd_stated = AllSd(trials);
+  const bool sd_stated = AllSd(trials);
   std::vector<Effect> free;
   std::vector<double> x0;
   for (const AppliedEffect& a : previous) {
     free.push_back(a.effect);
-    for (size_t i = 0; i < a.values.size(); ++i) x0.push_back(ident::ToInternal(a.effect.parameters[i], a.values[i]));
+    for (double v : InternalValues(a.effect, &a.values)) x0.push_back(v);
   }
   free.push_back(effect);
-  for (double v : InitialInternal(effect)) x0.push_back(v);
-  Context c = MakeContext(base, base_offset, free, trials, subset, options);
+  for (double v : InternalValues(effect, nullptr)) x0.push_back(v);
+  Context c = MakeContext(base, free, trials, subset, options);
   SolveResult r = start ? Solve(c, *start) : SolveWithStarts(c, x0);
   Analysis a;
   if (analyze && r.usable) {
-    a = Analyze(c, r.x, r.chi2, sd_stated);
+    a = Analyze(c, r.x, r.cost, sd_stated);
   } else {
     a.se_internal.assign(c.parameter_count, 0.0);
     a.at_bound.assign(c.parameter_count, false);
@@ -428,7 +539,7 @@ CandidateFit FitOnSubset(const LimbDescription& base, const Vector6d& base_offse
     }
   }
   if (x_out) *x_out = r.x;
-  return MakeFit(c, effect, r, a, sd_stated);
+  return MakeFit(c, r, a, sd_stated);
 }
 
 std::string ValueText(const Effect& e, const std::vector<double>& v, const std::vector<double>& se) {
@@ -440,6 +551,546 @@ std::string ValueText(const Effect& e, const std::vector<double>& v, const std::
     items.push_back(s);
   }
   return util::Join(items, ", ");
+}
+
+// ---- the staged steps -------------------------------------------------------------------------
+
+/// Cross-validation folds: trial indices held out (test) and kept (train) per fold; empty when
+/// there are fewer trials than folds.
+struct Folds {
+  std::vector<std::vector<int>> train, test;
+};
+
+Folds MakeFolds(size_t trial_count, const FitOptions& options) {
+  Folds f;
+  const int folds = options.folds;
+  if (folds < 2 || static_cast<int>(trial_count) < folds) return f;
+  std::vector<int> order = AllIndices(trial_count);
+  ident::Random rng(options.cv_seed);
+  for (size_t i = order.size(); i > 1; --i) std::swap(order[i - 1], order[rng.Next() % i]);
+  f.train.resize(folds);
+  f.test.resize(folds);
+  for (size_t i = 0; i < order.size(); ++i) {
+    for (int k = 0; k < folds; ++k) (static_cast<int>(i % folds) == k ? f.test[k] : f.train[k]).push_back(order[i]);
+  }
+  for (int k = 0; k < folds; ++k) {
+    std::sort(f.train[k].begin(), f.train[k].end());
+    std::sort(f.test[k].begin(), f.test[k].end());
+  }
+  return f;
+}
+
+/// The model a round starts from: chosen effects with their fits, prediction and robust cost.
+struct Current {
+  std::vector<AppliedEffect> effects;
+  std::vector<CandidateFit> fits;
+  AugmentedModel augmented;
+  std::vector<Vector6d> prediction;
+  double cost = 0.0;  ///< robust cost of the prediction
+  int parameters = 0; ///< counted parameters (per-trial factors included)
+};
+
+Current MakeCurrent(const LimbDescription& nominal, const std::vector<AppliedEffect>& effects,
+                    const std::vector<CandidateFit>& fits, const std::vector<Trial>& trials, const FitOptions& options) {
+  Current c;
+  c.effects = effects;
+  c.fits = fits;
+  c.augmented = ApplyEffects(nominal, effects);
+  Prediction p = PredictTrials(c.augmented, trials);
+  if (p.failed) throw Error("fit: the model with the chosen effects cannot predict the trials: " + p.message);
+  c.prediction = p.wrench;
+  Context context = MakeContext(ApplyEffects(nominal, {}), {}, trials, AllIndices(trials.size()), options);
+  c.cost = context.Cost(c.prediction);
+  c.parameters = TotalParameters(effects, static_cast<int>(trials.size()));
+  return c;
+}
+
+/// Screen: the candidates a round may try (not chosen yet, not excluded by a chosen effect).
+std::vector<Effect> Screen(const std::vector<Effect>& library, const Current& current) {
+  std::vector<Effect> out;
+  for (const Effect& e : library) {
+    bool excluded = false;
+    for (const AppliedEffect& a : current.effects) excluded |= ident::Excluded(e, a.effect);
+    if (!excluded) out.push_back(e);
+  }
+  return out;
+}
+
+/// Fit: every screened candidate jointly with the chosen effects on all trials, in parallel
+/// (each thread builds its own models and workspaces). Returns the fits in input order and the
+/// full internal solution of each.
+std::vector<CandidateFit> FitCandidates(const LimbDescription& nominal, const Current& current,
+                                        const std::vector<Effect>& candidates, const std::vector<Trial>& trials,
+                                        const FitOptions& options, std::vector<std::vector<double>>* solutions) {
+  const AugmentedModel base = ApplyEffects(nominal, {});
+  const std::vector<int> all = AllIndices(trials.size());
+  std::vector<CandidateFit> fits(candidates.size());
+  solutions->assign(candidates.size(), {});
+  std::atomic<size_t> next{0};
+  auto work = [&]() {
+    for (size_t i = next++; i < candidates.size(); i = next++) {
+      fits[i] = FitOnSubset(base, current.effects, candidates[i], trials, all, options, nullptr, true, &(*solutions)[i]);
+    }
+  };
+  int threads = options.threads > 0 ? options.threads : static_cast<int>(std::thread::hardware_concurrency());
+  threads = std::max(1, std::min<int>(threads, static_cast<int>(candidates.size())));
+  std::vector<std::thread> pool;
+  for (int t = 1; t < threads; ++t) pool.emplace_back(work);
+  work();
+  for (std::thread& t : pool) t.join();
+  return fits;
+}
+
+/// Cross-validate: held-out robust cost per residual of each of the best few candidates that
+/// could win (converged, identifiable, over the ΔBIC threshold); cv_error -2 marks a failed fold.
+void CrossValidate(const LimbDescription& nominal, const Current& current, const std::vector<Trial>& trials,
+                   const Folds& folds, const FitOptions& options, double threshold,
+                   const std::map<std::string, std::vector<double>>& solutions, std::vector<CandidateFit>* candidates) {
+  if (folds.train.empty()) return;
+  const AugmentedModel base = ApplyEffects(nominal, {});
+  int done = 0;
+  for (CandidateFit& f : *candidates) {
+    if (done >= options.cv_candidates) break;
+    if (!f.converged || !f.identifiable || f.delta_bic < threshold) continue;
+    ++done;
+    double held_cost = 0.0;
+    int held_n = 0;
+    const std::vector<double>& start = solutions.at(f.effect.id);
+    std::vector<Effect> free;
+    for (const AppliedEffect& a : current.effects) free.push_back(a.effect);
+    free.push_back(f.effect);
+    bool ok = true;
+    for (size_t fold = 0; fold < folds.train.size() && ok; ++fold) {
+      std::vector<double> x;
+      CandidateFit g = FitOnSubset(base, current.effects, f.effect, trials, folds.train[fold], options, &start, false, &x);
+      Context c = MakeContext(base, free, trials, folds.test[fold], options);
+      std::vector<Vector6d> prediction;
+      ok = g.converged && c.Predict(x.data(), &prediction);
+      if (!ok) break;
+      // Per-trial factors are solved on the held-out rows themselves (one of six residual
+      // dofs per row): their cost is inflated by 6 / 5 to stay comparable.
+      double inflate = 1.0;
+      for (const Effect& e : free) inflate = e.per_trial ? 6.0 / 5.0 : inflate;
+      held_cost += inflate * c.Cost(prediction);
+      held_n += static_cast<int>(6 * folds.test[fold].size());
+    }
+    f.cv_error = ok && held_n > 0 ? held_cost / held_n : -2.0;
+  }
+}
+
+/// Select: each candidate's verdict; returns the index of the winner or -1.
+int Select(FitRound* r, bool cross_validated, const FitOptions& options) {
+  for (size_t i = 0; i < r->candidates.size(); ++i) {
+    CandidateFit& f = r->candidates[i];
+    std::string p = std::to_string(f.effect.parameters.size()) + " parameter" + (f.effect.parameters.size() > 1 ? "s" : "");
+    if (f.effect.per_trial) p = "per-trial parameters";
+    if (!f.converged) {
+      f.verdict = "fit failed: " + f.solver_message;
+    } else if (f.delta_bic < r->bic_threshold) {
+      f.verdict = "does not earn its " + p + ": ΔBIC = " + util::FormatNumber(f.delta_bic, 3) + " < " +
+                  util::FormatNumber(r->bic_threshold, 3);
+      if (!f.identifiable) f.verdict += "; not identifiable: " + f.identifiability;
+    } else if (!f.identifiable) {
+      f.verdict = "not identifiable from these data: " + f.identifiability;
+    } else if (cross_validated && f.cv_error == -1.0) {
+      f.verdict = "not cross-validated (a better candidate was)";
+    } else if (cross_validated && (f.cv_error < 0 || f.cv_error > (1.0 - options.min_cv_improvement) * r->cv_before)) {
+      f.verdict = f.cv_error < 0 ? "cross-validation fit failed"
+                                 : "held-out error not lower: " + util::FormatNumber(f.cv_error, 4) + " vs " +
+                                       util::FormatNumber(r->cv_before, 4) + " per residual";
+    } else if (r->chosen < 0) {
+      r->chosen = static_cast<int>(i);
+      f.accepted = true;
+      f.verdict = "chosen";
+    } else {
+      const CandidateFit& w = r->candidates[r->chosen];
+      double gap = f.bic - w.bic;
+      f.verdict = "worse than " + w.effect.id + " by ΔBIC = " + util::FormatNumber(gap, 3);
+      if (gap < options.indistinguishable_bic) {
+        f.verdict += " (indistinguishable at these postures)";
+        r->indistinguishable.push_back(f.effect.id);
+      }
+    }
+  }
+  return r->chosen;
+}
+
+/// Joint fit of `effects` (values as start) on all trials: values, standard errors and the
+/// full correlation matrix. False when the joint solve is not usable.
+struct JointFit {
+  std::vector<AppliedEffect> effects;
+  std::vector<CandidateFit> fits;
+  Eigen::MatrixXd correlation;
+  std::vector<std::string> labels;
+  double cost = 0.0;
+  bool usable = false;
+};
+
+JointFit FitJointly(const LimbDescription& nominal, const std::vector<AppliedEffect>& effects,
+                    const std::vector<Trial>& trials, const FitOptions& options) {
+  JointFit out;
+  out.effects = effects;
+  std::vector<Effect> free;
+  std::vector<double> x0;
+  for (const AppliedEffect& a : effects) {
+    free.push_back(a.effect);
+    for (double v : InternalValues(a.effect, &a.values)) x0.push_back(v);
+  }
+  Context c = MakeContext(ApplyEffects(nominal, {}), free, trials, AllIndices(trials.size()), options);
+  SolveResult r = Solve(c, x0);
+  if (!r.usable) return out;
+  Analysis a = Analyze(c, r.x, r.cost, AllSd(trials));
+  for (size_t e = 0; e < effects.size(); ++e) {
+    CandidateFit f = MakeFit(c, r, a, AllSd(trials), static_cast<int>(e));
+    f.accepted = true;
+    f.verdict = "chosen";
+    if (!a.identifiable) f.identifiability = "joint fit: " + a.reason;
+    f.identifiable = a.identifiable;
+    out.effects[e].values = f.values;
+    if (effects[e].effect.per_trial) out.effects[e].values = effects[e].values;
+    out.fits.push_back(f);
+  }
+  out.correlation = a.correlation;
+  for (int i = 0; i < c.parameter_count; ++i) out.labels.push_back(ParameterLabel(c, i, true));
+  out.cost = r.cost;
+  out.usable = true;
+  return out;
+}
+
+/// Simplify: a per-axis base compliance is replaced by the isotropic one when that lowers the
+/// BIC (the nested, simpler effect explains the data as well).
+bool Simplify(const Model& nominal, const std::vector<Trial>& trials, const FitOptions& options, Current* current,
+              std::string* note) {
+  const int n = static_cast<int>(6 * trials.size());
+  for (size_t i = 0; i < current->effects.size(); ++i) {
+    if (current->effects[i].effect.kind != "base_per_axis") continue;
+    Effect iso;
+    bool found = false;
+    for (const Effect& e : CandidateEffects(nominal)) {
+      if (e.kind == "base_isotropic") {
+        iso = e;
+        found = true;
+      }
+    }
+    if (!found) return false;
+    std::vector<AppliedEffect> alt = current->effects;
+    const std::vector<double>& k = alt[i].values;
+    alt[i] = {iso, {std::cbrt(k[0] * k[1] * k[2])}};
+    JointFit joint = FitJointly(nominal.description(), alt, trials, options);
+    const int k_alt = TotalParameters(alt, static_cast<int>(trials.size()));
+    const double bic_now = Bic(current->cost, n, current->parameters, AllSd(trials));
+    const double bic_alt = Bic(joint.cost, n, k_alt, AllSd(trials));
+    if (!joint.usable || bic_alt >= bic_now) return false;
+    *note = "base_per_axis simplified to base_isotropic: the three axis stiffnesses agree (BIC " +
+            util::FormatNumber(bic_now, 6) + " -> " + util::FormatNumber(bic_alt, 6) + ")";
+    *current = MakeCurrent(nominal.description(), joint.effects, joint.fits, trials, options);
+    return true;
+  }
+  return false;
+}
+
+/// One round: screen, fit, cross-validate, select. The winner (if any) is in r.chosen.
+FitRound RunRound(int index, const Model& nominal, const std::vector<Effect>& library, const Current& current,
+                  const std::vector<Trial>& trials, const Folds& folds, const FitOptions& options,
+                  std::map<std::string, std::vector<double>>* solutions) {
+  const bool sd_stated = AllSd(trials);
+  const int n = static_cast<int>(6 * trials.size());
+  FitRound r;
+  r.index = index;
+  r.before = ComputeResidualStats(trials, current.prediction, current.parameters, options);
+  r.bic_before = Bic(current.cost, n, current.parameters, sd_stated);
+  r.cv_before = current.cost / n;
+  const std::vector<Effect> screened = Screen(library, current);
+  std::vector<std::vector<double>> x;
+  std::vector<CandidateFit> fits = FitCandidates(nominal.description(), current, screened, trials, options, &x);
+  solutions->clear();
+  for (size_t i = 0; i < screened.size(); ++i) {
+    fits[i].delta_bic = r.bic_before - fits[i].bic;
+    (*solutions)[screened[i].id] = x[i];
+    r.candidates.push_back(std::move(fits[i]));
+  }
+  r.bic_threshold =
+      options.min_bic_improvement +
+      (options.look_elsewhere && r.candidates.size() > 1 ? 2.0 * std::log(static_cast<double>(r.candidates.size())) : 0.0);
+  std::stable_sort(r.candidates.begin(), r.candidates.end(), [](const CandidateFit& a, const CandidateFit& b) {
+    if (a.converged != b.converged) return a.converged;
+    return a.bic < b.bic;
+  });
+  CrossValidate(nominal.description(), current, trials, folds, options, r.bic_threshold, *solutions, &r.candidates);
+  Select(&r, !folds.train.empty(), options);
+  if (r.chosen < 0) {
+    r.summary = "no candidate earns its parameters";
+    if (!r.candidates.empty()) r.summary += " (best: " + r.candidates[0].effect.id + ", " + r.candidates[0].verdict + ")";
+  } else {
+    const CandidateFit& w = r.candidates[r.chosen];
+    r.summary = "added " + w.effect.id + " (" + ValueText(w.effect, w.values, w.standard_errors) +
+                "), ΔBIC = " + util::FormatNumber(w.delta_bic, 4);
+  }
+  return r;
+}
+
+/// Adopt the round's winner: refit all chosen effects jointly (values from the candidate fit as
+/// the start) and make them the current model.
+Current Adopt(const Model& nominal, const Current& current, const FitRound& r, const std::vector<Trial>& trials,
+              const FitOptions& options) {
+  const CandidateFit& winner = r.candidates[r.chosen];
+  std::vector<AppliedEffect> chosen = current.effects;
+  chosen.push_back({winner.effect, winner.values});
+  std::vector<CandidateFit> fits = current.fits;
+  fits.push_back(winner);
+  if (chosen.size() > 1) {
+    JointFit joint = FitJointly(nominal.description(), chosen, trials, options);
+    if (joint.usable && joint.cost <= winner.cost * (1 + 1e-9) + 1e-12) {
+      for (size_t e = 0; e < chosen.size(); ++e) {
+        chosen[e].values = joint.effects[e].values;
+        CandidateFit f = joint.fits[e];
+        f.delta_bic = fits[e].delta_bic;
+        f.cv_error = fits[e].cv_error;
+        fits[e] = f;
+      }
+    }
+  }
+  return MakeCurrent(nominal.description(), chosen, fits, trials, options);
+}
+
+// ---- report steps ----------------------------------------------------------------------------
+
+/// Per-trial residuals, outlier rows (robust loss only), per-trial force factors.
+void ReportTrials(const std::vector<Trial>& trials, const Prediction& nominal, const Current& current,
+                  const FitOptions& options, FitReport* report) {
+  for (size_t k = 0; k < trials.size(); ++k) {
+    TrialResidual t;
+    t.line = trials[k].line;
+    t.muscle = trials[k].muscle;
+    t.activation = trials[k].activation;
+    t.measured = trials[k].wrench;
+    t.before = trials[k].wrench - nominal.wrench[k];
+    t.after = trials[k].wrench - current.prediction[k];
+    double nb = 0, na = 0;
+    for (int c = 0; c < 6; ++c) {
+      double w = ident::Weight(trials[k], c, options);
+      nb += std::pow(w * t.before[c], 2);
+      na += std::pow(w * t.after[c], 2);
+    }
+    t.normalized_before = std::sqrt(nb / 6);
+    t.normalized_after = std::sqrt(na / 6);
+    report->trials.push_back(t);
+    if (options.loss != RobustLoss::kNone && t.normalized_after > options.outlier_threshold) {
+      report->outlier_rows.push_back(t.line);
+    }
+  }
+  // Outliers are a minority by definition: when more rows than kMaxOutlierFraction are far off,
+  // the model misses something everywhere and no row is singled out.
+  if (report->outlier_rows.size() > kMaxOutlierFraction * trials.size()) {
+    report->notes.push_back(std::to_string(report->outlier_rows.size()) + " of " + std::to_string(trials.size()) +
+                            " rows are beyond " + util::FormatNumber(options.outlier_threshold, 3) +
+                            " x noise: a systematic misfit, not outliers (no row flagged)");
+    report->outlier_rows.clear();
+  }
+  if (current.augmented.trial_force) {
+    Prediction p = PredictTrials(current.augmented, trials, &report->trial_factors);
+    std::vector<double> logs;
+    for (double f : report->trial_factors) logs.push_back(std::log(std::max(f, 1e-12)));
+    double median = 0;
+    report->trial_force_spread = RobustSpread(logs, &median);
+    for (size_t k = 0; k < logs.size(); ++k) {
+      if (std::abs(logs[k] - median) > kFarFactor * std::max(report->trial_force_spread, 1e-12)) {
+        report->trial_force_outliers.push_back(trials[k].line);
+      }
+    }
+  }
+}
+
+/// Correlations of all chosen parameters (joint fit) and the confounded pairs.
+void ReportCorrelations(const Model& nominal, const std::vector<Trial>& trials, const Current& current,
+                        const FitOptions& options, FitReport* report) {
+  if (current.effects.empty()) return;
+  JointFit joint = FitJointly(nominal.description(), current.effects, trials, options);
+  if (!joint.usable) return;
+  report->correlation_labels = joint.labels;
+  report->correlations = joint.correlation;
+  for (int i = 0; i < joint.correlation.rows(); ++i) {
+    for (int j = i + 1; j < joint.correlation.cols(); ++j) {
+      if (std::abs(joint.correlation(i, j)) > kConfoundedCorrelation) {
+        report->confounded.push_back(joint.labels[i] + " and " + joint.labels[j] + " are confounded (r = " +
+                                     util::FormatNumber(joint.correlation(i, j), 3) + ")");
+      }
+    }
+  }
+}
+
+/// Share of the weighted residual explained by a quadratic in x (per component, summed).
+double QuadraticShare(const std::vector<Eigen::Matrix<double, 6, 1>>& r, const std::vector<double>& x,
+                      const std::vector<bool>& use, double total) {
+  std::vector<int> rows;
+  for (size_t k = 0; k < x.size(); ++k) {
+    if (use[k] && std::isfinite(x[k])) rows.push_back(static_cast<int>(k));
+  }
+  if (rows.size() < 8 || !(total > 0)) return 0.0;
+  double mean = 0, sd = 0;
+  for (int k : rows) mean += x[k];
+  mean /= rows.size();
+  for (int k : rows) sd += std::pow(x[k] - mean, 2);
+  sd = std::sqrt(sd / rows.size());
+  if (!(sd > 0)) return 0.0;
+  Eigen::MatrixXd A(rows.size(), 3);
+  Eigen::MatrixXd B(rows.size(), 6);
+  for (size_t i = 0; i < rows.size(); ++i) {
+    const double z = (x[rows[i]] - mean) / sd;
+    A.row(i) << 1.0, z, z * z;
+    B.row(i) = r[rows[i]].transpose();
+  }
+  Eigen::MatrixXd coef = A.colPivHouseholderQr().solve(B);
+  Eigen::MatrixXd fitted = A * coef;
+  // Explained beyond the constant (a constant is the sensor offset, not a trend).
+  Eigen::RowVectorXd means = B.colwise().mean();
+  double explained = 0;
+  for (int c = 0; c < 6; ++c) explained += (fitted.col(c).array() - means[c]).square().sum();
+  return explained / total;
+}
+
+/// Trace: where the residual lives when it stays above the noise.
+void ReportTrace(const Model& nominal, const std::vector<Trial>& trials, const Current& current,
+                 const FitOptions& options, FitReport* report) {
+  std::vector<bool> use(trials.size(), true);
+  for (size_t k = 0; k < trials.size(); ++k) {
+    use[k] = std::find(report->outlier_rows.begin(), report->outlier_rows.end(), trials[k].line) ==
+             report->outlier_rows.end();
+  }
+  std::vector<Eigen::Matrix<double, 6, 1>> r(trials.size());
+  double total = 0;
+  for (size_t k = 0; k < trials.size(); ++k) {
+    for (int c = 0; c < 6; ++c) {
+      r[k][c] = ident::Weight(trials[k], c, options) * (trials[k].wrench[c] - current.prediction[k][c]);
+    }
+    if (use[k]) total += r[k].squaredNorm();
+  }
+  std::vector<FitReport::TraceItem> items;
+  std::vector<double> order(trials.size());
+  for (size_t k = 0; k < trials.size(); ++k) order[k] = static_cast<double>(k);
+  items.push_back({"trial order", QuadraticShare(r, order, use, total), "drift over the session"});
+  ident::TrialMapper mapper(nominal);
+  std::vector<Eigen::VectorXd> q(trials.size());
+  for (size_t k = 0; k < trials.size(); ++k) {
+    try {
+      mapper.Map(trials[k], &q[k]);
+    } catch (const Error&) {
+      q[k] = Eigen::VectorXd::Constant(nominal.dof_count(), std::numeric_limits<double>::quiet_NaN());
+    }
+  }
+  for (int j = 0; j < nominal.dof_count(); ++j) {
+    if (nominal.joint(j).role != JointRole::kLimb) continue;
+    std::vector<double> x(trials.size());
+    for (size_t k = 0; k < trials.size(); ++k) x[k] = q[k][j];
+    items.push_back({"coordinate " + nominal.joint_names()[j], QuadraticShare(r, x, use, total),
+                     "a trend with this coordinate (joint_offset, a stiffness or a path outside the library)"});
+  }
+  for (int m = 0; m < nominal.muscle_count(); ++m) {
+    const std::string& name = nominal.muscle(m).name;
+    items.push_back({"length of " + name, QuadraticShare(r, ident::MuscleLengths(nominal, name, trials), use, total),
+                     "a trend with the muscle's length (force-length behaviour outside the model)"});
+  }
+  // Per muscle and axis: share of the residual in the trials of each muscle, per component.
+  const char* axes[6] = {"fx", "fy", "fz", "mx", "my", "mz"};
+  std::map<std::string, Vector6d> per_muscle;
+  for (size_t k = 0; k < trials.size(); ++k) {
+    if (!use[k]) continue;
+    Vector6d& s = per_muscle.emplace(trials[k].muscle, Vector6d::Zero()).first->second;
+    s += r[k].cwiseAbs2();
+  }
+  for (const auto& m : per_muscle) {
+    for (int c = 0; c < 6; ++c) {
+      items.push_back({"muscle " + m.first + " axis " + axes[c], total > 0 ? m.second[c] / total : 0.0,
+                       "share of the residual in this muscle's trials on this axis"});
+    }
+  }
+  std::stable_sort(items.begin(), items.end(),
+                   [](const FitReport::TraceItem& a, const FitReport::TraceItem& b) { return a.share > b.share; });
+  for (const FitReport::TraceItem& i : items) {
+    if (i.share >= kTraceMinShare && std::isfinite(i.share)) report->trace.push_back(i);
+  }
+  if (!report->trace.empty()) {
+    std::vector<std::string> top;
+    for (size_t i = 0; i < report->trace.size() && i < 3; ++i) {
+      top.push_back(report->trace[i].variable + " (" + util::FormatNumber(100 * report->trace[i].share, 3) + " %)");
+    }
+    report->trace_summary = "the residual lives mostly in " + util::Join(top, ", ");
+  }
+  if (!report->closest_rejected.empty()) {
+    report->trace_summary += (report->trace_summary.empty() ? "" : "; ") + std::string("closest rejected candidate: ") +
+                             report->closest_rejected;
+  }
+}
+
+/// Verdict from the residual of the rows not flagged as outliers.
+void ReportVerdict(const std::vector<Trial>& trials, const Current& current, const FitOptions& options,
+                   FitReport* report) {
+  std::ostringstream m;
+  if (!report->sd_stated) {
+    report->verdict = FitVerdict::kNoNoiseStated;
+    m << "the data state no standard deviations, so the residual cannot be compared with the noise; weighted with "
+      << util::FormatNumber(options.default_sd_force, 3) << " N and " << util::FormatNumber(options.default_sd_moment, 3)
+      << " N·m";
+    report->verdict_message = m.str();
+    return;
+  }
+  std::vector<Trial> kept;
+  std::vector<Vector6d> kept_prediction;
+  for (size_t k = 0; k < trials.size(); ++k) {
+    if (std::find(report->outlier_rows.begin(), report->outlier_rows.end(), trials[k].line) !=
+        report->outlier_rows.end()) {
+      continue;
+    }
+    kept.push_back(trials[k]);
+    kept_prediction.push_back(current.prediction[k]);
+  }
+  const ResidualStats s = ComputeResidualStats(kept, kept_prediction, current.parameters, options);
+  const int dof = std::max(1, s.residual_count - current.parameters);
+  const double reduced = s.chi2 / dof;
+  const double threshold = 1.0 + options.unexplained_sigmas * std::sqrt(2.0 / dof);
+  const double multiple = std::sqrt(reduced);
+  const std::string outliers =
+      report->outlier_rows.empty() ? ""
+                                   : " (" + std::to_string(report->outlier_rows.size()) + " outlier row(s) left out)";
+  if (reduced > threshold) {
+    report->verdict = FitVerdict::kUnexplained;
+    report->effects_claimed = report->chosen.empty();
+    m << "after " << report->chosen.size() << " effect(s) the residual is " << util::FormatNumber(multiple, 3)
+      << " x the stated noise (reduced chi^2 " << util::FormatNumber(reduced, 4) << " > "
+      << util::FormatNumber(threshold, 4) << ")" << outliers << "; something outside the candidate library is missing";
+    if (!report->chosen.empty()) {
+      m << "; the effects tried reduce the residual but do not explain it, so none is claimed (tentative partial "
+           "fits below)";
+    }
+  } else if (report->chosen.empty()) {
+    report->verdict = FitVerdict::kNominalFits;
+    m << "the nominal model explains the data to the noise (residual " << util::FormatNumber(multiple, 3)
+      << " x noise)" << outliers << "; no effect is claimed";
+  } else {
+    report->verdict = FitVerdict::kExplained;
+    std::vector<std::string> ids;
+    for (const AppliedEffect& a : report->chosen) ids.push_back(a.effect.id);
+    m << "explained by " << util::Join(ids, " + ") << ": residual from "
+      << util::FormatNumber(std::sqrt(report->before.chi2 / std::max(1, report->before.residual_count)), 3)
+      << " x noise to " << util::FormatNumber(multiple, 3) << " x noise" << outliers;
+  }
+  report->verdict_message = m.str();
+}
+
+/// No non-finite number leaves the fit: standard errors and correlations that cannot be
+/// computed become 0 (unknown) and the fit is marked not identifiable.
+void GuardFinite(CandidateFit* f) {
+  for (size_t i = 0; i < f->values.size(); ++i) {
+    if (!std::isfinite(f->standard_errors[i]) || !std::isfinite(f->log10_standard_errors[i])) {
+      f->standard_errors[i] = 0.0;
+      f->log10_standard_errors[i] = 0.0;
+      f->identifiable = false;
+    }
+  }
+  if (!f->correlation.allFinite()) f->correlation.setIdentity(f->correlation.rows(), f->correlation.cols());
+  for (double* v : {&f->cost, &f->aic, &f->bic, &f->delta_bic, &f->cv_error}) {
+    if (!std::isfinite(*v)) *v = -1.0;
+  }
 }
 
 }  // namespace
@@ -454,30 +1105,49 @@ const char* FitVerdictName(FitVerdict verdict) {
   return "?";
 }
 
+const char* RobustLossName(RobustLoss loss) {
+  switch (loss) {
+    case RobustLoss::kNone: return "none";
+    case RobustLoss::kHuber: return "huber";
+    case RobustLoss::kCauchy: return "cauchy";
+  }
+  return "?";
+}
+
+RobustLoss ParseRobustLoss(const std::string& text) {
+  for (RobustLoss l : {RobustLoss::kNone, RobustLoss::kHuber, RobustLoss::kCauchy}) {
+    if (text == RobustLossName(l)) return l;
+  }
+  throw Error("--loss '" + text + "': expected one of huber, cauchy, none");
+}
+
 CandidateFit FitCandidate(const AugmentedModel& current, const Effect& effect, const std::vector<Trial>& trials,
                           const FitOptions& options) {
   // The already chosen effects stay fixed: a context whose only free effect is `effect`, on a
   // base that already holds them. BIC counts their parameters too.
-  CandidateFit f = FitOnSubset(current.description, current.sensor_offset, {}, effect, trials,
-                               AllIndices(trials.size()), options, nullptr, true);
+  CandidateFit f = FitOnSubset(current, {}, effect, trials, AllIndices(trials.size()), options, nullptr, true);
   const int n = static_cast<int>(6 * trials.size());
-  const int k = TotalParameters(current.effects) + static_cast<int>(effect.parameters.size());
+  const int k = TotalParameters(current.effects, static_cast<int>(trials.size())) +
+                (effect.per_trial ? static_cast<int>(trials.size()) : static_cast<int>(effect.parameters.size()));
   f.bic = Bic(f.cost, n, k, AllSd(trials));
   f.aic = Aicc(f.cost, n, k, AllSd(trials));
+  GuardFinite(&f);
   return f;
 }
 
 FitReport FitEffects(const Model& nominal, const std::vector<Trial>& trials, const FitOptions& options) {
   auto clock_start = std::chrono::steady_clock::now();
   if (trials.empty()) throw Error("fit: no trials");
+  if (options.loss != RobustLoss::kNone && !(options.loss_scale > 0 && std::isfinite(options.loss_scale))) {
+    throw Error("fit: the robust loss scale must be > 0 (noise multiples), got " +
+                util::FormatNumber(options.loss_scale));
+  }
   FitReport report;
   report.model_name = nominal.name();
   report.source = nominal.description().source;
   report.trial_count = static_cast<int>(trials.size());
   report.sd_stated = AllSd(trials);
-  const bool sd_stated = report.sd_stated;
-  const int n = static_cast<int>(6 * trials.size());
-  const std::vector<int> all = AllIndices(trials.size());
+  report.loss = options.loss;
 
   std::vector<Effect> library = CandidateEffects(nominal);
   if (!options.candidates.empty()) {
@@ -485,293 +1155,50 @@ FitReport FitEffects(const Model& nominal, const std::vector<Trial>& trials, con
     for (const std::string& id : options.candidates) chosen.push_back(FindEffect(nominal, id));
     library = chosen;
   }
+  const Folds folds = MakeFolds(trials.size(), options);
 
-  // Folds for cross-validation.
-  std::vector<std::vector<int>> train, test;
-  const int folds = options.folds;
-  if (folds >= 2 && static_cast<int>(trials.size()) >= folds) {
-    std::vector<int> order = all;
-    ident::Random rng(options.cv_seed);
-    for (size_t i = order.size(); i > 1; --i) std::swap(order[i - 1], order[rng.Next() % i]);
-    train.resize(folds);
-    test.resize(folds);
-    for (size_t i = 0; i < order.size(); ++i) {
-      for (int f = 0; f < folds; ++f) (static_cast<int>(i % folds) == f ? test[f] : train[f]).push_back(order[i]);
-    }
-    for (int f = 0; f < folds; ++f) {
-      std::sort(train[f].begin(), train[f].end());
-      std::sort(test[f].begin(), test[f].end());
-    }
-  }
-
-  AugmentedModel current = ApplyEffects(nominal.description(), {});
   Prediction nominal_prediction = PredictTrials(nominal, trials);
   if (nominal_prediction.failed) {
     throw Error("fit: the nominal model cannot predict the trials: " + nominal_prediction.message);
   }
-  std::vector<Vector6d> current_prediction = nominal_prediction.wrench;
-  report.before = ComputeResidualStats(trials, current_prediction, 0, options);
-  double chi2_current = report.before.chi2;
-  // Make `effects` (with their fits) the current model: its prediction and chi2.
-  auto adopt = [&](const std::vector<AppliedEffect>& effects, const std::vector<CandidateFit>& fits) {
-    current = ApplyEffects(nominal.description(), effects);
-    report.chosen = effects;
-    report.chosen_fits = fits;
-    current_prediction = PredictTrials(Model(current.description), trials, current.sensor_offset).wrench;
-    chi2_current = ComputeResidualStats(trials, current_prediction, 0, options).chi2;
-  };
+  report.before = ComputeResidualStats(trials, nominal_prediction.wrench, 0, options);
+  Current current = MakeCurrent(nominal.description(), {}, {}, trials, options);
 
   for (int round = 1; round <= options.max_rounds; ++round) {
-    FitRound r;
-    r.index = round;
-    const int k_current = TotalParameters(current.effects);
-    r.before = ComputeResidualStats(trials, current_prediction, k_current, options);
-    r.bic_before = Bic(chi2_current, n, k_current, sd_stated);
-    r.cv_before = chi2_current / n;
-    std::map<std::string, std::vector<double>> full_x;  // joint solution per candidate id
-    std::vector<std::string> taken;
-    for (const AppliedEffect& a : current.effects) taken.push_back(ident::ConflictKey(a.effect));
-    for (const Effect& effect : library) {
-      if (std::find(taken.begin(), taken.end(), ident::ConflictKey(effect)) != taken.end()) continue;
-      std::vector<double> x_full;
-      CandidateFit f = FitOnSubset(nominal.description(), Vector6d::Zero(), current.effects, effect, trials, all,
-                                   options, nullptr, true, &x_full);
-      full_x[effect.id] = x_full;
-      f.delta_bic = r.bic_before - f.bic;
-      r.candidates.push_back(std::move(f));
-    }
-    const double threshold =
-        options.min_bic_improvement +
-        (options.look_elsewhere && r.candidates.size() > 1 ? 2.0 * std::log(static_cast<double>(r.candidates.size())) : 0.0);
-    r.bic_threshold = threshold;
-    std::stable_sort(r.candidates.begin(), r.candidates.end(), [](const CandidateFit& a, const CandidateFit& b) {
-      if (a.converged != b.converged) return a.converged;
-      return a.bic < b.bic;
-    });
-    // Cross-validate the best few that could win.
-    int cv_done = 0;
-    for (CandidateFit& f : r.candidates) {
-      if (cv_done >= options.cv_candidates) break;
-      if (!f.converged || !f.identifiable || f.delta_bic < threshold || train.empty()) continue;
-      ++cv_done;
-      double held_chi2 = 0.0;
-      int held_n = 0;
-      const std::vector<double>& start = full_x[f.effect.id];
-      std::vector<Effect> free;
-      for (const AppliedEffect& a : current.effects) free.push_back(a.effect);
-      free.push_back(f.effect);
-      bool ok = true;
-      for (int fold = 0; fold < folds && ok; ++fold) {
-        std::vector<double> x;
-        CandidateFit g = FitOnSubset(nominal.description(), Vector6d::Zero(), current.effects, f.effect, trials,
-                                     train[fold], options, &start, false, &x);
-        if (!g.converged) {
-          ok = false;
-          break;
-        }
-        Context c = MakeContext(nominal.description(), Vector6d::Zero(), free, trials, test[fold], options);
-        std::vector<Vector6d> prediction;
-        if (!c.Predict(x.data(), &prediction)) {
-          ok = false;
-          break;
-        }
-        held_chi2 += c.Chi2(prediction);
-        held_n += static_cast<int>(6 * test[fold].size());
-      }
-      f.cv_error = ok && held_n > 0 ? held_chi2 / held_n : std::numeric_limits<double>::infinity();
-      if (!ok) f.cv_error = -2.0;  // marks "failed"
-    }
-    // Decide.
-    for (size_t i = 0; i < r.candidates.size(); ++i) {
-      CandidateFit& f = r.candidates[i];
-      std::string p = std::to_string(f.effect.parameters.size()) + " parameter" + (f.effect.parameters.size() > 1 ? "s" : "");
-      if (!f.converged) {
-        f.verdict = "fit failed: " + f.solver_message;
-      } else if (f.delta_bic < threshold) {
-        f.verdict = "does not earn its " + p + ": ΔBIC = " + util::FormatNumber(f.delta_bic, 3) + " < " +
-                    util::FormatNumber(threshold, 3);
-        if (!f.identifiable) f.verdict += "; not identifiable: " + f.identifiability;
-      } else if (!f.identifiable) {
-        f.verdict = "not identifiable from these data: " + f.identifiability;
-      } else if (!train.empty() && f.cv_error == -1.0) {
-        f.verdict = "not cross-validated (a better candidate was)";
-      } else if (!train.empty() && (f.cv_error < 0 || f.cv_error > (1.0 - options.min_cv_improvement) * r.cv_before)) {
-        f.verdict = f.cv_error < 0 ? "cross-validation fit failed"
-                                   : "held-out error not lower: " + util::FormatNumber(f.cv_error, 4) + " vs " +
-                                         util::FormatNumber(r.cv_before, 4) + " per residual";
-      } else if (r.chosen < 0) {
-        r.chosen = static_cast<int>(i);
-        f.accepted = true;
-        f.verdict = "chosen";
-      } else {
-        const CandidateFit& w = r.candidates[r.chosen];
-        double gap = f.bic - w.bic;
-        f.verdict = "worse than " + w.effect.id + " by ΔBIC = " + util::FormatNumber(gap, 3);
-        if (gap < options.indistinguishable_bic) {
-          f.verdict += " (indistinguishable at these postures)";
-          r.indistinguishable.push_back(f.effect.id);
-        }
+    std::map<std::string, std::vector<double>> solutions;
+    FitRound r = RunRound(round, nominal, library, current, trials, folds, options, &solutions);
+    for (const CandidateFit& f : r.candidates) {
+      if (!f.accepted && report.closest_rejected.empty() && f.converged) {
+        report.closest_rejected = f.effect.id + " (" + f.verdict + ")";
       }
     }
     if (r.chosen < 0) {
-      r.summary = "no candidate earns its parameters";
-      if (!r.candidates.empty()) {
-        r.summary += " (best: " + r.candidates[0].effect.id + ", " + r.candidates[0].verdict + ")";
-      }
       report.rounds.push_back(std::move(r));
       break;
     }
-    CandidateFit& winner = r.candidates[r.chosen];
-    r.summary = "added " + winner.effect.id + " (" +
-                ValueText(winner.effect, winner.values, winner.standard_errors) + "), ΔBIC = " +
-                util::FormatNumber(winner.delta_bic, 4);
+    report.closest_rejected.clear();
+    const CandidateFit& winner = r.candidates[r.chosen];
     if (!r.indistinguishable.empty()) {
-      std::string s = "At the sampled postures " + winner.effect.id + " cannot be told apart from " +
-                      util::Join(r.indistinguishable, ", ") + " (BIC within " +
-                      util::FormatNumber(options.indistinguishable_bic, 3) + ")";
-      report.indistinguishable.push_back(s);
+      report.indistinguishable.push_back("At the sampled postures " + winner.effect.id + " cannot be told apart from " +
+                                         util::Join(r.indistinguishable, ", ") + " (BIC within " +
+                                         util::FormatNumber(options.indistinguishable_bic, 3) + ")");
     }
-    // Add the winner; the candidate fit already refitted all chosen effects jointly: take their
-    // values from it and their standard errors from the joint covariance.
-    std::vector<AppliedEffect> chosen = current.effects;
-    chosen.push_back({winner.effect, winner.values});
-    std::vector<CandidateFit> chosen_fits = report.chosen_fits;
-    chosen_fits.push_back(winner);
-    if (chosen.size() > 1) {
-      std::vector<Effect> free;
-      for (const AppliedEffect& a : chosen) free.push_back(a.effect);
-      const std::vector<double>& x0 = full_x[winner.effect.id];
-      Context c = MakeContext(nominal.description(), Vector6d::Zero(), free, trials, all, options);
-      SolveResult joint = Solve(c, x0);
-      if (joint.usable && joint.chi2 <= winner.cost * (1 + 1e-9) + 1e-12) {
-        Analysis a = Analyze(c, joint.x, joint.chi2, sd_stated);
-        for (size_t e = 0; e < chosen.size(); ++e) {
-          CandidateFit& f = chosen_fits[e];
-          for (size_t i = 0; i < chosen[e].values.size(); ++i) {
-            int k = c.start[e] + static_cast<int>(i);
-            const EffectParameter& p = chosen[e].effect.parameters[i];
-            double value = ident::ToUser(p, joint.x[k]);
-            chosen[e].values[i] = value;
-            f.values[i] = value;
-            f.log10_standard_errors[i] = p.scale == ParameterScale::kLog10 ? a.se_internal[k] : 0.0;
-            f.standard_errors[i] = p.scale == ParameterScale::kLog10 ? value * std::log(10.0) * a.se_internal[k]
-                                                                      : a.se_internal[k];
-            f.at_bound[i] = a.at_bound[k];
-          }
-          int p0 = c.start[e], pn = static_cast<int>(chosen[e].values.size());
-          f.correlation = a.correlation.block(p0, p0, pn, pn);
-          f.cost = joint.chi2;
-          if (!a.identifiable) {
-            f.identifiable = false;
-            f.identifiability = "joint refit: " + a.reason;
-          }
-        }
-      }
-    }
-    adopt(chosen, chosen_fits);
+    current = Adopt(nominal, current, r, trials, options);
     report.rounds.push_back(std::move(r));
   }
 
-  // Simplify: a per-axis base compliance whose axes agree is replaced by the isotropic one when
-  // that lowers the BIC (the nested, simpler effect explains the data as well).
-  for (size_t i = 0; i < current.effects.size(); ++i) {
-    if (current.effects[i].effect.kind != EffectKind::kBasePerAxis) continue;
-    Effect iso;
-    bool found = false;
-    for (const Effect& e : CandidateEffects(nominal)) {
-      if (e.kind == EffectKind::kBaseIsotropic) {
-        iso = e;
-        found = true;
-      }
-    }
-    if (!found) break;
-    std::vector<AppliedEffect> alt = current.effects;
-    const std::vector<double>& k = alt[i].values;
-    alt[i] = {iso, {std::cbrt(k[0] * k[1] * k[2])}};
-    std::vector<Effect> free;
-    std::vector<double> x0;
-    for (const AppliedEffect& a : alt) {
-      free.push_back(a.effect);
-      for (size_t j = 0; j < a.values.size(); ++j) x0.push_back(ident::ToInternal(a.effect.parameters[j], a.values[j]));
-    }
-    Context c = MakeContext(nominal.description(), Vector6d::Zero(), free, trials, all, options);
-    SolveResult r = Solve(c, x0);
-    const int k_now = TotalParameters(current.effects);
-    double bic_now = Bic(chi2_current, n, k_now, sd_stated);
-    double bic_alt = Bic(r.chi2, n, c.parameter_count, sd_stated);
-    if (!r.usable || bic_alt >= bic_now) break;
-    Analysis a = Analyze(c, r.x, r.chi2, sd_stated);
-    std::vector<CandidateFit> fits;
-    for (size_t e = 0; e < alt.size(); ++e) {
-      CandidateFit f = MakeFit(c, alt[e].effect, r, a, sd_stated, static_cast<int>(e));
-      f.accepted = true;
-      f.verdict = "chosen";
-      alt[e].values = f.values;
-      fits.push_back(f);
-    }
-    report.notes.push_back("base_per_axis simplified to base_isotropic: the three axis stiffnesses agree (BIC " +
-                           util::FormatNumber(bic_now, 6) + " -> " + util::FormatNumber(bic_alt, 6) + ")");
-    adopt(alt, fits);
-    break;
-  }
+  std::string note;
+  if (Simplify(nominal, trials, options, &current, &note)) report.notes.push_back(note);
 
-  report.augmented = current;
-  const int k_final = TotalParameters(current.effects);
-  report.after = ComputeResidualStats(trials, current_prediction, k_final, options);
-  for (size_t k = 0; k < trials.size(); ++k) {
-    TrialResidual t;
-    t.line = trials[k].line;
-    t.muscle = trials[k].muscle;
-    t.activation = trials[k].activation;
-    t.measured = trials[k].wrench;
-    t.before = trials[k].wrench - nominal_prediction.wrench[k];
-    t.after = trials[k].wrench - current_prediction[k];
-    double nb = 0, na = 0;
-    for (int c = 0; c < 6; ++c) {
-      double w = ident::Weight(trials[k], c, options);
-      nb += std::pow(w * t.before[c], 2);
-      na += std::pow(w * t.after[c], 2);
-    }
-    t.normalized_before = std::sqrt(nb / 6);
-    t.normalized_after = std::sqrt(na / 6);
-    report.trials.push_back(t);
-  }
-
-  std::ostringstream m;
-  if (!sd_stated) {
-    report.verdict = FitVerdict::kNoNoiseStated;
-    m << "the data state no standard deviations, so the residual cannot be compared with the noise; weighted with "
-      << util::FormatNumber(options.default_sd_force, 3) << " N and " << util::FormatNumber(options.default_sd_moment, 3)
-      << " N·m";
-  } else {
-    int dof = std::max(1, report.after.residual_count - k_final);
-    double threshold = 1.0 + options.unexplained_sigmas * std::sqrt(2.0 / dof);
-    double multiple = std::sqrt(report.after.reduced_chi2);
-    if (report.after.reduced_chi2 > threshold) {
-      report.verdict = FitVerdict::kUnexplained;
-      report.effects_claimed = report.chosen.empty();
-      m << "after " << report.chosen.size() << " effect(s) the residual is "
-        << util::FormatNumber(multiple, 3) << " x the stated noise (reduced chi^2 "
-        << util::FormatNumber(report.after.reduced_chi2, 4) << " > " << util::FormatNumber(threshold, 4)
-        << "); something outside the candidate library is missing";
-      if (!report.chosen.empty()) {
-        m << "; the effects tried reduce the residual but do not explain it, so none is claimed (tentative partial "
-             "fits below)";
-      }
-    } else if (report.chosen.empty()) {
-      report.verdict = FitVerdict::kNominalFits;
-      m << "the nominal model explains the data to the noise (residual " << util::FormatNumber(multiple, 3)
-        << " x noise); no effect is claimed";
-    } else {
-      report.verdict = FitVerdict::kExplained;
-      std::vector<std::string> ids;
-      for (const AppliedEffect& a : report.chosen) ids.push_back(a.effect.id);
-      m << "explained by " << util::Join(ids, " + ") << ": residual from "
-        << util::FormatNumber(std::sqrt(report.before.chi2 / std::max(1, report.before.residual_count)), 3)
-        << " x noise to " << util::FormatNumber(multiple, 3) << " x noise";
-    }
-  }
-  report.verdict_message = m.str();
+  report.chosen = current.effects;
+  report.chosen_fits = current.fits;
+  for (CandidateFit& f : report.chosen_fits) GuardFinite(&f);
+  report.augmented = current.augmented;
+  report.after = ComputeResidualStats(trials, current.prediction, current.parameters, options);
+  ReportTrials(trials, nominal_prediction, current, options, &report);
+  ReportCorrelations(nominal, trials, current, options, &report);
+  ReportVerdict(trials, current, options, &report);
+  if (report.verdict == FitVerdict::kUnexplained) ReportTrace(nominal, trials, current, options, &report);
   report.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - clock_start).count();
   return report;
 }
@@ -793,6 +1220,22 @@ std::string FitReport::BriefReport() const {
     }
     o << "\n";
   }
+  if (!outlier_rows.empty()) {
+    std::vector<std::string> lines;
+    for (long l : outlier_rows) lines.push_back(std::to_string(l));
+    o << "outlier rows (CSV lines, " << RobustLossName(loss) << " loss): " << util::Join(lines, ", ") << "\n";
+  }
+  if (!trial_factors.empty()) {
+    o << "trial force factors: spread (sd of ln factor) " << util::FormatNumber(trial_force_spread, 3);
+    if (!trial_force_outliers.empty()) {
+      std::vector<std::string> lines;
+      for (long l : trial_force_outliers) lines.push_back(std::to_string(l));
+      o << "; far from the rest: lines " << util::Join(lines, ", ");
+    }
+    o << "\n";
+  }
+  for (const std::string& s : confounded) o << "confounded: " << s << "\n";
+  if (!trace_summary.empty()) o << "trace: " << trace_summary << "\n";
   for (const std::string& s : indistinguishable) o << "note: " << s << "\n";
   for (const std::string& s : notes) o << "note: " << s << "\n";
   return o.str();
@@ -802,12 +1245,34 @@ void WriteAugmentedUrdf(const FitReport& report, const std::string& path) {
   std::string xml = WriteUrdfString(report.augmented.description);
   std::string comment = "isowrench fit of " + report.model_name + " (" + std::to_string(report.trial_count) +
                         " trials): " + report.BriefReport();
-  const Vector6d& o = report.augmented.sensor_offset;
+  const AugmentedModel& a = report.augmented;
+  const Vector6d& o = a.sensor_offset;
   if (o.norm() > 0) {
     comment += "sensor offset (not representable in URDF; subtract it from the readings): ";
     for (int c = 0; c < 6; ++c) comment += util::FormatNumber(o[c], 4) + (c < 3 ? " N " : " N·m ");
     comment += "\n";
   }
+  for (const auto& p : a.posture_offset) {
+    comment += "recorded " + p.first + " is offset (add to the recorded value): " + util::FormatNumber(p.second, 6) +
+               " rad or m\n";
+  }
+  for (const auto& c : a.coactivation) {
+    comment += "muscle " + c.first + " also pulls in other muscles' trials with " + util::FormatNumber(c.second, 4) +
+               " x its max force\n";
+  }
+  if (a.sensor_origin.norm() > 0) {
+    comment += "transducer moment origin offset (transducer axes, m): " + util::FormatNumber(a.sensor_origin[0], 4) +
+               " " + util::FormatNumber(a.sensor_origin[1], 4) + " " + util::FormatNumber(a.sensor_origin[2], 4) + "\n";
+  }
+  if (!a.calibration.isIdentity(0.0)) {
+    comment += "transducer calibration error (reading = C x wrench), rows fx..mz:";
+    for (int i = 0; i < 6; ++i) {
+      comment += "\n ";
+      for (int j = 0; j < 6; ++j) comment += " " + util::FormatNumber(a.calibration(i, j), 5);
+    }
+    comment += "\n";
+  }
+  if (a.trial_force) comment += "per-trial force factors were fitted (see the fit report)\n";
   size_t pos;
   while ((pos = comment.find("--")) != std::string::npos) comment.replace(pos, 2, "- -");
   comment = "<!-- " + comment + "-->\n";

@@ -56,7 +56,44 @@ void PredictSubset(const Model& model, const std::vector<Trial>& trials, const s
                    const Vector6d& sensor_offset, std::vector<Vector6d>* wrench, std::vector<bool>* ok,
                    std::string* message);
 
-/// Two effects that cannot both be in one model (they edit the same thing).
-std::string ConflictKey(const Effect& effect);
+/// Statics wrenches of a subset of trials on one model, at the recorded posture plus
+/// `posture_offset`: own[k] = the trial's muscle at its activation; other[i][k] = muscle
+/// others[i] at activation 1 (for coactivation). The only place identification calls the engine
+/// for wrenches.
+struct RawWrenches {
+  std::vector<std::string> others;
+  std::vector<Vector6d> own;
+  std::vector<std::vector<Vector6d>> other;
+  std::vector<bool> ok;
+  std::string message;  ///< first failure
+  std::vector<double> max_force;  ///< max force per muscle of the model evaluated (N)
+  bool all_ok() const;
+};
+RawWrenches EvaluateRaw(const Model& model, const std::map<std::string, double>& posture_offset,
+                        const std::vector<std::string>& others, const std::vector<Trial>& trials,
+                        const std::vector<int>& subset);
+
+/// Readings from raw wrenches and the rest of the chain of `model` (AugmentedModel's comment):
+/// muscle forces rescaled by model.description's max_force / raw.max_force, coactivation,
+/// sensor origin, calibration, per-trial factors (closed form, weights 1/sd), sensor offset.
+/// `factors` (optional) receives the per-trial factors (1 without trial_force). Trials whose
+/// raw wrench failed keep a zero reading.
+void ComposeReadings(const AugmentedModel& model, const std::vector<Trial>& trials, const std::vector<int>& subset,
+                     const RawWrenches& raw, const FitOptions& options, std::vector<Vector6d>* readings,
+                     std::vector<double>* factors);
+
+/// Coactivated muscles of an augmented model (keys of `coactivation`).
+std::vector<std::string> CoactivatedMuscles(const AugmentedModel& model);
+
+/// Column `joint` of the endpoint Jacobian at the nominal posture (transducer-frame twist per
+/// unit joint motion). @throws Error for an unknown joint.
+Eigen::VectorXd NominalJacobianColumn(const Model& model, const std::string& joint);
+
+/// Muscle length of `muscle` at each trial's recorded posture (m); NaN where it cannot be
+/// evaluated.
+std::vector<double> MuscleLengths(const Model& model, const std::string& muscle, const std::vector<Trial>& trials);
+
+/// Two effects that cannot both be in one model (same id, or one excludes the other).
+bool Excluded(const Effect& a, const Effect& b);
 
 }  // namespace isowrench::ident

@@ -1,7 +1,9 @@
 // Predicting trials with a model (one workspace for all trials), simulating measured data,
 // residual statistics.
 
+#include <algorithm>
 #include <cmath>
+#include <limits>
 
 #include "identification/identification_impl.hpp"
 #include "isowrench/error.hpp"
@@ -34,28 +36,38 @@ std::vector<int> JointMap(const Model& model, const std::vector<std::string>& na
 namespace {
 
 /// The loop over the trials of `subset` both prediction paths share: map each trial's joints and
-/// muscle, then `evaluate(q, muscle_index, trial, &w)` returns "" with w set, or why the model
-/// cannot predict the trial. The first failure's reason goes to `message`.
+/// muscle (plus the posture offsets), then `evaluate(q, muscle_index, activation, &w)` returns ""
+/// with w set, or why the model cannot predict the trial. The first failure goes to raw->message.
 template <class Evaluate>
-void PredictEach(const Model& model, const std::vector<Trial>& trials, const std::vector<int>& subset,
-                 const Vector6d& sensor_offset, std::vector<Vector6d>* wrench, std::vector<bool>* ok,
-                 std::string* message, Evaluate evaluate) {
+void EvaluateEach(const Model& model, const std::map<std::string, double>& posture_offset,
+                  const std::vector<Trial>& trials, const std::vector<int>& subset, RawWrenches* raw,
+                  Evaluate evaluate) {
   TrialMapper mapper(model);
   Eigen::VectorXd q(model.dof_count());
+  std::vector<std::pair<int, double>> offsets;
+  for (const auto& o : posture_offset) offsets.emplace_back(model.JointIndex(o.first), o.second);
+  std::vector<int> other_index;
+  for (const std::string& m : raw->others) other_index.push_back(model.MuscleIndex(m));
   Vector6d w = Vector6d::Zero();
   for (size_t k = 0; k < subset.size(); ++k) {
     const Trial& trial = trials[subset[k]];
     try {
       const int muscle_index = mapper.Map(trial, &q);
-      const std::string failure = evaluate(q, muscle_index, trial, &w);
+      for (const auto& o : offsets) q[o.first] += o.second;
+      std::string failure = evaluate(q, muscle_index, trial.activation, &w);
+      if (failure.empty()) raw->own[k] = w;
+      for (size_t i = 0; i < other_index.size() && failure.empty(); ++i) {
+        if (other_index[i] == muscle_index) continue;
+        failure = evaluate(q, other_index[i], 1.0, &w);
+        raw->other[i][k] = w;
+      }
       if (!failure.empty()) {
-        if (message && message->empty()) *message = "trial at line " + std::to_string(trial.line) + ": " + failure;
+        if (raw->message.empty()) raw->message = "trial at line " + std::to_string(trial.line) + ": " + failure;
         continue;
       }
-      (*wrench)[k] = w + sensor_offset;
-      (*ok)[k] = true;
+      raw->ok[k] = true;
     } catch (const Error& e) {
-      if (message && message->empty()) *message = e.what();
+      if (raw->message.empty()) raw->message = e.what();
     }
   }
 }
@@ -88,39 +100,133 @@ int TrialMapper::Map(const Trial& trial, Eigen::VectorXd* q) {
   return muscle_index_;
 }
 
-void PredictSubset(const Model& model, const std::vector<Trial>& trials, const std::vector<int>& subset,
-                   const Vector6d& sensor_offset, std::vector<Vector6d>* wrench, std::vector<bool>* ok,
-                   std::string* message) {
-  wrench->assign(subset.size(), Vector6d::Zero());
-  ok->assign(subset.size(), false);
+bool RawWrenches::all_ok() const { return std::find(ok.begin(), ok.end(), false) == ok.end(); }
+
+RawWrenches EvaluateRaw(const Model& model, const std::map<std::string, double>& posture_offset,
+                        const std::vector<std::string>& others, const std::vector<Trial>& trials,
+                        const std::vector<int>& subset) {
+  RawWrenches raw;
+  raw.others = others;
+  raw.own.assign(subset.size(), Vector6d::Zero());
+  raw.other.assign(others.size(), std::vector<Vector6d>(subset.size(), Vector6d::Zero()));
+  raw.ok.assign(subset.size(), false);
+  for (int i = 0; i < model.muscle_count(); ++i) raw.max_force.push_back(model.muscle(i).max_force);
   if (model.dof_count() > kFastMaxDofs || model.dof_count() < 1) {
     // Reference path (KDL kinematics + SolveStatics): the fast path cannot compile the model.
     KinematicsWorkspace kinematics(model);
-    PredictEach(model, trials, subset, sensor_offset, wrench, ok, message,
-                [&](const Eigen::VectorXd& q, int muscle_index, const Trial& trial, Vector6d* w) -> std::string {
-                  const StaticsResult s = EvaluateWrench(model, kinematics, q, muscle_index, trial.activation).statics;
-                  if (!s.ok()) return std::string(StatusName(s.status)) + ": " + s.message;
-                  *w = s.wrench;
-                  return "";
-                });
-    return;
+    EvaluateEach(model, posture_offset, trials, subset, &raw,
+                 [&](const Eigen::VectorXd& q, int muscle_index, double activation, Vector6d* w) -> std::string {
+                   const StaticsResult s = EvaluateWrench(model, kinematics, q, muscle_index, activation).statics;
+                   if (!s.ok()) return std::string(StatusName(s.status)) + ": " + s.message;
+                   *w = s.wrench;
+                   return "";
+                 });
+    return raw;
   }
   CompiledModel compiled(model);
   FastWorkspace ws(compiled);
   const StiffnessSet stiffness = compiled.model_stiffness();
-  PredictEach(model, trials, subset, sensor_offset, wrench, ok, message,
-              [&](const Eigen::VectorXd& q, int muscle_index, const Trial& trial, Vector6d* w) -> std::string {
-                if (!q.allFinite() || !std::isfinite(trial.activation)) {
-                  throw Error("trial at line " + std::to_string(trial.line) + ": non-finite posture or activation");
-                }
-                const FastWrench f = EvaluateFast(compiled, ws, q, muscle_index, stiffness, trial.activation);
-                if (f.status != StaticsStatus::kOk && f.status != StaticsStatus::kSelfMotionHeld) {
-                  return std::string(StatusName(f.status)) +
-                         " (the model cannot hold this posture; see `isowrench wrench`)";
-                }
-                *w = f.wrench;
-                return "";
-              });
+  EvaluateEach(model, posture_offset, trials, subset, &raw,
+               [&](const Eigen::VectorXd& q, int muscle_index, double activation, Vector6d* w) -> std::string {
+                 if (!q.allFinite() || !std::isfinite(activation)) return "non-finite posture or activation";
+                 const FastWrench f = EvaluateFast(compiled, ws, q, muscle_index, stiffness, activation);
+                 if (f.status != StaticsStatus::kOk && f.status != StaticsStatus::kSelfMotionHeld) {
+                   return std::string(StatusName(f.status)) +
+                          " (the model cannot hold this posture; see `isowrench wrench`)";
+                 }
+                 *w = f.wrench;
+                 return "";
+               });
+  return raw;
+}
+
+std::vector<std::string> CoactivatedMuscles(const AugmentedModel& model) {
+  std::vector<std::string> out;
+  for (const auto& c : model.coactivation) out.push_back(c.first);
+  return out;
+}
+
+void ComposeReadings(const AugmentedModel& model, const std::vector<Trial>& trials, const std::vector<int>& subset,
+                     const RawWrenches& raw, const FitOptions& options, std::vector<Vector6d>* readings,
+                     std::vector<double>* factors) {
+  const std::vector<MuscleSpec>& muscles = model.description.muscles;
+  // Force ratio per muscle name: the description's max force over the one evaluated.
+  std::map<std::string, double> ratio;
+  for (size_t i = 0; i < muscles.size(); ++i) {
+    ratio[muscles[i].name] = i < raw.max_force.size() && raw.max_force[i] > 0 ? muscles[i].max_force / raw.max_force[i]
+                                                                               : 1.0;
+  }
+  std::vector<std::pair<int, double>> coactivation;  // index in raw.others, fraction x ratio
+  for (const auto& c : model.coactivation) {
+    auto it = std::find(raw.others.begin(), raw.others.end(), c.first);
+    if (it == raw.others.end()) throw Error("coactivation of '" + c.first + "': its wrench was not evaluated");
+    coactivation.emplace_back(static_cast<int>(it - raw.others.begin()), c.second * ratio[c.first]);
+  }
+  readings->assign(subset.size(), Vector6d::Zero());
+  if (factors) factors->assign(subset.size(), 1.0);
+  const Eigen::Vector3d d = model.sensor_origin;
+  for (size_t k = 0; k < subset.size(); ++k) {
+    if (!raw.ok[k]) continue;
+    const Trial& trial = trials[subset[k]];
+    Vector6d w = raw.own[k] * ratio[trial.muscle];
+    for (const auto& c : coactivation) {
+      if (raw.others[c.first] != trial.muscle) w += c.second * raw.other[c.first][k];
+    }
+    if (d.squaredNorm() > 0) w.tail<3>() -= d.cross(Eigen::Vector3d(w.head<3>()));
+    w = model.calibration * w;
+    double factor = 1.0;
+    if (model.trial_force) {
+      // Closed form: the factor minimising sum_c (weight_c (measured_c - offset_c - factor w_c))^2.
+      double num = 0, den = 0;
+      for (int c = 0; c < 6; ++c) {
+        const double weight2 = std::pow(Weight(trial, c, options), 2);
+        num += weight2 * w[c] * (trial.wrench[c] - model.sensor_offset[c]);
+        den += weight2 * w[c] * w[c];
+      }
+      if (den > 0 && std::isfinite(num / den)) factor = num / den;
+    }
+    if (factors) (*factors)[k] = factor;
+    (*readings)[k] = factor * w + model.sensor_offset;
+  }
+}
+
+void PredictSubset(const Model& model, const std::vector<Trial>& trials, const std::vector<int>& subset,
+                   const Vector6d& sensor_offset, std::vector<Vector6d>* wrench, std::vector<bool>* ok,
+                   std::string* message) {
+  RawWrenches raw = EvaluateRaw(model, {}, {}, trials, subset);
+  wrench->assign(subset.size(), Vector6d::Zero());
+  for (size_t k = 0; k < subset.size(); ++k) {
+    if (raw.ok[k]) (*wrench)[k] = raw.own[k] + sensor_offset;
+  }
+  *ok = raw.ok;
+  if (message) *message = raw.message;
+}
+
+Eigen::VectorXd NominalJacobianColumn(const Model& model, const std::string& joint) {
+  KinematicsWorkspace ws(model);
+  Matrix6Xd J = EndpointJacobian(model, ws, model.nominal_posture());
+  return J.col(model.JointIndex(joint));
+}
+
+std::vector<double> MuscleLengths(const Model& model, const std::string& muscle, const std::vector<Trial>& trials) {
+  std::vector<double> out(trials.size(), std::numeric_limits<double>::quiet_NaN());
+  KinematicsWorkspace ws(model);
+  TrialMapper mapper(model);
+  Eigen::VectorXd q(model.dof_count());
+  int index = -1;
+  try {
+    index = model.MuscleIndex(muscle);
+  } catch (const Error&) {
+    return out;
+  }
+  for (size_t k = 0; k < trials.size(); ++k) {
+    try {
+      mapper.Map(trials[k], &q);
+      out[k] = ComputeMuscleTorque(model, ws, q, index, 1.0).length;
+    } catch (const Error&) {
+    }
+  }
+  return out;
 }
 
 }  // namespace ident
@@ -130,6 +236,19 @@ Prediction PredictTrials(const Model& model, const std::vector<Trial>& trials, c
   for (size_t i = 0; i < trials.size(); ++i) all[i] = static_cast<int>(i);
   Prediction p;
   ident::PredictSubset(model, trials, all, sensor_offset, &p.wrench, &p.ok, &p.message);
+  for (bool b : p.ok) p.failed += !b;
+  return p;
+}
+
+Prediction PredictTrials(const AugmentedModel& model, const std::vector<Trial>& trials, std::vector<double>* factors) {
+  std::vector<int> all(trials.size());
+  for (size_t i = 0; i < trials.size(); ++i) all[i] = static_cast<int>(i);
+  Model built(model.description);
+  ident::RawWrenches raw = ident::EvaluateRaw(built, model.posture_offset, ident::CoactivatedMuscles(model), trials, all);
+  Prediction p;
+  ident::ComposeReadings(model, trials, all, raw, FitOptions(), &p.wrench, factors);
+  p.ok = raw.ok;
+  p.message = raw.message;
   for (bool b : p.ok) p.failed += !b;
   return p;
 }
@@ -144,7 +263,13 @@ std::vector<Trial> SimulateTrials(const Model& nominal, const AugmentedModel& tr
   if (!(o.activation_min >= 0) || !(o.activation_max >= o.activation_min)) {
     throw Error("simulate: activation range must satisfy 0 <= min <= max");
   }
-  Model true_model(truth.description);
+  if (o.noise_dof != 0 && o.noise_dof <= 2) {
+    throw Error("simulate: Student-t noise needs more than 2 degrees of freedom (finite sd), got " +
+                std::to_string(o.noise_dof));
+  }
+  if (!(o.outlier_fraction >= 0 && o.outlier_fraction <= 0.5) || !std::isfinite(o.outlier_size)) {
+    throw Error("simulate: outlier fraction must be in [0, 0.5] and the outlier size finite");
+  }
   std::vector<std::string> muscles = o.muscles;
   if (muscles.empty()) {
     for (int i = 0; i < nominal.muscle_count(); ++i) muscles.push_back(nominal.muscle(i).name);
@@ -169,16 +294,36 @@ std::vector<Trial> SimulateTrials(const Model& nominal, const AugmentedModel& tr
     t.activation = rng.Uniform(o.activation_min, o.activation_max);
     t.line = k + 3;  // comment line + header line come first in the written file
   }
-  Prediction p = PredictTrials(true_model, trials, truth.sensor_offset);
+  // The force part of the reading (no per-trial factor, no offset), then factor and offset.
+  AugmentedModel force_part = truth;
+  force_part.trial_force = false;
+  force_part.sensor_offset.setZero();
+  Prediction p = PredictTrials(force_part, trials);
   if (p.failed) throw Error("simulate: the model with the effects cannot be evaluated: " + p.message);
+  // Student-t with nu dof scaled to unit variance: N / sqrt(chi2_nu / nu) * sqrt((nu - 2) / nu).
+  auto noise = [&]() {
+    double z = rng.Normal();
+    if (o.noise_dof <= 0) return z;
+    double chi2 = 0;
+    for (int i = 0; i < o.noise_dof; ++i) chi2 += std::pow(rng.Normal(), 2);
+    return z / std::sqrt(chi2 / o.noise_dof) * std::sqrt((o.noise_dof - 2.0) / o.noise_dof);
+  };
+  const int outliers = static_cast<int>(std::lround(o.outlier_fraction * o.postures));
   for (int k = 0; k < o.postures; ++k) {
     Trial& t = trials[k];
     t.has_sd = true;
+    const double factor = truth.trial_force_spread > 0 ? std::exp(truth.trial_force_spread * rng.Normal()) : 1.0;
     for (int c = 0; c < 6; ++c) {
       double sd = c < 3 ? o.noise_force : o.noise_moment;
-      t.wrench[c] = p.wrench[k][c] + sd * rng.Normal();
+      t.wrench[c] = factor * p.wrench[k][c] + truth.sensor_offset[c] + sd * noise();
       t.sd[c] = sd > 0 ? sd : o.sd_floor;
     }
+  }
+  // Gross outliers on evenly spread trials (every n / outliers-th): each component off by
+  // outlier_size sd with a random sign.
+  for (int i = 0; i < outliers; ++i) {
+    Trial& t = trials[(static_cast<long>(i) * o.postures) / outliers + (o.postures / outliers) / 2];
+    for (int c = 0; c < 6; ++c) t.wrench[c] += (rng.Uniform() < 0.5 ? -1 : 1) * o.outlier_size * t.sd[c];
   }
   return trials;
 }

@@ -38,7 +38,7 @@ std::string Format4(double v) {
 
 isowrench::Effect BaseEffect() {
   isowrench::Effect e;
-  e.kind = isowrench::EffectKind::kBaseIsotropic;
+  e.kind = "base_isotropic";
   e.id = "base_isotropic";
   e.description = "Base compliance, one stiffness for x y z.";
   isowrench::EffectParameter k;
@@ -51,7 +51,8 @@ isowrench::Effect BaseEffect() {
 
 isowrench::Effect OffsetEffect() {
   isowrench::Effect e;
-  e.kind = isowrench::EffectKind::kSensorOffset;
+  e.kind = "sensor_offset";
+  e.stage = isowrench::EffectStage::kMeasurement;
   e.id = "sensor_offset";
   e.description = "Constant wrench added to every reading.";
   for (const char* n : {"fx", "fy", "fz", "mx", "my", "mz"}) {
