@@ -378,6 +378,31 @@ TEST(OpenSimImport, EngineMatchesOnTheSplineCoupledKnee) {
               {{"GM", GmLength}, {"VAS", VasLength}, {"SOL", SolLength}}, true);
 }
 
+TEST(OpenSimImport, Version30000LayoutGivesTheSameHip) {
+  // OpenSim 3.x: the joint inside its child body, location_in_parent/orientation_in_parent,
+  // functions in <function> wrappers, <body> on path points. The pelvis is welded at the
+  // ground_offset pose of hindlimb.osim (no FreeJoint), so X_G_pelvis = that frame.
+  OpenSimImportOptions options;
+  options.clamp_body = "ground";
+  options.endpoint_body = "femur";
+  const OpenSimImport import =
+      ImportOpenSimFile(std::string(ISOWRENCH_TEST_OSIM_DIR) + "/hip_v30000.osim", options);
+  EXPECT_EQ(import.version, 30000);
+  const LimbDescription& d = import.description;
+  ASSERT_EQ(d.coordinates.size(), 3u);
+  EXPECT_TRUE(FindCoordinate(d, "hip_rotation").locked);
+  const Isometry3d X_G_pelvis = Frame({0.01, 0.02, 0.03}, {0, 0, 0.1});
+  for (const Posture& p : Postures()) {
+    auto X = LinkPoses(d, p);
+    const Isometry3d femur = X_G_pelvis * Hip(p);
+    EXPECT_LT((X.at("femur").translation() - femur.translation()).norm(), kPosition);
+    EXPECT_LT((X.at("femur").linear() - femur.linear()).norm(), kPosition);
+    const double gm = Length({X_G_pelvis * Vector3d(0.01, 0.005, 0.002),
+                              femur * Vector3d(0.003, -0.01, 0.001)});
+    EXPECT_NEAR(ImportedLength(d, "GM", p), gm, kPosition);
+  }
+}
+
 TEST(OpenSimImport, WrittenUrdfReadsBackToTheSameKinematics) {
   const LimbDescription d = Import("pelvis", "foot").description;
   const LimbDescription back = ReadUrdfString(WriteUrdfString(d), "imported.urdf");
