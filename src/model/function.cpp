@@ -270,6 +270,19 @@ double Evaluate(const Function::Impl& s, double a, int order) {
   return 0.0;
 }
 
+// A knot-based function: checked knots, then the kind's coefficients.
+std::shared_ptr<const Function::Impl> KnotImpl(FunctionKind kind, const char* name,
+                                               std::vector<double> x, std::vector<double> y,
+                                               void (*coefficients)(Function::Impl&)) {
+  CheckKnots(x, y, name);
+  auto s = std::make_shared<Function::Impl>();
+  s->kind = kind;
+  s->x = std::move(x);
+  s->y = std::move(y);
+  coefficients(*s);
+  return s;
+}
+
 const std::shared_ptr<const Function::Impl>& ZeroImpl() {
   static const std::shared_ptr<const Function::Impl> zero = std::make_shared<Function::Impl>();
   return zero;
@@ -318,33 +331,18 @@ Function Function::Linear(double slope, double intercept) {
 }
 
 Function Function::SimmSpline(std::vector<double> x, std::vector<double> y) {
-  CheckKnots(x, y, "SimmSpline");
-  auto s = std::make_shared<Impl>();
-  s->kind = FunctionKind::kSimmSpline;
-  s->x = std::move(x);
-  s->y = std::move(y);
-  SimmCoefficients(*s);
-  return Function(std::move(s));
+  return Function(KnotImpl(FunctionKind::kSimmSpline, "SimmSpline", std::move(x), std::move(y),
+                           SimmCoefficients));
 }
 
 Function Function::NaturalCubicSpline(std::vector<double> x, std::vector<double> y) {
-  CheckKnots(x, y, "natural cubic spline");
-  auto s = std::make_shared<Impl>();
-  s->kind = FunctionKind::kNaturalCubicSpline;
-  s->x = std::move(x);
-  s->y = std::move(y);
-  NaturalCoefficients(*s);
-  return Function(std::move(s));
+  return Function(KnotImpl(FunctionKind::kNaturalCubicSpline, "natural cubic spline",
+                           std::move(x), std::move(y), NaturalCoefficients));
 }
 
 Function Function::PiecewiseLinear(std::vector<double> x, std::vector<double> y) {
-  CheckKnots(x, y, "piecewise linear function");
-  auto s = std::make_shared<Impl>();
-  s->kind = FunctionKind::kPiecewiseLinear;
-  s->x = std::move(x);
-  s->y = std::move(y);
-  PiecewiseCoefficients(*s);
-  return Function(std::move(s));
+  return Function(KnotImpl(FunctionKind::kPiecewiseLinear, "piecewise linear function",
+                           std::move(x), std::move(y), PiecewiseCoefficients));
 }
 
 Function Function::Polynomial(std::vector<double> coefficients) {
