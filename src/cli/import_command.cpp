@@ -36,6 +36,7 @@ const bool registered = RegisterCommand({
         OpenSimImportOptions options;
         std::vector<std::string> unlock;
         bool report = false;
+        bool json = false;
       };
       auto a = std::make_shared<Args>();
       app.add_option("model", a->osim, "OpenSim model (.osim, document versions 30000-40600)")
@@ -54,12 +55,35 @@ const bool registered = RegisterCommand({
           ->delimiter(',');
       app.add_flag("--report", a->report,
                    "Print the bodies, joints and their URDF expansion, coordinates and muscles");
+      app.add_flag("--json", a->json, "Print the report tables and the warnings as JSON");
       return [a]() {
         ParseEndpoint(a->endpoint, a->options);
         a->options.unlock = a->unlock;
         const OpenSimImport import = ImportOpenSimFile(a->osim, a->options);
         const LimbDescription& d = import.description;
         WriteUrdfFile(d, a->output);
+        if (a->json) {
+          nlohmann::json tables = nlohmann::json::object();
+          for (const OpenSimReportTable& t : import.tables) {
+            nlohmann::json rows = nlohmann::json::array();
+            for (const auto& row : t.rows) {
+              nlohmann::json r;
+              for (size_t i = 0; i < row.size() && i < t.header.size(); ++i) r[t.header[i]] = row[i];
+              rows.push_back(r);
+            }
+            tables[t.title] = rows;
+          }
+          std::cout << nlohmann::json{{"output", a->output},
+                                      {"model", a->osim},
+                                      {"document_version", import.version},
+                                      {"coordinates", d.coordinates.size()},
+                                      {"muscles", d.muscles.size()},
+                                      {"tables", tables},
+                                      {"warnings", import.warnings}}
+                           .dump(2)
+                    << "\n";
+          return 0;
+        }
         if (a->report) std::cout << FormatOpenSimReport(import);
         size_t movable = 0, coupled = 0, locked = 0;
         for (const JointSpec& j : d.joints) {
