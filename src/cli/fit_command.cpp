@@ -24,6 +24,8 @@ struct FitCommandOptions {
   int rounds = 3;
   int folds = 5;
   int rows = 20;
+  std::string loss = "huber";
+  double loss_scale = 2.0;
   std::vector<std::string> candidates;
 };
 
@@ -76,6 +78,30 @@ nlohmann::json CandidateJson(const CandidateFit& f) {
   return j;
 }
 
+nlohmann::json CorrelationsJson(const FitReport& r) {
+  nlohmann::json matrix = nlohmann::json::array();
+  for (int i = 0; i < r.correlations.rows(); ++i) {
+    nlohmann::json row = nlohmann::json::array();
+    for (int j = 0; j < r.correlations.cols(); ++j) row.push_back(r.correlations(i, j));
+    matrix.push_back(row);
+  }
+  return {{"parameters", r.correlation_labels}, {"matrix", matrix}, {"confounded", r.confounded}};
+}
+
+nlohmann::json TrialForceJson(const FitReport& r) {
+  if (r.trial_factors.empty()) return nullptr;
+  return {{"factors", r.trial_factors}, {"spread_ln", r.trial_force_spread}, {"far_lines", r.trial_force_outliers}};
+}
+
+nlohmann::json TraceJson(const FitReport& r) {
+  nlohmann::json items = nlohmann::json::array();
+  for (const FitReport::TraceItem& i : r.trace) {
+    items.push_back({{"variable", i.variable}, {"share", i.share}, {"note", i.note}});
+  }
+  return {{"summary", r.trace_summary}, {"items", items},
+          {"closest_rejected", r.closest_rejected.empty() ? nlohmann::json(nullptr) : nlohmann::json(r.closest_rejected)}};
+}
+
 nlohmann::json ReportJson(const FitReport& r, const std::string& urdf, const std::string& data,
                           const std::string& output) {
   nlohmann::json rounds = nlohmann::json::array();
@@ -115,6 +141,11 @@ nlohmann::json ReportJson(const FitReport& r, const std::string& urdf, const std
           {"chosen", chosen},
           {"sensor_offset", WrenchJson(r.augmented.sensor_offset)},
           {"rounds", rounds},
+          {"loss", RobustLossName(r.loss)},
+          {"outlier_rows", r.outlier_rows},
+          {"correlations", CorrelationsJson(r)},
+          {"trial_force", TrialForceJson(r)},
+          {"trace", TraceJson(r)},
           {"indistinguishable", r.indistinguishable},
           {"notes", r.notes},
           {"trials", trials},
@@ -183,6 +214,30 @@ void PrintReport(const FitReport& r, const FitCommandOptions& o) {
     if (!f.identifiable) std::cout << "       warning: " << f.identifiability << "\n";
   }
   for (const std::string& note : r.notes) std::cout << "  note: " << note << "\n";
+  if (!r.confounded.empty()) {
+    std::cout << "\nConfounded parameter pairs (|correlation| > 0.9 in the joint fit):\n";
+    for (const std::string& s : r.confounded) std::cout << "  " << s << "\n";
+  }
+  std::cout << "\nRobust loss: " << RobustLossName(r.loss) << "; outlier rows (CSV line numbers): ";
+  if (r.outlier_rows.empty()) std::cout << "none";
+  for (size_t i = 0; i < r.outlier_rows.size(); ++i) std::cout << (i ? ", " : "") << r.outlier_rows[i];
+  std::cout << "\n";
+  if (!r.trial_factors.empty()) {
+    std::cout << "Per-trial force factors: spread (sd of ln factor) " << util::FormatNumber(r.trial_force_spread, 3);
+    if (!r.trial_force_outliers.empty()) {
+      std::cout << "; trials far from the rest (CSV lines):";
+      for (long l : r.trial_force_outliers) std::cout << " " << l;
+    }
+    std::cout << "\n";
+  }
+  if (!r.trace.empty() || !r.trace_summary.empty()) {
+    std::cout << "\nWhere the unexplained residual lives (share of the weighted residual explained by a smooth trend,\n"
+              << "or held by one muscle's trials on one axis):\n";
+    for (const FitReport::TraceItem& i : r.trace) {
+      std::cout << "  " << Fixed(100 * i.share, 5, 1) << " %  " << i.variable << "  (" << i.note << ")\n";
+    }
+    if (!r.closest_rejected.empty()) std::cout << "  closest rejected candidate: " << r.closest_rejected << "\n";
+  }
   if (!r.indistinguishable.empty()) {
     std::cout << "\nEffects wrench data cannot tell apart at these postures:\n";
     for (const std::string& s : r.indistinguishable) std::cout << "  " << s << "\n";
@@ -226,6 +281,10 @@ const bool registered = RegisterCommand({
       app.add_option("--rounds", o->rounds, "Most effects to add (default 3)");
       app.add_option("--folds", o->folds, "Cross-validation folds (default 5)");
       app.add_option("--candidates", o->candidates, "Only try these effect ids (default: the whole library)");
+      app.add_option("--loss", o->loss,
+                     "Loss per row: huber (default), cauchy or none (plain least squares)");
+      app.add_option("--loss-scale", o->loss_scale,
+                     "Knee of the robust loss in stated-noise multiples of a row's RMS residual (default 2)");
       app.add_option("--rows", o->rows, "Per-trial rows in the table (default 20, 0 = all)");
       app.add_flag("--list-effects", o->list_effects, "List the candidate effects for the model and exit");
       return [o]() {
@@ -238,7 +297,12 @@ const bool registered = RegisterCommand({
             std::cout << j.dump(2) << "\n";
             return 0;
           }
-          std::cout << "Candidate effects for " << model.name() << " (simulate: --effect ID=V1,V2,... in these units):\n";
+          std::cout << "Effect kinds in the registry:\n";
+          for (const EffectKindInfo& k : EffectKinds()) {
+            std::cout << "  " << k.id_pattern << "  [" << EffectStageName(k.stage) << "]\n      " << k.summary
+                      << "\n      parameters: " << k.parameters << "\n      confounded with: " << k.confounders << "\n";
+          }
+          std::cout << "\nCandidate effects for " << model.name() << " (simulate: --effect ID=V1,V2,... in these units):\n";
           for (const Effect& e : effects) {
             std::vector<std::string> p;
             for (const EffectParameter& q : e.parameters) {
@@ -256,6 +320,8 @@ const bool registered = RegisterCommand({
         options.max_rounds = o->rounds;
         options.folds = o->folds;
         options.candidates = o->candidates;
+        options.loss = ParseRobustLoss(o->loss);
+        options.loss_scale = o->loss_scale;
         FitReport report = FitEffects(model, trials, options);
         report.source = o->data;
         if (!o->output.empty()) WriteAugmentedUrdf(report, o->output);

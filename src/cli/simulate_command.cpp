@@ -23,6 +23,9 @@ struct SimulateOptions {
   double activation_min = 0.3;
   double activation_max = 1.0;
   std::vector<std::string> muscles;
+  int noise_dof = 0;
+  double outliers = 0.0;
+  double outlier_size = 50.0;
   std::string output;
   bool json = false;
 };
@@ -30,7 +33,7 @@ struct SimulateOptions {
 const bool registered = RegisterCommand({
     "simulate",
     "Write synthetic measured wrenches (CSV) from the model plus effects the URDF does not declare, "
-    "with seeded Gaussian noise",
+    "with seeded Gaussian or Student-t noise and optional gross outliers",
     40,
     [](CLI::App& app) -> std::function<int()> {
       auto o = std::make_shared<SimulateOptions>();
@@ -42,6 +45,12 @@ const bool registered = RegisterCommand({
       app.add_option("--noise-force", o->noise_force, "Gaussian noise sd per force component, N (default 0.002)");
       app.add_option("--noise-moment", o->noise_moment, "Gaussian noise sd per moment component, N·m (default 5e-5)");
       app.add_option("--postures", o->postures, "Number of trials (default 50)");
+      app.add_option("--noise-dof", o->noise_dof,
+                     "Student-t noise with this many degrees of freedom (> 2), scaled to the stated sd (default 0: "
+                     "Gaussian)");
+      app.add_option("--outliers", o->outliers, "Fraction of trials made gross outliers, 0 to 0.5 (default 0)");
+      app.add_option("--outlier-size", o->outlier_size,
+                     "Error of an outlier per component, in stated noise sd (default 50)");
       app.add_option("--seed", o->seed, "Random seed: the same seed gives the same file (default 1)");
       app.add_option("--range", o->range_deg,
                      "Each limb joint is drawn uniformly in nominal ± this many degrees (default 15)");
@@ -66,6 +75,9 @@ const bool registered = RegisterCommand({
         s.noise_force = o->noise_force;
         s.noise_moment = o->noise_moment;
         s.muscles = o->muscles;
+        s.noise_dof = o->noise_dof;
+        s.outlier_fraction = o->outliers;
+        s.outlier_size = o->outlier_size;
         s.center = LoadPosture(model, o->model);
         std::vector<Trial> trials = SimulateTrials(model, truth, s);
         WriteTrialsCsv(model, trials, o->output);

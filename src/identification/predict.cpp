@@ -165,6 +165,8 @@ void ComposeReadings(const AugmentedModel& model, const std::vector<Trial>& tria
   readings->assign(subset.size(), Vector6d::Zero());
   if (factors) factors->assign(subset.size(), 1.0);
   const Eigen::Vector3d d = model.sensor_origin;
+  std::vector<double> factor_of(subset.size(), 1.0);
+  std::vector<Vector6d> force(subset.size(), Vector6d::Zero());
   for (size_t k = 0; k < subset.size(); ++k) {
     if (!raw.ok[k]) continue;
     const Trial& trial = trials[subset[k]];
@@ -185,8 +187,34 @@ void ComposeReadings(const AugmentedModel& model, const std::vector<Trial>& tria
       }
       if (den > 0 && std::isfinite(num / den)) factor = num / den;
     }
-    if (factors) (*factors)[k] = factor;
-    (*readings)[k] = factor * w + model.sensor_offset;
+    factor_of[k] = factor;
+    force[k] = w;
+  }
+  // With a robust loss, a row that stays beyond the outlier threshold even with its own factor
+  // is an outlier, not a force variation: it gets the median factor (so per-trial factors do
+  // not buy cost reductions on gross outliers).
+  if (model.trial_force && options.loss != RobustLoss::kNone) {
+    std::vector<double> sorted;
+    for (size_t k = 0; k < subset.size(); ++k) {
+      if (raw.ok[k]) sorted.push_back(factor_of[k]);
+    }
+    if (!sorted.empty()) {
+      std::nth_element(sorted.begin(), sorted.begin() + sorted.size() / 2, sorted.end());
+      const double median = sorted[sorted.size() / 2];
+      for (size_t k = 0; k < subset.size(); ++k) {
+        const Trial& trial = trials[subset[k]];
+        double s = 0;
+        for (int c = 0; c < 6; ++c) {
+          s += std::pow(Weight(trial, c, options) * (trial.wrench[c] - model.sensor_offset[c] - factor_of[k] * force[k][c]), 2);
+        }
+        if (std::sqrt(s / 6.0) > options.outlier_threshold) factor_of[k] = median;
+      }
+    }
+  }
+  for (size_t k = 0; k < subset.size(); ++k) {
+    if (!raw.ok[k]) continue;
+    if (factors) (*factors)[k] = factor_of[k];
+    (*readings)[k] = factor_of[k] * force[k] + model.sensor_offset;
   }
 }
 

@@ -195,6 +195,53 @@ Table ChosenTable(const FitReport& r) {
   return t;
 }
 
+// Outlier rows, confounded pairs and the trace, one row each.
+Table DiagnosticsTable(const FitReport& r) {
+  Table t;
+  t.header = {"diagnostic", "value"};
+  std::vector<std::string> lines;
+  for (long l : r.outlier_rows) lines.push_back(std::to_string(l));
+  t.rows.push_back({"outlier rows (CSV lines, " + std::string(RobustLossName(r.loss)) + " loss)",
+                    lines.empty() ? "none" : util::Join(lines, ", ")});
+  t.row_class.push_back("outliers");
+  for (const std::string& c : r.confounded) {
+    t.rows.push_back({"confounded pair", c});
+    t.row_class.push_back("confounded");
+  }
+  if (!r.trial_factors.empty()) {
+    std::vector<std::string> far;
+    for (long l : r.trial_force_outliers) far.push_back(std::to_string(l));
+    t.rows.push_back({"per-trial force factors", "spread (sd of ln factor) " + N4(r.trial_force_spread) +
+                                                     (far.empty() ? "" : "; far from the rest: lines " + util::Join(far, ", "))});
+    t.row_class.push_back("trial-force");
+  }
+  if (!r.closest_rejected.empty()) {
+    t.rows.push_back({"closest rejected candidate", r.closest_rejected});
+    t.row_class.push_back("closest");
+  }
+  return t;
+}
+
+// The trace as a horizontal bar chart: share of the residual per variable.
+std::string TraceSvg(const FitReport& r) {
+  const double bar_w = 360, row_h = 18, label_w = 220;
+  const double height = 30 + row_h * r.trace.size();
+  plots::SvgWriter svg(label_w + bar_w + 80, height, "where the residual lives");
+  svg.Text(10, 16, "share of the weighted residual", 12, "start", {{"font-weight", "bold"}});
+  for (size_t i = 0; i < r.trace.size(); ++i) {
+    const double y = 26 + row_h * i;
+    const double share = std::min(1.0, std::max(0.0, r.trace[i].share));
+    svg.Text(label_w - 6, y + 12, r.trace[i].variable, 11, "end");
+    svg.Open("g", {{"class", "trace-bar"}, {"data-variable", r.trace[i].variable}});
+    svg.Element("rect", {{"x", plots::Num(label_w)}, {"y", plots::Num(y + 2)},
+                         {"width", plots::Num(std::max(1.0, bar_w * share))}, {"height", plots::Num(row_h - 4)},
+                         {"fill", kAfterColor}});
+    svg.Close();
+    svg.Text(label_w + bar_w * share + 6, y + 12, N4(100 * share) + " %", 11, "start");
+  }
+  return svg.Finish(false);
+}
+
 Table CandidateTable(const FitRound& round) {
   Table t;
   t.header = {"rank", "effect", "ΔBIC", "BIC", "AICc", "held-out χ²/residual", "identifiable", "converged",
@@ -354,6 +401,11 @@ std::string FitReportHtml(const FitReport& r, const FitReportOptions& o) {
 
   h += r.effects_claimed ? "<h2>Effects added</h2>\n" : "<h2>Effects tried (tentative)</h2>\n";
   h += r.chosen.empty() ? "<p>None: no candidate earned its parameters.</p>\n" : HtmlTable(ChosenTable(r), "chosen");
+  h += "<h2>Outliers, confounding, trace</h2>\n" + HtmlTable(DiagnosticsTable(r), "diagnostics");
+  if (!r.trace.empty()) {
+    h += "<h2>Where the unexplained residual lives</h2>\n<p>" + XmlEscape(r.trace_summary) + "</p>\n<div class=\"plot trace\">" +
+         TraceSvg(r) + "</div>\n";
+  }
 
   // Plots.
   if (!r.trials.empty()) {
@@ -450,6 +502,8 @@ std::string FitReportMarkdown(const FitReport& r, const FitReportOptions& o) {
   m += "\n## Residual before and after, per component\n\n" + MarkdownTable(ErrorTable(r));
   m += r.effects_claimed ? "\n## Effects added\n\n" : "\n## Effects tried (tentative)\n\n";
   m += r.chosen.empty() ? "None: no candidate earned its parameters.\n" : MarkdownTable(ChosenTable(r));
+  m += "\n## Outliers, confounding, trace\n\n" + MarkdownTable(DiagnosticsTable(r));
+  for (const FitReport::TraceItem& i : r.trace) m += "- " + i.variable + ": " + N4(100 * i.share) + " % of the residual\n";
   for (const FitRound& round : r.rounds) {
     m += "\n## Round " + std::to_string(round.index) + ": candidates ranked by BIC\n\n";
     m += RoundLine(round) + "\n\n";
