@@ -348,6 +348,8 @@ struct Reader {
     joint.name = Name(j);
     joint.type = j->Name();
     joint.line = j->GetLineNum();
+    // 3.x files may leave a joint unnamed: name it after its child body.
+    if (joint.name.empty() && body_v3) joint.name = child_body_v3 + "_joint";
     if (joint.name.empty()) Fail(j, "a <" + joint.type + "> has no name");
     for (const Joint& other : model.joints) {
       if (other.name == joint.name) {

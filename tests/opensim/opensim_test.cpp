@@ -391,6 +391,7 @@ TEST(OpenSimImport, Version30000LayoutGivesTheSameHip) {
   const LimbDescription& d = import.description;
   ASSERT_EQ(d.coordinates.size(), 3u);
   EXPECT_TRUE(FindCoordinate(d, "hip_rotation").locked);
+  EXPECT_EQ(d.joints.front().name, "pelvis_joint");  // the unnamed WeldJoint
   const Isometry3d X_G_pelvis = Frame({0.01, 0.02, 0.03}, {0, 0, 0.1});
   for (const Posture& p : Postures()) {
     auto X = LinkPoses(d, p);
