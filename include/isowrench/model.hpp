@@ -11,13 +11,19 @@
 ///     <isowrench:point link="ground" xyz="..."/> <isowrench:point link="tibia" xyz="..."/>
 ///   </isowrench:muscle>
 ///   <isowrench:posture joint="hip_rz" degrees="-110"/>
+///   <isowrench:coordinate name="knee_angle" type="revolute" default="0.3" lower="-2" upper="0.2"/>
+///   <isowrench:coupling joint="knee_tx" coordinate="knee_angle"> FUNCTION </isowrench:coupling>
+/// and the standard URDF <mimic joint="knee_rz" multiplier="0.01" offset="0.002"/> in a joint.
 
 #include <Eigen/Core>
 #include <Eigen/Geometry>
 #include <array>
+#include <limits>
 #include <memory>
 #include <string>
 #include <vector>
+
+#include "isowrench/function.hpp"
 
 namespace isowrench {
 
@@ -50,7 +56,36 @@ struct JointSpec {
   Eigen::Isometry3d origin = Eigen::Isometry3d::Identity();  ///< parent link -> joint frame at q=0
   Eigen::Vector3d axis = Eigen::Vector3d::UnitZ();  ///< unit axis in the joint frame
   JointRole role = JointRole::kLimb;
-  double stiffness = 0.0;  ///< N·m/rad (revolute) or N/m (prismatic), >= 0; the S_p diagonal
+  /// N·m/rad (revolute) or N/m (prismatic), >= 0. For a joint that carries its own coordinate
+  /// (coordinate == name, identity coupling) this is the coordinate's S_p entry, and it and
+  /// `role` are copied onto the CoordinateSpec by NormalizeCoordinates(). A driven joint
+  /// (another coordinate, or a non-identity coupling) has no dof of its own: stiffness 0.
+  double stiffness = 0.0;
+  /// The independent coordinate driving this movable joint (a CoordinateSpec name). Empty means
+  /// "the joint's own coordinate" (coordinate = name, identity coupling); NormalizeCoordinates()
+  /// fills it. Unused for fixed joints.
+  std::string coordinate;
+  /// q_joint = coupling(q_coordinate), in rad or m on both sides. Identity = Linear(1, 0).
+  Function coupling = Function::Linear(1.0, 0.0);
+};
+
+/// One independent coordinate: one public column of the Jacobian, of the moment arms and of
+/// S_p, and one entry of a posture. Most coordinates are carried by one movable joint with the
+/// identity (`joint` == `name`); a free-standing coordinate (`joint` empty, URDF
+/// <isowrench:coordinate>) only drives other joints through their couplings.
+struct CoordinateSpec {
+  std::string name;
+  JointType type = JointType::kRevolute;  ///< kRevolute (rad) or kPrismatic (m)
+  JointRole role = JointRole::kLimb;
+  double stiffness = 0.0;  ///< S_p entry: N·m/rad (revolute) or N/m (prismatic), >= 0
+  double default_value = 0.0;  ///< rad or m; the nominal posture unless nominal_posture names it
+  double lower = -std::numeric_limits<double>::infinity();  ///< rad or m (informative)
+  double upper = std::numeric_limits<double>::infinity();   ///< rad or m (informative)
+  /// Held rigid by the statics (excluded from the stiffness matrix, no displacement there), but
+  /// still a column of J and of the moment arms and settable in postures.
+  bool locked = false;
+  /// The movable joint carrying this coordinate with the identity, or "" (free-standing).
+  std::string joint;
 };
 
 /// A muscle path point fixed on a link ("ground" = the root link, i.e. fixed in world).
@@ -86,7 +121,7 @@ struct TransducerSpec {
   std::array<bool, 6> released{{false, false, false, false, false, false}};
 };
 
-/// Transducer stiffness presets from MODEL.md "Transducer stiffness presets".
+/// Transducer stiffness presets from docs/model.md "Transducer stiffness presets".
 /// Names: "balanced" (1e7 everywhere), "ati-mini40", "jr3" (as printed in the paper).
 /// @throws Error for an unknown name (the message lists the known ones).
 Vector6d TransducerPreset(const std::string& name);
@@ -101,9 +136,33 @@ struct LimbDescription {
   std::vector<JointSpec> joints;    ///< chain order, root to endpoint, fixed joints included
   std::vector<MuscleSpec> muscles;
   TransducerSpec transducer;
-  /// Nominal posture: joint name -> position (rad or m). Missing joints are 0.
+  /// Independent coordinates in column order (see CoordinateSpec). ReadUrdfFile fills them;
+  /// a description built in code may leave them empty: NormalizeCoordinates() then gives every
+  /// movable joint its own coordinate, in chain order.
+  std::vector<CoordinateSpec> coordinates;
+  /// Nominal posture: coordinate name -> position (rad or m). Coordinates not named here are at
+  /// their default_value (0 unless an <isowrench:coordinate default=> says otherwise).
   std::vector<std::pair<std::string, double>> nominal_posture;
 };
+
+/// The coordinate called `name`.
+/// @throws Error for a driven joint ("joint 'knee_tx' is driven by coordinate 'knee_rz' (mimic);
+///         set 'knee_rz' instead"), a fixed joint, or an unknown name (with the closest name).
+const CoordinateSpec& FindCoordinate(const LimbDescription& description, const std::string& name);
+
+/// Make `coordinates` consistent with `joints` (a copy is returned; idempotent):
+///  - a movable joint with an empty `coordinate` gets its own (coordinate = its name, identity);
+///  - a joint that carries its own coordinate (coordinate == name, identity coupling) has a
+///    CoordinateSpec with joint = its name, whose type, role and stiffness are the joint's;
+///  - coordinates carried by a joint that is gone or no longer movable are dropped, unless
+///    another joint is driven by them (they become free-standing);
+///  - the order is that of the first joint each coordinate carries or drives, along the
+///    chain; free-standing coordinates that drive nothing come last.
+/// The description edits and ReadUrdfFile call it; Model calls it for descriptions built in code.
+/// @throws Error for a joint driven by an unknown coordinate, a joint coupled to itself, a
+///         driven joint with a non-zero stiffness, or an invalid free-standing coordinate
+///         (fixed type, stiffness not finite or negative, default not finite, lower > upper).
+LimbDescription NormalizeCoordinates(LimbDescription description);
 
 /// Parse a URDF file with isowrench extension tags.
 /// @throws Error naming the file and line for malformed XML, unsupported joint types
@@ -128,7 +187,9 @@ void WriteUrdfFile(const LimbDescription& description, const std::string& path);
 /// base joints their stiffness is set instead.
 LimbDescription WithBaseStiffness(LimbDescription description, double stiffness);
 
-/// Set the S_p stiffness of a named joint (N·m/rad or N/m, >= 0).
+/// Set the S_p stiffness of a named coordinate (N·m/rad or N/m, >= 0); a joint that carries
+/// its own coordinate is named by its joint name. @throws Error for a driven joint (see
+/// FindCoordinate).
 LimbDescription WithJointStiffness(LimbDescription description, const std::string& joint,
                                    double stiffness);
 

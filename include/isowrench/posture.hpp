@@ -5,6 +5,7 @@
 
 #include <Eigen/Core>
 #include <string>
+#include <vector>
 
 #include "isowrench/model.hpp"
 
@@ -28,6 +29,21 @@ void SetJointFromUserUnits(const Model& model, Eigen::VectorXd& q, const std::st
 /// A readable posture, e.g. "hip_rz=-110.0°, knee_rz=105.0°" (non-zero joints only, or all
 /// joints when `all` is true).
 std::string FormatPosture(const Model& model, const Eigen::VectorXd& q, bool all = false);
+
+/// Postures from CSV text: a header row naming coordinates (FindCoordinate: a driven joint is
+/// refused with the name of its driver), then one posture per row in user units (degrees, mm
+/// for prismatic coordinates). Coordinates without a column, and empty cells, keep their value
+/// in `base` (e.g. model.nominal_posture()). Fields are separated by commas; blank lines and
+/// lines starting with '#' are skipped. `source` names the text in messages.
+/// @throws Error "<source>:<line>: ..." for an unknown or repeated column (with the closest
+///         coordinate name), a row with the wrong number of fields, or a value that is not a
+///         finite number (naming the column), or a file with no posture row.
+std::vector<Eigen::VectorXd> ParsePostureCsv(const Model& model, const std::string& text,
+                                             const std::string& source, const Eigen::VectorXd& base);
+
+/// ParsePostureCsv on the contents of a file. @throws Error also if it cannot be read.
+std::vector<Eigen::VectorXd> ReadPostureCsv(const Model& model, const std::string& path,
+                                            const Eigen::VectorXd& base);
 
 /// Check that q has model.dof_count() finite entries. @throws Error otherwise.
 void ValidatePosture(const Model& model, const Eigen::VectorXd& q);

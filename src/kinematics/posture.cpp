@@ -2,7 +2,10 @@
 
 #include "isowrench/posture.hpp"
 
+#include <algorithm>
 #include <cmath>
+#include <fstream>
+#include <sstream>
 
 #include "isowrench/error.hpp"
 #include "util/text.hpp"
@@ -31,9 +34,9 @@ double JointValueToUserUnits(JointType type, double model_value) {
 }
 
 void SetJointFromUserUnits(const Model& model, Eigen::VectorXd& q, const std::string& joint, double value) {
-  int index = model.JointIndex(joint);
-  if (!std::isfinite(value)) throw Error("posture of joint '" + joint + "' is not finite");
-  q[index] = JointValueFromUserUnits(model.joint(index).type, value);
+  const CoordinateSpec& coordinate = FindCoordinate(model.description(), joint);
+  if (!std::isfinite(value)) throw Error("posture of coordinate '" + joint + "' is not finite");
+  q[model.JointIndex(coordinate.name)] = JointValueFromUserUnits(coordinate.type, value);
 }
 
 Eigen::VectorXd ApplyPostureAssignments(const Model& model, Eigen::VectorXd q, const std::string& assignments) {
@@ -48,6 +51,72 @@ Eigen::VectorXd ApplyPostureAssignments(const Model& model, Eigen::VectorXd q, c
     SetJointFromUserUnits(model, q, joint, value);
   }
   return q;
+}
+
+std::vector<Eigen::VectorXd> ParsePostureCsv(const Model& model, const std::string& text,
+                                             const std::string& source, const Eigen::VectorXd& base) {
+  ValidatePosture(model, base);
+  std::istringstream in(text);
+  std::string line;
+  int line_number = 0;
+  std::vector<std::string> names;
+  std::vector<const CoordinateSpec*> columns;
+  std::vector<Eigen::VectorXd> postures;
+  auto where = [&]() { return source + ":" + std::to_string(line_number) + ": "; };
+  while (std::getline(in, line)) {
+    ++line_number;
+    if (!line.empty() && line.back() == '\r') line.pop_back();
+    if (line_number == 1 && line.rfind("\xEF\xBB\xBF", 0) == 0) line.erase(0, 3);  // UTF-8 BOM
+    const std::string trimmed = util::Trim(line);
+    if (trimmed.empty() || trimmed[0] == '#') continue;
+    std::vector<std::string> fields;
+    std::string field;
+    std::istringstream cells(line);
+    while (std::getline(cells, field, ',')) fields.push_back(util::Trim(field));
+    if (line.back() == ',') fields.push_back("");
+    if (columns.empty()) {
+      for (const std::string& name : fields) {
+        if (std::find(names.begin(), names.end(), name) != names.end()) {
+          throw Error(where() + "column '" + name + "' appears twice");
+        }
+        try {
+          columns.push_back(&FindCoordinate(model.description(), name));
+        } catch (const Error& e) {
+          throw Error(where() + "column '" + name + "': " + e.what());
+        }
+        names.push_back(name);
+      }
+      continue;
+    }
+    if (fields.size() != columns.size()) {
+      throw Error(where() + "row has " + std::to_string(fields.size()) + " fields but the header has " +
+                  std::to_string(columns.size()) + " (" + util::Join(names, ", ") + ")");
+    }
+    Eigen::VectorXd q = base;
+    for (size_t c = 0; c < columns.size(); ++c) {
+      if (fields[c].empty()) continue;
+      double value = 0.0;
+      if (!util::ParseDouble(fields[c], &value) || !std::isfinite(value)) {
+        throw Error(where() + "column '" + names[c] + "': '" + fields[c] + "' is not a finite number (" +
+                    (columns[c]->type == JointType::kPrismatic ? "mm" : "degrees") + ")");
+      }
+      q[model.JointIndex(columns[c]->name)] = JointValueFromUserUnits(columns[c]->type, value);
+    }
+    postures.push_back(q);
+  }
+  if (postures.empty()) {
+    throw Error(source + ": no posture rows (expected a header naming coordinates, then one row per posture)");
+  }
+  return postures;
+}
+
+std::vector<Eigen::VectorXd> ReadPostureCsv(const Model& model, const std::string& path,
+                                            const Eigen::VectorXd& base) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw Error("cannot open posture file '" + path + "'");
+  std::stringstream buffer;
+  buffer << in.rdbuf();
+  return ParsePostureCsv(model, buffer.str(), path, base);
 }
 
 std::string FormatPosture(const Model& model, const Eigen::VectorXd& q, bool all) {

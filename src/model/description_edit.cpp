@@ -2,6 +2,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <map>
+#include <set>
 
 #include "isowrench/error.hpp"
 #include "isowrench/input_checks.hpp"
@@ -34,7 +36,118 @@ bool HasLink(const LimbDescription& d, const std::string& name) {
   return std::find(d.links.begin(), d.links.end(), name) != d.links.end();
 }
 
+/// A movable joint that is its own coordinate (q_joint = q_coordinate).
+bool CarriesOwnCoordinate(const JointSpec& j) {
+  return j.type != JointType::kFixed && j.coordinate == j.name;
+}
+
+void CheckFreeCoordinate(const CoordinateSpec& c, const std::string& model) {
+  const std::string what = model + ", coordinate '" + c.name + "'";
+  if (c.name.empty()) throw Error(model + ": a coordinate has no name");
+  if (c.type == JointType::kFixed) throw Error(what + ": type must be revolute or prismatic");
+  CheckStiffness(c.stiffness, what);
+  if (!std::isfinite(c.default_value)) {
+    throw Error(what + ": default value " + util::FormatNumber(c.default_value) + " is not finite");
+  }
+  if (std::isnan(c.lower) || std::isnan(c.upper) || c.lower > c.upper) {
+    throw Error(what + ": range [" + util::FormatNumber(c.lower) + ", " + util::FormatNumber(c.upper) +
+                "] needs lower <= upper");
+  }
+}
+
 }  // namespace
+
+LimbDescription NormalizeCoordinates(LimbDescription d) {
+  const std::string model = "model '" + d.name + "'";
+  std::map<std::string, CoordinateSpec> declared;
+  for (const CoordinateSpec& c : d.coordinates) {
+    if (!declared.emplace(c.name, c).second) throw Error(model + ": coordinate '" + c.name + "' is defined twice");
+  }
+  std::set<std::string> carried;  // coordinates a joint carries with the identity
+  for (JointSpec& j : d.joints) {
+    if (j.type == JointType::kFixed) continue;
+    if (j.coordinate.empty()) {
+      if (!j.coupling.is_identity()) {
+        throw Error(model + ", joint '" + j.name + "': a coupling needs the coordinate that drives it");
+      }
+      j.coordinate = j.name;
+    }
+    if (CarriesOwnCoordinate(j)) {
+      if (!j.coupling.is_identity()) {
+        throw Error(model + ", joint '" + j.name + "' is coupled to itself; name another coordinate");
+      }
+      carried.insert(j.name);
+    }
+  }
+  std::vector<CoordinateSpec> ordered;
+  std::map<std::string, size_t> position;
+  for (const JointSpec& j : d.joints) {
+    if (j.type == JointType::kFixed) continue;
+    if (!position.count(j.coordinate)) {
+      auto it = declared.find(j.coordinate);
+      if (it != declared.end()) {
+        ordered.push_back(it->second);
+      } else if (carried.count(j.coordinate)) {
+        CoordinateSpec c;
+        c.name = j.coordinate;
+        ordered.push_back(c);
+      } else {
+        throw Error(model + ", joint '" + j.name + "' is driven by unknown coordinate '" + j.coordinate + "'");
+      }
+      position[j.coordinate] = ordered.size() - 1;
+    }
+    CoordinateSpec& c = ordered[position[j.coordinate]];
+    if (CarriesOwnCoordinate(j)) {
+      c.type = j.type;
+      c.role = j.role;
+      c.stiffness = j.stiffness;
+      c.joint = j.name;
+    } else if (j.stiffness != 0.0) {
+      throw Error(model + ", joint '" + j.name + "': stiffness " + util::FormatNumber(j.stiffness) +
+                  " on a joint driven by coordinate '" + j.coordinate + "'; a driven joint has no dof of its "
+                  "own: give the stiffness to '" + j.coordinate + "'");
+    }
+  }
+  for (const CoordinateSpec& c : d.coordinates) {
+    // Drop coordinates whose carrier joint is gone and which drive nothing; keep free ones.
+    if (!position.count(c.name) && c.joint.empty()) {
+      position[c.name] = ordered.size();
+      ordered.push_back(c);
+    }
+  }
+  for (CoordinateSpec& c : ordered) {
+    if (!carried.count(c.name)) {
+      c.joint.clear();
+      CheckFreeCoordinate(c, model);
+    }
+  }
+  d.coordinates = std::move(ordered);
+  return d;
+}
+
+const CoordinateSpec& FindCoordinate(const LimbDescription& d, const std::string& name) {
+  std::vector<std::string> known;
+  for (const CoordinateSpec& c : d.coordinates) {
+    if (c.name == name) return c;
+    known.push_back(c.name);
+  }
+  for (const JointSpec& j : d.joints) {
+    if (j.name != name) continue;
+    if (j.type == JointType::kFixed) {
+      throw Error("joint '" + name + "' of model '" + d.name + "' is fixed; it has no coordinate (coordinates: " +
+                  util::Join(known, ", ") + ")");
+    }
+    if (!j.coordinate.empty() && j.coordinate != j.name) {
+      auto driver = std::find_if(d.coordinates.begin(), d.coordinates.end(),
+                                 [&](const CoordinateSpec& c) { return c.name == j.coordinate; });
+      const bool mimic = j.coupling.is_linear() && driver != d.coordinates.end() && !driver->joint.empty();
+      throw Error("joint '" + name + "' is driven by coordinate '" + j.coordinate + "' (" +
+                  (mimic ? "mimic" : "isowrench:coupling") + "); set '" + j.coordinate + "' instead");
+    }
+  }
+  throw Error("unknown coordinate '" + name + "' in model '" + d.name + "'" + DidYouMean(name, known) +
+              " (coordinates: " + util::Join(known, ", ") + ")");
+}
 
 const char* RoleName(JointRole role) {
   switch (role) {
@@ -74,7 +187,7 @@ LimbDescription WithBaseStiffness(LimbDescription d, double stiffness) {
       found = true;
     }
   }
-  if (found) return d;
+  if (found) return NormalizeCoordinates(std::move(d));
   const char* names[3] = {"base_x", "base_y", "base_z"};
   std::vector<JointSpec> base;
   std::string parent = d.root_link;
@@ -97,12 +210,17 @@ LimbDescription WithBaseStiffness(LimbDescription d, double stiffness) {
   if (!d.joints.empty()) d.joints.front().parent_link = parent;
   d.joints.insert(d.joints.begin(), base.begin(), base.end());
   d.links.insert(d.links.begin() + 1, {"base_x_link", "base_y_link", "base_z_link"});
-  return d;
+  return NormalizeCoordinates(std::move(d));
 }
 
 LimbDescription WithJointStiffness(LimbDescription d, const std::string& joint, double stiffness) {
   CheckStiffness(stiffness, "joint '" + joint + "'");
-  FindMovable(d, joint).stiffness = stiffness;
+  d = NormalizeCoordinates(std::move(d));
+  const CoordinateSpec& c = FindCoordinate(d, joint);
+  if (!c.joint.empty()) FindMovable(d, c.joint).stiffness = stiffness;
+  for (CoordinateSpec& coordinate : d.coordinates) {
+    if (coordinate.name == joint) coordinate.stiffness = stiffness;
+  }
   return d;
 }
 
@@ -144,7 +262,7 @@ LimbDescription WithExtraJoint(LimbDescription d, const std::string& after_joint
   auto link_it = std::find(d.links.begin(), d.links.end(), old_child);
   d.links.insert(link_it + 1, extra.child_link);
   d.joints.insert(next, extra);
-  return d;
+  return NormalizeCoordinates(std::move(d));
 }
 
 LimbDescription WithReleasedDofs(LimbDescription d, const std::vector<std::string>& dofs) {

@@ -193,6 +193,7 @@ FlatChain Compile(const LimbDescription& d) {
 }  // namespace
 
 Model::Model(LimbDescription description) {
+  description = NormalizeCoordinates(std::move(description));
   Validate(description);
   auto impl = std::make_shared<Impl>();
   impl->flat = Compile(description);

@@ -18,6 +18,7 @@
 #include "isowrench/input_checks.hpp"
 #include "isowrench/model.hpp"
 #include "model/urdf_checks.hpp"
+#include "model/urdf_coordinates.hpp"
 #include "util/text.hpp"
 
 namespace isowrench {
@@ -142,9 +143,6 @@ LimbDescription ReadUrdfString(const std::string& xml, const std::string& source
     if (type != "revolute" && type != "continuous" && type != "prismatic" && type != "fixed") {
       r.Fail(e, "joint '" + name + "' has unknown type '" + type + "'");
     }
-    if (e->FirstChildElement("mimic")) {
-      r.Fail(e, "joint '" + name + "' is a mimic joint, which isowrench does not support");
-    }
     if (joint_elements.count(name)) r.Fail(e, "joint '" + name + "' is defined twice");
     joint_elements[name] = e;
   }
@@ -176,10 +174,11 @@ LimbDescription ReadUrdfString(const std::string& xml, const std::string& source
     if (local == "transducer") {
       if (transducer) r.Fail(e, "a second <isowrench:transducer>; a limb has one");
       transducer = e;
-    } else if (local != "joint" && local != "muscle" && local != "posture") {
+    } else if (local != "joint" && local != "muscle" && local != "posture" && local != "coordinate" &&
+               local != "coupling") {
       r.Fail(e, "unknown extension element <" + tag +
                     ">; known: isowrench:joint, isowrench:transducer, isowrench:muscle, "
-                    "isowrench:posture");
+                    "isowrench:posture, isowrench:coordinate, isowrench:coupling");
     }
   }
   if (!transducer) {
@@ -297,9 +296,11 @@ LimbDescription ReadUrdfString(const std::string& xml, const std::string& source
     t.released[index] = true;
   }
 
+  // Coordinates, mimics and couplings first: postures and joint tags name coordinates.
+  urdf_coordinates::ReadCoordinates(*robot, r.source, d);
   for (auto* e = robot->FirstChildElement(); e; e = e->NextSiblingElement()) {
     std::string tag = e->Name();
-    if (tag == "isowrench:joint") {
+    if (tag == "isowrench:joint" && !urdf_coordinates::NamesFreeCoordinate(*e, d)) {
       JointSpec& j = find_joint(e, r.Attribute(e, "name", true));
       std::string role = r.Attribute(e, "role", false);
       if (role.empty() || role == "limb") {
@@ -350,7 +351,7 @@ LimbDescription ReadUrdfString(const std::string& xml, const std::string& source
       d.muscles.push_back(m);
     } else if (tag == "isowrench:posture") {
       std::string name = r.Attribute(e, "joint", true);
-      JointSpec& j = find_joint(e, name);
+      const CoordinateSpec& j = urdf_coordinates::PostureCoordinate(*e, r.source, d);
       std::string deg = r.Attribute(e, "degrees", false);
       std::string value = r.Attribute(e, "value", false);
       if (deg.empty() == value.empty()) {
@@ -366,6 +367,7 @@ LimbDescription ReadUrdfString(const std::string& xml, const std::string& source
       d.nominal_posture.emplace_back(name, q);
     }
   }
+  urdf_coordinates::ApplyJointTags(*robot, r.source, d);
   urdf_checks::WarnImplausibleDimensions(d, [&](const std::string& joint) {
     if (joint.rfind("muscle:", 0) == 0) {
       std::string muscle = joint.substr(7);

@@ -5,6 +5,7 @@
 #include <sstream>
 
 #include "isowrench/model.hpp"
+#include "model/function_xml.hpp"
 #include "util/atomic_file.hpp"
 #include "util/text.hpp"
 
@@ -30,9 +31,37 @@ Eigen::Vector3d Rpy(const Eigen::Matrix3d& R) {
   return Eigen::Vector3d(roll, pitch, yaw);
 }
 
+const CoordinateSpec* Coordinate(const LimbDescription& d, const std::string& name) {
+  for (const CoordinateSpec& c : d.coordinates) {
+    if (c.name == name) return &c;
+  }
+  return nullptr;
+}
+
+/// A driven joint whose coupling URDF's own <mimic> can say: linear, driven by a joint.
+bool IsMimic(const LimbDescription& d, const JointSpec& j) {
+  if (j.type == JointType::kFixed || j.coordinate.empty() || j.coordinate == j.name) return false;
+  const CoordinateSpec* driver = Coordinate(d, j.coordinate);
+  return driver && !driver->joint.empty() && j.coupling.is_linear();
+}
+
+bool IsCoupled(const LimbDescription& d, const JointSpec& j) {
+  return j.type != JointType::kFixed && !j.coordinate.empty() && j.coordinate != j.name && !IsMimic(d, j);
+}
+
+/// The <isowrench:joint> element for a coordinate, or "" when everything is at its default.
+std::string CoordinateTag(const std::string& name, JointRole role, double stiffness, bool locked) {
+  if (role == JointRole::kLimb && stiffness == 0.0 && !locked) return "";
+  std::string tag = "  <isowrench:joint name=\"" + name + "\" role=\"" + RoleName(role) + "\" stiffness=\"" +
+                    N(stiffness) + "\"";
+  if (locked) tag += " locked=\"true\"";
+  return tag + "/>\n";
+}
+
 }  // namespace
 
-std::string WriteUrdfString(const LimbDescription& d) {
+std::string WriteUrdfString(const LimbDescription& description) {
+  const LimbDescription d = NormalizeCoordinates(description);
   std::ostringstream o;
   o << "<?xml version=\"1.0\"?>\n";
   o << "<!-- Written by isowrench";
@@ -41,7 +70,9 @@ std::string WriteUrdfString(const LimbDescription& d) {
   o << "<robot name=\"" << d.name << "\" xmlns:isowrench=\"urn:isowrench:urdf:1\">\n";
   for (const std::string& link : d.links) o << "  <link name=\"" << link << "\"/>\n";
   for (const JointSpec& j : d.joints) {
-    const char* type = j.type == JointType::kRevolute    ? "continuous"
+    const CoordinateSpec* own = j.coordinate == j.name ? Coordinate(d, j.name) : nullptr;
+    const bool limited = own && std::isfinite(own->lower) && std::isfinite(own->upper);
+    const char* type = j.type == JointType::kRevolute    ? (limited ? "revolute" : "continuous")
                        : j.type == JointType::kPrismatic ? "prismatic"
                                                          : "fixed";
     o << "  <joint name=\"" << j.name << "\" type=\"" << type << "\">\n";
@@ -50,16 +81,37 @@ std::string WriteUrdfString(const LimbDescription& d) {
     o << "    <origin xyz=\"" << Vec(j.origin.translation()) << "\" rpy=\""
       << Vec(Rpy(j.origin.linear())) << "\"/>\n";
     if (j.type != JointType::kFixed) o << "    <axis xyz=\"" << Vec(j.axis) << "\"/>\n";
-    if (j.type == JointType::kPrismatic) {
+    if (limited) {
+      o << "    <limit lower=\"" << N(own->lower) << "\" upper=\"" << N(own->upper)
+        << "\" effort=\"1000\" velocity=\"1\"/>\n";
+    } else if (j.type == JointType::kPrismatic) {
       o << "    <limit lower=\"-1\" upper=\"1\" effort=\"1000\" velocity=\"1\"/>\n";
+    }
+    if (IsMimic(d, j)) {
+      o << "    <mimic joint=\"" << Coordinate(d, j.coordinate)->joint << "\" multiplier=\""
+        << N(j.coupling.slope()) << "\" offset=\"" << N(j.coupling.intercept()) << "\"/>\n";
     }
     o << "  </joint>\n";
   }
+  for (const CoordinateSpec& c : d.coordinates) {
+    if (!c.joint.empty()) continue;
+    o << "  <isowrench:coordinate name=\"" << c.name << "\" type=\""
+      << (c.type == JointType::kPrismatic ? "prismatic" : "revolute") << "\" default=\"" << N(c.default_value)
+      << "\"";
+    if (std::isfinite(c.lower)) o << " lower=\"" << N(c.lower) << "\"";
+    if (std::isfinite(c.upper)) o << " upper=\"" << N(c.upper) << "\"";
+    o << " locked=\"" << (c.locked ? "true" : "false") << "\"/>\n";
+    o << CoordinateTag(c.name, c.role, c.stiffness, false);
+  }
   for (const JointSpec& j : d.joints) {
-    if (j.type == JointType::kFixed) continue;
-    if (j.role == JointRole::kLimb && j.stiffness == 0.0) continue;
-    o << "  <isowrench:joint name=\"" << j.name << "\" role=\"" << RoleName(j.role)
-      << "\" stiffness=\"" << N(j.stiffness) << "\"/>\n";
+    if (j.type == JointType::kFixed || j.coordinate != j.name) continue;
+    const CoordinateSpec* own = Coordinate(d, j.name);
+    o << CoordinateTag(j.name, j.role, j.stiffness, own && own->locked);
+  }
+  for (const JointSpec& j : d.joints) {
+    if (!IsCoupled(d, j)) continue;
+    o << "  <isowrench:coupling joint=\"" << j.name << "\" coordinate=\"" << j.coordinate << "\">\n"
+      << FunctionXmlText(j.coupling, "    ") << "  </isowrench:coupling>\n";
   }
   const TransducerSpec& t = d.transducer;
   std::string released;

@@ -1,0 +1,168 @@
+// `isowrench kinematics <urdf>`: endpoint position, endpoint Jacobian, muscle lengths and moment
+// arms at one or more postures, in independent coordinates.
+
+#include <iostream>
+#include <sstream>
+
+#include "cli/command.hpp"
+#include "isowrench/kinematics.hpp"
+#include "isowrench/posture.hpp"
+#include "util/text.hpp"
+
+namespace isowrench::cli {
+namespace {
+
+struct KinematicsOptions {
+  std::string urdf;
+  std::vector<std::string> posture;
+  std::string postures_csv;
+  bool json = false;
+};
+
+/// Everything the command prints for one posture (SI units, world axes).
+struct PostureKinematics {
+  Eigen::VectorXd q;
+  Eigen::Vector3d endpoint;
+  Matrix6Xd jacobian;
+  std::vector<double> length;              // per muscle, m
+  std::vector<Eigen::VectorXd> moment_arm;  // per muscle, -dL/dq
+};
+
+PostureKinematics Evaluate(const Model& model, KinematicsWorkspace& ws, const Eigen::VectorXd& q) {
+  PostureKinematics k;
+  k.q = q;
+  k.endpoint = EndpointPose(model, ws, q).translation();
+  k.jacobian = EndpointJacobianWorld(model, ws, q);
+  for (int m = 0; m < model.muscle_count(); ++m) {
+    MuscleTorque t = ComputeMuscleTorque(model, ws, q, m);
+    k.length.push_back(t.length);
+    k.moment_arm.push_back(-t.dL_dq.transpose());
+  }
+  return k;
+}
+
+bool Prismatic(const Model& model, int column) {
+  return FindCoordinate(model.description(), model.joint_names()[column]).type == JointType::kPrismatic;
+}
+
+nlohmann::ordered_json Json(const Model& model, const std::vector<PostureKinematics>& results) {
+  nlohmann::ordered_json out;
+  out["coordinates"] = model.joint_names();
+  nlohmann::ordered_json postures = nlohmann::ordered_json::array();
+  for (const PostureKinematics& k : results) {
+    nlohmann::ordered_json p;
+    p["endpoint_m"] = {k.endpoint.x(), k.endpoint.y(), k.endpoint.z()};
+    nlohmann::ordered_json rows = nlohmann::ordered_json::array();
+    for (int r = 0; r < 6; ++r) {
+      Eigen::RowVectorXd row = k.jacobian.row(r);
+      rows.push_back(std::vector<double>(row.data(), row.data() + row.size()));
+    }
+    p["jacobian"] = rows;
+    nlohmann::ordered_json muscles = nlohmann::ordered_json::object();
+    for (int m = 0; m < model.muscle_count(); ++m) {
+      const Eigen::VectorXd& r = k.moment_arm[m];
+      muscles[model.muscle(m).name] = {{"length_m", k.length[m]},
+                                       {"moment_arm_m", std::vector<double>(r.data(), r.data() + r.size())}};
+    }
+    p["muscles"] = muscles;
+    postures.push_back(p);
+  }
+  out["postures"] = postures;
+  return out;
+}
+
+/// The JSON laid out as in the documentation: one line per posture item and Jacobian row.
+std::string JsonText(const nlohmann::ordered_json& j) {
+  std::string out = "{\"coordinates\": " + j["coordinates"].dump() + ",\n \"postures\": [";
+  const auto& postures = j["postures"];
+  for (size_t i = 0; i < postures.size(); ++i) {
+    const auto& p = postures[i];
+    out += std::string(i ? ",\n  " : "") + "{\"endpoint_m\": " + p["endpoint_m"].dump() + ",\n   \"jacobian\": [";
+    for (size_t r = 0; r < p["jacobian"].size(); ++r) out += std::string(r ? ",\n                " : "") + p["jacobian"][r].dump();
+    out += "],\n   \"muscles\": {";
+    size_t m = 0;
+    for (const auto& [name, muscle] : p["muscles"].items()) {
+      out += std::string(m++ ? ",\n               " : "") + nlohmann::ordered_json(name).dump() + ": " + muscle.dump();
+    }
+    out += "}}";
+  }
+  return out + "]}\n";
+}
+
+std::string Padded(const std::string& text, int width) {
+  return text.size() >= static_cast<size_t>(width) ? text + " " : text + std::string(width - text.size(), ' ');
+}
+
+std::string Table(const Model& model, const std::vector<PostureKinematics>& results) {
+  const int n = model.dof_count();
+  const int label = 10;
+  std::ostringstream o;
+  o << "model " << model.name() << ": " << n << " coordinates (columns), world axes\n";
+  std::string header = std::string(label, ' ');
+  for (const std::string& name : model.joint_names()) header += std::string(name.size() < 11 ? 11 - name.size() : 1, ' ') + name;
+  std::string units = std::string(label, ' ');
+  for (int c = 0; c < n; ++c) units += std::string(Prismatic(model, c) ? "      (m/m)" : "    (m/rad)");
+  for (size_t i = 0; i < results.size(); ++i) {
+    const PostureKinematics& k = results[i];
+    o << "\nposture " << i + 1 << ": " << FormatPosture(model, k.q, true) << "\n";
+    o << "endpoint (m)  x " << util::FormatNumber(k.endpoint.x(), 6) << "  y " << util::FormatNumber(k.endpoint.y(), 6)
+      << "  z " << util::FormatNumber(k.endpoint.z(), 6) << "\n";
+    o << "Jacobian: rows vx vy vz in m/rad (m/m for a prismatic column), wx wy wz in rad/rad (rad/m)\n"
+      << header << "\n";
+    const char* rows[6] = {"vx", "vy", "vz", "wx", "wy", "wz"};
+    for (int r = 0; r < 6; ++r) {
+      o << Padded(rows[r], label);
+      for (int c = 0; c < n; ++c) o << Cell(k.jacobian(r, c));
+      o << "\n";
+    }
+    if (model.muscle_count() == 0) continue;
+    o << "muscles: length (m) and moment arm -dL/dq about each coordinate\n"
+      << header << "  length (m)\n" << units << "\n";
+    for (int m = 0; m < model.muscle_count(); ++m) {
+      o << Padded(model.muscle(m).name, label);
+      for (int c = 0; c < n; ++c) o << Cell(k.moment_arm[m][c]);
+      o << Cell(k.length[m], 12) << "\n";
+    }
+  }
+  return o.str();
+}
+
+const bool registered = RegisterCommand({
+    "kinematics",
+    "Endpoint position, 6 x n endpoint Jacobian and every muscle's length and moment arms (-dL/dq) at "
+    "one or more postures, in independent coordinates",
+    15,
+    [](CLI::App& app) -> std::function<int()> {
+      auto options = std::make_shared<KinematicsOptions>();
+      app.add_option("urdf", options->urdf, "Limb URDF with isowrench extension tags")->required();
+      app.add_option("--posture", options->posture,
+                     "Coordinates over the URDF's nominal posture: name=value in degrees (mm for prismatic "
+                     "coordinates); repeatable or comma-separated, e.g. --posture hip_rz=-110 --posture knee_rz=105");
+      app.add_option("--postures", options->postures_csv,
+                     "CSV file: a header naming coordinates, then one posture per row (degrees, mm for prismatic); "
+                     "coordinates without a column keep the nominal (or --posture) value");
+      app.add_flag("--json", options->json,
+                   "Print {\"coordinates\": [...], \"postures\": [{\"endpoint_m\", \"jacobian\" (6 rows), "
+                   "\"muscles\": {name: {\"length_m\", \"moment_arm_m\"}}}]} in SI units, world axes");
+      return [options]() {
+        Model model = Model::FromUrdfFile(options->urdf);
+        Eigen::VectorXd base = model.nominal_posture();
+        for (const std::string& assignment : options->posture) base = ApplyPostureAssignments(model, base, assignment);
+        std::vector<Eigen::VectorXd> postures = {base};
+        if (!options->postures_csv.empty()) postures = ReadPostureCsv(model, options->postures_csv, base);
+        KinematicsWorkspace ws(model);
+        std::vector<PostureKinematics> results;
+        for (const Eigen::VectorXd& q : postures) results.push_back(Evaluate(model, ws, q));
+        // Everything is computed before anything is printed: an error leaves no partial output.
+        if (options->json) {
+          std::cout << JsonText(Json(model, results));
+        } else {
+          std::cout << Table(model, results);
+        }
+        return 0;
+      };
+    },
+});
+
+}  // namespace
+}  // namespace isowrench::cli
