@@ -1,0 +1,86 @@
+"""Type stubs of the isowrench Python module (issue 15). Angles rad, lengths m, forces N,
+moments N m. See docs/python.md."""
+
+from typing import Any, Dict, List, Mapping, Optional, Sequence, Tuple, Union, overload
+
+import numpy as np
+import numpy.typing as npt
+
+__version__: str
+STATUS_NAMES: Tuple[str, str, str, str]
+
+Posture = Union[None, Sequence[float], npt.NDArray[np.float64], Mapping[str, float]]
+Transducer = Union[None, str, Sequence[float], npt.NDArray[np.float64]]
+Released = Union[None, str, Sequence[str]]
+
+class Wrench:
+    """One muscle at one posture: the Eq. 10 wrench and the statics behind it."""
+    @property
+    def transducer(self) -> npt.NDArray[np.float64]: ...  # (6,) fx fy fz mx my mz, transducer axes
+    @property
+    def world(self) -> npt.NDArray[np.float64]: ...  # (6,) world axes
+    @property
+    def classic(self) -> npt.NDArray[np.float64]: ...  # (6,) J^-T tau or pinv(J^T) tau
+    @property
+    def dtheta(self) -> npt.NDArray[np.float64]: ...  # (n,) rad / m
+    @property
+    def tau(self) -> npt.NDArray[np.float64]: ...  # (n,) N m / N
+    @property
+    def q(self) -> npt.NDArray[np.float64]: ...  # (n,) rad / m
+    @property
+    def jacobian(self) -> npt.NDArray[np.float64]: ...  # (6, n) transducer axes
+    @property
+    def status(self) -> str: ...
+    @property
+    def message(self) -> str: ...
+    @property
+    def small_motion(self) -> bool: ...
+    @property
+    def small_motion_message(self) -> str: ...
+    @property
+    def muscle(self) -> str: ...
+    @property
+    def muscle_force_N(self) -> float: ...
+    @property
+    def muscle_length_m(self) -> float: ...
+    @property
+    def coordinates(self) -> List[str]: ...
+
+class Model:
+    """An immutable limb model; create it with isowrench.load()."""
+    @property
+    def name(self) -> str: ...
+    @property
+    def path(self) -> str: ...
+    @property
+    def coordinates(self) -> List[str]: ...
+    @property
+    def coordinate_types(self) -> List[str]: ...
+    @property
+    def muscles(self) -> List[str]: ...
+    @property
+    def default_posture(self) -> npt.NDArray[np.float64]: ...
+    @property
+    def joint_stiffness(self) -> npt.NDArray[np.float64]: ...
+    @property
+    def transducer_stiffness(self) -> npt.NDArray[np.float64]: ...
+    @property
+    def released(self) -> List[str]: ...
+    @property
+    def leg_length_m(self) -> float: ...
+    def kinematics(self, q: Posture = None) -> Dict[str, Any]: ...
+    def wrench(self, muscle: str, q: Posture = None, transducer: Transducer = None,
+               released: Released = None, activation: float = 1.0) -> Wrench: ...
+    @overload
+    def wrench_batch(self, muscle: str, Q: npt.ArrayLike, activation: float = 1.0,
+                     transducer: Transducer = None, released: Released = None, threads: int = 0,
+                     return_status: bool = False) -> npt.NDArray[np.float64]: ...
+    @overload
+    def wrench_batch(self, muscle: str, Q: npt.ArrayLike, activation: float = 1.0,
+                     transducer: Transducer = None, released: Released = None, threads: int = 0,
+                     *, return_status: bool) -> Union[npt.NDArray[np.float64],
+                                                      Tuple[npt.NDArray[np.float64], npt.NDArray[np.uint8]]]: ...
+    def releases(self, muscle: str, q: Posture = None) -> Dict[str, Any]: ...
+    def diagnose(self, muscle: str, q: Posture = None, large_deflection: bool = True) -> Dict[str, Any]: ...
+
+def load(path: str, clamp_body: Optional[str] = None, endpoint_body: Optional[str] = None) -> Model: ...

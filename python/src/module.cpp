@@ -1,0 +1,570 @@
+// isowrench._core: the pybind11 layer of the Python module `isowrench` (issue 15).
+//
+// A thin layer over the public C++ API (include/isowrench/*.hpp): it converts arguments
+// (numpy arrays in rad / m, names), calls the library and converts the results back (numpy
+// float64 arrays, dicts with the keys of the CLI's --json). It computes nothing of its own.
+// Errors: isowrench::Error -> ValueError (the C++ message, file and line included); a missing
+// file -> FileNotFoundError.
+
+#include <pybind11/eigen.h>
+#include <pybind11/numpy.h>
+#include <pybind11/pybind11.h>
+#include <pybind11/stl.h>
+
+#include <cmath>
+#include <filesystem>
+#include <memory>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "isowrench/diagnostics.hpp"
+#include "isowrench/error.hpp"
+#include "isowrench/fast.hpp"
+#include "isowrench/kinematics.hpp"
+#include "isowrench/model.hpp"
+#include "isowrench/opensim.hpp"
+#include "isowrench/posture.hpp"
+#include "isowrench/statics.hpp"
+
+namespace py = pybind11;
+
+namespace isowrench::python {
+namespace {
+
+using CArray = py::array_t<double, py::array::c_style | py::array::forcecast>;
+
+[[noreturn]] void ThrowFileNotFound(const std::string& path) {
+  PyErr_SetString(PyExc_FileNotFoundError, ("no such file: '" + path + "'").c_str());
+  throw py::error_already_set();
+}
+
+/// A loaded model: the immutable Model and its compiled copy for the batch path.
+struct PyModel {
+  Model model;
+  std::string path;
+  std::shared_ptr<const CompiledModel> compiled;
+
+  PyModel(Model m, std::string p)
+      : model(std::move(m)), path(std::move(p)), compiled(std::make_shared<CompiledModel>(model)) {}
+};
+
+std::string CoordinateList(const Model& model) {
+  std::string out;
+  for (const std::string& name : model.joint_names()) out += (out.empty() ? "" : ", ") + name;
+  return out;
+}
+
+/// The posture argument: None (the model's default posture), a sequence / 1-D array of n values
+/// (rad / m), or a dict {coordinate: value} applied over the default posture.
+Eigen::VectorXd Posture(const Model& model, const py::object& q) {
+  Eigen::VectorXd out = model.nominal_posture();
+  if (q.is_none()) return out;
+  if (py::isinstance<py::dict>(q)) {
+    for (const auto& item : q.cast<py::dict>()) {
+      const std::string name = py::str(item.first);
+      out[model.JointIndex(FindCoordinate(model.description(), name).name)] = item.second.cast<double>();
+    }
+  } else {
+    CArray a = CArray::ensure(q);
+    if (!a || a.ndim() != 1 || a.shape(0) != model.dof_count()) {
+      throw Error("q must be None, a dict {coordinate: value} or " + std::to_string(model.dof_count()) +
+                  " values in rad / m for the coordinates " + CoordinateList(model));
+    }
+    for (int i = 0; i < model.dof_count(); ++i) out[i] = a.at(i);
+  }
+  for (int i = 0; i < model.dof_count(); ++i) {
+    if (!std::isfinite(out[i])) {
+      throw Error("q[" + std::to_string(i) + "] (" + model.joint_names()[i] + ") is " + std::to_string(out[i]) +
+                  "; posture values must be finite (rad / m)");
+    }
+  }
+  return out;
+}
+
+/// The model with the transducer stiffness and released dofs given in Python, or the model
+/// itself when both are None. transducer: a preset name or 6 values (N/m, N·m/rad); released: a
+/// list of dof names (x y z rx ry rz), a comma-separated string, or [] / "none" for none.
+std::shared_ptr<PyModel> Variant(const std::shared_ptr<PyModel>& m, const py::object& transducer,
+                                       const py::object& released) {
+  if (transducer.is_none() && released.is_none()) return m;
+  LimbDescription d = m->model.description();
+  if (!transducer.is_none()) {
+    if (py::isinstance<py::str>(transducer)) {
+      d = WithTransducerStiffness(std::move(d), TransducerPreset(transducer.cast<std::string>()));
+    } else {
+      CArray a = CArray::ensure(transducer);
+      if (!a || a.ndim() != 1 || a.shape(0) != 6) {
+        throw Error("transducer must be a preset name (balanced, ati-mini40, jr3) or 6 stiffnesses "
+                    "kx ky kz (N/m) krx kry krz (N·m/rad)");
+      }
+      Vector6d s;
+      for (int i = 0; i < 6; ++i) s[i] = a.at(i);
+      d = WithTransducerStiffness(std::move(d), s);
+    }
+  }
+  if (!released.is_none()) {
+    std::vector<std::string> dofs;
+    if (py::isinstance<py::str>(released)) {
+      std::string text = released.cast<std::string>();
+      std::string item;
+      for (char c : text + ",") {
+        if (c == ',' || c == ' ') {
+          if (!item.empty() && item != "none") dofs.push_back(item);
+          item.clear();
+        } else {
+          item += c;
+        }
+      }
+    } else {
+      dofs = released.cast<std::vector<std::string>>();
+    }
+    d = WithReleasedDofs(std::move(d), dofs);
+  }
+  return std::make_shared<PyModel>(Model(std::move(d)), m->path);
+}
+
+std::shared_ptr<PyModel> Load(const std::string& path, const py::object& clamp, const py::object& endpoint) {
+  if (!std::filesystem::exists(path)) ThrowFileNotFound(path);
+  const std::string ext = std::filesystem::path(path).extension().string();
+  if (ext == ".osim") {
+    if (clamp.is_none() || endpoint.is_none()) {
+      throw Error("loading an OpenSim model needs clamp_body= and endpoint_body= (the bolted body and the body "
+                  "carrying the transducer), e.g. isowrench.load('" + path + "', clamp_body='pelvis', "
+                  "endpoint_body='tibia')");
+    }
+    OpenSimImportOptions options;
+    options.clamp_body = clamp.cast<std::string>();
+    options.endpoint_body = endpoint.cast<std::string>();
+    OpenSimImport imported = ImportOpenSimFile(path, options);
+    for (const std::string& w : imported.warnings) {
+      PyErr_WarnEx(PyExc_UserWarning, (path + ": " + w).c_str(), 1);
+    }
+    return std::make_shared<PyModel>(Model(std::move(imported.description)), path);
+  }
+  return std::make_shared<PyModel>(Model::FromUrdfFile(path), path);
+}
+
+py::array_t<double> Array(const Eigen::VectorXd& v) {
+  py::array_t<double> a(v.size());
+  for (Eigen::Index i = 0; i < v.size(); ++i) a.mutable_at(i) = v[i] == 0.0 ? 0.0 : v[i];
+  return a;
+}
+
+py::array_t<double> Array(const Eigen::MatrixXd& m) {
+  py::array_t<double> a({m.rows(), m.cols()});
+  for (Eigen::Index r = 0; r < m.rows(); ++r) {
+    for (Eigen::Index c = 0; c < m.cols(); ++c) a.mutable_at(r, c) = m(r, c) == 0.0 ? 0.0 : m(r, c);
+  }
+  return a;
+}
+
+py::dict Kinematics(const PyModel& m, const py::object& q_arg) {
+  const Model& model = m.model;
+  const Eigen::VectorXd q = Posture(model, q_arg);
+  KinematicsWorkspace ws(model);
+  py::dict out;
+  out["q"] = Array(q);
+  out["endpoint_m"] = Array(Eigen::VectorXd(EndpointPose(model, ws, q).translation()));
+  out["jacobian"] = Array(Eigen::MatrixXd(EndpointJacobianWorld(model, ws, q)));
+  py::dict muscles;
+  for (int i = 0; i < model.muscle_count(); ++i) {
+    MuscleTorque t = ComputeMuscleTorque(model, ws, q, i);
+    py::dict entry;
+    entry["length_m"] = t.length;
+    entry["moment_arm_m"] = Array(Eigen::VectorXd(-t.dL_dq.transpose()));
+    muscles[py::str(model.muscle(i).name)] = entry;
+  }
+  out["muscles"] = muscles;
+  return out;
+}
+
+/// One wrench evaluation as Python sees it.
+struct PyWrench {
+  WrenchEvaluation e;
+  std::vector<std::string> coordinates;
+};
+
+PyWrench Wrench(const std::shared_ptr<PyModel>& m0, const std::string& muscle, const py::object& q,
+                const py::object& transducer, const py::object& released, double activation) {
+  std::shared_ptr<PyModel> m = Variant(m0, transducer, released);
+  return {EvaluateWrench(m->model, Posture(m->model, q), muscle, activation), m->model.joint_names()};
+}
+
+/// (N, n) float64 C-contiguous postures checked for shape and finiteness.
+CArray Postures(const Model& model, const py::object& Q) {
+  CArray a = CArray::ensure(Q);
+  if (!a) throw Error("Q must be a 2-D array of float64 postures (N, n) in rad / m");
+  const long n = model.dof_count();
+  if (a.ndim() != 2 || a.shape(1) != n) {
+    std::string shape = "(";
+    for (py::ssize_t i = 0; i < a.ndim(); ++i) shape += (i ? ", " : "") + std::to_string(a.shape(i));
+    shape += a.ndim() == 1 ? ",)" : ")";
+    throw Error("Q has shape " + shape + "; it must be (N, " + std::to_string(n) + "): one row per posture, one column " +
+                "per coordinate (" + CoordinateList(model) + "), rad / m");
+  }
+  const double* data = a.data();
+  const py::ssize_t rows = a.shape(0);
+  for (py::ssize_t r = 0; r < rows; ++r) {
+    for (long c = 0; c < n; ++c) {
+      const double v = data[r * n + c];
+      if (!std::isfinite(v)) {
+        throw Error("Q[" + std::to_string(r) + ", " + std::to_string(c) + "] (" + model.joint_names()[c] + ") is " +
+                    std::to_string(v) + "; postures must be finite (rad / m)");
+      }
+    }
+  }
+  return a;
+}
+
+py::object WrenchBatch(const std::shared_ptr<PyModel>& m0, const std::string& muscle, const py::object& Q,
+                       double activation, const py::object& transducer, const py::object& released, int threads,
+                       bool return_status) {
+  std::shared_ptr<PyModel> m = Variant(m0, transducer, released);
+  const int muscle_index = m->model.MuscleIndex(muscle);
+  CArray postures = Postures(m->model, Q);
+  const py::ssize_t count = postures.shape(0);
+  const int n = m->model.dof_count();
+  if (!std::isfinite(activation)) throw Error("activation is " + std::to_string(activation) + "; it must be finite");
+  if (threads < 0) throw Error("threads is " + std::to_string(threads) + "; it must be >= 1, or 0 for every core");
+  py::array_t<double> out({count, static_cast<py::ssize_t>(6)});
+  py::array_t<std::uint8_t> status(count);
+  double* w = out.mutable_data();
+  std::uint8_t* s = status.mutable_data();
+  const double* q = postures.data();
+  {
+    py::gil_scoped_release release;
+    if (count > 0) {
+      // A C-contiguous (N, n) array is an n x N column-major matrix: no copy.
+      Eigen::Map<const Eigen::MatrixXd> columns(q, n, count);
+      std::vector<FastWrench> results;
+      BatchOptions options;
+      options.threads = threads > 0 ? threads : std::max(1u, std::thread::hardware_concurrency());
+      EvaluateBatch(*m->compiled, columns, muscle_index, {m->compiled->model_stiffness()}, results, activation,
+                    options);
+      for (py::ssize_t p = 0; p < count; ++p) {
+        for (int k = 0; k < 6; ++k) w[p * 6 + k] = results[static_cast<size_t>(p)].wrench[k];
+        s[p] = static_cast<std::uint8_t>(results[static_cast<size_t>(p)].status);
+      }
+    }
+  }
+  if (return_status) return py::make_tuple(out, status);
+  return std::move(out);
+}
+
+py::dict WrenchDict(const Vector6d& w) {
+  py::dict d;
+  const char* names[6] = {"fx", "fy", "fz", "mx", "my", "mz"};
+  for (int i = 0; i < 6; ++i) d[names[i]] = w[i] == 0.0 ? 0.0 : w[i];
+  return d;
+}
+
+py::dict AssessmentDict(const ReleaseAssessment& a) {
+  py::dict d;
+  d["name"] = a.candidate.name;
+  d["kind"] = a.candidate.kind == ReleaseKind::kNone       ? "none"
+              : a.candidate.kind == ReleaseKind::kRotation ? "rotation"
+                                                           : "translation";
+  d["source"] = a.candidate.source;
+  d["axis_world"] = Array(Eigen::VectorXd(a.candidate.axis_world));
+  d["axis_transducer"] = Array(Eigen::VectorXd(a.axis_transducer));
+  d["rank"] = a.rank;
+  d["columns"] = a.columns;
+  d["margin"] = a.margin;
+  d["self_motion"] = a.self_motion;
+  d["near_self_motion"] = a.near_self_motion;
+  d["internal_wrench"] = a.internal_wrench;
+  d["torques_recoverable"] = a.torques_recoverable;
+  d["statics_status"] = StatusName(a.statics.status);
+  d["small_motion_valid"] = a.statics.small_motion_valid;
+  d["wrench"] = WrenchDict(a.statics.wrench);
+  d["wrench_min"] = WrenchDict(a.wrench_min);
+  d["wrench_max"] = WrenchDict(a.wrench_max);
+  d["spread"] = a.spread;
+  d["range_failures"] = a.range_failures;
+  d["rank_order"] = a.rank_order;
+  d["verdict"] = a.verdict;
+  return d;
+}
+
+py::dict ForbiddenDict(const ForbiddenAxes& f) {
+  py::dict d;
+  d["dimension"] = f.dimension;
+  d["basis_world"] = Array(Eigen::MatrixXd(f.basis.transpose()));
+  d["description"] = f.description;
+  return d;
+}
+
+py::dict Releases(const PyModel& m, const std::string& muscle, const py::object& q) {
+  ReleaseComparison c = CompareReleases(m.model, Posture(m.model, q), muscle);
+  py::dict d;
+  d["muscle"] = c.muscle;
+  d["baseline"] = AssessmentDict(c.baseline);
+  py::list list;
+  for (const ReleaseAssessment& a : c.candidates) list.append(AssessmentDict(a));
+  d["candidates"] = list;
+  d["recommended"] = c.recommended >= 0 ? py::object(py::str(c.candidates[static_cast<size_t>(c.recommended)].candidate.name))
+                                        : py::object(py::none());
+  d["recommendation"] = c.recommendation;
+  d["length_scale_m"] = c.length_scale;
+  d["stiffness_range"] = c.range_description;
+  d["forbidden_rotations"] = ForbiddenDict(c.forbidden_rotations);
+  d["forbidden_translations"] = ForbiddenDict(c.forbidden_translations);
+  return d;
+}
+
+py::dict MotionDict(const JointMotion& m) {
+  py::dict d;
+  d["direction"] = Array(m.direction);
+  d["joints"] = m.joints;
+  d["interpretation"] = m.interpretation;
+  return d;
+}
+
+py::dict Diagnose(const PyModel& m, const std::string& muscle, const py::object& q, bool large_deflection) {
+  DiagnosisOptions options;
+  options.large_deflection = large_deflection;
+  Diagnosis d = DiagnoseLimb(m.model, Posture(m.model, q), muscle, options);
+  const ConstraintAnalysis& a = d.constraints;
+  py::dict constraints;
+  constraints["class"] = ConstraintClassName(a.constraint_class);
+  constraints["explanation"] = a.explanation;
+  constraints["joint_dofs"] = a.joint_count;
+  constraints["restrained_dofs"] = a.restrained_count;
+  constraints["restrained"] = a.restrained;
+  constraints["rank"] = a.rank;
+  constraints["singular_values"] = Array(a.singular_values);
+  constraints["length_scale_m"] = a.length_scale;
+  constraints["rank_tolerance"] = a.rank_tolerance;
+  constraints["rank_threshold"] = a.rank_threshold;
+  py::list self, internal;
+  for (const JointMotion& j : a.self_motion) self.append(MotionDict(j));
+  for (const InternalWrench& w : a.internal_wrench) {
+    py::dict i;
+    std::vector<std::string> names;
+    for (int c : w.components) names.push_back(DofName(c));
+    i["direction"] = WrenchDict(w.direction);
+    i["components"] = names;
+    i["description"] = w.description;
+    internal.append(i);
+  }
+  constraints["self_motion"] = self;
+  constraints["internal_wrench"] = internal;
+
+  const WrenchEvaluation& e = d.evaluation;
+  py::dict out;
+  out["constraints"] = constraints;
+  out["muscle"] = e.muscle;
+  out["force_N"] = e.muscle_force;
+  out["tau"] = Array(e.tau);
+  out["wrench"] = WrenchDict(e.statics.wrench);
+  py::dict statics;
+  statics["status"] = StatusName(e.statics.status);
+  statics["message"] = e.statics.message;
+  statics["small_motion_valid"] = e.statics.small_motion_valid;
+  statics["validity_message"] = e.statics.validity_message;
+  out["statics"] = statics;
+  py::list null_k;
+  for (const JointMotion& j : d.stiffness_null) null_k.append(MotionDict(j));
+  out["stiffness_null"] = null_k;
+  out["internal_coefficients"] = Array(d.internal_coefficients);
+  out["internal_residual"] = d.internal_residual;
+  out["classic_wrench"] = WrenchDict(e.classic.wrench);
+  py::dict sensitivity;
+  sensitivity["ok"] = d.sensitivity.ok;
+  sensitivity["message"] = d.sensitivity.message;
+  py::list entries;
+  for (const StiffnessSensitivity& s : d.sensitivity.entries) {
+    py::dict entry;
+    entry["parameter"] = s.parameter;
+    entry["kind"] = s.kind;
+    entry["stiffness"] = s.stiffness;
+    entry["unit"] = s.unit;
+    entry["dW_dlogk"] = WrenchDict(s.dW_dlogk);
+    entry["relative"] = s.relative;
+    entries.append(entry);
+  }
+  sensitivity["entries"] = entries;
+  out["sensitivity"] = sensitivity;
+  if (d.large_deflection_run) {
+    const LargeDeflectionResult& l = d.large_deflection;
+    py::dict ld;
+    ld["status"] = LargeDeflectionStatusName(l.status);
+    ld["message"] = l.message;
+    ld["iterations"] = l.iterations;
+    ld["wrench_linear"] = WrenchDict(l.wrench_linear);
+    ld["wrench_nonlinear"] = WrenchDict(l.wrench_nonlinear);
+    ld["wrench_relative_difference"] = l.wrench_relative_difference;
+    ld["displacement"] = l.displacement;
+    ld["dtheta_difference"] = l.dtheta_difference;
+    ld["dtheta_nonlinear"] = Array(l.dtheta_nonlinear);
+    ld["dtheta_linear"] = Array(l.dtheta_linear);
+    out["large_deflection"] = ld;
+  }
+  return out;
+}
+
+std::string WrenchRepr(const PyWrench& w) {
+  const Vector6d& t = w.e.statics.wrench;
+  char buffer[256];
+  std::snprintf(buffer, sizeof(buffer),
+                "<isowrench.Wrench %s: fx=%.6g fy=%.6g fz=%.6g N, mx=%.6g my=%.6g mz=%.6g N·m (transducer axes), "
+                "status '%s'%s>",
+                w.e.muscle.c_str(), t[0], t[1], t[2], t[3], t[4], t[5], StatusName(w.e.statics.status),
+                w.e.statics.small_motion_valid ? "" : ", small motion INVALID");
+  return buffer;
+}
+
+}  // namespace
+}  // namespace isowrench::python
+
+PYBIND11_MODULE(_core, mod) {
+  using namespace isowrench;
+  using namespace isowrench::python;
+  mod.doc() =
+      "isowrench._core: the C++ engine behind the isowrench package (pybind11). Use `import isowrench`.";
+  mod.attr("__version__") = ISOWRENCH_VERSION;
+  mod.attr("STATUS_NAMES") = py::make_tuple(StatusName(StaticsStatus::kOk), StatusName(StaticsStatus::kSelfMotionHeld),
+                                            StatusName(StaticsStatus::kSelfMotion),
+                                            StatusName(StaticsStatus::kInvalidInput));
+
+  py::register_exception_translator([](std::exception_ptr p) {
+    try {
+      if (p) std::rethrow_exception(p);
+    } catch (const Error& e) {
+      PyErr_SetString(PyExc_ValueError, e.what());
+    }
+  });
+
+  py::class_<PyWrench>(mod, "Wrench",
+                       "One muscle at one posture: the Eq. 10 wrench W = S_t J (J^T S_t J + S_p)^-1 tau that the limb "
+                       "applies to the transducer (forces N, moments N·m about the endpoint), with the statics "
+                       "behind it. Returned by Model.wrench().")
+      .def_property_readonly("transducer", [](const PyWrench& w) { return Array(Eigen::VectorXd(w.e.statics.wrench)); },
+                             "(6,) [fx fy fz mx my mz] in the transducer's axes (N, N·m); released rows are 0; zeros "
+                             "when status is 'self-motion' (no equilibrium).")
+      .def_property_readonly("world", [](const PyWrench& w) { return Array(Eigen::VectorXd(w.e.wrench_world)); },
+                             "(6,) the same wrench in world axes (N, N·m).")
+      .def_property_readonly("classic", [](const PyWrench& w) { return Array(Eigen::VectorXd(w.e.classic.wrench)); },
+                             "(6,) the classic answer without compliance, J^-T tau (Eq. 11) or pinv(J^T) tau (Eq. "
+                             "15), transducer axes (N, N·m).")
+      .def_property_readonly("dtheta", [](const PyWrench& w) { return Array(w.e.statics.dtheta); },
+                             "(n,) equilibrium displacement K^+ tau per coordinate (rad, or m for prismatic ones).")
+      .def_property_readonly("tau", [](const PyWrench& w) { return Array(w.e.tau); },
+                             "(n,) muscle generalized force -F dL/dq per coordinate (N·m, or N for prismatic ones).")
+      .def_property_readonly("q", [](const PyWrench& w) { return Array(w.e.q); }, "(n,) the posture (rad / m).")
+      .def_property_readonly("jacobian", [](const PyWrench& w) { return Array(Eigen::MatrixXd(w.e.jacobian)); },
+                             "(6, n) endpoint Jacobian in transducer axes, rows [v; w].")
+      .def_property_readonly("status", [](const PyWrench& w) { return std::string(StatusName(w.e.statics.status)); },
+                             "'ok', 'self-motion (not excited)' (W still unique), 'self-motion' (no equilibrium, W "
+                             "is zeros) or 'invalid input'.")
+      .def_property_readonly("message", [](const PyWrench& w) { return w.e.statics.message; },
+                             "The statics' one-sentence explanation of the status.")
+      .def_property_readonly("small_motion", [](const PyWrench& w) { return w.e.statics.small_motion_valid; },
+                             "True when the linear (small-motion) answer is valid: endpoint translation <= 0.1% of "
+                             "the leg length and every joint rotation <= 0.01 rad.")
+      .def_property_readonly("small_motion_message", [](const PyWrench& w) { return w.e.statics.validity_message; },
+                             "Why the small-motion check failed ('' when valid).")
+      .def_property_readonly("muscle", [](const PyWrench& w) { return w.e.muscle; }, "The muscle's name.")
+      .def_property_readonly("muscle_force_N", [](const PyWrench& w) { return w.e.muscle_force; },
+                             "Muscle force F = activation x max_force (N).")
+      .def_property_readonly("muscle_length_m", [](const PyWrench& w) { return w.e.muscle_length; },
+                             "Muscle path length (m).")
+      .def_property_readonly("coordinates", [](const PyWrench& w) { return w.coordinates; },
+                             "Coordinate names: the order of dtheta, tau and q.")
+      .def("__repr__", &WrenchRepr);
+
+  py::class_<PyModel, std::shared_ptr<PyModel>>(
+      mod, "Model",
+      "An immutable limb model (URDF with isowrench tags, or an imported .osim): the chain from ground to the "
+      "endpoint, its coordinates, muscles and transducer. Create it with isowrench.load(). Thread-safe.")
+      .def_property_readonly("name", [](const PyModel& m) { return m.model.name(); }, "The model's (robot's) name.")
+      .def_property_readonly("path", [](const PyModel& m) { return m.path; }, "The file it was loaded from.")
+      .def_property_readonly("coordinates", [](const PyModel& m) { return m.model.joint_names(); },
+                             "Independent coordinate names in column order (the Jacobian's columns, a posture's "
+                             "entries).")
+      .def_property_readonly(
+          "coordinate_types",
+          [](const PyModel& m) {
+            std::vector<std::string> out;
+            for (const std::string& name : m.model.joint_names()) {
+              out.push_back(FindCoordinate(m.model.description(), name).type == JointType::kPrismatic ? "prismatic"
+                                                                                                      : "revolute");
+            }
+            return out;
+          },
+          "'revolute' (rad) or 'prismatic' (m) per coordinate.")
+      .def_property_readonly(
+          "muscles",
+          [](const PyModel& m) {
+            std::vector<std::string> out;
+            for (int i = 0; i < m.model.muscle_count(); ++i) out.push_back(m.model.muscle(i).name);
+            return out;
+          },
+          "Muscle names.")
+      .def_property_readonly("default_posture", [](const PyModel& m) { return Array(m.model.nominal_posture()); },
+                             "(n,) the model's nominal posture (rad / m), used when q is None.")
+      .def_property_readonly("joint_stiffness", [](const PyModel& m) { return Array(m.model.joint_stiffness()); },
+                             "(n,) S_p diagonal per coordinate (N·m/rad or N/m).")
+      .def_property_readonly(
+          "transducer_stiffness", [](const PyModel& m) { return Array(Eigen::VectorXd(m.model.transducer().stiffness)); },
+          "(6,) S_t diagonal [kx ky kz (N/m), krx kry krz (N·m/rad)] in transducer axes.")
+      .def_property_readonly(
+          "released",
+          [](const PyModel& m) {
+            std::vector<std::string> out;
+            for (int i = 0; i < 6; ++i) {
+              if (m.model.transducer().released[i]) out.push_back(DofName(i));
+            }
+            return out;
+          },
+          "Released transducer dofs (names among x y z rx ry rz).")
+      .def_property_readonly("leg_length_m", [](const PyModel& m) { return m.model.chain_length(); },
+                             "Sum of joint-to-joint distances plus the endpoint offset (m).")
+      .def("kinematics", &Kinematics, py::arg("q") = py::none(),
+           "kinematics(q=None) -> dict\n\n"
+           "Endpoint position, endpoint Jacobian and every muscle's length and moment arm at posture q (None: the "
+           "default posture; n values in rad / m; or a dict {coordinate: value} over the default posture).\n"
+           "Returns {'q': (n,), 'endpoint_m': (3,) world position (m), 'jacobian': (6, n) world axes, rows vx vy vz "
+           "(m/rad) wx wy wz (rad/rad), 'muscles': {name: {'length_m': float, 'moment_arm_m': (n,) -dL/dq}}}: the "
+           "same numbers as `isowrench kinematics --json`.\nRaises ValueError for a bad posture.")
+      .def("wrench", &Wrench, py::arg("muscle"), py::arg("q") = py::none(), py::arg("transducer") = py::none(),
+           py::arg("released") = py::none(), py::arg("activation") = 1.0,
+           "wrench(muscle, q=None, transducer=None, released=None, activation=1.0) -> Wrench\n\n"
+           "The Eq. 10 wrench muscle `muscle` applies through the limb to the transducer at posture q (None: default "
+           "posture; n values in rad / m; or a dict {coordinate: value}). transducer: None (the model's S_t), a "
+           "preset name ('balanced', 'ati-mini40', 'jr3') or 6 stiffnesses (N/m, N·m/rad); released: None (the "
+           "model's), a list of dof names among x y z rx ry rz, or [] for none. activation scales the force "
+           "(F = activation x max_force). Same numbers as `isowrench wrench --json`.\n"
+           "Raises ValueError for an unknown muscle, a bad posture or bad stiffnesses.")
+      .def("wrench_batch", &WrenchBatch, py::arg("muscle"), py::arg("Q"), py::arg("activation") = 1.0,
+           py::arg("transducer") = py::none(), py::arg("released") = py::none(), py::arg("threads") = 0,
+           py::arg("return_status") = false,
+           "wrench_batch(muscle, Q, activation=1.0, transducer=None, released=None, threads=0, return_status=False)"
+           " -> ndarray (N, 6)\n\n"
+           "The Eq. 10 wrench at every posture (row) of Q (N, n) in rad / m: row i = [fx fy fz mx my mz] (N, N·m) in "
+           "transducer axes, equal to wrench(muscle, Q[i]).transducer to rounding. Runs the C++ batch kernel with "
+           "the GIL released on `threads` threads (0: every core). Rows without equilibrium are zeros; with "
+           "return_status=True a uint8 status array (N,) is returned too, indexing isowrench.STATUS_NAMES.\n"
+           "Raises ValueError for an unknown muscle, Q of the wrong shape (not (N, n)) or a non-finite entry.")
+      .def("releases", &Releases, py::arg("muscle"), py::arg("q") = py::none(),
+           "releases(muscle, q=None) -> dict\n\n"
+           "Which extra transducer dof to release (CompareReleases): the baseline and every default candidate "
+           "assessed, the forbidden axes and the recommendation; the keys of `isowrench releases --json` for one "
+           "muscle (wrenches as {fx..mz} dicts, N and N·m; axes as numpy arrays).")
+      .def("diagnose", &Diagnose, py::arg("muscle"), py::arg("q") = py::none(), py::arg("large_deflection") = true,
+           "diagnose(muscle, q=None, large_deflection=True) -> dict\n\n"
+           "DiagnoseLimb: constraint class, self-motions and internal wrenches ('constraints'), the Eq. 10 wrench "
+           "and classic answer, sensitivities dW/dlog k and (optionally) the nonlinear equilibrium; the keys of "
+           "`isowrench diagnose --json` for one muscle.")
+      .def("__repr__", [](const PyModel& m) {
+        return "<isowrench.Model '" + m.model.name() + "': " + std::to_string(m.model.dof_count()) + " coordinates (" +
+               CoordinateList(m.model) + "), " + std::to_string(m.model.muscle_count()) + " muscles>";
+      });
+
+  mod.def("load", &Load, py::arg("path"), py::arg("clamp_body") = py::none(), py::arg("endpoint_body") = py::none(),
+          "load(path, clamp_body=None, endpoint_body=None) -> Model\n\n"
+          "Read a limb model: a URDF with isowrench extension tags, or an OpenSim .osim (then clamp_body and "
+          "endpoint_body are required, as for `isowrench import`; import warnings become UserWarnings).\n"
+          "Raises FileNotFoundError for a missing file and ValueError (with file and line) for a bad model.");
+}
