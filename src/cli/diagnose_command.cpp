@@ -6,8 +6,8 @@
 
 #include "cli/command.hpp"
 #include "isowrench/diagnostics.hpp"
+#include "isowrench/io.hpp"
 #include "isowrench/posture.hpp"
-#include "util/text.hpp"
 
 namespace isowrench::cli {
 namespace {

@@ -5,9 +5,9 @@
 
 #include "cli/command.hpp"
 #include "isowrench/error.hpp"
+#include "isowrench/io.hpp"
 #include "isowrench/plots.hpp"
 #include "isowrench/posture.hpp"
-#include "util/text.hpp"
 
 namespace isowrench::cli {
 namespace {

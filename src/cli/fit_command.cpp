@@ -7,8 +7,8 @@
 #include "cli/command.hpp"
 #include "isowrench/error.hpp"
 #include "isowrench/identification.hpp"
+#include "isowrench/io.hpp"
 #include "isowrench/plots.hpp"
-#include "util/text.hpp"
 
 namespace isowrench::cli {
 namespace {

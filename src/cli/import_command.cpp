@@ -5,8 +5,8 @@
 
 #include "cli/command.hpp"
 #include "isowrench/error.hpp"
+#include "isowrench/io.hpp"
 #include "isowrench/opensim.hpp"
-#include "util/text.hpp"
 
 namespace isowrench::cli {
 namespace {

@@ -5,9 +5,9 @@
 #include <sstream>
 
 #include "cli/command.hpp"
+#include "isowrench/io.hpp"
 #include "isowrench/kinematics.hpp"
 #include "isowrench/posture.hpp"
-#include "util/text.hpp"
 
 namespace isowrench::cli {
 namespace {
@@ -45,24 +45,30 @@ bool Prismatic(const Model& model, int column) {
   return FindCoordinate(model.description(), model.joint_names()[column]).type == JointType::kPrismatic;
 }
 
+/// v with -0 written as 0.
+std::vector<double> Values(const double* data, Eigen::Index size) {
+  std::vector<double> v(data, data + size);
+  for (double& x : v) x += 0.0;
+  return v;
+}
+
 nlohmann::ordered_json Json(const Model& model, const std::vector<PostureKinematics>& results) {
   nlohmann::ordered_json out;
   out["coordinates"] = model.joint_names();
   nlohmann::ordered_json postures = nlohmann::ordered_json::array();
   for (const PostureKinematics& k : results) {
     nlohmann::ordered_json p;
-    p["endpoint_m"] = {k.endpoint.x(), k.endpoint.y(), k.endpoint.z()};
+    p["endpoint_m"] = Values(k.endpoint.data(), 3);
     nlohmann::ordered_json rows = nlohmann::ordered_json::array();
     for (int r = 0; r < 6; ++r) {
       Eigen::RowVectorXd row = k.jacobian.row(r);
-      rows.push_back(std::vector<double>(row.data(), row.data() + row.size()));
+      rows.push_back(Values(row.data(), row.size()));
     }
     p["jacobian"] = rows;
     nlohmann::ordered_json muscles = nlohmann::ordered_json::object();
     for (int m = 0; m < model.muscle_count(); ++m) {
       const Eigen::VectorXd& r = k.moment_arm[m];
-      muscles[model.muscle(m).name] = {{"length_m", k.length[m]},
-                                       {"moment_arm_m", std::vector<double>(r.data(), r.data() + r.size())}};
+      muscles[model.muscle(m).name] = {{"length_m", k.length[m]}, {"moment_arm_m", Values(r.data(), r.size())}};
     }
     p["muscles"] = muscles;
     postures.push_back(p);

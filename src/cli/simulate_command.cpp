@@ -6,7 +6,7 @@
 #include "cli/command.hpp"
 #include "isowrench/error.hpp"
 #include "isowrench/identification.hpp"
-#include "util/text.hpp"
+#include "isowrench/io.hpp"
 
 namespace isowrench::cli {
 namespace {

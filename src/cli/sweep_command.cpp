@@ -12,9 +12,8 @@
 #include "cli/command.hpp"
 #include "isowrench/error.hpp"
 #include "isowrench/fast.hpp"
+#include "isowrench/io.hpp"
 #include "isowrench/posture.hpp"
-#include "util/atomic_file.hpp"
-#include "util/text.hpp"
 
 namespace isowrench::cli {
 namespace {

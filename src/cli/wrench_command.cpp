@@ -3,9 +3,9 @@
 #include <iostream>
 
 #include "cli/command.hpp"
+#include "isowrench/io.hpp"
 #include "isowrench/posture.hpp"
 #include "isowrench/statics.hpp"
-#include "util/text.hpp"
 
 namespace isowrench::cli {
 namespace {

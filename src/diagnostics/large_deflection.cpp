@@ -11,6 +11,7 @@
 #include "isowrench/error.hpp"
 #include "isowrench/kinematics.hpp"
 #include "isowrench/posture.hpp"
+#include "util/eigen_instantiations.hpp"
 #include "util/text.hpp"
 
 namespace isowrench {

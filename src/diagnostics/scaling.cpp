@@ -5,6 +5,7 @@
 #include <cstdio>
 
 #include "isowrench/error.hpp"
+#include "util/eigen_instantiations.hpp"
 #include "util/text.hpp"
 
 namespace isowrench::diagnostics {

@@ -8,6 +8,7 @@
 
 #include "diagnostics/scaling.hpp"
 #include "isowrench/diagnostics.hpp"
+#include "util/eigen_instantiations.hpp"
 #include "util/text.hpp"
 
 namespace isowrench {

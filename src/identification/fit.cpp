@@ -22,6 +22,7 @@
 #include "identification/identification_impl.hpp"
 #include "isowrench/error.hpp"
 #include "util/atomic_file.hpp"
+#include "util/eigen_instantiations.hpp"
 #include "util/text.hpp"
 
 namespace isowrench {

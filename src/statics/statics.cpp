@@ -7,6 +7,7 @@
 #include <cmath>
 #include <sstream>
 
+#include "util/eigen_instantiations.hpp"
 #include "util/text.hpp"
 
 namespace isowrench {

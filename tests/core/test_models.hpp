@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "isowrench/isowrench.hpp"
+#include "util/eigen_instantiations.hpp"
 
 namespace isowrench_test {
 

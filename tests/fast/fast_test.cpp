@@ -17,6 +17,7 @@
 #include <vector>
 
 #include "isowrench/isowrench.hpp"
+#include "util/eigen_instantiations.hpp"
 
 namespace {
 

@@ -1,0 +1,28 @@
+# `isowrench kinematics` (issue 12 item 3), included from tests/cli/CMakeLists.txt after the
+# isowrench_cli_test / isowrench_cli_error helpers. The numbers themselves are checked against
+# finite differences of an independent forward kinematics in tests/core/coupling_test.cpp.
+set(coupled ${urdf}/rat_hindlimb_coupled_knee.urdf)
+
+isowrench_cli_test(kinematics_help "--postures.*--json" kinematics --help)
+isowrench_cli_test(kinematics_table_units
+  "endpoint \\(m\\).*Jacobian: rows vx vy vz in m/rad.*moment arm -dL/dq.*GP"
+  kinematics ${rat5})
+isowrench_cli_test(kinematics_json_layout
+  "^\\{\"coordinates\": \\[\"hip_rz\",\"hip_ry\",\"hip_rx\",\"knee_rz\",\"knee_rx\"\\],\n \"postures\": \\[\\{\"endpoint_m\": \\[[^]]*\\],\n   \"jacobian\": \\[\\[.*\"muscles\": \\{\"GP\": \\{\"length_m\":[^,]*,\"moment_arm_m\":\\[[^]]*\\]\\}\\}\\}\\]\\}"
+  kinematics ${rat5} --json)
+# Three CSV rows -> three postures; the second row's empty knee_rx keeps the nominal value.
+isowrench_cli_test(kinematics_postures_csv "\"endpoint_m\".*\"endpoint_m\".*\"endpoint_m\""
+  kinematics ${rat5} --postures ${data}/postures_rat.csv --json)
+isowrench_cli_test(kinematics_repeated_posture "posture 1: hip_rz=-100°, hip_ry=0°, hip_rx=0°, knee_rz=90°, knee_rx=10°"
+  kinematics ${rat5} --posture hip_rz=-100 --posture knee_rz=90,knee_rx=10)
+
+isowrench_cli_error(kinematics_driven_joint 1
+  "isowrench: error: joint 'knee_tx' is driven by coordinate 'knee_rz' \\(isowrench:coupling\\); set 'knee_rz' instead"
+  kinematics ${coupled} --posture knee_tx=1)
+isowrench_cli_error(kinematics_driven_joint_mimic 1 "isowrench: error: [^\n]*'knee_ty'[^\n]*\\(mimic\\); set 'knee_rz' instead"
+  kinematics ${coupled} --posture knee_ty=1)
+isowrench_cli_error(kinematics_csv_unknown_column 1
+  "isowrench: error: [^\n]*postures_bad_column.csv:1: column 'knee_rzz'[^\n]*did you mean 'knee_rz'"
+  kinematics ${rat5} --postures ${data}/postures_bad_column.csv)
+isowrench_cli_error(kinematics_csv_missing 1 "isowrench: error: [^\n]*no_such_postures.csv"
+  kinematics ${rat5} --postures ${data}/no_such_postures.csv)
