@@ -1,6 +1,8 @@
 // The installed-package consumer: the GP muscle's wrench on the shipped 5-dof rat limb at its
 // nominal posture, through the full report (EvaluateWrench) and through the fast path, which
-// must agree. Exit code 0 when they do.
+// must agree. Exit code 0 when they do. It also names a fit verdict, a function of the
+// identification layer's Ceres-based fitting code, so that a static link needs the Ceres
+// dependencies that `pkg-config --static --libs isowrench` lists.
 
 #include <cstdio>
 #include <string>
@@ -25,6 +27,8 @@ int main(int argc, char** argv) {
                 w[3], w[4], w[5]);
     const double difference = (fast.wrench - w).norm();
     std::printf("fast path differs by %.3g\n", difference);
+    std::printf("identification layer linked: verdict names such as '%s'\n",
+                isowrench::FitVerdictName(isowrench::FitVerdict::kExplained));
     return difference <= 1e-9 * w.norm() ? 0 : 1;
   } catch (const isowrench::Error& error) {
     std::fprintf(stderr, "app: error: %s\n", error.what());

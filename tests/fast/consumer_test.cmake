@@ -1,7 +1,8 @@
 # cmake -DBUILD_DIR=... -DSOURCE_DIR=... -DWORK_DIR=... [-DSANITIZE=ON] -P consumer_test.cmake
 # Installs the build into a temporary prefix, checks what was installed (public headers only,
 # CMake package, pkg-config file, URDFs, CLI), then configures, builds and runs
-# examples/consumer against it with find_package(isowrench CONFIG REQUIRED).
+# examples/consumer against it with find_package(isowrench CONFIG REQUIRED), and compiles it
+# again with exactly `pkg-config --cflags --libs --static isowrench` (Ceres included).
 file(REMOVE_RECURSE ${WORK_DIR})
 set(prefix ${WORK_DIR}/prefix)
 
@@ -40,6 +41,10 @@ set(flags "")
 if(SANITIZE)
   set(flags "-DCMAKE_CXX_FLAGS=-fsanitize=address,undefined" "-DCMAKE_EXE_LINKER_FLAGS=-fsanitize=address,undefined")
 endif()
+# The compiler the library was built with (a clang-built sanitized library needs clang's runtime).
+if(CXX_COMPILER)
+  list(APPEND flags "-DCMAKE_CXX_COMPILER=${CXX_COMPILER}")
+endif()
 run(${CMAKE_COMMAND} -S ${SOURCE_DIR}/examples/consumer -B ${WORK_DIR}/build
     -DCMAKE_PREFIX_PATH=${prefix} -DCMAKE_BUILD_TYPE=Release ${flags})
 run(${CMAKE_COMMAND} --build ${WORK_DIR}/build)
@@ -48,7 +53,11 @@ message(STATUS "consumer app:\n${last_output}")
 
 # pkg-config, when available: compile the same program without CMake.
 find_program(PKG_CONFIG pkg-config)
-find_program(CXX NAMES c++ g++)
+if(CXX_COMPILER)
+  set(CXX ${CXX_COMPILER})
+else()
+  find_program(CXX NAMES c++ g++)
+endif()
 if(PKG_CONFIG AND CXX AND NOT SANITIZE)
   set(ENV{PKG_CONFIG_PATH} "")
   file(GLOB pcdirs ${prefix}/lib*/pkgconfig ${prefix}/lib/*/pkgconfig)
