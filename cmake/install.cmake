@@ -136,3 +136,15 @@ file(RELATIVE_PATH ISOWRENCH_PC_TO_PREFIX "/${CMAKE_INSTALL_LIBDIR}/pkgconfig" "
 string(REGEX REPLACE "/$" "" ISOWRENCH_PC_TO_PREFIX "${ISOWRENCH_PC_TO_PREFIX}")
 configure_file(${PROJECT_SOURCE_DIR}/cmake/isowrench.pc.in ${PROJECT_BINARY_DIR}/isowrench.pc @ONLY)
 install(FILES ${PROJECT_BINARY_DIR}/isowrench.pc DESTINATION ${CMAKE_INSTALL_LIBDIR}/pkgconfig)
+
+# Python module (issue 15, python/): the package isowrench (extension _core, __init__.py, stubs)
+# into the interpreter's site-packages, Python3_SITEARCH (an absolute path: --prefix does not
+# move it; set ISOWRENCH_PYTHON_INSTALL_DIR to install elsewhere).
+if(TARGET isowrench_python)
+  set(ISOWRENCH_PYTHON_INSTALL_DIR "${Python3_SITEARCH}" CACHE PATH
+      "Directory cmake --install puts the Python package isowrench in (default: Python3_SITEARCH)")
+  install(TARGETS isowrench_python LIBRARY DESTINATION ${ISOWRENCH_PYTHON_INSTALL_DIR}/isowrench)
+  install(FILES ${PROJECT_SOURCE_DIR}/python/isowrench/__init__.py ${PROJECT_SOURCE_DIR}/python/isowrench/__init__.pyi
+                ${PROJECT_SOURCE_DIR}/python/isowrench/py.typed
+          DESTINATION ${ISOWRENCH_PYTHON_INSTALL_DIR}/isowrench)
+endif()

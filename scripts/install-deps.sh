@@ -9,6 +9,7 @@ PACKAGES=(
   libcli11-dev nlohmann-json3-dev libceres-dev
   libgtest-dev libgmock-dev libbenchmark-dev
   python3 python3-numpy valgrind librsvg2-bin
+  python3-dev pybind11-dev python3-pytest python3-pykdl python3-matplotlib
 )
 
 missing=()
