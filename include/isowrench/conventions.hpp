@@ -1,7 +1,7 @@
 #pragma once
 /// @file
 /// Documentation only: the units, frames, vector orders and notation used by every isowrench
-/// header. See ../shared/MODEL.md in the project notes and docs/model.md for the argument.
+/// header. See docs/model.md for the argument.
 ///
 /// Units
 /// -----

@@ -230,7 +230,7 @@ enum class ReleaseKind {
 };
 
 /// One candidate extra release, equivalent to a zero-stiffness joint between endpoint and
-/// transducer (MODEL.md "Released dofs").
+/// transducer (docs/model.md "Released dofs").
 struct ReleaseCandidate {
   std::string name;    ///< e.g. "rz", "endpoint-knee line", "user 1"
   ReleaseKind kind = ReleaseKind::kRotation;

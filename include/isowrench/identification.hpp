@@ -301,7 +301,9 @@ struct FitOptions {
   /// Look-elsewhere correction: with M candidates tried in a round, the threshold above is
   /// raised by 2 ln(M) (a Bonferroni-style penalty for picking the best of M).
   bool look_elsewhere = true;
-  /// ... and its held-out error is lower: cv_candidate <= (1 - min_cv_improvement) * cv_current.
+  /// ... and its held-out error is lower: cv_candidate <= cv_current - min_cv_improvement *
+  /// min(cv_current, 1) (robust cost per residual; 1 = at the noise, so gross outliers, which
+  /// inflate both, do not hide an improvement).
   double min_cv_improvement = 0.02;
   /// Runner-ups with BIC within indistinguishable_bic of the winner (and also passing the
   /// thresholds) are reported as indistinguishable from it at these postures.
@@ -437,7 +439,8 @@ struct FitReport {
   std::vector<double> trial_factors;
   double trial_force_spread = 0.0;
   std::vector<long> trial_force_outliers;
-  /// Where the residual lives when it stays above the noise (empty otherwise).
+  /// Where the residual lives when it stays above the noise (empty otherwise): first the
+  /// trends (trial order, coordinates, muscle lengths; best first), then the muscle/axis shares.
   struct TraceItem {
     std::string variable;  ///< "trial order", "coordinate hip_rz", "length of GP", "muscle GP axis fx"
     double share = 0.0;    ///< fraction of the excess chi^2 it explains (0..1)
@@ -466,6 +469,46 @@ CandidateFit FitCandidate(const AugmentedModel& current, const Effect& effect,
 /// @throws Error for empty trials or unknown candidate ids; numerical outcomes are in the report.
 FitReport FitEffects(const Model& nominal, const std::vector<Trial>& trials,
                      const FitOptions& options = {});
+
+// ---- Experiment design ---------------------------------------------------------------------
+
+/// Options of DesignExperiment.
+struct DesignOptions {
+  int postures = 20;              ///< N, the trials to choose (>= 1)
+  int candidates = 400;           ///< grid size when no candidate trials are given
+  unsigned long long seed = 1;    ///< grid sampling (as SimulateTrials)
+  double joint_range = 15.0 * 3.14159265358979323846 / 180.0;  ///< grid: nominal +- (rad)
+  double noise_force = 0.002;     ///< expected noise sd (N), weights the Fisher information
+  double noise_moment = 5e-5;     ///< expected noise sd (N·m)
+  std::vector<std::string> muscles;  ///< grid muscles, cycled (empty = all)
+};
+
+/// The chosen postures and what they are expected to give.
+struct DesignResult {
+  std::vector<Trial> chosen;               ///< the N trials (posture, muscle, activation)
+  std::vector<int> chosen_index;           ///< their index among the candidates
+  std::vector<std::string> labels;         ///< "effect.parameter" per parameter
+  std::vector<std::string> units;          ///< user unit per parameter
+  std::vector<double> values;              ///< parameter values the information is computed at
+  std::vector<double> standard_errors;     ///< expected SE, user units (log10 ones: delta method)
+  std::vector<double> random_standard_errors;  ///< same with N candidates taken in file/grid order
+  Eigen::MatrixXd correlation;             ///< expected parameter correlations
+  std::vector<std::string> confounded;     ///< pairs with |r| > 0.9, one sentence each
+  double log_det = 0.0;                    ///< log det of the Fisher information of the design
+  double log_det_random = 0.0;             ///< ... of the first N candidates
+  int candidate_count = 0;
+  std::vector<std::string> notes;
+};
+
+/// D-optimal choice of N trials among candidates (`candidates`, or a grid sampled like
+/// SimulateTrials) for identifying the effects `effect_ids` at their initial values: the
+/// Fisher information J^T W J of the whitened prediction (central differences on each
+/// parameter's internal scale) is maximised in log det by greedy addition and exchange passes.
+/// Per-trial effects (trial_force) are nuisance parameters and cannot be designed for (noted).
+/// @throws Error for unknown ids, N < 1, fewer candidates than N, or a singular information
+///         (the effects cannot be identified from any choice: message names the parameter).
+DesignResult DesignExperiment(const Model& model, const std::vector<std::string>& effect_ids,
+                              const std::vector<Trial>* candidates, const DesignOptions& options);
 
 /// Write the augmented model as URDF (nominal file + chosen effects; the sensor offset and the
 /// fit summary go into an XML comment since URDF cannot hold them), atomically.

@@ -695,7 +695,7 @@ int Select(FitRound* r, bool cross_validated, const FitOptions& options) {
       f.verdict = "not identifiable from these data: " + f.identifiability;
     } else if (cross_validated && f.cv_error == -1.0) {
       f.verdict = "not cross-validated (a better candidate was)";
-    } else if (cross_validated && (f.cv_error < 0 || f.cv_error > (1.0 - options.min_cv_improvement) * r->cv_before)) {
+    } else if (cross_validated && (f.cv_error < 0 || f.cv_error > r->cv_before - options.min_cv_improvement * std::min(r->cv_before, 1.0))) {
       f.verdict = f.cv_error < 0 ? "cross-validation fit failed"
                                  : "held-out error not lower: " + util::FormatNumber(f.cv_error, 4) + " vs " +
                                        util::FormatNumber(r->cv_before, 4) + " per residual";
@@ -991,6 +991,10 @@ void ReportTrace(const Model& nominal, const std::vector<Trial>& trials, const C
     items.push_back({"length of " + name, QuadraticShare(r, ident::MuscleLengths(nominal, name, trials), use, total),
                      "a trend with the muscle's length (force-length behaviour outside the model)"});
   }
+  // Trends first (best first), then where the residual sits: per muscle and axis.
+  std::stable_sort(items.begin(), items.end(),
+                   [](const FitReport::TraceItem& a, const FitReport::TraceItem& b) { return a.share > b.share; });
+  const size_t trends = items.size();
   // Per muscle and axis: share of the residual in the trials of each muscle, per component.
   const char* axes[6] = {"fx", "fy", "fz", "mx", "my", "mz"};
   std::map<std::string, Vector6d> per_muscle;
@@ -1005,17 +1009,19 @@ void ReportTrace(const Model& nominal, const std::vector<Trial>& trials, const C
                        "share of the residual in this muscle's trials on this axis"});
     }
   }
-  std::stable_sort(items.begin(), items.end(),
+  std::stable_sort(items.begin() + trends, items.end(),
                    [](const FitReport::TraceItem& a, const FitReport::TraceItem& b) { return a.share > b.share; });
-  for (const FitReport::TraceItem& i : items) {
-    if (i.share >= kTraceMinShare && std::isfinite(i.share)) report->trace.push_back(i);
+  std::vector<std::string> top_trends, top_axes;
+  for (size_t k = 0; k < items.size(); ++k) {
+    const FitReport::TraceItem& i = items[k];
+    if (!(i.share >= kTraceMinShare) || !std::isfinite(i.share)) continue;
+    report->trace.push_back(i);
+    std::vector<std::string>& top = k < trends ? top_trends : top_axes;
+    if (top.size() < 2) top.push_back(i.variable + " (" + util::FormatNumber(100 * i.share, 3) + " %)");
   }
-  if (!report->trace.empty()) {
-    std::vector<std::string> top;
-    for (size_t i = 0; i < report->trace.size() && i < 3; ++i) {
-      top.push_back(report->trace[i].variable + " (" + util::FormatNumber(100 * report->trace[i].share, 3) + " %)");
-    }
-    report->trace_summary = "the residual lives mostly in " + util::Join(top, ", ");
+  if (!top_trends.empty()) report->trace_summary = "it follows " + util::Join(top_trends, ", ");
+  if (!top_axes.empty()) {
+    report->trace_summary += (report->trace_summary.empty() ? "it sits in " : "; it sits in ") + util::Join(top_axes, ", ");
   }
   if (!report->closest_rejected.empty()) {
     report->trace_summary += (report->trace_summary.empty() ? "" : "; ") + std::string("closest rejected candidate: ") +

@@ -1,0 +1,391 @@
+// Tests of the effects added with the registry (trial_force, joint_offset, gain, crosstalk,
+// coactivation, sensor_origin), the robust loss and outlier rows, the trace of an unexplained
+// residual and the correlation report: identities derived by hand, then simulate-then-fit round
+// trips with Gaussian, Student-t(3) and 5 % gross-outlier noise.
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <iostream>
+#include <random>
+#include <set>
+
+#include "isowrench/error.hpp"
+#include "isowrench/identification.hpp"
+
+namespace isowrench {
+namespace {
+
+using ::testing::HasSubstr;
+
+const std::string kRat = std::string(ISOWRENCH_TEST_URDF_DIR) + "/rat_hindlimb_5dof.urdf";
+const std::string kPlanar = std::string(ISOWRENCH_TEST_URDF_DIR) + "/planar_2r.urdf";
+
+/// Parameter recovery: |estimate - truth| <= kSigmas reported standard errors (seeded data).
+constexpr double kSigmas = 4.0;
+/// Algebraic identities evaluated through a different sequence of operations.
+constexpr double kIdentity = 1e-12;
+#if defined(__SANITIZE_ADDRESS__)
+constexpr bool kSanitizer = true;
+constexpr int kNullSeeds = 4;
+#else
+constexpr bool kSanitizer = false;
+constexpr int kNullSeeds = 20;
+#endif
+
+std::vector<Trial> Simulate(const Model& model, const std::vector<std::string>& effects, unsigned long long seed,
+                            int postures, int noise_dof = 0, double outliers = 0.0) {
+  std::vector<AppliedEffect> applied;
+  for (const std::string& e : effects) applied.push_back(ParseEffectAssignment(model, e));
+  SimulationOptions o;
+  o.postures = postures;
+  o.seed = seed;
+  o.noise_dof = noise_dof;
+  o.outlier_fraction = outliers;
+  return SimulateTrials(model, ApplyEffects(model.description(), applied), o);
+}
+
+std::vector<Trial> Noiseless(const Model& model, const std::vector<std::string>& effects, int postures) {
+  std::vector<AppliedEffect> applied;
+  for (const std::string& e : effects) applied.push_back(ParseEffectAssignment(model, e));
+  SimulationOptions o;
+  o.postures = postures;
+  o.seed = 99;
+  o.noise_force = 0;
+  o.noise_moment = 0;
+  return SimulateTrials(model, ApplyEffects(model.description(), applied), o);
+}
+
+Prediction Predict(const Model& model, const std::vector<std::string>& effects, const std::vector<Trial>& trials,
+                   std::vector<double>* factors = nullptr) {
+  std::vector<AppliedEffect> applied;
+  for (const std::string& e : effects) applied.push_back(ParseEffectAssignment(model, e));
+  return PredictTrials(ApplyEffects(model.description(), applied), trials, factors);
+}
+
+// ---- identities ----------------------------------------------------------------------------------
+
+TEST(NewEffects, GainScalesOneAxisAndSensorOriginShiftsTheMoment) {
+  Model model = Model::FromUrdfFile(kRat);
+  std::vector<Trial> trials = Noiseless(model, {}, 5);
+  Prediction nominal = PredictTrials(model, trials);
+  Prediction gain = Predict(model, {"gain:my=1.25"}, trials);
+  Prediction origin = Predict(model, {"sensor_origin=2,-3,4"}, trials);
+  const Eigen::Vector3d d(0.002, -0.003, 0.004);
+  for (size_t k = 0; k < trials.size(); ++k) {
+    Vector6d expected = nominal.wrench[k];
+    expected[4] *= 1.25;
+    EXPECT_LE((gain.wrench[k] - expected).norm(), kIdentity * expected.norm());
+    // Moment about o + d of a force f applied at o: m - d x f, written out by components.
+    const Vector6d& w = nominal.wrench[k];
+    Vector6d shifted = w;
+    shifted[3] -= d.y() * w[2] - d.z() * w[1];
+    shifted[4] -= d.z() * w[0] - d.x() * w[2];
+    shifted[5] -= d.x() * w[1] - d.y() * w[0];
+    EXPECT_LE((origin.wrench[k] - shifted).norm(), kIdentity * w.norm());
+  }
+}
+
+TEST(NewEffects, CrosstalkIsSymmetricInNormalisedUnitsAndHasNoDiagonal) {
+  Model model = Model::FromUrdfFile(kRat);
+  AppliedEffect a = ParseEffectAssignment(model, "crosstalk=0.01,0,0,0,0,0,0,0,0,0,0,0,0,0,0.02");
+  ASSERT_EQ(a.effect.parameters.size(), 15u);  // 6 x 5 / 2 symmetric off-diagonal terms
+  AugmentedModel m = ApplyEffects(model.description(), {a});
+  // fx_fy = 0.01: C(0,1) = C(1,0) = 0.01 (both forces); my_mz = 0.02: C(4,5) = C(5,4).
+  EXPECT_NEAR(m.calibration(0, 1), 0.01, kIdentity);
+  EXPECT_NEAR(m.calibration(1, 0), 0.01, kIdentity);
+  EXPECT_NEAR(m.calibration(4, 5), 0.02, kIdentity);
+  EXPECT_NEAR(m.calibration(5, 4), 0.02, kIdentity);
+  for (int i = 0; i < 6; ++i) EXPECT_EQ(m.calibration(i, i), 1.0);
+  // A moment-from-force term in normalised units: C(3,0) = L v, C(0,3) = v / L, so their
+  // product is v^2 whatever L is.
+  AugmentedModel c = ApplyEffects(
+      model.description(), {ParseEffectAssignment(model, "crosstalk=0,0,0.05,0,0,0,0,0,0,0,0,0,0,0,0")});
+  EXPECT_NEAR(c.calibration(3, 0) * c.calibration(0, 3), 0.05 * 0.05, 1e-15);
+  EXPECT_GT(c.calibration(3, 0), 0.0);
+}
+
+TEST(NewEffects, JointOffsetPredictsAtTheShiftedPosture) {
+  Model model = Model::FromUrdfFile(kRat);
+  std::vector<Trial> trials = Noiseless(model, {}, 5);
+  Prediction shifted = Predict(model, {"joint_offset:knee_rz=3"}, trials);
+  std::vector<Trial> moved = trials;
+  const int knee = model.JointIndex("knee_rz");
+  for (Trial& t : moved) t.q[knee] += 3.0 * M_PI / 180.0;
+  Prediction direct = PredictTrials(model, moved);
+  for (size_t k = 0; k < trials.size(); ++k) {
+    EXPECT_LE((shifted.wrench[k] - direct.wrench[k]).norm(), kIdentity * direct.wrench[k].norm());
+  }
+}
+
+TEST(NewEffects, CoactivationAddsTheOtherMusclesWrench) {
+  // Linear statics: the reading of a trial of muscle A with B coactivated at fraction c is
+  // W_A(activation) + c W_B(1).
+  Model model = Model::FromUrdfFile(kPlanar);
+  ASSERT_GE(model.muscle_count(), 2);
+  const std::string a = model.muscle(0).name, b = model.muscle(1).name;
+  std::vector<Trial> trials = Noiseless(model, {}, 6);
+  Prediction with = Predict(model, {"coactivation:" + b + "=0.3"}, trials);
+  Prediction plain = PredictTrials(model, trials);
+  for (size_t k = 0; k < trials.size(); ++k) {
+    Vector6d expected = plain.wrench[k];
+    if (trials[k].muscle != b) {
+      Trial t = trials[k];
+      t.muscle = b;
+      t.activation = 1.0;
+      expected += 0.3 * PredictTrials(model, {t}).wrench[0];
+    }
+    EXPECT_LE((with.wrench[k] - expected).norm(), 1e-12 * (1 + expected.norm())) << "trial " << k;
+  }
+}
+
+TEST(NewEffects, TrialFactorsAreSolvedExactlyOnNoiselessData) {
+  Model model = Model::FromUrdfFile(kRat);
+  std::vector<Trial> trials = Noiseless(model, {}, 6);
+  Prediction nominal = PredictTrials(model, trials);
+  const double truth[6] = {0.9, 1.1, 1.0, 0.8, 1.25, 1.05};
+  for (size_t k = 0; k < trials.size(); ++k) trials[k].wrench = truth[k] * nominal.wrench[k];
+  std::vector<double> factors;
+  Prediction p = Predict(model, {"trial_force=0.1"}, trials, &factors);
+  ASSERT_EQ(factors.size(), trials.size());
+  for (size_t k = 0; k < trials.size(); ++k) {
+    EXPECT_NEAR(factors[k], truth[k], 1e-12);
+    EXPECT_LE((p.wrench[k] - trials[k].wrench).norm(), 1e-12 * trials[k].wrench.norm());
+  }
+}
+
+TEST(NewEffects, RegistryListsEveryKindOnceWithDocumentation) {
+  std::set<std::string> kinds;
+  for (const EffectKindInfo& k : EffectKinds()) {
+    EXPECT_TRUE(kinds.insert(k.kind).second) << k.kind;
+    EXPECT_FALSE(k.summary.empty()) << k.kind;
+    EXPECT_FALSE(k.parameters.empty()) << k.kind;
+    EXPECT_EQ(k.id_pattern.rfind(k.kind, 0), 0u) << k.id_pattern;
+  }
+  for (const char* k : {"trial_force", "joint_offset", "gain", "crosstalk", "coactivation", "sensor_origin"}) {
+    EXPECT_TRUE(kinds.count(k)) << k;
+  }
+  EXPECT_EQ(ParseRobustLoss("cauchy"), RobustLoss::kCauchy);
+  EXPECT_THAT([] { ParseRobustLoss("l1"); }, ::testing::ThrowsMessage<Error>(HasSubstr("huber")));
+}
+
+// ---- round trips ---------------------------------------------------------------------------------
+
+struct RoundTrip {
+  std::string model;
+  std::vector<std::string> effects;   ///< simulate assignments
+  std::vector<std::string> expected;  ///< ids that must be chosen (any order)
+};
+
+std::vector<double> Values(const std::string& assignment) {
+  std::vector<double> v;
+  std::string rest = assignment.substr(assignment.find('=') + 1);
+  size_t start = 0;
+  while (start <= rest.size()) {
+    size_t comma = rest.find(',', start);
+    v.push_back(std::stod(rest.substr(start, comma - start)));
+    if (comma == std::string::npos) break;
+    start = comma + 1;
+  }
+  return v;
+}
+
+std::string util_label(const RoundTrip& c, int noise_dof, double outliers) {
+  std::string s;
+  for (const std::string& e : c.effects) s += e + " ";
+  s += noise_dof ? "t(" + std::to_string(noise_dof) + ")" : "gaussian";
+  if (outliers > 0) s += " + 5% outliers";
+  return s;
+}
+
+/// Fit, check the chosen ids, the verdict and every least-squares parameter within kSigmas SE.
+void CheckRoundTrip(const RoundTrip& c, int noise_dof, double outliers, unsigned long long seed) {
+  Model model = Model::FromUrdfFile(c.model);
+  std::vector<Trial> trials = Simulate(model, c.effects, seed, 60, noise_dof, outliers);
+  FitOptions o;
+  o.max_rounds = static_cast<int>(c.expected.size()) + 1;
+  FitReport r = FitEffects(model, trials, o);
+  const std::string label = util_label(c, noise_dof, outliers);
+  std::cout << "[round-trip] " << label << ": " << r.BriefReport().substr(0, r.BriefReport().find('\n')) << "\n";
+  std::set<std::string> ids;
+  for (const AppliedEffect& a : r.chosen) ids.insert(a.effect.id);
+  EXPECT_EQ(ids, std::set<std::string>(c.expected.begin(), c.expected.end())) << label << "\n" << r.BriefReport();
+  EXPECT_EQ(r.verdict, FitVerdict::kExplained) << label << "\n" << r.BriefReport();
+  if (outliers > 0) {
+    EXPECT_GE(r.outlier_rows.size(), static_cast<size_t>(std::lround(outliers * trials.size()))) << label;
+  } else if (noise_dof == 0) {
+    EXPECT_TRUE(r.outlier_rows.empty()) << label;
+  }
+  for (size_t e = 0; e < r.chosen.size(); ++e) {
+    const CandidateFit& f = r.chosen_fits[e];
+    if (f.effect.per_trial) continue;
+    for (const std::string& assignment : c.effects) {
+      if (assignment.substr(0, assignment.find('=')) != f.effect.id) continue;
+      const std::vector<double> truth = Values(assignment);
+      for (size_t i = 0; i < truth.size(); ++i) {
+        const bool log = f.effect.parameters[i].scale == ParameterScale::kLog10;
+        const double err = log ? std::log10(f.values[i]) - std::log10(truth[i]) : f.values[i] - truth[i];
+        const double se = log ? f.log10_standard_errors[i] : f.standard_errors[i];
+        EXPECT_GT(se, 0) << label << " " << f.effect.parameters[i].name;
+        EXPECT_LE(std::abs(err), kSigmas * se) << label << " " << f.effect.id << "." << f.effect.parameters[i].name
+                                                << " = " << f.values[i] << " vs " << truth[i];
+      }
+    }
+  }
+}
+
+const std::vector<RoundTrip>& Singles() {
+  static const std::vector<RoundTrip> cases = {
+      {kRat, {"trial_force=0.05"}, {"trial_force"}},
+      {kRat, {"joint_offset:knee_rz=3"}, {"joint_offset:knee_rz"}},
+      {kRat, {"gain:fx=1.05"}, {"gain:fx"}},
+      {kRat, {"crosstalk=0.03,0,0,0,0,0,0,0,0,0,0,0,0,0,0.01"}, {"crosstalk"}},
+      {kPlanar, {"coactivation:biarticular=0.2"}, {"coactivation:biarticular"}},
+      {kRat, {"sensor_origin=3,0,-2"}, {"sensor_origin"}},
+  };
+  return cases;
+}
+
+TEST(RoundTrips, EachNewEffectAloneWithGaussianNoise) {
+  for (const RoundTrip& c : Singles()) CheckRoundTrip(c, 0, 0.0, 31);
+}
+
+TEST(RoundTrips, EachNewEffectAloneWithStudentT3Noise) {
+  if (kSanitizer) GTEST_SKIP() << "statistical repeat of the Gaussian round trips; run without sanitizers";
+  for (const RoundTrip& c : Singles()) CheckRoundTrip(c, 3, 0.0, 32);
+}
+
+TEST(RoundTrips, EachNewEffectAloneWithFivePercentOutliers) {
+  if (kSanitizer) GTEST_SKIP() << "statistical repeat of the Gaussian round trips; run without sanitizers";
+  for (const RoundTrip& c : Singles()) CheckRoundTrip(c, 0, 0.05, 33);
+}
+
+TEST(RoundTrips, NewEffectsInPairsWithExistingOnes) {
+  const std::vector<RoundTrip> pairs = {
+      {kRat, {"trial_force=0.05", "base_isotropic=1e7"}, {"trial_force", "base_isotropic"}},
+      {kRat, {"gain:fy=1.1", "sensor_offset=0.02,-0.01,0.01,0.001,0,-0.0005"}, {"gain:fy", "sensor_offset"}},
+      {kRat, {"joint_offset:knee_rz=3", "misalignment=2,-1,1"}, {"joint_offset:knee_rz", "misalignment"}},
+      {kRat, {"sensor_origin=3,0,-2", "force_scale:GP=0.9"}, {"sensor_origin", "force_scale:GP"}},
+  };
+  for (const RoundTrip& c : pairs) CheckRoundTrip(c, 0, kSanitizer ? 0.0 : 0.05, 34);
+}
+
+// ---- null data, unexplained residual -------------------------------------------------------------
+
+TEST(RobustFit, NullDataWithHeavyTailsAndOutliersRarelyProduceAClaim) {
+  // Data without an effect, Student-t(3) noise and 5 % gross outliers: with the robust loss no
+  // effect may be claimed in more than 5 % of the data sets (at most 1 of 20).
+  Model model = Model::FromUrdfFile(kRat);
+  FitOptions o;
+  o.max_rounds = 1;
+  int claims = 0;
+  for (int seed = 1; seed <= kNullSeeds; ++seed) {
+    FitReport r = FitEffects(model, Simulate(model, {}, 5000 + seed, 40, 3, 0.05), o);
+    if (!r.chosen.empty()) {
+      ++claims;
+      std::cout << "[null-robust] seed " << seed << ": " << r.BriefReport();
+    }
+    EXPECT_NE(r.verdict, FitVerdict::kUnexplained) << r.BriefReport();
+    // The 2 injected rows, and perhaps a t(3) tail row or two.
+    EXPECT_GE(r.outlier_rows.size(), 2u) << r.BriefReport();
+    EXPECT_LE(r.outlier_rows.size(), 4u) << r.BriefReport();
+  }
+  std::cout << "[null-robust] " << claims << " claim(s) in " << kNullSeeds << " data sets\n";
+  EXPECT_LE(claims, std::max(0, kNullSeeds / 20));
+}
+
+TEST(RobustFit, PlainLeastSquaresIsPulledByOutliersWhereHuberIsNot) {
+  Model model = Model::FromUrdfFile(kRat);
+  std::vector<Trial> trials = Simulate(model, {"force_scale:GP=0.9"}, 41, 60, 0, 0.05);
+  FitOptions o;
+  o.max_rounds = 1;
+  o.candidates = {"force_scale:GP"};
+  FitReport huber = FitEffects(model, trials, o);
+  o.loss = RobustLoss::kNone;
+  FitReport none = FitEffects(model, trials, o);
+  ASSERT_EQ(huber.chosen.size(), 1u);
+  EXPECT_NEAR(huber.chosen[0].values[0], 0.9, kSigmas * huber.chosen_fits[0].standard_errors[0]);
+  EXPECT_TRUE(none.outlier_rows.empty());
+  EXPECT_EQ(none.verdict, FitVerdict::kUnexplained) << none.BriefReport();
+}
+
+TEST(Trace, ADriftOutsideTheLibraryEndsUnexplainedAndPointsAtTrialOrder) {
+  // A sensor drift growing with the trial index (no effect in the library has it): the verdict
+  // must be "unexplained" and the trace must name trial order first.
+  Model model = Model::FromUrdfFile(kRat);
+  std::vector<Trial> trials = Simulate(model, {}, 51, 60);
+  for (size_t k = 0; k < trials.size(); ++k) trials[k].wrench[1] += 0.02 * static_cast<double>(k) / trials.size();
+  FitOptions o;
+  o.max_rounds = 2;
+  FitReport r = FitEffects(model, trials, o);
+  EXPECT_EQ(r.verdict, FitVerdict::kUnexplained) << r.BriefReport();
+  ASSERT_FALSE(r.trace.empty()) << r.BriefReport();
+  EXPECT_EQ(r.trace[0].variable, "trial order") << r.BriefReport();
+  EXPECT_FALSE(r.closest_rejected.empty() && r.chosen.empty());
+  std::cout << "[trace] " << r.trace_summary << "\n";
+}
+
+TEST(Trace, AStiffJointOutsideTheLibraryPointsAtACoordinate) {
+  // A passive stiffness on a limb joint (not a candidate) makes the residual depend on the
+  // posture: the trace names a coordinate or a muscle axis, never trial order.
+  Model model = Model::FromUrdfFile(kRat);
+  AugmentedModel truth;
+  truth.description = WithJointStiffness(model.description(), "hip_ry", 1e4);
+  SimulationOptions so;
+  so.postures = 40;
+  so.seed = 303;
+  FitReport r = FitEffects(model, SimulateTrials(model, truth, so), FitOptions());
+  EXPECT_EQ(r.verdict, FitVerdict::kUnexplained);
+  ASSERT_FALSE(r.trace.empty());
+  for (const FitReport::TraceItem& i : r.trace) EXPECT_NE(i.variable, "trial order");
+}
+
+TEST(Correlations, ConfoundedPairsAreNamed) {
+  Model model = Model::FromUrdfFile(kRat);
+  FitReport r = FitEffects(model, Simulate(model, {"base_isotropic=3e6", "force_scale:GP=0.9"}, 207, 40));
+  ASSERT_EQ(r.chosen.size(), 2u) << r.BriefReport();
+  ASSERT_EQ(r.correlations.rows(), 2);
+  EXPECT_EQ(r.correlation_labels.size(), 2u);
+  for (int i = 0; i < 2; ++i) EXPECT_NEAR(r.correlations(i, i), 1.0, 1e-12);
+  EXPECT_NEAR(r.correlations(0, 1), r.correlations(1, 0), 1e-12);
+}
+
+}  // namespace
+}  // namespace isowrench
+
+namespace isowrench {
+namespace {
+
+TEST(Design, ChosenPosturesBeatTheFirstNAndTheirExpectedErrorsMatchAFit) {
+  // D-optimal choice of 12 of 80 grid trials for sensor_origin (linear in its parameters, so
+  // the expected SE is exact): log det must beat the first 12 candidates, and a fit of noisy
+  // data at the chosen trials must report the same standard errors (within 1 %: the fit's
+  // covariance is max(1, chi2/dof) x (J^T J)^-1, evaluated by Ceres at the optimum).
+  Model model = Model::FromUrdfFile(kRat);
+  DesignOptions d;
+  d.postures = 12;
+  d.candidates = 80;
+  DesignResult r = DesignExperiment(model, {"sensor_origin"}, nullptr, d);
+  ASSERT_EQ(r.chosen.size(), 12u);
+  EXPECT_GE(r.log_det, r.log_det_random);
+  ASSERT_EQ(r.standard_errors.size(), 3u);
+  std::vector<Trial> trials = r.chosen;
+  Prediction p = Predict(model, {"sensor_origin=1,2,-1"}, trials);
+  std::mt19937_64 rng(5);
+  std::normal_distribution<double> normal(0.0, 1.0);
+  for (size_t k = 0; k < trials.size(); ++k) {
+    for (int c = 0; c < 6; ++c) trials[k].wrench[c] = p.wrench[k][c] + trials[k].sd[c] * 0.5 * normal(rng);
+  }
+  FitOptions o;
+  o.loss = RobustLoss::kNone;
+  CandidateFit f = FitCandidate(ApplyEffects(model.description(), {}), FindEffect(model, "sensor_origin"), trials, o);
+  ASSERT_TRUE(f.converged);
+  for (int i = 0; i < 3; ++i) EXPECT_NEAR(f.standard_errors[i], r.standard_errors[i], 0.01 * r.standard_errors[i]);
+  EXPECT_THAT([&] { DesignExperiment(model, {"nonsense"}, nullptr, d); },
+              ::testing::ThrowsMessage<Error>(HasSubstr("nonsense")));
+}
+
+}  // namespace
+}  // namespace isowrench
