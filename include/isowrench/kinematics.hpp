@@ -1,7 +1,7 @@
 #pragma once
 /// @file
 /// Kinematics from KDL: endpoint pose and Jacobian, point Jacobians of muscle path points, and
-/// the muscle generalized force tau = -F (dL/dtheta)^T (MODEL.md "Muscle generalized force").
+/// the muscle generalized force tau = -F (dL/dtheta)^T (docs/model.md "Muscle generalized force").
 
 #include <Eigen/Core>
 #include <Eigen/Geometry>

@@ -5,8 +5,6 @@
 // Sign: W is the wrench the limb applies to the transducer, [f; m] (N, N·m), moment about the
 // endpoint, in transducer axes (= world axes for every model here).
 
-#include "isowrench/statics.hpp"
-
 #include <gtest/gtest.h>
 
 #include <Eigen/Dense>
@@ -17,6 +15,7 @@
 #include "eigen_compare.hpp"
 #include "isowrench/kinematics.hpp"
 #include "isowrench/paper.hpp"
+#include "isowrench/statics.hpp"
 #include "statics_test_helpers.hpp"
 #include "test_models.hpp"
 
@@ -62,7 +61,8 @@ TEST(StaticsIdentities, IsotropicRestrainedRowsGivePseudoinverseOnPlanar2r) {
   const StaticsResult r = SolveStatics(p.J, s_t, Eigen::VectorXd::Zero(2), p.tau);
   ASSERT_EQ(r.status, StaticsStatus::kOk) << r.message;
   EXPECT_TRUE(MatricesNear(r.wrench, w_ref, 0.0, 1e-12));
-  const auto classic = isowrench::ClassicWrench(p.J, {{true, true, false, false, false, true}}, p.tau);
+  const auto classic =
+      isowrench::ClassicWrench(p.J, {{true, true, false, false, false, true}}, p.tau);
   EXPECT_TRUE(MatricesNear(classic.wrench, w_ref, 0.0, 1e-12));
 }
 
@@ -116,8 +116,7 @@ TEST(StaticsIdentities, MatchedDofsGiveInverseTransposeWhateverTransducerStiffne
 TEST(StaticsIdentities, MatchedDofsGiveInverseTransposeWhateverBaseStiffness) {
   // Base translations carry springs; the 5 limb joints carry none, so their 5 equilibrium rows
   // read J_limb^T W = tau_limb: W = J_limb^-T tau_limb, the 5-dof rigid-base answer.
-  const Model rigid(
-      isowrench::WithReleasedDofs(LoadDescription("rat_hindlimb_5dof.urdf"), {"rz"}));
+  const Model rigid(isowrench::WithReleasedDofs(LoadDescription("rat_hindlimb_5dof.urdf"), {"rz"}));
   const Problem p5 = ProblemAt(rigid, rigid.nominal_posture(), "GP");
   const Vector6d w_ref = InverseTransposeWrench(p5.J, p5.tau, isowrench::kRZ);
   const LimbDescription base_desc =
@@ -127,8 +126,7 @@ TEST(StaticsIdentities, MatchedDofsGiveInverseTransposeWhateverBaseStiffness) {
     ASSERT_EQ(m.dof_count(), 8);
     const auto eval = EvaluateWrench(m, m.nominal_posture(), "GP");
     ASSERT_EQ(eval.statics.status, StaticsStatus::kOk) << eval.statics.message;
-    const double tol =
-        SolveTolerance(StiffnessAtJoints(eval.jacobian, eval.s_t, eval.s_p));
+    const double tol = SolveTolerance(StiffnessAtJoints(eval.jacobian, eval.s_t, eval.s_p));
     EXPECT_TRUE(MatricesNear(eval.statics.wrench, w_ref, 0.0, tol)) << "k_base = " << k_base;
   }
 }
@@ -152,9 +150,8 @@ TEST_P(Equilibrium, JointTorquesAreBalanced) {
   for (const Eigen::VectorXd& q : postures) {
     const auto eval = EvaluateWrench(model, q, GetParam().muscle);
     ASSERT_EQ(eval.statics.status, StaticsStatus::kOk) << eval.statics.message;
-    const Eigen::VectorXd lhs =
-        eval.jacobian.transpose() * eval.statics.wrench +
-        eval.s_p.asDiagonal() * eval.statics.dtheta;
+    const Eigen::VectorXd lhs = eval.jacobian.transpose() * eval.statics.wrench +
+                                eval.s_p.asDiagonal() * eval.statics.dtheta;
     const double tol = SolveTolerance(StiffnessAtJoints(eval.jacobian, eval.s_t, eval.s_p));
     EXPECT_TRUE(MatricesNear(lhs, eval.tau, tol * eval.tau.norm())) << GetParam().urdf;
     EXPECT_LE(eval.statics.equilibrium_residual, tol * eval.tau.norm());
@@ -171,17 +168,17 @@ TEST_P(Equilibrium, JointTorquesAreBalanced) {
   }
 }
 
-INSTANTIATE_TEST_SUITE_P(
-    Models, Equilibrium,
-    ::testing::Values(EquilibriumCase{"rat_hindlimb_5dof.urdf", "GP"},
-                      EquilibriumCase{"rat_hindlimb_6dof.urdf", "GP"},
-                      EquilibriumCase{"rat_hindlimb_5dof_base.urdf", "GP"},
-                      EquilibriumCase{"planar_2r.urdf", "biarticular"},
-                      EquilibriumCase{"planar_2r.urdf", "elbow_flexor"},
-                      EquilibriumCase{"planar_4r.urdf", "flexor"}),
-    [](const ::testing::TestParamInfo<EquilibriumCase>& info) {
-      return info.param.urdf.substr(0, info.param.urdf.find('.')) + "_" + info.param.muscle;
-    });
+INSTANTIATE_TEST_SUITE_P(Models, Equilibrium,
+                         ::testing::Values(EquilibriumCase{"rat_hindlimb_5dof.urdf", "GP"},
+                                           EquilibriumCase{"rat_hindlimb_6dof.urdf", "GP"},
+                                           EquilibriumCase{"rat_hindlimb_5dof_base.urdf", "GP"},
+                                           EquilibriumCase{"planar_2r.urdf", "biarticular"},
+                                           EquilibriumCase{"planar_2r.urdf", "elbow_flexor"},
+                                           EquilibriumCase{"planar_4r.urdf", "flexor"}),
+                         [](const ::testing::TestParamInfo<EquilibriumCase>& info) {
+                           return info.param.urdf.substr(0, info.param.urdf.find('.')) + "_" +
+                                  info.param.muscle;
+                         });
 
 // ---- Identity 4: scaling S_t and S_p together leaves W unchanged ---------------------------
 
@@ -224,9 +221,8 @@ TEST(StaticsIdentities, WrenchIsInvariantToJointCoordinateChange) {
     const StaticsResult rp = SolveStatics(Jp, s_t, Eigen::VectorXd::Zero(5), taup);
     ASSERT_EQ(r.status, StaticsStatus::kOk);
     ASSERT_EQ(rp.status, StaticsStatus::kOk);
-    const double tol =
-        SolveTolerance(StiffnessAtJoints(Jp, s_t, Eigen::VectorXd::Zero(5))) +
-        SolveTolerance(StiffnessAtJoints(p.J, s_t, Eigen::VectorXd::Zero(5)));
+    const double tol = SolveTolerance(StiffnessAtJoints(Jp, s_t, Eigen::VectorXd::Zero(5))) +
+                       SolveTolerance(StiffnessAtJoints(p.J, s_t, Eigen::VectorXd::Zero(5)));
     EXPECT_TRUE(MatricesNear(rp.wrench, r.wrench, 0.0, tol)) << s_t.transpose();
   }
 }
@@ -269,7 +265,7 @@ TEST(StaticsIdentities, WrenchIsInvariantToHipEulerOrder) {
                                Eigen::AngleAxisd(q[2], Eigen::Vector3d::UnitX()))
                                   .toRotationMatrix();
     const Eigen::Vector3d xyz_angles = R.eulerAngles(0, 1, 2);  // R = Rx(a) Ry(b) Rz(c)
-    if (std::abs(std::cos(xyz_angles[1])) < 0.2) continue;     // new chain near gimbal lock
+    if (std::abs(std::cos(xyz_angles[1])) < 0.2) continue;      // new chain near gimbal lock
     Eigen::VectorXd qp = q;
     qp.head<3>() = xyz_angles;
     // Same mechanism state: same endpoint pose and muscle length.
@@ -305,7 +301,8 @@ TEST(StaticsIdentities, CompliancesDifferOnlyInNullSpaceOfJacobianTranspose) {
     // null(J^T) of the 6 x 5 J: the last column of the full Q of J's QR.
     const Eigen::HouseholderQR<Eigen::MatrixXd> qr(p.J);
     const Vector6d n = (qr.householderQ() * Eigen::MatrixXd::Identity(6, 6)).col(5);
-    const StaticsResult r1 = SolveStatics(p.J, Vector6d::Constant(1e7), Eigen::VectorXd::Zero(5), p.tau);
+    const StaticsResult r1 =
+        SolveStatics(p.J, Vector6d::Constant(1e7), Eigen::VectorXd::Zero(5), p.tau);
     const auto stiffnesses = SomeTransducerStiffnesses();
     for (size_t i = 1; i < stiffnesses.size(); ++i) {
       const StaticsResult r2 = SolveStatics(p.J, stiffnesses[i], Eigen::VectorXd::Zero(5), p.tau);
@@ -314,7 +311,8 @@ TEST(StaticsIdentities, CompliancesDifferOnlyInNullSpaceOfJacobianTranspose) {
       // The compliance matters (otherwise the test says nothing)...
       EXPECT_GT(dW.norm(), 1e-3 * r1.wrench.norm()) << stiffnesses[i].transpose();
       // ...and only along n: J^T dW = 0, dW = (n . dW) n.
-      const double tol = SolveTolerance(StiffnessAtJoints(p.J, stiffnesses[i], Eigen::VectorXd::Zero(5)));
+      const double tol =
+          SolveTolerance(StiffnessAtJoints(p.J, stiffnesses[i], Eigen::VectorXd::Zero(5)));
       EXPECT_TRUE(MatricesNear((p.J.transpose() * dW).eval(), Eigen::VectorXd::Zero(5),
                                tol * p.J.norm() * r2.wrench.norm()));
       EXPECT_TRUE(MatricesNear(dW, (n.dot(dW) * n).eval(), tol * r2.wrench.norm()));

@@ -4,8 +4,6 @@
 // Sign: W is the wrench the limb applies to the transducer, [f; m] (N, N·m), moment about the
 // endpoint, in transducer axes (= world axes for every model here).
 
-#include "isowrench/statics.hpp"
-
 #include <gtest/gtest.h>
 
 #include <Eigen/Dense>
@@ -16,6 +14,7 @@
 #include "eigen_compare.hpp"
 #include "isowrench/kinematics.hpp"
 #include "isowrench/paper.hpp"
+#include "isowrench/statics.hpp"
 #include "statics_test_helpers.hpp"
 #include "test_models.hpp"
 
@@ -84,10 +83,11 @@ TEST(Planar2rStatics, OverConstrainedWrenchMatchesCramerSolution) {
     const Matrix6Xd J = isowrench::EndpointJacobian(model, ws, q);
     const Eigen::Vector2d tau(torque(rng), torque(rng));
     for (const Eigen::Vector3d& g : gains) {
-      const StaticsResult r = SolveStatics(J, Diag6(g[0], g[1], 0, 0, 0, g[2]),
-                                           Eigen::VectorXd::Zero(2), tau);
+      const StaticsResult r =
+          SolveStatics(J, Diag6(g[0], g[1], 0, 0, 0, g[2]), Eigen::VectorXd::Zero(2), tau);
       ASSERT_EQ(r.status, StaticsStatus::kOk) << r.message;
-      EXPECT_TRUE(MatricesNear(r.wrench, Planar2rOverConstrainedWrench(q[0], q[1], g[0], g[1], g[2], tau),
+      EXPECT_TRUE(MatricesNear(r.wrench,
+                               Planar2rOverConstrainedWrench(q[0], q[1], g[0], g[1], g[2], tau),
                                0.0, kPlanarTol))
           << "q = " << q.transpose() << " gains " << g.transpose();
     }

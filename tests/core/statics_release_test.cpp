@@ -4,8 +4,6 @@
 // Sign: W is the wrench the limb applies to the transducer, [f; m] (N, N·m), moment about the
 // endpoint, in transducer axes (= world axes for every model here).
 
-#include "isowrench/statics.hpp"
-
 #include <gtest/gtest.h>
 
 #include <Eigen/Dense>
@@ -16,6 +14,7 @@
 #include "eigen_compare.hpp"
 #include "isowrench/kinematics.hpp"
 #include "isowrench/paper.hpp"
+#include "isowrench/statics.hpp"
 #include "statics_test_helpers.hpp"
 #include "test_models.hpp"
 
@@ -161,8 +160,8 @@ TEST(BaseCompliance, FreeBaseHoldsTheFemurSelfMotionAndGivesFemurRemovedWrench) 
   EXPECT_EQ(eval.statics.self_motion.cols(), 2);
   EXPECT_TRUE(AllFinite(eval.statics.wrench));
   EXPECT_TRUE(MatricesNear(eval.statics.wrench,
-                           isowrench::FemurRemovedWrench(model, model.nominal_posture(), "GP"),
-                           0.0, 1e-8));
+                           isowrench::FemurRemovedWrench(model, model.nominal_posture(), "GP"), 0.0,
+                           1e-8));
 }
 
 // ---- 6-dof knee: femur axial rotation ----------------------------------------------------
@@ -187,8 +186,7 @@ TEST(SixDofKnee, WithoutAbductionStiffnessFemurRotationIsASelfMotion) {
   const Eigen::VectorXd q = model.nominal_posture();
   const auto eval = EvaluateWrench(model, q, "GP");
   const StaticsResult& r = eval.statics;
-  EXPECT_TRUE(r.status == StaticsStatus::kSelfMotion ||
-              r.status == StaticsStatus::kSelfMotionHeld)
+  EXPECT_TRUE(r.status == StaticsStatus::kSelfMotion || r.status == StaticsStatus::kSelfMotionHeld)
       << isowrench::StatusName(r.status);
   EXPECT_FALSE(r.message.empty());
   EXPECT_EQ(r.k_rank, 5);
@@ -198,8 +196,8 @@ TEST(SixDofKnee, WithoutAbductionStiffnessFemurRotationIsASelfMotion) {
   const Eigen::VectorXd expected = FemurAxialRotation(model);
   if (n.dot(expected) < 0) n = -n;
   EXPECT_TRUE(MatricesNear(n, expected, 1e-9));
-  EXPECT_NEAR(n[model.JointIndex("knee_ry")] / n[model.JointIndex("knee_rx")],
-              -std::tan(Deg(105)), 1e-8);
+  EXPECT_NEAR(n[model.JointIndex("knee_ry")] / n[model.JointIndex("knee_rx")], -std::tan(Deg(105)),
+              1e-8);
   // The mechanism check behind it: J n = 0.
   EXPECT_TRUE(MatricesNear((eval.jacobian * expected).eval(), Vector6d::Zero(), 1e-14));
   EXPECT_TRUE(AllFinite(r.wrench));
