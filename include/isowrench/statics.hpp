@@ -1,6 +1,6 @@
 #pragma once
 /// @file
-/// Statics of the compliantly restrained limb (paper Eq. 6-10, MODEL.md "Statics"):
+/// Statics of the compliantly restrained limb (paper Eq. 6-10, docs/model.md "Statics"):
 ///   K = J^T S_t J + S_p,   K dtheta = tau,   W = S_t J dtheta,
 /// and the classic answers it is compared with: J^-T tau (Eq. 11/14) and pinv(J^T) tau (Eq. 15).
 /// W is the wrench the limb applies TO the transducer, [f; m] in N and N·m, moment about the
@@ -60,7 +60,7 @@ struct StaticsResult {
   double k_condition = 0.0;     ///< lambda_max / lambda_min over the non-null eigenvalues
   /// Self-motion basis: columns span null(K), unit length (m x r; r = 0 when K is regular).
   Eigen::MatrixXd self_motion;
-  /// Small-motion check (MODEL.md "Validity of the linear model").
+  /// Small-motion check (docs/model.md "Validity of the linear model").
   bool small_motion_valid = true;
   double endpoint_translation = 0.0;      ///< |J dtheta|_translation (m)
   double endpoint_translation_limit = 0.0;  ///< max_endpoint_fraction * leg length (m)
@@ -76,7 +76,7 @@ struct StaticsResult {
 /// Solve the statics on raw matrices, for lab tools that compute J themselves.
 /// @param J     6 x m endpoint Jacobian, rows [v; w] in the transducer's axes.
 /// @param s_t   S_t diagonal (N/m, N·m/rad), >= 0. A zero entry is a released dof (same as
-///              deleting that row of J, see MODEL.md "Released dofs").
+///              deleting that row of J, see docs/model.md "Released dofs").
 /// @param s_p   S_p diagonal, m entries (N·m/rad or N/m), >= 0.
 /// @param tau   m joint torques (N·m or N).
 /// @param revolute m flags (true: revolute) for the small-motion rule; empty = all revolute.
