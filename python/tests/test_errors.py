@@ -1,0 +1,83 @@
+"""Bad input becomes a Python exception with the C++ message, never a crash."""
+
+import numpy as np
+import pytest
+
+import isowrench
+
+from conftest import URDF
+
+
+def test_missing_file_is_file_not_found(tmp_path):
+    with pytest.raises(FileNotFoundError, match="no_such.urdf"):
+        isowrench.load(str(tmp_path / "no_such.urdf"))
+
+
+def test_bad_model_is_value_error_naming_file_and_line(tmp_path):
+    bad = tmp_path / "bad.urdf"
+    text = (URDF / "rat_hindlimb_5dof.urdf").read_text().replace('max_force="2.3"', 'max_force="-2.3"')
+    bad.write_text(text)
+    with pytest.raises(ValueError) as info:
+        isowrench.load(str(bad))
+    message = str(info.value)
+    assert "bad.urdf" in message and "-2.3" in message
+    line = next(i + 1 for i, l in enumerate(text.splitlines()) if 'max_force="-2.3"' in l)
+    assert ":{}".format(line) in message
+
+
+def test_malformed_xml_is_value_error(tmp_path):
+    bad = tmp_path / "broken.urdf"
+    bad.write_text("<robot name='x'>\n<link name='a'>\n</robot>\n")
+    with pytest.raises(ValueError, match="broken.urdf"):
+        isowrench.load(str(bad))
+
+
+def test_unknown_muscle(rat):
+    for call in (lambda: rat.wrench("XX"), lambda: rat.wrench_batch("XX", np.zeros((2, 5))),
+                 lambda: rat.releases("XX"), lambda: rat.diagnose("XX")):
+        with pytest.raises(ValueError, match="XX.*GP"):
+            call()
+
+
+def test_wrong_q_shapes(rat):
+    with pytest.raises(ValueError, match=r"shape \(3, 4\).*\(N, 5\)"):
+        rat.wrench_batch("GP", np.zeros((3, 4)))
+    with pytest.raises(ValueError, match=r"shape \(5,\)"):
+        rat.wrench_batch("GP", np.zeros(5))
+    with pytest.raises(ValueError, match="5 values"):
+        rat.wrench("GP", np.zeros(4))
+    with pytest.raises(ValueError):
+        rat.wrench_batch("GP", [["a"] * 5])
+
+
+def test_nan_in_q_names_row_and_column(rat):
+    Q = np.tile(rat.default_posture, (10, 1))
+    Q[7, 3] = np.nan
+    with pytest.raises(ValueError, match=r"Q\[7, 3\] \(knee_rz\) is nan"):
+        rat.wrench_batch("GP", Q)
+    q = rat.default_posture.copy()
+    q[1] = np.inf
+    with pytest.raises(ValueError, match="hip_ry"):
+        rat.wrench("GP", q)
+    with pytest.raises(ValueError, match="hip_ry"):
+        rat.kinematics(q)
+
+
+def test_unknown_coordinate_and_bad_options(rat):
+    with pytest.raises(ValueError, match="knee_ry"):
+        rat.wrench("GP", {"knee_ry": 0.1})
+    with pytest.raises(ValueError, match="preset|stiffness"):
+        rat.wrench("GP", transducer="nope")
+    with pytest.raises(ValueError):
+        rat.wrench("GP", transducer=[1, 2, 3])
+    with pytest.raises(ValueError, match="qz"):
+        rat.wrench("GP", released=["qz"])
+    with pytest.raises(ValueError, match="threads"):
+        rat.wrench_batch("GP", np.zeros((1, 5)), threads=-1)
+
+
+def test_osim_needs_bodies(tmp_path):
+    osim = tmp_path / "model.osim"
+    osim.write_text("<OpenSimDocument Version='40000'/>")
+    with pytest.raises(ValueError, match="clamp_body"):
+        isowrench.load(str(osim))
