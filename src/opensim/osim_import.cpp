@@ -34,6 +34,10 @@ std::string Closest(const std::vector<std::string>& names) {
 }
 
 struct Builder {
+  Builder(const osim::Model& model, const OpenSimImportOptions& import_options,
+          std::map<std::string, std::string> coupled_coordinates)
+      : m(model), options(import_options), coupled(std::move(coupled_coordinates)) {}
+
   const osim::Model& m;
   const OpenSimImportOptions& options;
   OpenSimImport out;
@@ -43,6 +47,7 @@ struct Builder {
   std::set<std::string> chain_bodies;     // clamp and the bodies after it on the path
   std::map<std::string, Eigen::Isometry3d> X_G_baked;  // ground and bodies up to the clamp
   std::map<std::string, double> defaults;
+  std::map<std::string, std::string> coupled;  // dependent coordinate -> report text
 
   [[noreturn]] void Fail(const std::string& what) const { throw Error(m.source + ": " + what); }
 
@@ -143,9 +148,21 @@ struct Builder {
       for (const Axis& a : j.axes) if (a.rotation) order.push_back(&a);
       return order;
     };
-    auto constant = [](const Axis& a) {
-      return a.coordinate.empty() || a.function.kind() == FunctionKind::kConstant ||
+    // Coordinates of the chain joints (a coupler may make an axis follow another joint's).
+    std::set<std::string> chain_coordinates;
+    for (const osim::Joint* j : chain) {
+      for (const std::string& c : j->coordinates) {
+        if (!coupled.count(c)) chain_coordinates.insert(c);
+      }
+    }
+    // An axis that does not move with a chain coordinate is fixed at its default value.
+    auto constant = [&](const Axis& a) {
+      return a.coordinate.empty() || !chain_coordinates.count(a.coordinate) ||
+             a.function.kind() == FunctionKind::kConstant ||
              (a.function.is_linear() && a.function.slope() == 0.0);
+    };
+    auto constant_value = [&](const Axis& a) {
+      return a.function.Value(a.coordinate.empty() ? 0.0 : defaults.at(a.coordinate));
     };
     for (const osim::Joint* j : chain) {
       for (const Axis* a : emission(*j)) {
@@ -163,7 +180,7 @@ struct Builder {
       size_t first = d.joints.size();
       for (const Axis* a : emission(*j)) {
         if (constant(*a)) {
-          pending = pending * osim::AxisMotion(*a, a->function.Value(0.0));
+          pending = pending * osim::AxisMotion(*a, constant_value(*a));
           continue;
         }
         JointSpec s;
@@ -216,6 +233,11 @@ struct Builder {
     for (const osim::Joint* j : chain) {
       for (const std::string& name : j->coordinates) {
         const osim::Coordinate& c = m.coordinates.at(name);
+        if (coupled.count(name)) {
+          coordinates.rows.push_back({name, c.rotational ? "deg" : "mm", "-", "-", "coupled",
+                                      coupled.at(name)});
+          continue;
+        }
         CoordinateSpec spec;
         spec.name = name;
         spec.type = c.rotational ? JointType::kRevolute : JointType::kPrismatic;
@@ -397,11 +419,51 @@ struct Builder {
 
 }  // namespace
 
+// CoordinateCouplerConstraint q_D = f(q_I): every axis driven by D through the identity (or a
+// linear function through the origin, a q_D) is driven by I through f (or a f). D is then no
+// longer independent: OpenSim's moment arms about I include the coupled motion, as here.
+std::map<std::string, std::string> ApplyCouplers(osim::Model& model) {
+  std::map<std::string, std::string> coupled;
+  for (const osim::Coupler& c : model.couplers) {
+    const std::string what = "constraint '" + c.name + "' (CoordinateCouplerConstraint, line " +
+                             std::to_string(c.line) + ")";
+    std::string problem;
+    for (const osim::Joint& j : model.joints) {
+      for (const Axis& a : j.axes) {
+        if (a.coordinate != c.dependent || a.function.kind() == FunctionKind::kConstant) continue;
+        if (!a.function.is_linear() || a.function.intercept() != 0.0) {
+          problem = "'" + c.dependent + "' drives axis '" + a.name + "' of joint '" + j.name +
+                    "' through a " + FunctionKindName(a.function.kind()) + " function";
+        }
+      }
+    }
+    if (!problem.empty() || coupled.count(c.independent)) {
+      model.warnings.push_back(what + " is not imported (" +
+                               (problem.empty() ? "its independent coordinate is itself coupled"
+                                                : problem) +
+                               "): '" + c.dependent + "' stays independent");
+      continue;
+    }
+    for (osim::Joint& j : model.joints) {
+      for (Axis& a : j.axes) {
+        if (a.coordinate != c.dependent || a.function.kind() == FunctionKind::kConstant) continue;
+        const double slope = a.function.slope();
+        a.function = slope == 1.0 ? c.function : Function::Multiplier(c.function, slope);
+        a.coordinate = c.independent;
+      }
+    }
+    coupled[c.dependent] = "= " + std::string(FunctionKindName(c.function.kind())) + " of " +
+                           c.independent + " (" + what + ")";
+  }
+  return coupled;
+}
+
 OpenSimImport ImportOpenSimString(const std::string& xml, const std::string& source_name,
                                   const OpenSimImportOptions& options) {
   const std::string source = source_name.empty() ? "<string>" : source_name;
   osim::Model model = osim::ReadModel(xml, source);
-  Builder builder{model, options, {}, {}, {}, {}, {}, {}};
+  std::map<std::string, std::string> coupled = ApplyCouplers(model);
+  Builder builder(model, options, std::move(coupled));
   builder.Build();
   return std::move(builder.out);
 }

@@ -75,6 +75,14 @@ struct Muscle {
   std::vector<std::string> wraps;  // wrap object names of its PathWrapSet
 };
 
+/// CoordinateCouplerConstraint: q_dependent = scale * f(q_independent).
+struct Coupler {
+  std::string name;
+  std::string dependent, independent;
+  Function function;  // scale folded in
+  int line = 0;
+};
+
 struct Model {
   std::string source;
   int version = 0;
@@ -88,6 +96,7 @@ struct Model {
   std::vector<Joint> joints;
   std::map<std::string, Coordinate> coordinates;
   std::vector<Muscle> muscles;
+  std::vector<Coupler> couplers;
   std::vector<std::string> warnings;
 };
 

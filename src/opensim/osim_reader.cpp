@@ -555,6 +555,34 @@ struct Reader {
     model.muscles.push_back(muscle);
   }
 
+  // q_dependent = scale_factor * f(q_independent); one independent coordinate only.
+  void ReadCoupler(const Xml* c, const std::string& what) {
+    Coupler coupler;
+    coupler.name = Name(c);
+    coupler.line = c->GetLineNum();
+    coupler.dependent = ChildText(c, "dependent_coordinate_name");
+    std::vector<std::string> independent =
+        util::Split(ChildText(c, "independent_coordinate_names"), " \t\r\n");
+    if (independent.size() != 1 || coupler.dependent.empty()) {
+      Fail(c, what + " must name one independent and one dependent coordinate");
+    }
+    coupler.independent = independent[0];
+    for (const std::string& name : {coupler.dependent, coupler.independent}) {
+      if (!model.coordinates.count(name)) {
+        Fail(c, what + " names coordinate '" + name + "', which does not exist");
+      }
+    }
+    const Xml* holder = c->FirstChildElement("coupled_coordinates_function");
+    const Xml* f = holder ? FindFunction(holder, what) : nullptr;
+    if (!f) Fail(c, what + " has no <coupled_coordinates_function>");
+    coupler.function = ParseFunction(f, what);
+    std::vector<double> scale = ChildNumbers(c, "scale_factor", 1, what, false);
+    if (!scale.empty() && scale[0] != 1.0) {
+      coupler.function = Function::Multiplier(coupler.function, scale[0]);
+    }
+    model.couplers.push_back(coupler);
+  }
+
   // ---- the document ---------------------------------------------------------------------
 
   void Read(const std::string& xml) {
@@ -630,9 +658,19 @@ struct Reader {
     if (const Xml* cs = m->FirstChildElement("ConstraintSet")) {
       if (const Xml* objects = cs->FirstChildElement("objects")) {
         for (const Xml* c = objects->FirstChildElement(); c; c = c->NextSiblingElement()) {
-          model.warnings.push_back("constraint '" + Name(c) + "' (" + c->Name() + ", line " +
-                                   std::to_string(c->GetLineNum()) +
-                                   ") is not imported: coordinates it would tie are independent");
+          const std::string what = "constraint '" + Name(c) + "' (" + c->Name() + ", line " +
+                                   std::to_string(c->GetLineNum()) + ")";
+          const std::string enforced = ChildText(c, "isEnforced");
+          if (enforced == "false" || ChildText(c, "isDisabled") == "true") {
+            model.warnings.push_back(what + " is disabled in the .osim: ignored");
+            continue;
+          }
+          if (std::strcmp(c->Name(), "CoordinateCouplerConstraint") == 0) {
+            ReadCoupler(c, what);
+            continue;
+          }
+          model.warnings.push_back(what + " is not imported: coordinates it would tie are "
+                                   "independent");
         }
       }
     }
