@@ -404,6 +404,39 @@ TEST(OpenSimImport, Version30000LayoutGivesTheSameHip) {
   }
 }
 
+TEST(OpenSimImport, CoordinateCouplerConstraintDrivesTheDependentAxes) {
+  // ankle_angle = 2 (0.5 knee_angle + 0.1) = knee_angle + 0.2: the ankle's pin follows the
+  // knee, and ankle_angle is no longer a column.
+  std::ifstream in(kFixture);
+  std::stringstream buffer;
+  buffer << in.rdbuf();
+  std::string text = buffer.str();
+  const std::string constraint =
+      "<ConstraintSet><objects><CoordinateCouplerConstraint name=\"ankle_follows_knee\">"
+      "<isEnforced>true</isEnforced><coupled_coordinates_function><LinearFunction>"
+      "<coefficients>0.5 0.1</coefficients></LinearFunction></coupled_coordinates_function>"
+      "<independent_coordinate_names>knee_angle</independent_coordinate_names>"
+      "<dependent_coordinate_name>ankle_angle</dependent_coordinate_name>"
+      "<scale_factor>2</scale_factor></CoordinateCouplerConstraint></objects></ConstraintSet>\n";
+  text.insert(text.find("<ForceSet"), constraint);
+  OpenSimImportOptions options;
+  options.clamp_body = "pelvis";
+  options.endpoint_body = "foot";
+  const LimbDescription d = ImportOpenSimString(text, "coupled.osim", options).description;
+  std::vector<std::string> names;
+  for (const CoordinateSpec& c : d.coordinates) names.push_back(c.name);
+  EXPECT_THAT(names, ::testing::ElementsAre("hip_flexion", "hip_adduction", "hip_rotation",
+                                            "knee_angle"));
+  for (Posture p : Postures()) {
+    p.ankle = 12.3;  // ignored: the ankle follows the knee
+    auto X = LinkPoses(d, p);
+    Posture follows = p;
+    follows.ankle = p.knee + 0.2;
+    EXPECT_LT((X.at("foot") * kEndpointOnFoot - Bodies(follows).foot * kEndpointOnFoot).norm(),
+              kPosition);
+  }
+}
+
 TEST(OpenSimImport, WrittenUrdfReadsBackToTheSameKinematics) {
   const LimbDescription d = Import("pelvis", "foot").description;
   const LimbDescription back = ReadUrdfString(WriteUrdfString(d), "imported.urdf");
