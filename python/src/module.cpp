@@ -21,6 +21,7 @@
 #include "isowrench/diagnostics.hpp"
 #include "isowrench/error.hpp"
 #include "isowrench/fast.hpp"
+#include "isowrench/identification.hpp"
 #include "isowrench/kinematics.hpp"
 #include "isowrench/model.hpp"
 #include "isowrench/opensim.hpp"
@@ -404,6 +405,69 @@ py::dict Diagnose(const PyModel& m, const std::string& muscle, const py::object&
   return out;
 }
 
+std::string Simulate(const PyModel& m, const std::string& output, const std::vector<std::string>& effects, int n,
+                     unsigned long long seed, double noise_force, double noise_moment, double joint_range,
+                     const std::vector<std::string>& muscles) {
+  std::vector<AppliedEffect> applied;
+  for (const std::string& text : effects) applied.push_back(ParseEffectAssignment(m.model, text));
+  SimulationOptions options;
+  options.postures = n;
+  options.seed = seed;
+  options.noise_force = noise_force;
+  options.noise_moment = noise_moment;
+  options.joint_range = joint_range;
+  options.muscles = muscles;
+  options.center = m.model.nominal_posture();
+  std::vector<Trial> trials;
+  {
+    py::gil_scoped_release release;
+    AugmentedModel truth = ApplyEffects(m.model.description(), applied);
+    trials = SimulateTrials(m.model, truth, options);
+    WriteTrialsCsv(m.model, trials, output);
+  }
+  return output;
+}
+
+py::dict Fit(const PyModel& m, const std::string& csv) {
+  if (!std::filesystem::exists(csv)) ThrowFileNotFound(csv);
+  FitReport report;
+  {
+    py::gil_scoped_release release;
+    report = FitEffects(m.model, ReadTrialsCsv(m.model, csv));
+  }
+  py::dict out;
+  out["verdict"] = FitVerdictName(report.verdict);
+  out["verdict_message"] = report.verdict_message;
+  out["effects_claimed"] = report.effects_claimed;
+  py::list chosen;
+  for (const CandidateFit& c : report.chosen_fits) {
+    py::dict effect;
+    effect["id"] = c.effect.id;
+    py::list parameters;
+    for (size_t i = 0; i < c.values.size(); ++i) {
+      py::dict p;
+      p["name"] = c.effect.parameters[i].name;
+      p["value"] = c.values[i];
+      p["standard_error"] = i < c.standard_errors.size() ? c.standard_errors[i] : 0.0;
+      p["unit"] = c.effect.parameters[i].unit;
+      parameters.append(p);
+    }
+    effect["parameters"] = parameters;
+    chosen.append(effect);
+  }
+  out["chosen"] = chosen;
+  out["trial_count"] = report.trial_count;
+  out["rms_before"] = Array(Eigen::VectorXd(report.before.rms));
+  out["rms_after"] = Array(Eigen::VectorXd(report.after.rms));
+  out["normalized_before"] = Array(Eigen::VectorXd(report.before.normalized));
+  out["normalized_after"] = Array(Eigen::VectorXd(report.after.normalized));
+  out["indistinguishable"] = report.indistinguishable;
+  out["notes"] = report.notes;
+  out["report"] = report.BriefReport();
+  out["seconds"] = report.seconds;
+  return out;
+}
+
 std::string WrenchRepr(const PyWrench& w) {
   const Vector6d& t = w.e.statics.wrench;
   char buffer[256];
@@ -562,6 +626,24 @@ PYBIND11_MODULE(_core, mod) {
                CoordinateList(m.model) + "), " + std::to_string(m.model.muscle_count()) + " muscles>";
       });
 
+  mod.def("simulate", &Simulate, py::arg("model"), py::arg("path"), py::arg("effects") = std::vector<std::string>{},
+          py::arg("n") = 60, py::arg("seed") = 7, py::arg("noise_force") = 0.002, py::arg("noise_moment") = 5e-5,
+          py::arg("joint_range") = 15.0 * 3.14159265358979323846 / 180.0,
+          py::arg("muscles") = std::vector<std::string>{},
+          "simulate(model, path, effects=[], n=60, seed=7, noise_force=0.002, noise_moment=5e-5, joint_range=0.2618, "
+          "muscles=[]) -> str\n\n"
+          "Synthetic trials (SimulateTrials, as `isowrench simulate`): n postures drawn uniformly within +- joint_range "
+          "(rad) of the default posture, wrenches of the model with `effects` applied (strings 'NAME=V1,V2' in the "
+          "CLI's user units, e.g. 'base_isotropic=2e5'; `isowrench fit --list-effects` lists them) plus Gaussian "
+          "noise (N, N·m); written as a trial CSV at `path` (the file isowrench.fit and `isowrench fit` read). "
+          "Returns path. Same seed, same data.");
+  mod.def("fit", &Fit, py::arg("model"), py::arg("csv"),
+          "fit(model, csv) -> dict\n\n"
+          "FitEffects on a trial CSV (as `isowrench fit`): which unmodelled effects explain the measured wrenches. "
+          "Returns {'verdict', 'verdict_message', 'effects_claimed', 'chosen': [{'id', 'parameters': [{'name', "
+          "'value', 'standard_error', 'unit'}]}], 'trial_count', 'rms_before', 'rms_after' (6,) N and N·m, "
+          "'normalized_before', 'normalized_after' (noise multiples), 'indistinguishable', 'notes', 'report' (text), "
+          "'seconds'}. The GIL is released while fitting.");
   mod.def("load", &Load, py::arg("path"), py::arg("clamp_body") = py::none(), py::arg("endpoint_body") = py::none(),
           "load(path, clamp_body=None, endpoint_body=None) -> Model\n\n"
           "Read a limb model: a URDF with isowrench extension tags, or an OpenSim .osim (then clamp_body and "

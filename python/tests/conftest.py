@@ -32,7 +32,9 @@ def cli():
         pytest.skip("the isowrench CLI is not built next to the module (set ISOWRENCH_CLI)")
 
     def run(*args):
-        out = subprocess.run([path, *map(str, args)], capture_output=True, text=True, check=True)
+        out = subprocess.run([path, *map(str, args)], capture_output=True, text=True)
+        # Exit code 4: no equilibrium (self-motion); the JSON is still printed.
+        assert out.returncode in (0, 4), (args, out.returncode, out.stderr)
         return json.loads(out.stdout)
 
     return run
