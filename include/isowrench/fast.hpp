@@ -1,15 +1,17 @@
 #pragma once
 /// @file
 /// The fast path: the same kernel as EvaluateWrench (forward kinematics, endpoint Jacobian in
-/// transducer axes, muscle torque, then the compliant statics of docs/model.md "Statics")
+/// transducer axes, muscle torque, then the compliant statics of MODEL.md "Statics")
 ///   K = J^T S_t J + S_p,   K dtheta = tau,   W = S_t J dtheta,
 /// on a flat, compiled copy of the Model's chain, with no allocation per evaluation, and a
 /// batch API that spreads many postures and many stiffness sets over threads.
 ///
 /// Model/Data split: CompiledModel is immutable and shared; FastWorkspace is the mutable scratch
-/// of one thread (sized once, reused). KDL stays the reference: tests/fast/ prove the fast
-/// Jacobian, muscle torque and wrench equal to EndpointJacobian, ComputeMuscleTorque and
-/// EvaluateWrench on random postures of every shipped URDF.
+/// of one thread (sized once, reused). The kinematics kernel is the one the Model's kinematics
+/// functions and EvaluateWrench run (tests/core checks it against orocos KDL); tests/fast/
+/// prove the fast solve and the batch lanes equal to EvaluateWrench on random postures of every
+/// shipped URDF. Columns are the Model's independent coordinates: coupled joints are folded
+/// (J = J_joints C), and locked coordinates are rigid in the solve (dtheta = 0 there).
 ///
 ///   isowrench::CompiledModel compiled(model);
 ///   isowrench::FastWorkspace ws(compiled);
@@ -46,7 +48,7 @@ using FastJacobian = Eigen::Matrix<double, 6, Eigen::Dynamic, 0, 6, kFastMaxDofs
 /// One set of compliances for the statics.
 struct StiffnessSet {
   /// S_t diagonal in transducer axes [kx ky kz krx kry krz] (N/m, N·m/rad), each >= 0; a zero
-  /// entry is a released dof (docs/model.md "Released dofs").
+  /// entry is a released dof (MODEL.md "Released dofs").
   Vector6d s_t = Vector6d::Zero();
   /// S_p diagonal, one entry per movable joint in column order (N·m/rad or N/m), each >= 0.
   FastJointVector s_p;

@@ -206,9 +206,13 @@ LimbDescription WithReleasedDofs(LimbDescription description,
 /// Replace the S_t diagonal (each entry finite and >= 0).
 LimbDescription WithTransducerStiffness(LimbDescription description, const Vector6d& stiffness);
 
-/// Immutable model built from a description: validated, with a KDL chain from the root link to
-/// the endpoint. Cheap to copy (shared state). Thread-safe to share; mutable scratch lives in
-/// KinematicsWorkspace.
+/// Immutable model built from a description: validated, and its chain compiled to the flat
+/// structure every kinematics and statics evaluation runs on (one engine: the kinematics
+/// functions, EvaluateWrench, EvaluateFast and EvaluateBatch). Its columns are the independent
+/// coordinates (LimbDescription::coordinates): each movable joint is driven by one of them,
+/// q_joint = coupling(q_coordinate), and results are J = J_joints C, tau = C^T tau_joints with
+/// C = dq_joint/dq. Cheap to copy (shared state). Thread-safe to share; mutable scratch lives
+/// in KinematicsWorkspace / FastWorkspace.
 class Model {
  public:
   /// Validate and build. @throws Error naming the joint/link/muscle for any invalid entry.
@@ -220,15 +224,21 @@ class Model {
   const LimbDescription& description() const;
   const std::string& name() const { return description().name; }
 
-  /// Number of movable joints m (the Jacobian's column count).
+  /// Number of independent coordinates m: the column count of J, tau, S_p and postures (the
+  /// number of movable joints when nothing is coupled).
   int dof_count() const;
-  /// Movable joint names in column order.
+  /// Coordinate names in column order (a joint carrying its own coordinate gives its name).
   const std::vector<std::string>& joint_names() const;
-  /// Spec of movable joint i (column i).
+  /// Spec of column i: the movable joint carrying coordinate i, or for a free-standing
+  /// coordinate a JointSpec with its name (links: those of the last joint it drives). Type,
+  /// role and stiffness are always the coordinate's.
   const JointSpec& joint(int i) const;
-  /// Column index of a movable joint. @throws Error listing the known joints.
+  /// Independent coordinate i (column i).
+  const CoordinateSpec& coordinate(int i) const;
+  /// Column of a coordinate. @throws Error for a driven joint (naming its driver) or an unknown
+  /// name (see FindCoordinate).
   int JointIndex(const std::string& name) const;
-  /// S_p diagonal in column order (N·m/rad or N/m).
+  /// S_p diagonal in column order (N·m/rad or N/m): the coordinates' stiffnesses.
   Eigen::VectorXd joint_stiffness() const;
 
   int muscle_count() const;
@@ -238,14 +248,15 @@ class Model {
 
   const TransducerSpec& transducer() const { return description().transducer; }
 
-  /// Nominal posture in column order (rad / m).
+  /// Nominal posture in column order (rad / m): each coordinate's default_value, overridden by
+  /// LimbDescription::nominal_posture.
   Eigen::VectorXd nominal_posture() const;
 
   /// Sum of the distances between consecutive joint origins plus the endpoint offset (m):
   /// the "leg length" the small-motion rule is relative to.
   double chain_length() const;
 
-  /// Opaque access for isowrench's own modules (KDL chain etc.). Not part of the stable API.
+  /// Opaque access for isowrench's own modules (the compiled chain). Not part of the stable API.
   struct Impl;
   const Impl& impl() const { return *impl_; }
 

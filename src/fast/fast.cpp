@@ -397,9 +397,9 @@ CompiledModel::CompiledModel(const Model& model) {
   data_ = data;
 }
 
-int CompiledModel::dof_count() const { return data_->flat().m; }
+int CompiledModel::dof_count() const { return data_->flat().n; }
 int CompiledModel::muscle_count() const { return static_cast<int>(data_->flat().muscles.size()); }
-bool CompiledModel::revolute(int column) const { return data_->flat().joints.at(column).revolute; }
+bool CompiledModel::revolute(int column) const { return data_->model.impl().revolute.at(column); }
 StiffnessSet CompiledModel::model_stiffness() const { return data_->stiffness; }
 const Model& CompiledModel::model() const { return data_->model; }
 
@@ -489,6 +489,50 @@ namespace {
 
 const FastMuscle kNoMuscle{};  // the muscle of a kinematics call without one
 
+// Coupled chains: q_joint_k = f_k(q[c_k]) and its derivative for every movable joint.
+ISOWRENCH_NOINLINE void Couple(const FlatChain& d, FastWorkspace::Impl& ws, const double* q) {
+  for (int k = 0; k < d.m; ++k) {
+    const double x = q[d.coordinate[k]];
+    if (d.identity[k]) {
+      ws.q_joint[k] = x;
+      ws.dq_joint[k] = 1.0;
+    } else {
+      ws.q_joint[k] = d.coupling[k].Value(x);
+      ws.dq_joint[k] = d.coupling[k].Derivative(x);
+    }
+  }
+}
+
+// Coupled chains: the joint columns of J and dL/dq (m of them) folded into coordinate columns
+// (n), J[:, c] = sum_{k: c_k = c} J_joint[:, k] dq_joint_k/dq_c, the same for dL/dq; tau =
+// minus_force dL/dq. J_rows follows J and stays zero beyond n.
+ISOWRENCH_NOINLINE void Fold(const FlatChain& d, FastWorkspace::Impl& ws, double minus_force) {
+  constexpr int S = kFastMaxDofs;
+  double J[6 * S] = {};
+  double dL[S] = {};
+  const double* joint_J = ws.J.data();
+  for (int k = 0; k < d.m; ++k) {
+    const int c = d.coordinate[k];
+    const double f = ws.dq_joint[k];
+    for (int r = 0; r < 6; ++r) J[6 * c + r] += f * joint_J[6 * k + r];
+    dL[c] += f * ws.dL[k];
+  }
+  ws.J.resize(6, d.n);
+  ws.dL.resize(d.n);
+  ws.tau.resize(d.n);
+  for (int c = 0; c < S; ++c) {
+    for (int r = 0; r < 6; ++r) {
+      const double v = c < d.n ? J[6 * c + r] : 0.0;
+      ws.J_rows[r * S + c] = v;
+      if (c < d.n) ws.J(r, c) = v;
+    }
+    if (c < d.n) {
+      ws.dL[c] = dL[c];
+      ws.tau[c] = minus_force * dL[c];
+    }
+  }
+}
+
 // The kinematics kernel. kFrames: also store each movable joint's world rotation in ws.frames,
 // accept muscle < 0 (no muscle) and world_axes (J in world axes); the evaluation path
 // instantiates it with kFrames = false, where those are compile-time off.
@@ -496,8 +540,12 @@ template <bool kFrames>
 ISOWRENCH_INLINE bool Kinematics(const FlatChain& d, FastWorkspace::Impl& ws, const double* qv, int muscle,
                                  double activation, bool world_axes) {
   const int m = d.m;
-  assert(ws.m == m);
+  assert(ws.m == d.n);
   assert(muscle < static_cast<int>(d.muscles.size()) && (kFrames || muscle >= 0));
+  if (d.coupled) {
+    Couple(d, ws, qv);
+    qv = ws.q_joint;
+  }
   const FastJoint* joints = d.joints.data();
   const FastMuscle& mu = (kFrames && muscle < 0) ? kNoMuscle : d.muscles[muscle];
   const int n = static_cast<int>(mu.points.size());
@@ -592,6 +640,7 @@ ISOWRENCH_INLINE bool Kinematics(const FlatChain& d, FastWorkspace::Impl& ws, co
     for (int k = 0; k < m; ++k) JacobianColumn(ws, k, joints[k].revolute, pe, rotate, T);
     ws.dL.setZero();
     ws.tau.setZero();
+    if (d.coupled) Fold(d, ws, 0.0);
     return true;
   }
 
@@ -608,6 +657,7 @@ ISOWRENCH_INLINE bool Kinematics(const FlatChain& d, FastWorkspace::Impl& ws, co
       for (int k = 0; k < m; ++k) JacobianColumn(ws, k, joints[k].revolute, pe, rotate, T);
       ws.dL.setZero();
       ws.tau.setZero();
+      if (d.coupled) Fold(d, ws, 0.0);
       return false;
     }
     const double u0 = s0 / length, u1 = s1 / length, u2 = s2 / length;
@@ -658,7 +708,35 @@ ISOWRENCH_INLINE bool Kinematics(const FlatChain& d, FastWorkspace::Impl& ws, co
     dL[k] = v;
     tau[k] = minus_force * v;
   }
+  if (d.coupled) Fold(d, ws, minus_force);
   return true;
+}
+
+// Locked coordinates are rigid in the statics: their columns of J and entries of tau are set
+// to 0 and their S_p entry to a stiffness on the scale of K (the largest S_t or S_p entry, at
+// least 1), so that K has an isolated diagonal there and dtheta is exactly 0 on them; the
+// other entries of dtheta and W are those of the statics without the locked columns. The
+// reported J and tau (ws.J, ws.tau) keep every column.
+ISOWRENCH_NOINLINE FastWrench SolveLocked(const FlatChain& d, FastWorkspace::Impl& ws, const StiffnessSet& stiffness,
+                                          const FastOptions& options) {
+  constexpr int S = kFastMaxDofs;
+  const int n = d.n;
+  double J[6 * S];
+  double tau[S];
+  double s_p[S];
+  double scale = 1.0;
+  for (int r = 0; r < 6; ++r) scale = std::max(scale, stiffness.s_t[r]);
+  for (int c = 0; c < n; ++c) scale = std::max(scale, stiffness.s_p[c]);
+  for (int c = 0; c < n; ++c) {
+    const bool locked = d.locked[c];
+    for (int r = 0; r < 6; ++r) {
+      J[6 * c + r] = locked ? 0.0 : ws.J(r, c);
+      ws.J_rows[r * S + c] = J[6 * c + r];
+    }
+    tau[c] = locked ? 0.0 : ws.tau[c];
+    s_p[c] = locked ? scale : stiffness.s_p[c];
+  }
+  return SolveDispatch(ws, J, stiffness.s_t.data(), s_p, tau, options);
 }
 
 }  // namespace
@@ -681,6 +759,8 @@ FastWrench SolveFastStatics(const CompiledModel& model, FastWorkspace& workspace
   const int m = model.dof_count();
   assert(ws.m == m);
   if (stiffness.s_p.size() != m) return Invalid(ws);
+  const FlatChain& d = model.data().flat();
+  if (d.any_locked) return SolveLocked(d, ws, stiffness, options);
   return SolveDispatch(ws, ws.J.data(), stiffness.s_t.data(), stiffness.s_p.data(), ws.tau.data(),
                        options);
 }

@@ -34,6 +34,9 @@ struct FastWorkspace::Impl {
   /// World rotation of the frame after each movable joint; written only by the kernel with
   /// frames (the public kinematics functions), not by the evaluation path.
   std::array<Eigen::Matrix3d, kFastMaxDofs> frames;
+  /// Coupled chains only: each movable joint's position q_joint = f(q_c) and dq_joint/dq_c.
+  double q_joint[kFastMaxDofs];
+  double dq_joint[kFastMaxDofs];
   Eigen::Vector3d endpoint = Eigen::Vector3d::Zero();
   Eigen::Matrix3d R_W_T = Eigen::Matrix3d::Identity();
   FastJacobian J;

@@ -194,10 +194,23 @@ ISOWRENCH_CLONES unsigned LaneKinematics(const CompiledModel& model, LaneWorkspa
   const FlatChain& d = model.data().flat();
   LaneWorkspace::Impl& ws = workspace.impl();
   const int m = d.m;
-  // Postures, and whether every revolute angle is within the fast sin/cos range.
+  // Postures (joint positions: on a coupled chain q_joint = f(q_c), lane by lane, with the
+  // derivatives for the fold below), and whether every revolute angle is within the fast
+  // sin/cos range.
   VI out_of_range = VI{0, 0, 0, 0};
+  V dq_joint[kFastMaxDofs];
   for (int k = 0; k < m; ++k) {
-    ws.q[k] = V{q[0][k], q[1][k], q[2][k], q[3][k]};
+    if (d.coupled) {
+      const int c = d.coordinate[k];
+      for (int l = 0; l < kLanes; ++l) {
+        const double x = q[l][c];
+        const bool identity = d.identity[k];
+        ws.q[k][l] = identity ? x : d.coupling[k].Value(x);
+        dq_joint[k][l] = identity ? 1.0 : d.coupling[k].Derivative(x);
+      }
+    } else {
+      ws.q[k] = V{q[0][k], q[1][k], q[2][k], q[3][k]};
+    }
     if (d.joints[k].revolute) {
       const V magnitude = (V)((VI)ws.q[k] & 0x7fffffffffffffff);
       out_of_range |= (magnitude < sincos::kMaxReduced) == 0;
@@ -303,6 +316,23 @@ ISOWRENCH_CLONES unsigned LaneKinematics(const CompiledModel& model, LaneWorkspa
     }
     ws.tau[k] = minus_force * dL;
   }
+  if (d.coupled) {  // joint columns into coordinate columns (Fold in fast.cpp)
+    V J[kFastMaxDofs][6];
+    V tau[kFastMaxDofs];
+    for (int c = 0; c < d.n; ++c) {
+      tau[c] = ISOWRENCH_V4_SPLAT(0.0);
+      for (int r = 0; r < 6; ++r) J[c][r] = ISOWRENCH_V4_SPLAT(0.0);
+    }
+    for (int k = 0; k < m; ++k) {
+      const int c = d.coordinate[k];
+      for (int r = 0; r < 6; ++r) J[c][r] += dq_joint[k] * ws.J[k][r];
+      tau[c] += dq_joint[k] * ws.tau[k];
+    }
+    for (int c = 0; c < d.n; ++c) {
+      for (int r = 0; r < 6; ++r) ws.J[c][r] = J[c][r];
+      ws.tau[c] = tau[c];
+    }
+  }
   return Bits(coincident | out_of_range);
 }
 
@@ -401,6 +431,8 @@ ISOWRENCH_CLONES unsigned LaneSolve(const CompiledModel& model, LaneWorkspace& w
                    const FastOptions& options, FastWrench* const out[kLanes]) {
   LaneWorkspace::Impl& ws = workspace.impl();
   const int m = model.dof_count();
+  // Locked coordinates: the scalar path's SolveLocked decides every lane.
+  if (model.data().flat().any_locked) return (1u << kLanes) - 1;
   V s_t[6];
   V s_p[kFastMaxDofs];
   if (sets[0] == sets[1] && sets[0] == sets[2] && sets[0] == sets[3]) {  // four postures, one set

@@ -53,7 +53,8 @@ KinematicsWorkspace& KinematicsWorkspace::operator=(KinematicsWorkspace&&) noexc
 Eigen::Isometry3d EndpointPose(const Model& model, KinematicsWorkspace& ws, const Eigen::VectorXd& q) {
   const FastWorkspace::Impl& b = RunKinematics(model, ws, q, -1, 1.0, true);
   Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
-  pose.linear() = b.frames[model.dof_count() - 1] * model.impl().flat.endpoint_rotation;
+  const FlatChain& chain = model.impl().flat;
+  pose.linear() = b.frames[chain.m - 1] * chain.endpoint_rotation;
   pose.translation() = b.endpoint;
   return pose;
 }
@@ -88,11 +89,18 @@ Eigen::Matrix3Xd PointJacobian(const Model& model, KinematicsWorkspace& ws, cons
   Eigen::Matrix3Xd J = Eigen::Matrix3Xd::Zero(3, model.dof_count());
   if (frame.frame < 0) return J;
   const Eigen::Vector3d x = b.frames[frame.frame] * (frame.offset * p_link) + b.origin[frame.frame];
-  // Column k of a point on the frame after joint f (k <= f): z_k x (x - o_k) for a revolute
-  // joint, z_k for a prismatic one (the endpoint Jacobian's formula with x for p_E).
+  // Joint k's column of a point on the frame after joint f (k <= f): z_k x (x - o_k) for a
+  // revolute joint, z_k for a prismatic one (the endpoint Jacobian's formula with x for p_E);
+  // on a coupled chain it adds to its coordinate's column times dq_joint_k/dq_c.
+  const FlatChain& chain = model.impl().flat;
   for (int k = 0; k <= frame.frame; ++k) {
-    J.col(k) = model.impl().flat.joints[k].revolute ? Eigen::Vector3d(b.axis[k].cross(x - b.origin[k]))
-                                                     : b.axis[k];
+    const Eigen::Vector3d column =
+        chain.joints[k].revolute ? Eigen::Vector3d(b.axis[k].cross(x - b.origin[k])) : b.axis[k];
+    if (chain.coupled) {
+      J.col(chain.coordinate[k]) += b.dq_joint[k] * column;
+    } else {
+      J.col(k) = column;
+    }
   }
   return J;
 }

@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <map>
 #include <set>
 
 #include "isowrench/error.hpp"
@@ -86,10 +87,15 @@ void Validate(const LimbDescription& d) {
     }
   }
   for (const auto& [joint, value] : d.nominal_posture) {
-    auto it = std::find_if(d.joints.begin(), d.joints.end(),
-                           [&name = joint](const JointSpec& j) { return j.name == name; });
-    if (it == d.joints.end() || it->type == JointType::kFixed) {
-      throw Error(model + ": nominal posture names unknown or fixed joint '" + joint + "'");
+    const bool coordinate = std::any_of(d.coordinates.begin(), d.coordinates.end(),
+                                        [&name = joint](const CoordinateSpec& c) { return c.name == name; });
+    if (!coordinate) {
+      try {
+        FindCoordinate(d, joint);  // names a driven joint's driver, or suggests the closest name
+      } catch (const Error& e) {
+        throw Error(model + ": nominal posture: " + e.what());
+      }
+      throw Error(model + ": nominal posture names '" + joint + "', which is not a coordinate");
     }
     if (!std::isfinite(value)) throw Error(model + ": nominal posture of '" + joint + "' is not finite");
   }
@@ -159,9 +165,26 @@ FlatChain Compile(const LimbDescription& d) {
     flat.links[j.child_link] = {frame, since_last};
   }
   flat.m = frame + 1;
-  if (flat.m > kFastMaxDofs) {
-    throw Error(model + " has " + std::to_string(flat.m) + " movable joints; isowrench handles at most " +
-                std::to_string(kFastMaxDofs));
+  flat.n = static_cast<int>(d.coordinates.size());
+  if (flat.m > kFastMaxDofs || flat.n > kFastMaxDofs) {
+    throw Error(model + " has " + std::to_string(flat.m) + " movable joints and " + std::to_string(flat.n) +
+                " coordinates; isowrench handles at most " + std::to_string(kFastMaxDofs) + " of each");
+  }
+  std::map<std::string, int> column;
+  for (int c = 0; c < flat.n; ++c) {
+    column[d.coordinates[c].name] = c;
+    flat.locked.push_back(d.coordinates[c].locked);
+    flat.any_locked = flat.any_locked || d.coordinates[c].locked;
+  }
+  flat.coupled = flat.n != flat.m;
+  for (const JointSpec& j : d.joints) {
+    if (j.type == JointType::kFixed) continue;
+    const int k = static_cast<int>(flat.coordinate.size());
+    const int c = column.at(j.coordinate.empty() ? j.name : j.coordinate);
+    flat.coordinate.push_back(c);
+    flat.coupling.push_back(j.coupling);
+    flat.identity.push_back(j.coupling.is_identity());
+    flat.coupled = flat.coupled || c != k || !j.coupling.is_identity();
   }
   const TransducerSpec& t = d.transducer;
   flat.endpoint = since_last * t.endpoint;
@@ -198,13 +221,30 @@ Model::Model(LimbDescription description) {
   auto impl = std::make_shared<Impl>();
   impl->flat = Compile(description);
   double length = 0.0;
-  for (size_t i = 0; i < description.joints.size(); ++i) {
-    const JointSpec& j = description.joints[i];
-    length += j.origin.translation().norm();
-    if (j.type == JointType::kFixed) continue;
-    impl->movable.push_back(static_cast<int>(i));
-    impl->joint_names.push_back(j.name);
-    impl->revolute.push_back(j.type == JointType::kRevolute);
+  for (const JointSpec& j : description.joints) length += j.origin.translation().norm();
+  for (const CoordinateSpec& c : description.coordinates) {
+    impl->joint_names.push_back(c.name);
+    impl->revolute.push_back(c.type == JointType::kRevolute);
+    JointSpec column;
+    auto carrier = std::find_if(description.joints.begin(), description.joints.end(), [&c](const JointSpec& j) {
+      return !c.joint.empty() && j.name == c.joint;
+    });
+    if (carrier != description.joints.end()) {
+      column = *carrier;
+    } else {
+      // A free-standing coordinate: its name and kind, on the link of the last joint it drives.
+      column.name = c.name;
+      column.type = c.type;
+      for (const JointSpec& j : description.joints) {
+        if (j.type != JointType::kFixed && j.coordinate == c.name) {
+          column.parent_link = j.parent_link;
+          column.child_link = j.child_link;
+        }
+      }
+    }
+    column.role = c.role;
+    column.stiffness = c.stiffness;
+    impl->columns.push_back(column);
   }
   impl->chain_length = length + description.transducer.endpoint.norm();
   impl->description = std::move(description);
@@ -214,15 +254,21 @@ Model::Model(LimbDescription description) {
 Model Model::FromUrdfFile(const std::string& path) { return Model(ReadUrdfFile(path)); }
 
 const LimbDescription& Model::description() const { return impl_->description; }
-int Model::dof_count() const { return static_cast<int>(impl_->movable.size()); }
+int Model::dof_count() const { return static_cast<int>(impl_->columns.size()); }
 const std::vector<std::string>& Model::joint_names() const { return impl_->joint_names; }
-const JointSpec& Model::joint(int i) const { return impl_->description.joints.at(impl_->movable.at(i)); }
+const JointSpec& Model::joint(int i) const { return impl_->columns.at(i); }
+const CoordinateSpec& Model::coordinate(int i) const { return impl_->description.coordinates.at(i); }
 
 int Model::JointIndex(const std::string& name) const {
   for (int i = 0; i < dof_count(); ++i) {
     if (impl_->joint_names[i] == name) return i;
   }
-  throw Error("unknown joint '" + name + "' in model '" + this->name() + "' (movable joints: " +
+  // Not a column: FindCoordinate names a driven joint's driver or suggests the closest name.
+  const CoordinateSpec& c = FindCoordinate(description(), name);
+  for (int i = 0; i < dof_count(); ++i) {
+    if (impl_->joint_names[i] == c.name) return i;
+  }
+  throw Error("unknown coordinate '" + name + "' in model '" + this->name() + "' (coordinates: " +
               util::Join(impl_->joint_names, ", ") + ")");
 }
 
@@ -246,7 +292,8 @@ int Model::MuscleIndex(const std::string& name) const {
 }
 
 Eigen::VectorXd Model::nominal_posture() const {
-  Eigen::VectorXd q = Eigen::VectorXd::Zero(dof_count());
+  Eigen::VectorXd q(dof_count());
+  for (int i = 0; i < dof_count(); ++i) q[i] = coordinate(i).default_value;
   for (const auto& [joint, value] : description().nominal_posture) q[JointIndex(joint)] = value;
   return q;
 }

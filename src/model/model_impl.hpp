@@ -8,6 +8,7 @@
 #include <string>
 #include <vector>
 
+#include "isowrench/function.hpp"
 #include "isowrench/model.hpp"
 
 namespace isowrench {
@@ -55,7 +56,18 @@ struct LinkFrame {
 /// movable-joint frame and offset; the endpoint and transducer axes.
 struct FlatChain {
   int m = 0;  ///< movable joints
+  int n = 0;  ///< independent coordinates: the public columns (J, tau, S_p, postures)
   std::vector<FastJoint> joints;
+  /// Per movable joint: the column of its coordinate and q_joint = coupling(q_column).
+  std::vector<int> coordinate;
+  std::vector<Function> coupling;
+  std::vector<char> identity;  ///< coupling is the identity (no function call)
+  /// False when every movable joint k carries column k with the identity (n == m): the kernel
+  /// skips the coupling step. True: q_joint and dq_joint/dq come first, and the joint columns
+  /// of J and dL/dq are folded into coordinate columns, J = J_joints C, C = dq_joint/dq.
+  bool coupled = false;
+  std::vector<char> locked;  ///< per column: held rigid by the statics
+  bool any_locked = false;
   std::vector<FastMuscle> muscles;
   std::map<std::string, LinkFrame> links;
   /// Endpoint in the frame after the last movable joint (m), and the endpoint link's rotation
@@ -71,9 +83,11 @@ struct FlatChain {
 
 struct Model::Impl {
   LimbDescription description;
-  std::vector<int> movable;               ///< description.joints index of each column
-  std::vector<std::string> joint_names;   ///< column order
-  std::vector<bool> revolute;             ///< column order
+  /// Per column (independent coordinate): its name, kind, and the JointSpec Model::joint()
+  /// returns (the carrying joint, or one made from a free-standing coordinate).
+  std::vector<std::string> joint_names;
+  std::vector<bool> revolute;
+  std::vector<JointSpec> columns;
   FlatChain flat;
   double chain_length = 0.0;
 };

@@ -46,10 +46,40 @@ WrenchEvaluation EvaluateWrench(const Model& model, KinematicsWorkspace& ws, con
   e.s_p = model.joint_stiffness();
   StaticsOptions opts = options;
   if (opts.leg_length <= 0) opts.leg_length = model.chain_length();
-  e.statics = SolveStatics(e.jacobian, e.s_t, e.s_p, e.tau, opts, model.impl().revolute);
+  const FlatChain& chain = model.impl().flat;
+  if (!chain.any_locked) {
+    e.statics = SolveStatics(e.jacobian, e.s_t, e.s_p, e.tau, opts, model.impl().revolute);
+    e.classic = ClassicWrench(e.jacobian, restrained, e.tau);
+  } else {
+    // Locked coordinates are rigid: the statics and the classic answer run on the free columns,
+    // and dtheta and the self-motion basis are 0 on the locked ones.
+    std::vector<int> free;
+    for (int c = 0; c < chain.n; ++c) {
+      if (!chain.locked[c]) free.push_back(c);
+    }
+    const int f = static_cast<int>(free.size());
+    Matrix6Xd J(6, f);
+    Eigen::VectorXd s_p(f), tau(f);
+    std::vector<bool> revolute(free.size());
+    for (int i = 0; i < f; ++i) {
+      J.col(i) = e.jacobian.col(free[i]);
+      s_p[i] = e.s_p[free[i]];
+      tau[i] = e.tau[free[i]];
+      revolute[i] = model.impl().revolute[free[i]];
+    }
+    e.statics = SolveStatics(J, e.s_t, s_p, tau, opts, revolute);
+    Eigen::VectorXd dtheta = Eigen::VectorXd::Zero(chain.n);
+    Eigen::MatrixXd self_motion = Eigen::MatrixXd::Zero(chain.n, e.statics.self_motion.cols());
+    for (int i = 0; i < f; ++i) {
+      if (e.statics.dtheta.size() == f) dtheta[free[i]] = e.statics.dtheta[i];
+      if (e.statics.self_motion.rows() == f) self_motion.row(free[i]) = e.statics.self_motion.row(i);
+    }
+    e.statics.dtheta = dtheta;
+    e.statics.self_motion = self_motion;
+    e.classic = ClassicWrench(J, restrained, tau);
+  }
   e.wrench_world.head<3>() = e.R_W_T * e.statics.wrench.head<3>();
   e.wrench_world.tail<3>() = e.R_W_T * e.statics.wrench.tail<3>();
-  e.classic = ClassicWrench(e.jacobian, restrained, e.tau);
   return e;
 }
 
