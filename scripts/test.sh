@@ -26,7 +26,7 @@ cmake -S . -B "$BUILD_DIR" -DCMAKE_CXX_COMPILER="${ISOWRENCH_CXX:-g++}" -DCMAKE_
 cmake --build "$BUILD_DIR" -j "$JOBS"
 ctest --test-dir "$BUILD_DIR" --output-on-failure -j "$JOBS"
 # Python module (docs/python.md): pytest against $BUILD_DIR/python with the interpreter it was built for.
-[ ! -d "$BUILD_DIR/python/isowrench" ] || PYTHONPATH="$BUILD_DIR/python" ISOWRENCH_CLI="$BUILD_DIR/isowrench" "$(sed -n 's/^Python3_EXECUTABLE:[A-Z]*=//p' "$BUILD_DIR/CMakeCache.txt")" -m pytest -q python/tests
+[ ! -d "$BUILD_DIR/python/isowrench" ] || PYTHONPATH="$BUILD_DIR/python" ISOWRENCH_CLI="$BUILD_DIR/isowrench" "$(sed -n 's/^_\{0,1\}Python3_EXECUTABLE:[A-Z]*=//p' "$BUILD_DIR/CMakeCache.txt" | head -1)" -m pytest -q python/tests
 
 if [ "${ISOWRENCH_SANITIZE:-1}" != "0" ]; then
   ASAN_DIR=${ISOWRENCH_ASAN_BUILD_DIR:-build-asan}
