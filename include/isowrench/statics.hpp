@@ -31,13 +31,20 @@ struct StaticsOptions {
   double leg_length = 0.0;
 };
 
-/// Outcome of a statics solve.
+/// Outcome of every solve (SolveStatics, EvaluateWrench, EvaluateFast, EvaluateBatch,
+/// SolveStaticsFast, ClassicWrench): one convention, each result carrying one of these and,
+/// where it can hold one (all but the 64-byte FastWrench), a message.
 enum class StaticsStatus {
-  kOk,                 ///< unique W; K positive definite
-  kSelfMotionHeld,     ///< K singular but tau does not excite the self-motion: W still unique
-  kSelfMotion,         ///< K singular and tau excites it: no equilibrium; W is not defined (zeros)
-  kInvalidInput,       ///< non-finite or negative input; see message
+  kOk,                 ///< unique W; K positive definite (classic: J_r^T W = tau solved exactly)
+  /// K singular but tau does not excite the self-motion: W still unique. Classic: J_r is rank
+  /// deficient but tau is reachable (minimum-norm W).
+  kSelfMotionHeld,
+  /// K singular and tau excites it: no equilibrium; W is not defined (zeros). Classic: the
+  /// restrained rows cannot balance tau (residual > 0); W is the least-squares answer.
+  kSelfMotion,
+  kInvalidInput,       ///< non-finite, negative or mis-sized input; see message; W zeros
 };
+/// "ok", "self-motion (not excited)", "self-motion", "invalid input".
 const char* StatusName(StaticsStatus status);
 
 /// Result of SolveStatics (Ceres-style summary: status + message + data).
@@ -89,6 +96,10 @@ StaticsResult SolveStatics(const Matrix6Xd& J, const Vector6d& s_t, const Eigen:
 /// J_r^-T tau when J_r is square and invertible (Eq. 11/14), otherwise pinv(J_r^T) tau =
 /// J_r (J_r^T J_r)^-1 tau (Eq. 15), by SVD with threshold rank_tolerance * sigma_max.
 struct ClassicResult {
+  /// kOk, kSelfMotionHeld (J_r rank deficient, tau reachable), kSelfMotion (tau not reachable:
+  /// |J_r^T W - tau| > 1e-9 |tau|), or kInvalidInput (wrench zeros); never silent.
+  StaticsStatus status = StaticsStatus::kInvalidInput;
+  std::string message;                 ///< what was solved, or why nothing was
   Vector6d wrench = Vector6d::Zero();  ///< [f; m], transducer axes, released rows 0
   bool square_inverse = false;         ///< true: J_r^-T tau; false: pseudoinverse
   int rank = 0;                        ///< rank of J_r

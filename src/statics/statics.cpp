@@ -158,7 +158,18 @@ ClassicResult ClassicWrench(const Matrix6Xd& J, const std::array<bool, 6>& restr
   }
   const Eigen::Index n = static_cast<Eigen::Index>(rows.size());
   const Eigen::Index m = J.cols();
-  if (n == 0 || m == 0 || tau.size() != m || !J.allFinite() || !tau.allFinite()) return out;
+  auto invalid = [&out](const std::string& why) {
+    out.status = StaticsStatus::kInvalidInput;
+    out.message = "classic answer not computed: " + why;
+    return out;
+  };
+  if (n == 0) return invalid("every transducer dof is released (no restrained row)");
+  if (m == 0) return invalid("the Jacobian has no columns");
+  if (tau.size() != m) {
+    return invalid("tau has " + std::to_string(tau.size()) + " entries for " + std::to_string(m) + " columns");
+  }
+  if (!J.allFinite()) return invalid("the Jacobian has a non-finite entry");
+  if (!tau.allFinite()) return invalid("tau has a non-finite entry");
   Eigen::MatrixXd Jr(n, m);
   for (Eigen::Index k = 0; k < n; ++k) Jr.row(k) = J.row(rows[k]);
   // Solve J_r^T W_r = tau: minimum-norm least squares via SVD of J_r^T (m x n).
@@ -175,6 +186,19 @@ ClassicResult ClassicWrench(const Matrix6Xd& J, const std::array<bool, 6>& restr
   out.square_inverse = (n == m && out.rank == n);
   out.residual = (Jr.transpose() * Wr - tau).norm();
   for (Eigen::Index k = 0; k < n; ++k) out.wrench[rows[k]] = Wr[k];
+  const std::string what = out.square_inverse ? "J_r^-T tau" : "pinv(J_r^T) tau";
+  const std::string rank = "rank " + std::to_string(out.rank) + " of " + std::to_string(std::min(n, m));
+  if (out.residual > 1e-9 * tau.norm()) {
+    out.status = StaticsStatus::kSelfMotion;
+    out.message = what + " (" + rank + "): the " + std::to_string(n) + " restrained rows cannot balance tau (|J_r^T W - tau| = " +
+                  N(out.residual) + "); without compliance the limb moves; W is the least-squares answer";
+  } else if (out.rank < std::min(n, m)) {
+    out.status = StaticsStatus::kSelfMotionHeld;
+    out.message = what + " (" + rank + "): J_r is rank deficient but tau is reachable; minimum-norm W";
+  } else {
+    out.status = StaticsStatus::kOk;
+    out.message = what + " (" + rank + ")";
+  }
   return out;
 }
 
