@@ -12,6 +12,23 @@ namespace isowrench_bench {
 
 inline std::string KernelUrdf() { return std::string(ISOWRENCH_BENCH_URDF_DIR) + "/rat_hindlimb_5dof_base.urdf"; }
 
+/// Kernel K with a coupled knee: a prismatic tibial translation along x inserted after knee_rz
+/// and driven by it through a 7-knot SimmSpline (millimetres over the knee's range), so the
+/// model keeps kernel K's 8 columns on 9 joints.
+inline isowrench::Model CoupledKernelModel() {
+  isowrench::LimbDescription d = isowrench::WithExtraJoint(isowrench::ReadUrdfFile(KernelUrdf()), "knee_rz",
+                                                           "knee_tx", Eigen::Vector3d::UnitX(), 0.0);
+  for (isowrench::JointSpec& j : d.joints) {
+    if (j.name != "knee_tx") continue;
+    j.type = isowrench::JointType::kPrismatic;
+    j.role = isowrench::JointRole::kLimb;
+    j.coordinate = "knee_rz";
+    j.coupling = isowrench::Function::SimmSpline({-0.5, 0.25, 1.0, 1.5, 2.0, 2.5, 3.0},
+                                                 {0.0004, 0.0002, 0.0, -0.0003, -0.0007, -0.0012, -0.0018});
+  }
+  return isowrench::Model(d);
+}
+
 /// `count` postures around the nominal one: hip and knee angles within +-60 degrees, base
 /// translations within +-1 mm, from a fixed seed (the same postures in every run).
 inline Eigen::MatrixXd KernelPostures(const isowrench::Model& model, int count) {

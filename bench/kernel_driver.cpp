@@ -24,6 +24,8 @@ struct Setup {
   std::vector<isowrench::StiffnessSet> sets = KernelStiffnessSets(compiled);
   KdlBaseline kdl{model, 0};
   std::vector<isowrench::FastWrench> out;
+  isowrench::CompiledModel coupled{CoupledKernelModel()};
+  isowrench::FastWorkspace coupled_ws{coupled};
 };
 
 double g_sink = 0.0;
@@ -38,6 +40,22 @@ extern "C" __attribute__((noinline)) long isowrench_measured_loop(Setup& s, cons
       g_sink += isowrench::EvaluateFast(s.compiled, s.ws, s.postures.col(i & 1023), 0, st).wrench[0];
     }
     return n;
+  }
+  if (std::strcmp(kernel, "fast-coupled") == 0) {  // kernel K with the spline-coupled knee
+    for (long i = 0; i < n; ++i) {
+      g_sink += isowrench::EvaluateFast(s.coupled, s.coupled_ws, s.postures.col(i & 1023), 0, st).wrench[0];
+    }
+    return n;
+  }
+  if (std::strcmp(kernel, "batch-coupled") == 0) {
+    const std::vector<isowrench::StiffnessSet> one = {st};
+    isowrench::BatchOptions options;
+    options.threads = 1;
+    for (long i = 0; i < n; ++i) {
+      isowrench::EvaluateBatch(s.coupled, s.postures, 0, one, s.out, 1.0, options);
+      g_sink += s.out[0].wrench[0];
+    }
+    return n * s.postures.cols();
   }
   if (std::strcmp(kernel, "fast-stiffness") == 0) {  // kinematics once, 20 stiffness sets
     for (long i = 0; i < n; ++i) {
@@ -72,13 +90,13 @@ extern "C" __attribute__((noinline)) long isowrench_measured_loop(Setup& s, cons
     }
     return n;
   }
-  std::fprintf(stderr, "unknown kernel '%s' (fast, fast-stiffness, batch, batch-stiffness, kdl, reference)\n", kernel);
+  std::fprintf(stderr, "unknown kernel '%s' (fast, fast-stiffness, fast-coupled, batch, batch-stiffness, batch-coupled, kdl, reference)\n", kernel);
   std::exit(2);
 }
 
 int main(int argc, char** argv) {
   if (argc != 3) {
-    std::fprintf(stderr, "usage: %s fast|fast-stiffness|batch|batch-stiffness|kdl|reference <count>\n", argv[0]);
+    std::fprintf(stderr, "usage: %s fast|fast-stiffness|fast-coupled|batch|batch-stiffness|batch-coupled|kdl|reference <count>\n", argv[0]);
     return 2;
   }
   Setup s;

@@ -1,7 +1,7 @@
 #pragma once
 /// @file
 /// The fast path: the same kernel as EvaluateWrench (forward kinematics, endpoint Jacobian in
-/// transducer axes, muscle torque, then the compliant statics of MODEL.md "Statics")
+/// transducer axes, muscle torque, then the compliant statics of docs/model.md "Statics")
 ///   K = J^T S_t J + S_p,   K dtheta = tau,   W = S_t J dtheta,
 /// on a flat, compiled copy of the Model's chain, with no allocation per evaluation, and a
 /// batch API that spreads many postures and many stiffness sets over threads.
@@ -48,7 +48,7 @@ using FastJacobian = Eigen::Matrix<double, 6, Eigen::Dynamic, 0, 6, kFastMaxDofs
 /// One set of compliances for the statics.
 struct StiffnessSet {
   /// S_t diagonal in transducer axes [kx ky kz krx kry krz] (N/m, N·m/rad), each >= 0; a zero
-  /// entry is a released dof (MODEL.md "Released dofs").
+  /// entry is a released dof (docs/model.md "Released dofs").
   Vector6d s_t = Vector6d::Zero();
   /// S_p diagonal, one entry per movable joint in column order (N·m/rad or N/m), each >= 0.
   FastJointVector s_p;

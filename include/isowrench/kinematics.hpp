@@ -2,7 +2,7 @@
 /// @file
 /// Kinematics of the one engine (the Model's compiled chain, the same kernel as EvaluateFast):
 /// endpoint pose and Jacobian, point Jacobians of muscle path points, and the muscle
-/// generalized force tau = -F (dL/dtheta)^T (MODEL.md "Muscle generalized force"). Columns are
+/// generalized force tau = -F (dL/dtheta)^T (docs/model.md "Muscle generalized force"). Columns are
 /// the Model's independent coordinates (J = J_joints C for coupled joints). tests/core checks
 /// them against orocos KDL (ChainJntToJacSolver) to 1e-12 on every shipped model.
 

@@ -6,6 +6,7 @@
 
 #include "cli/command.hpp"
 #include "isowrench/error.hpp"
+#include "isowrench/input_checks.hpp"
 #include "isowrench/io.hpp"
 #include "isowrench/posture.hpp"
 
@@ -69,16 +70,19 @@ Model LoadModel(const ModelOptions& o) {
     Vector6d s;
     for (int i = 0; i < 6; ++i) {
       s[i] = util::ParseDoubleOrThrow(items[i], std::string("--transducer-stiffness ") + DofName(i));
+      CheckStiffnessValue(s[i], std::string("--transducer-stiffness ") + DofName(i));
     }
     d = WithTransducerStiffness(std::move(d), s);
   }
+  if (o.base_given) CheckStiffnessValue(o.base_stiffness, "--base-stiffness");
   if (o.base_given) d = WithBaseStiffness(std::move(d), o.base_stiffness);
   for (const std::string& item : o.joint_stiffness) {
     size_t eq = item.find('=');
     if (eq == std::string::npos) throw Error("--joint-stiffness '" + item + "' is not joint=value");
     std::string joint = util::Trim(item.substr(0, eq));
-    d = WithJointStiffness(std::move(d), joint,
-                           util::ParseDoubleOrThrow(item.substr(eq + 1), "--joint-stiffness " + joint));
+    double k = util::ParseDoubleOrThrow(item.substr(eq + 1), "--joint-stiffness " + joint);
+    CheckStiffnessValue(k, "--joint-stiffness " + joint);
+    d = WithJointStiffness(std::move(d), joint, k);
   }
   return Model(std::move(d));
 }
@@ -128,10 +132,16 @@ std::string WrenchRow(const std::string& label, const Vector6d& w, int label_wid
   return line;
 }
 
-nlohmann::json ToJson(const Vector6d& v) { return std::vector<double>(v.data(), v.data() + 6); }
-nlohmann::json ToJson(const Eigen::VectorXd& v) { return std::vector<double>(v.data(), v.data() + v.size()); }
+// JSON never holds -0 (x == 0 maps -0 to +0).
+nlohmann::json ToJson(const Vector6d& v) { return ToJson(Eigen::VectorXd(v)); }
+nlohmann::json ToJson(const Eigen::VectorXd& v) {
+  std::vector<double> out(v.data(), v.data() + v.size());
+  for (double& x : out) x = x == 0.0 ? 0.0 : x;
+  return out;
+}
 
-nlohmann::json WrenchJson(const Vector6d& w) {
+nlohmann::json WrenchJson(const Vector6d& wrench) {
+  Vector6d w = wrench.unaryExpr([](double x) { return x == 0.0 ? 0.0 : x; });
   return {{"fx", w[0]}, {"fy", w[1]}, {"fz", w[2]}, {"mx", w[3]}, {"my", w[4]}, {"mz", w[5]},
           {"units", {{"force", "N"}, {"moment", "N·m"}}}};
 }

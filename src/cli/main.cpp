@@ -8,6 +8,19 @@
 #include "cli/command.hpp"
 #include "isowrench/error.hpp"
 
+namespace {
+
+// Documented in README.md "Exit codes"; each code has a CTest case (tests/cli).
+const char* kExitCodes =
+    "Exit codes:\n"
+    "  0  success\n"
+    "  1  bad input: a file, option value, model or data the command cannot use (message on stderr)\n"
+    "  2  command-line usage error: unknown option or subcommand, missing or malformed argument\n"
+    "  3  internal error (a bug in isowrench; please report it with the command line)\n"
+    "  4  no equilibrium: the muscle torque drives a self-motion (wrench); the output says which";
+
+}  // namespace
+
 int main(int argc, char** argv) {
   std::setlocale(LC_ALL, "C");
   CLI::App app{
@@ -15,6 +28,7 @@ int main(int argc, char** argv) {
       "force/torque transducer, with transducer, base and joint compliances (Eq. 10 of the "
       "seed paper). Units: SI; postures in degrees. Docs: README.md, docs/."};
   app.require_subcommand(1);
+  app.footer(kExitCodes);
   app.set_version_flag("--version", "isowrench 0.1.0");
   auto commands = isowrench::cli::RegisteredCommands();
   std::sort(commands.begin(), commands.end(),
@@ -22,6 +36,7 @@ int main(int argc, char** argv) {
   std::vector<std::pair<CLI::App*, std::function<int()>>> runners;
   for (const auto& command : commands) {
     CLI::App* sub = app.add_subcommand(command.name, command.description);
+    sub->footer(kExitCodes);
     runners.emplace_back(sub, command.setup(*sub));
   }
   try {

@@ -22,16 +22,37 @@ std::string Unit(const Model& model, int i, const char* revolute, const char* pr
   return model.joint(i).type == JointType::kPrismatic ? prismatic : revolute;
 }
 
+/// +0 for -0, so no table or JSON prints "-0".
+double NoNegativeZero(double v) { return v == 0.0 ? 0.0 : v; }
+
+/// The base dofs of the model (role base), whose zero torque makes the classic answer
+/// (J^-T tau / pinv(J^T) tau) meaningless: it has no compliance to share the load with.
+std::vector<std::string> BaseDofs(const Model& model) {
+  std::vector<std::string> names;
+  for (int i = 0; i < model.dof_count(); ++i) {
+    if (model.joint(i).role == JointRole::kBase) names.push_back(model.joint_names()[i]);
+  }
+  return names;
+}
+
+std::string ClassicOmitted(const std::vector<std::string>& base) {
+  return "the model has base dofs (" + util::Join(base, ", ") +
+         ") with zero torque; the rigid-skeleton classic answer treats them as free joints and "
+         "means nothing here (Eq. 10 is the answer)";
+}
+
+bool NoEquilibrium(const StaticsResult& s) { return s.status == StaticsStatus::kSelfMotion; }
+
 nlohmann::json EvaluationJson(const Model& model, const WrenchEvaluation& e, const std::string& urdf) {
   const StaticsResult& s = e.statics;
   nlohmann::json joints = nlohmann::json::array();
   for (int i = 0; i < model.dof_count(); ++i) {
     joints.push_back({{"name", model.joint_names()[i]},
                       {"role", RoleName(model.joint(i).role)},
-                      {"q", e.q[i]},
+                      {"q", NoNegativeZero(e.q[i])},
                       {"stiffness", e.s_p[i]},
-                      {"tau", e.tau[i]},
-                      {"dtheta", s.dtheta[i]},
+                      {"tau", NoNegativeZero(e.tau[i])},
+                      {"dtheta", NoEquilibrium(s) ? nlohmann::json(nullptr) : nlohmann::json(NoNegativeZero(s.dtheta[i]))},
                       {"units", model.joint(i).type == JointType::kPrismatic
                                     ? nlohmann::json{{"q", "m"}, {"stiffness", "N/m"}, {"tau", "N"}, {"dtheta", "m"}}
                                     : nlohmann::json{{"q", "rad"}, {"stiffness", "N·m/rad"}, {"tau", "N·m"}, {"dtheta", "rad"}}}});
@@ -45,6 +66,14 @@ nlohmann::json EvaluationJson(const Model& model, const WrenchEvaluation& e, con
   for (int i = 0; i < 6; ++i) {
     if (model.transducer().released[i]) released.push_back(DofName(i));
   }
+  const bool none = NoEquilibrium(s);
+  const std::vector<std::string> base = BaseDofs(model);
+  nlohmann::json classic =
+      base.empty() ? nlohmann::json{{"method", e.classic.square_inverse ? "J^-T tau (Eq. 11)" : "pinv(J^T) tau (Eq. 15)"},
+                                    {"wrench", WrenchJson(e.classic.wrench)},
+                                    {"rank", e.classic.rank},
+                                    {"residual", e.classic.residual}}
+                   : nlohmann::json{{"method", nullptr}, {"omitted", ClassicOmitted(base)}};
   return {
       {"model", model.name()},
       {"urdf", urdf},
@@ -52,13 +81,11 @@ nlohmann::json EvaluationJson(const Model& model, const WrenchEvaluation& e, con
       {"transducer", {{"stiffness", ToJson(e.s_t)}, {"released", released},
                       {"units", "N/m for x y z, N·m/rad for rx ry rz"}}},
       {"joints", joints},
-      {"wrench", WrenchJson(s.wrench)},
-      {"wrench_world", WrenchJson(e.wrench_world)},
+      {"equilibrium", !none},
+      {"wrench", none ? nlohmann::json(nullptr) : WrenchJson(s.wrench)},
+      {"wrench_world", none ? nlohmann::json(nullptr) : WrenchJson(e.wrench_world)},
       {"wrench_sign", "wrench the limb applies to the transducer; moment about the endpoint"},
-      {"classic", {{"method", e.classic.square_inverse ? "J^-T tau (Eq. 11)" : "pinv(J^T) tau (Eq. 15)"},
-                   {"wrench", WrenchJson(e.classic.wrench)},
-                   {"rank", e.classic.rank},
-                   {"residual", e.classic.residual}}},
+      {"classic", classic},
       {"statics", {{"status", StatusName(s.status)},
                    {"message", s.message},
                    {"k_rank", s.k_rank},
@@ -67,8 +94,9 @@ nlohmann::json EvaluationJson(const Model& model, const WrenchEvaluation& e, con
                    {"k_eigenvalues", ToJson(s.k_eigenvalues)},
                    {"equilibrium_residual", s.equilibrium_residual},
                    {"self_motion", self_motion}}},
-      {"endpoint_displacement", {{"value", ToJson(s.endpoint_displacement)}, {"units", "m for x y z, rad for rx ry rz"}}},
-      {"small_motion", {{"valid", s.small_motion_valid},
+      {"endpoint_displacement", {{"value", none ? nlohmann::json(nullptr) : ToJson(s.endpoint_displacement)},
+                                 {"units", "m for x y z, rad for rx ry rz"}}},
+      {"small_motion", {{"valid", none ? nlohmann::json(nullptr) : nlohmann::json(s.small_motion_valid)},
                         {"endpoint_translation_m", s.endpoint_translation},
                         {"endpoint_translation_limit_m", s.endpoint_translation_limit},
                         {"max_joint_rotation_rad", s.max_joint_rotation},
@@ -98,32 +126,54 @@ void PrintEvaluation(const Model& model, const WrenchEvaluation& e, const std::s
   for (int c = 0; c < s.self_motion.cols(); ++c) {
     std::cout << "  self-motion  " << DescribeJointMotion(model, s.self_motion.col(c)) << "\n";
   }
-  std::cout << "  small motion " << (s.small_motion_valid ? "valid" : "INVALID") << ": endpoint moves "
-            << util::FormatNumber(s.endpoint_translation, 3) << " m (limit "
-            << util::FormatNumber(s.endpoint_translation_limit, 3) << " m), largest joint rotation "
-            << util::FormatNumber(s.max_joint_rotation, 3) << " rad (limit "
-            << util::FormatNumber(s.max_joint_rotation_limit, 3) << " rad)\n";
-  if (!s.validity_message.empty()) std::cout << "  warning      " << s.validity_message << "\n";
+  const bool none = NoEquilibrium(s);
+  if (none) {
+    // The small-motion check needs a displacement, and there is none without equilibrium.
+    std::cout << "  small motion not applicable: no equilibrium (the muscle torque drives a self-motion)\n";
+  } else {
+    std::cout << "  small motion " << (s.small_motion_valid ? "valid" : "INVALID") << ": endpoint moves "
+              << util::FormatNumber(s.endpoint_translation, 3) << " m (limit "
+              << util::FormatNumber(s.endpoint_translation_limit, 3) << " m), largest joint rotation "
+              << util::FormatNumber(s.max_joint_rotation, 3) << " rad (limit "
+              << util::FormatNumber(s.max_joint_rotation_limit, 3) << " rad)\n";
+    if (!s.validity_message.empty()) std::cout << "  warning      " << s.validity_message << "\n";
+  }
 
   const int w = 30;
+  const std::vector<std::string> base = BaseDofs(model);
+  auto eq10 = [&](const std::string& label, const Vector6d& value) {
+    if (!none) return WrenchRow(label, value, w);
+    std::string line = label + std::string(static_cast<size_t>(w) - label.size(), ' ');
+    return line + "no equilibrium";
+  };
   std::cout << "\nWrench the limb applies to the transducer (moment about the endpoint):\n"
             << WrenchHeader(w) << "\n"
-            << WrenchRow("Eq. 10, transducer axes", s.wrench, w) << "\n"
-            << WrenchRow("Eq. 10, world axes", e.wrench_world, w) << "\n"
-            << WrenchRow(e.classic.square_inverse ? "J^-T tau (Eq. 11)" : "pinv(J^T) tau (Eq. 15)",
-                         e.classic.wrench, w)
-            << "\n";
-  if (e.classic.residual > 1e-9 * std::max(1.0, e.tau.norm())) {
+            << eq10("Eq. 10, transducer axes", s.wrench) << "\n"
+            << eq10("Eq. 10, world axes", e.wrench_world) << "\n";
+  if (!base.empty()) {
+    std::cout << "  (classic J^-T / pinv(J^T) tau not shown: " << ClassicOmitted(base) << ")\n";
+  } else {
+    std::cout << WrenchRow(e.classic.square_inverse ? "J^-T tau (Eq. 11)" : "pinv(J^T) tau (Eq. 15)",
+                           e.classic.wrench, w)
+              << "\n";
+  }
+  if (base.empty() && e.classic.residual > 1e-9 * std::max(1.0, e.tau.norm())) {
     std::cout << "  (the classic answer leaves |J^T W - tau| = " << util::FormatNumber(e.classic.residual, 3)
               << " N·m: the restrained dofs cannot balance the muscle torque without compliance)\n";
   }
   std::cout << "\nPer joint:\n" << "  joint        role       tau            dtheta         stiffness\n";
   for (int i = 0; i < model.dof_count(); ++i) {
     char line[200];
-    std::snprintf(line, sizeof(line), "  %-12s %-8s %11.4g %-4s %11.4g %-4s %10.4g %s\n",
-                  model.joint_names()[i].c_str(), RoleName(model.joint(i).role), e.tau[i],
-                  Unit(model, i, "N·m", "N").c_str(), s.dtheta[i], Unit(model, i, "rad", "m").c_str(),
-                  e.s_p[i], Unit(model, i, "N·m/rad", "N/m").c_str());
+    char dtheta[64];
+    if (none) {
+      std::snprintf(dtheta, sizeof(dtheta), "%-16s", "no equilibrium");
+    } else {
+      std::snprintf(dtheta, sizeof(dtheta), "%11.4g %-4s", NoNegativeZero(s.dtheta[i]), Unit(model, i, "rad", "m").c_str());
+    }
+    std::snprintf(line, sizeof(line), "  %-12s %-8s %11.4g %-4s %s %10.4g %s\n",
+                  model.joint_names()[i].c_str(), RoleName(model.joint(i).role), NoNegativeZero(e.tau[i]),
+                  Unit(model, i, "N·m", "N").c_str(), dtheta, NoNegativeZero(e.s_p[i]),
+                  Unit(model, i, "N·m/rad", "N/m").c_str());
     std::cout << line;
   }
 }

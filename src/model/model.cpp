@@ -7,6 +7,7 @@
 #include <set>
 
 #include "isowrench/error.hpp"
+#include "isowrench/input_checks.hpp"
 #include "isowrench/fast.hpp"
 #include "isowrench/input_checks.hpp"
 #include "isowrench/model.hpp"

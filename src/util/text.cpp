@@ -49,6 +49,7 @@ std::string Trim(std::string_view text) {
 
 std::string FormatNumber(double value, int significant) {
   char buffer[64];
+  if (value == 0.0) value = 0.0;  // never "-0"
   // %g is locale dependent only for the decimal point; std::to_chars is not.
   auto result = std::to_chars(buffer, buffer + sizeof(buffer), value, std::chars_format::general,
                               significant);
