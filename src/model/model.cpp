@@ -7,7 +7,6 @@
 #include <set>
 
 #include "isowrench/error.hpp"
-#include "isowrench/input_checks.hpp"
 #include "isowrench/fast.hpp"
 #include "isowrench/input_checks.hpp"
 #include "isowrench/model.hpp"

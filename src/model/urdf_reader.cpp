@@ -367,17 +367,6 @@ LimbDescription ReadUrdfString(const std::string& xml, const std::string& source
       d.nominal_posture.emplace_back(name, q);
     }
   }
-  urdf_checks::WarnImplausibleDimensions(d, [&](const std::string& joint) {
-    if (joint.rfind("muscle:", 0) == 0) {
-      std::string muscle = joint.substr(7);
-      for (auto* e = robot->FirstChildElement("isowrench:muscle"); e; e = e->NextSiblingElement("isowrench:muscle")) {
-        const char* n = e->Attribute("name");
-        if (n && muscle == n) return r.Where(e);
-      }
-    }
-    auto it = joint_elements.find(joint);
-    return it != joint_elements.end() ? r.Where(it->second) : r.Where(transducer);
-  });
   urdf_coordinates::ApplyJointTags(*robot, r.source, d);
   urdf_checks::WarnImplausibleDimensions(d, [&](const std::string& joint) {
     if (joint.rfind("muscle:", 0) == 0) {
