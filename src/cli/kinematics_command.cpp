@@ -5,6 +5,7 @@
 #include <sstream>
 
 #include "cli/command.hpp"
+#include "isowrench/error.hpp"
 #include "isowrench/io.hpp"
 #include "isowrench/kinematics.hpp"
 #include "isowrench/posture.hpp"
@@ -133,6 +134,23 @@ std::string Table(const Model& model, const std::vector<PostureKinematics>& resu
   return o.str();
 }
 
+}  // namespace
+
+Model RequireCoordinateColumns(Model model) {
+  const LimbDescription& d = model.description();
+  if (model.dof_count() == static_cast<int>(d.coordinates.size())) return model;
+  std::vector<std::string> driven;
+  for (const JointSpec& j : d.joints) {
+    if (j.type != JointType::kFixed && j.coordinate != j.name) driven.push_back(j.name + " <- " + j.coordinate);
+  }
+  throw Error("model '" + d.name + "' has coupled joints (" + util::Join(driven, ", ") + "): the evaluation engine " +
+              "does not map couplings to coordinates yet (" + std::to_string(model.dof_count()) + " joint columns, " +
+              std::to_string(d.coordinates.size()) + " coordinates), so isowrench refuses to report the driven " +
+              "joints as free dofs");
+}
+
+namespace {
+
 const bool registered = RegisterCommand({
     "kinematics",
     "Endpoint position, 6 x n endpoint Jacobian and every muscle's length and moment arms (-dL/dq) at "
@@ -151,7 +169,9 @@ const bool registered = RegisterCommand({
                    "Print {\"coordinates\": [...], \"postures\": [{\"endpoint_m\", \"jacobian\" (6 rows), "
                    "\"muscles\": {name: {\"length_m\", \"moment_arm_m\"}}}]} in SI units, world axes");
       return [options]() {
-        Model model = Model::FromUrdfFile(options->urdf);
+        ModelOptions load;
+        load.urdf = options->urdf;
+        Model model = LoadModel(load);
         Eigen::VectorXd base = model.nominal_posture();
         for (const std::string& assignment : options->posture) base = ApplyPostureAssignments(model, base, assignment);
         std::vector<Eigen::VectorXd> postures = {base};

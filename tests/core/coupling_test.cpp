@@ -7,9 +7,13 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <nlohmann/json.hpp>
 #include <string>
 
 #include "eigen_compare.hpp"
+#include "isowrench/kinematics.hpp"
 #include "isowrench/posture.hpp"
 #include "test_models.hpp"
 
@@ -520,6 +524,179 @@ TEST(PostureCsv, BadFilesAreNamedErrors) {
   const isowrench::Model leg(Read(Leg(R"(<mimic joint="knee" multiplier="0.01"/>)", "", "")));
   EXPECT_THAT([&] { isowrench::ParsePostureCsv(leg, "knee_tx\n1\n", "p.csv", leg.nominal_posture()); },
               ThrowsMessage<Error>(AllOf(HasSubstr("p.csv:1"), HasSubstr("set 'knee' instead"))));
+}
+
+
+// ---- coupled kinematics against an independent forward kinematics -----------------------------
+// These need the engine to map couplings (Model columns = coordinates, J = J_joints C); until it
+// does, they skip with that reason.
+
+namespace kin {
+
+using isowrench::Model;
+
+bool EngineMapsCouplings(const Model& model) {
+  return model.dof_count() == static_cast<int>(model.description().coordinates.size());
+}
+
+Eigen::Matrix3d Rz(double a) { return Eigen::AngleAxisd(a, Eigen::Vector3d::UnitZ()).toRotationMatrix(); }
+Eigen::Matrix3d Ry(double a) { return Eigen::AngleAxisd(a, Eigen::Vector3d::UnitY()).toRotationMatrix(); }
+Eigen::Matrix3d Rx(double a) { return Eigen::AngleAxisd(a, Eigen::Vector3d::UnitX()).toRotationMatrix(); }
+
+/// urdf/rat_hindlimb_coupled_knee.urdf written out by hand, coordinates q = [hip_rz hip_ry
+/// hip_rx knee_rz knee_rx]: the femur turns by Rz Ry Rx about the hip; the knee centre sits at
+/// (0.031 + tx(knee_rz), ty(knee_rz), 0) in the femur frame; the tibia turns by Rz(knee_rz)
+/// Rx(knee_rx) about it. tx is the file's SimmSpline (built here from the same knots), ty the
+/// mimic 0.0004 knee_rz + 0.0001.
+struct CoupledKnee {
+  isowrench::Function tx = isowrench::Function::SimmSpline({0, 0.5, 1, 1.5, 2, 2.5},
+                                                           {0, -0.0002, -0.0005, -0.0009, -0.0012, -0.0014});
+  Eigen::Matrix3d Tibia(const Eigen::VectorXd& q) const { return Rz(q[0]) * Ry(q[1]) * Rx(q[2]) * Rz(q[3]) * Rx(q[4]); }
+  Eigen::Vector3d OnTibia(const Eigen::VectorXd& q, const Eigen::Vector3d& p) const {
+    const Eigen::Vector3d knee(0.031 + tx.Value(q[3]), 0.0004 * q[3] + 0.0001, 0.0);
+    return Rz(q[0]) * Ry(q[1]) * Rx(q[2]) * (knee + Rz(q[3]) * Rx(q[4]) * p);
+  }
+  Eigen::Vector3d Endpoint(const Eigen::VectorXd& q) const { return OnTibia(q, Eigen::Vector3d(0.041, 0, 0)); }
+  double GpLength(const Eigen::VectorXd& q) const {
+    return (OnTibia(q, Eigen::Vector3d(0.0156, -0.00452, -0.00378)) - Eigen::Vector3d(0.01267, -0.010403, -0.00478))
+        .norm();
+  }
+};
+
+/// Central differences, step h: error ~ h^2 |f'''| / 6 (< 1e-13 here) plus rounding eps |f| / h.
+constexpr double kStep = 1e-6;
+constexpr double kFdTolerance = 1e-9;
+
+isowrench::Matrix6Xd JacobianByDifferences(const CoupledKnee& k, const Eigen::VectorXd& q) {
+  isowrench::Matrix6Xd J(6, q.size());
+  for (int i = 0; i < q.size(); ++i) {
+    Eigen::VectorXd plus = q, minus = q;
+    plus[i] += kStep;
+    minus[i] -= kStep;
+    J.block<3, 1>(0, i) = (k.Endpoint(plus) - k.Endpoint(minus)) / (2 * kStep);
+    J.block<3, 1>(3, i) = Vee((k.Tibia(plus) - k.Tibia(minus)) / (2 * kStep) * k.Tibia(q).transpose());
+  }
+  return J;
+}
+
+Eigen::VectorXd MomentArmsByDifferences(const CoupledKnee& k, const Eigen::VectorXd& q) {
+  Eigen::VectorXd r(q.size());
+  for (int i = 0; i < q.size(); ++i) {
+    Eigen::VectorXd plus = q, minus = q;
+    plus[i] += kStep;
+    minus[i] -= kStep;
+    r[i] = -(k.GpLength(plus) - k.GpLength(minus)) / (2 * kStep);
+  }
+  return r;
+}
+
+/// Postures over the knee's whole range, spline extrapolation on both sides included.
+std::vector<Eigen::VectorXd> Postures() {
+  std::vector<Eigen::VectorXd> out;
+  for (double knee : {-0.3, 0.2, 1.2, 1.8326, 2.5, 2.9}) {
+    Eigen::VectorXd q(5);
+    q << Deg(-110), 0.1, -0.2, knee, 0.15;
+    out.push_back(q);
+  }
+  return out;
+}
+
+}  // namespace kin
+
+TEST(CoupledKinematics, EngineMatchesDifferencesOfAnIndependentForwardKinematics) {
+  const isowrench::Model model = LoadModel("rat_hindlimb_coupled_knee.urdf");
+  if (!kin::EngineMapsCouplings(model)) GTEST_SKIP() << "the engine does not map couplings to coordinates yet";
+  const kin::CoupledKnee knee;
+  isowrench::KinematicsWorkspace ws(model);
+  for (const Eigen::VectorXd& q : kin::Postures()) {
+    EXPECT_TRUE(MatricesNear(isowrench::EndpointPose(model, ws, q).translation(), knee.Endpoint(q), 1e-15));
+    EXPECT_TRUE(MatricesNear(isowrench::EndpointJacobianWorld(model, ws, q), kin::JacobianByDifferences(knee, q),
+                             kin::kFdTolerance));
+    const isowrench::MuscleTorque t = isowrench::ComputeMuscleTorque(model, ws, q, model.MuscleIndex("GP"));
+    EXPECT_NEAR(t.length, knee.GpLength(q), 1e-15);
+    EXPECT_TRUE(MatricesNear(Eigen::VectorXd(-t.dL_dq.transpose()), kin::MomentArmsByDifferences(knee, q),
+                             kin::kFdTolerance));
+  }
+}
+
+TEST(CoupledKinematics, KinematicsCommandJsonMatchesDifferencesOfAnIndependentForwardKinematics) {
+  const isowrench::Model model = LoadModel("rat_hindlimb_coupled_knee.urdf");
+  if (!kin::EngineMapsCouplings(model)) GTEST_SKIP() << "the engine does not map couplings to coordinates yet";
+  const std::string csv = ::testing::TempDir() + "coupled_knee_postures.csv";
+  {
+    std::ofstream out(csv);
+    out << "hip_rz,hip_ry,hip_rx,knee_rz,knee_rx\n";
+    for (const Eigen::VectorXd& q : kin::Postures()) {
+      out.precision(17);
+      for (int i = 0; i < 5; ++i) out << (i ? "," : "") << q[i] * 180.0 / kPi;
+      out << "\n";
+    }
+  }
+  const std::string command = std::string(ISOWRENCH_CLI) + " kinematics " + UrdfPath("rat_hindlimb_coupled_knee.urdf") +
+                              " --postures " + csv + " --json";
+  FILE* pipe = popen(command.c_str(), "r");
+  ASSERT_NE(pipe, nullptr);
+  std::string text;
+  char buffer[4096];
+  for (size_t n; (n = fread(buffer, 1, sizeof(buffer), pipe)) > 0;) text.append(buffer, n);
+  ASSERT_EQ(pclose(pipe), 0) << text;
+  std::remove(csv.c_str());
+  const nlohmann::json json = nlohmann::json::parse(text);
+  EXPECT_EQ(json["coordinates"], (std::vector<std::string>{"hip_rz", "hip_ry", "hip_rx", "knee_rz", "knee_rx"}));
+  const kin::CoupledKnee knee;
+  const std::vector<Eigen::VectorXd> postures = kin::Postures();
+  ASSERT_EQ(json["postures"].size(), postures.size());
+  for (size_t p = 0; p < postures.size(); ++p) {
+    const nlohmann::json& out = json["postures"][p];
+    // The CSV carries degrees with 17 digits: the posture is q to ~1e-16 rad.
+    const Eigen::Vector3d endpoint(out["endpoint_m"][0], out["endpoint_m"][1], out["endpoint_m"][2]);
+    EXPECT_TRUE(MatricesNear(endpoint, knee.Endpoint(postures[p]), 1e-15));
+    isowrench::Matrix6Xd J(6, 5);
+    for (int r = 0; r < 6; ++r) {
+      for (int c = 0; c < 5; ++c) J(r, c) = out["jacobian"][r][c];
+    }
+    EXPECT_TRUE(MatricesNear(J, kin::JacobianByDifferences(knee, postures[p]), kin::kFdTolerance));
+    EXPECT_NEAR(out["muscles"]["GP"]["length_m"].get<double>(), knee.GpLength(postures[p]), 1e-15);
+    Eigen::VectorXd r(5);
+    for (int c = 0; c < 5; ++c) r[c] = out["muscles"]["GP"]["moment_arm_m"][c];
+    EXPECT_TRUE(MatricesNear(r, kin::MomentArmsByDifferences(knee, postures[p]), kin::kFdTolerance));
+  }
+}
+
+TEST(CoupledKinematics, MimicLegEqualsTheSameLegWrittenAsOneJoint) {
+  // Two knee joints on one axis at one point, the second a mimic (multiplier 1, offset 0.2) of
+  // the first: the same as one knee joint at angle 2 q + 0.2, whose column is twice as large.
+  auto leg = [](const std::string& knee2) {
+    return std::string(R"(<robot name="leg" xmlns:isowrench="urn:isowrench:urdf:1">
+  <link name="ground"/> <link name="thigh"/> <link name="mid"/> <link name="shank"/>
+  <joint name="hip" type="continuous"><parent link="ground"/><child link="thigh"/><axis xyz="0 0 1"/></joint>
+  <joint name="knee" type="continuous"><parent link="thigh"/><child link="mid"/>
+    <origin xyz="0.03 0.004 0" rpy="0.1 0 0"/><axis xyz="0 0.6 0.8"/></joint>
+  <joint name="knee2" type=)") + knee2 + R"(
+  <isowrench:transducer link="shank" xyz="0.04 0.002 -0.001"/>
+  <isowrench:muscle name="M" max_force="1">
+    <isowrench:point link="ground" xyz="0.01 0.012 0.003"/> <isowrench:point link="shank" xyz="0.012 -0.004 0.002"/>
+  </isowrench:muscle>
+</robot>)";
+  };
+  const isowrench::Model mimic(Read(leg(R"("continuous"><parent link="mid"/><child link="shank"/><axis xyz="0 0.6 0.8"/>
+    <mimic joint="knee" multiplier="1" offset="0.2"/></joint>)")));
+  const isowrench::Model single(Read(leg(R"("fixed"><parent link="mid"/><child link="shank"/></joint>)")));
+  if (!kin::EngineMapsCouplings(mimic)) GTEST_SKIP() << "the engine does not map couplings to coordinates yet";
+  ASSERT_EQ(mimic.dof_count(), 2);
+  isowrench::KinematicsWorkspace ws_m(mimic), ws_s(single);
+  for (double knee : {-1.0, 0.3, 2.0}) {
+    Eigen::Vector2d q(0.4, knee);
+    Eigen::Vector2d q_single(0.4, 2 * knee + 0.2);
+    EXPECT_TRUE(MatricesNear(isowrench::EndpointPose(mimic, ws_m, q).matrix(),
+                             isowrench::EndpointPose(single, ws_s, q_single).matrix(), 1e-15));
+    isowrench::Matrix6Xd J_expected = isowrench::EndpointJacobianWorld(single, ws_s, q_single);
+    J_expected.col(1) *= 2.0;
+    EXPECT_TRUE(MatricesNear(isowrench::EndpointJacobianWorld(mimic, ws_m, q), J_expected, 1e-15));
+    Eigen::RowVectorXd dL = isowrench::ComputeMuscleTorque(single, ws_s, q_single, 0).dL_dq;
+    dL[1] *= 2.0;
+    EXPECT_TRUE(MatricesNear(isowrench::ComputeMuscleTorque(mimic, ws_m, q, 0).dL_dq, dL, 1e-15));
+  }
 }
 
 }  // namespace
