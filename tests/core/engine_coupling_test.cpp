@@ -146,16 +146,20 @@ TEST_P(CoupledLeg, FastSingleBatchAndReferenceAgree) {
   std::uniform_real_distribution<double> hip(-kPi, kPi), knee(-0.9, 2.4);
   const int postures = 37;  // not a multiple of the lane count
   Eigen::MatrixXd Q(2, postures);
-  for (int p = 0; p < postures; ++p) Q.col(p) = Eigen::Vector2d(hip(rng), knee(rng));
+  for (int p = 0; p < postures; ++p) {
+    Q(0, p) = hip(rng);
+    Q(1, p) = knee(rng);
+  }
   std::vector<isowrench::StiffnessSet> sets(3, compiled.model_stiffness());
-  sets[1].s_p = isowrench::FastJointVector::Constant(2, 0.3);
+  sets[1].s_p.setConstant(0.3);
   sets[2].s_t *= 0.01;
   std::vector<isowrench::FastWrench> batch;
   isowrench::EvaluateBatch(compiled, Q, 0, sets, batch, 0.7);
   for (int p = 0; p < postures; ++p) {
-    const isowrench::WrenchEvaluation ref = isowrench::EvaluateWrench(model, Q.col(p), "M", 0.7);
+    const Eigen::VectorXd q = Q.col(p);
+    const isowrench::WrenchEvaluation ref = isowrench::EvaluateWrench(model, q, "M", 0.7);
     for (size_t s = 0; s < sets.size(); ++s) {
-      const isowrench::FastWrench single = isowrench::EvaluateFast(compiled, ws, Q.col(p), 0, sets[s], 0.7);
+      const isowrench::FastWrench single = isowrench::EvaluateFast(compiled, ws, q, 0, sets[s], 0.7);
       const isowrench::FastWrench& b = batch[p * sets.size() + s];
       ASSERT_EQ(single.status, b.status);
       const double scale = std::max(1.0, single.wrench.norm());
@@ -272,7 +276,9 @@ TEST(LockedCoordinate, StaticsEqualTheLegWithThatJointFixed) {
     const Model rigid(fixed);
     ASSERT_EQ(rigid.dof_count(), 1);
     const isowrench::WrenchEvaluation a = isowrench::EvaluateWrench(model, q, "M");
-    const isowrench::WrenchEvaluation b = isowrench::EvaluateWrench(rigid, Eigen::VectorXd::Constant(1, q[0]), "M");
+    Eigen::VectorXd q_rigid(1);
+    q_rigid[0] = q[0];
+    const isowrench::WrenchEvaluation b = isowrench::EvaluateWrench(rigid, q_rigid, "M");
     ASSERT_EQ(a.statics.status, b.statics.status);
     EXPECT_LE((a.statics.wrench - b.statics.wrench).norm(), 1e-9 * std::max(1.0, b.statics.wrench.norm()));
     EXPECT_EQ(a.statics.dtheta[1], 0.0);
