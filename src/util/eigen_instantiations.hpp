@@ -11,11 +11,12 @@
 namespace Eigen {
 extern template class JacobiSVD<MatrixXd>;
 extern template class SelfAdjointEigenSolver<MatrixXd>;
-extern template SelfAdjointEigenSolver<MatrixXd>& SelfAdjointEigenSolver<MatrixXd>::compute<MatrixXd>(
-    const EigenBase<MatrixXd>& matrix, int options);
+extern template SelfAdjointEigenSolver<MatrixXd>&
+SelfAdjointEigenSolver<MatrixXd>::compute<MatrixXd>(const EigenBase<MatrixXd>& matrix, int options);
 extern template class LLT<MatrixXd>;
 extern template LLT<MatrixXd>& LLT<MatrixXd>::compute<MatrixXd>(const EigenBase<MatrixXd>& matrix);
 extern template class LDLT<MatrixXd>;
-extern template LDLT<MatrixXd>& LDLT<MatrixXd>::compute<MatrixXd>(const EigenBase<MatrixXd>& matrix);
+extern template LDLT<MatrixXd>& LDLT<MatrixXd>::compute<MatrixXd>(
+    const EigenBase<MatrixXd>& matrix);
 extern template class ColPivHouseholderQR<MatrixXd>;
 }  // namespace Eigen
