@@ -105,7 +105,7 @@ TEST(SweepCli, UnknownGridJointExitsOneNamingItAndWritesNothing) {
   const CliRun run = RunCli("sweep " + std::string(ISOWRENCH_TEST_URDF_DIR) +
                          "/planar_2r.urdf --grid wrist=0:10:1 -o " + csv, dir);
   EXPECT_EQ(run.exit_code, 1);
-  EXPECT_THAT(run.output, ::testing::HasSubstr("isowrench: error: unknown joint 'wrist'"));
+  EXPECT_THAT(run.output, ::testing::HasSubstr("isowrench: error: unknown coordinate 'wrist'"));
   EXPECT_FALSE(std::filesystem::exists(csv));
 }
 
