@@ -84,7 +84,7 @@ Model LoadModel(const ModelOptions& o) {
     CheckStiffnessValue(k, "--joint-stiffness " + joint);
     d = WithJointStiffness(std::move(d), joint, k);
   }
-  return RequireCoordinateColumns(Model(std::move(d)));
+  return Model(std::move(d));
 }
 
 Eigen::VectorXd LoadPosture(const Model& model, const ModelOptions& o) {

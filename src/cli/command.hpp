@@ -49,10 +49,6 @@ void AddModelOptions(CLI::App& app, ModelOptions& options, bool with_muscle = tr
 
 /// Load the URDF and apply the overrides. @throws isowrench::Error.
 Model LoadModel(const ModelOptions& options);
-/// `model`, unless it has driven joints that the evaluation engine does not yet map to their
-/// coordinates (its columns would be joints, not coordinates): then an Error naming them, so
-/// that no command reports a driven joint as a free dof. (kinematics_command.cpp)
-Model RequireCoordinateColumns(Model model);
 /// Nominal posture with --posture applied.
 Eigen::VectorXd LoadPosture(const Model& model, const ModelOptions& options);
 /// --muscle or the model's first muscle. @throws isowrench::Error if the model has none.

@@ -134,23 +134,6 @@ std::string Table(const Model& model, const std::vector<PostureKinematics>& resu
   return o.str();
 }
 
-}  // namespace
-
-Model RequireCoordinateColumns(Model model) {
-  const LimbDescription& d = model.description();
-  if (model.dof_count() == static_cast<int>(d.coordinates.size())) return model;
-  std::vector<std::string> driven;
-  for (const JointSpec& j : d.joints) {
-    if (j.type != JointType::kFixed && j.coordinate != j.name) driven.push_back(j.name + " <- " + j.coordinate);
-  }
-  throw Error("model '" + d.name + "' has coupled joints (" + util::Join(driven, ", ") + "): the evaluation engine " +
-              "does not map couplings to coordinates yet (" + std::to_string(model.dof_count()) + " joint columns, " +
-              std::to_string(d.coordinates.size()) + " coordinates), so isowrench refuses to report the driven " +
-              "joints as free dofs");
-}
-
-namespace {
-
 const bool registered = RegisterCommand({
     "kinematics",
     "Endpoint position, 6 x n endpoint Jacobian and every muscle's length and moment arms (-dL/dq) at "

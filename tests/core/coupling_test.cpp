@@ -605,7 +605,7 @@ std::vector<Eigen::VectorXd> Postures() {
 
 TEST(CoupledKinematics, EngineMatchesDifferencesOfAnIndependentForwardKinematics) {
   const isowrench::Model model = LoadModel("rat_hindlimb_coupled_knee.urdf");
-  if (!kin::EngineMapsCouplings(model)) GTEST_SKIP() << "the engine does not map couplings to coordinates yet";
+  ASSERT_TRUE(kin::EngineMapsCouplings(model)) << "the engine must map couplings to coordinates";
   const kin::CoupledKnee knee;
   isowrench::KinematicsWorkspace ws(model);
   for (const Eigen::VectorXd& q : kin::Postures()) {
@@ -621,7 +621,7 @@ TEST(CoupledKinematics, EngineMatchesDifferencesOfAnIndependentForwardKinematics
 
 TEST(CoupledKinematics, KinematicsCommandJsonMatchesDifferencesOfAnIndependentForwardKinematics) {
   const isowrench::Model model = LoadModel("rat_hindlimb_coupled_knee.urdf");
-  if (!kin::EngineMapsCouplings(model)) GTEST_SKIP() << "the engine does not map couplings to coordinates yet";
+  ASSERT_TRUE(kin::EngineMapsCouplings(model)) << "the engine must map couplings to coordinates";
   const std::string csv = ::testing::TempDir() + "coupled_knee_postures.csv";
   {
     std::ofstream out(csv);
@@ -682,7 +682,7 @@ TEST(CoupledKinematics, MimicLegEqualsTheSameLegWrittenAsOneJoint) {
   const isowrench::Model mimic(Read(leg(R"("continuous"><parent link="mid"/><child link="shank"/><axis xyz="0 0.6 0.8"/>
     <mimic joint="knee" multiplier="1" offset="0.2"/></joint>)")));
   const isowrench::Model single(Read(leg(R"("fixed"><parent link="mid"/><child link="shank"/></joint>)")));
-  if (!kin::EngineMapsCouplings(mimic)) GTEST_SKIP() << "the engine does not map couplings to coordinates yet";
+  ASSERT_TRUE(kin::EngineMapsCouplings(mimic)) << "the engine must map couplings to coordinates";
   ASSERT_EQ(mimic.dof_count(), 2);
   isowrench::KinematicsWorkspace ws_m(mimic), ws_s(single);
   for (double knee : {-1.0, 0.3, 2.0}) {
