@@ -72,7 +72,10 @@ WrenchEvaluation EvaluateWrench(const Model& model, KinematicsWorkspace& ws, con
     Eigen::MatrixXd self_motion = Eigen::MatrixXd::Zero(chain.n, e.statics.self_motion.cols());
     for (int i = 0; i < f; ++i) {
       if (e.statics.dtheta.size() == f) dtheta[free[i]] = e.statics.dtheta[i];
-      if (e.statics.self_motion.rows() == f) self_motion.row(free[i]) = e.statics.self_motion.row(i);
+      // .row() of an n x 0 matrix offsets a null pointer (UBSan): copy only a non-empty basis.
+      if (e.statics.self_motion.cols() > 0 && e.statics.self_motion.rows() == f) {
+        self_motion.row(free[i]) = e.statics.self_motion.row(i);
+      }
     }
     e.statics.dtheta = dtheta;
     e.statics.self_motion = self_motion;
