@@ -10,21 +10,24 @@
 
 namespace isowrench_bench {
 
-inline std::string KernelUrdf() { return std::string(ISOWRENCH_BENCH_URDF_DIR) + "/rat_hindlimb_5dof_base.urdf"; }
+inline std::string KernelUrdf() {
+  return std::string(ISOWRENCH_BENCH_URDF_DIR) + "/rat_hindlimb_5dof_base.urdf";
+}
 
 /// Kernel K with a coupled knee: a prismatic tibial translation along x inserted after knee_rz
 /// and driven by it through a 7-knot SimmSpline (millimetres over the knee's range), so the
 /// model keeps kernel K's 8 columns on 9 joints.
 inline isowrench::Model CoupledKernelModel() {
-  isowrench::LimbDescription d = isowrench::WithExtraJoint(isowrench::ReadUrdfFile(KernelUrdf()), "knee_rz",
-                                                           "knee_tx", Eigen::Vector3d::UnitX(), 0.0);
+  isowrench::LimbDescription d = isowrench::WithExtraJoint(
+      isowrench::ReadUrdfFile(KernelUrdf()), "knee_rz", "knee_tx", Eigen::Vector3d::UnitX(), 0.0);
   for (isowrench::JointSpec& j : d.joints) {
     if (j.name != "knee_tx") continue;
     j.type = isowrench::JointType::kPrismatic;
     j.role = isowrench::JointRole::kLimb;
     j.coordinate = "knee_rz";
-    j.coupling = isowrench::Function::SimmSpline({-0.5, 0.25, 1.0, 1.5, 2.0, 2.5, 3.0},
-                                                 {0.0004, 0.0002, 0.0, -0.0003, -0.0007, -0.0012, -0.0018});
+    j.coupling =
+        isowrench::Function::SimmSpline({-0.5, 0.25, 1.0, 1.5, 2.0, 2.5, 3.0},
+                                        {0.0004, 0.0002, 0.0, -0.0003, -0.0007, -0.0012, -0.0018});
   }
   return isowrench::Model(d);
 }
@@ -47,8 +50,8 @@ inline Eigen::MatrixXd KernelPostures(const isowrench::Model& model, int count) 
 
 /// 20 transducer stiffness sets: rotational stiffness = ratio x the model's, ratios
 /// logarithmically spaced from 1 to 1e-4 (the paper's Fig. 2 rows B-D span this range).
-inline std::vector<isowrench::StiffnessSet> KernelStiffnessSets(const isowrench::CompiledModel& compiled,
-                                                                int count = 20) {
+inline std::vector<isowrench::StiffnessSet> KernelStiffnessSets(
+    const isowrench::CompiledModel& compiled, int count = 20) {
   std::vector<isowrench::StiffnessSet> sets;
   for (int k = 0; k < count; ++k) {
     isowrench::StiffnessSet s = compiled.model_stiffness();

@@ -59,7 +59,8 @@ void BM_FastSingle(benchmark::State& state) {
   isowrench::FastWorkspace ws(f.compiled);
   long i = 0;
   for (auto _ : state) {
-    benchmark::DoNotOptimize(isowrench::EvaluateFast(f.compiled, ws, f.postures.col(i++ & 1023), 0, f.sets[0]));
+    benchmark::DoNotOptimize(
+        isowrench::EvaluateFast(f.compiled, ws, f.postures.col(i++ & 1023), 0, f.sets[0]));
   }
   state.SetItemsProcessed(state.iterations());
 }
@@ -129,13 +130,15 @@ BENCHMARK(BM_Sweep181x181x20)->UseRealTime()->Unit(benchmark::kMillisecond);
 // the full loop of isowrench::FitEffects (rounds, cross-validation, decisions). One item = one
 // whole fit.
 void BM_Fit1000TrialsWholeLibrary(benchmark::State& state) {
-  const isowrench::Model nominal =
-      isowrench::Model::FromUrdfFile(std::string(ISOWRENCH_BENCH_URDF_DIR) + "/rat_hindlimb_5dof.urdf");
+  const isowrench::Model nominal = isowrench::Model::FromUrdfFile(
+      std::string(ISOWRENCH_BENCH_URDF_DIR) + "/rat_hindlimb_5dof.urdf");
   isowrench::SimulationOptions simulation;
   simulation.postures = 1000;
   simulation.seed = 3;
   const std::vector<isowrench::Trial> trials = isowrench::SimulateTrials(
-      nominal, isowrench::ApplyEffects(nominal.description(), {isowrench::ParseEffectAssignment(nominal, "base_isotropic=1e7")}),
+      nominal,
+      isowrench::ApplyEffects(nominal.description(),
+                              {isowrench::ParseEffectAssignment(nominal, "base_isotropic=1e7")}),
       simulation);
   std::size_t candidates = 0;
   for (auto _ : state) {
@@ -157,15 +160,15 @@ class RecordingReporter : public benchmark::ConsoleReporter {
       auto it = run.counters.find("items_per_second");
       if (it == run.counters.end()) continue;
       const double threads = run.counters.count("threads") ? run.counters.at("threads").value : 1.0;
-      records_.push_back({run.benchmark_name(), 1e9 / it->second.value, threads,
-                          run.GetAdjustedRealTime()});
+      records_.push_back(
+          {run.benchmark_name(), 1e9 / it->second.value, threads, run.GetAdjustedRealTime()});
     }
   }
   struct Record {
     std::string name;
     double ns_per_evaluation;  // wall-clock ns per evaluation (all threads together)
     double threads;
-    double real_time;          // in the benchmark's unit
+    double real_time;  // in the benchmark's unit
   };
   const std::vector<Record>& records() const { return records_; }
 
@@ -185,7 +188,8 @@ int main(int argc, char** argv) {
     if (r.name.rfind("BM_KdlBaseline", 0) == 0) kdl = r.ns_per_evaluation;
   }
   std::printf("\nSummary (kernel K: GP on rat_hindlimb_5dof_base.urdf, m = 8)\n");
-  std::printf("%-36s %14s %16s %12s\n", "benchmark", "ns/eval (wall)", "ns/eval/core", "KDL / this");
+  std::printf("%-36s %14s %16s %12s\n", "benchmark", "ns/eval (wall)", "ns/eval/core",
+              "KDL / this");
   for (const auto& r : reporter.records()) {
     const double per_core = r.ns_per_evaluation * r.threads;
     char ratio[32] = "-";

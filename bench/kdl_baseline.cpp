@@ -18,7 +18,8 @@ KdlBaseline::KdlBaseline(const isowrench::Model& model, int muscle)
   // KDL segments ending at each link's frame: 0 for the root, i + 1 for joint i's child.
   const isowrench::LimbDescription& d = model.description();
   std::map<std::string, int> link_segments{{d.root_link, 0}};
-  for (size_t i = 0; i < d.joints.size(); ++i) link_segments[d.joints[i].child_link] = static_cast<int>(i) + 1;
+  for (size_t i = 0; i < d.joints.size(); ++i)
+    link_segments[d.joints[i].child_link] = static_cast<int>(i) + 1;
   for (const isowrench::PathPoint& p : spec.path) {
     point_segments_.push_back(link_segments.at(p.link));
     point_offsets_.emplace_back(p.position.x(), p.position.y(), p.position.z());

@@ -5,14 +5,13 @@
 // Jacobians by ChainJntToJacSolver + Jacobian::changeRefPoint, then K = J^T S_t J + S_p and a
 // dynamic-size Eigen LDLT. No validation, no statuses: the happy path only.
 
+#include <Eigen/Cholesky>
+#include <Eigen/Core>
 #include <kdl/chain.hpp>
 #include <kdl/chainfksolverpos_recursive.hpp>
 #include <kdl/chainjnttojacsolver.hpp>
 #include <kdl/jacobian.hpp>
 #include <kdl/jntarray.hpp>
-
-#include <Eigen/Cholesky>
-#include <Eigen/Core>
 #include <vector>
 
 #include "isowrench/model.hpp"

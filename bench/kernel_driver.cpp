@@ -33,17 +33,20 @@ double g_sink = 0.0;
 }  // namespace
 
 // Returns the number of evaluations done.
-extern "C" __attribute__((noinline)) long isowrench_measured_loop(Setup& s, const char* kernel, long n) {
+extern "C" __attribute__((noinline)) long isowrench_measured_loop(Setup& s, const char* kernel,
+                                                                  long n) {
   const isowrench::StiffnessSet& st = s.sets[0];
   if (std::strcmp(kernel, "fast") == 0) {
     for (long i = 0; i < n; ++i) {
-      g_sink += isowrench::EvaluateFast(s.compiled, s.ws, s.postures.col(i & 1023), 0, st).wrench[0];
+      g_sink +=
+          isowrench::EvaluateFast(s.compiled, s.ws, s.postures.col(i & 1023), 0, st).wrench[0];
     }
     return n;
   }
   if (std::strcmp(kernel, "fast-coupled") == 0) {  // kernel K with the spline-coupled knee
     for (long i = 0; i < n; ++i) {
-      g_sink += isowrench::EvaluateFast(s.coupled, s.coupled_ws, s.postures.col(i & 1023), 0, st).wrench[0];
+      g_sink += isowrench::EvaluateFast(s.coupled, s.coupled_ws, s.postures.col(i & 1023), 0, st)
+                    .wrench[0];
     }
     return n;
   }
@@ -60,7 +63,8 @@ extern "C" __attribute__((noinline)) long isowrench_measured_loop(Setup& s, cons
   if (std::strcmp(kernel, "fast-stiffness") == 0) {  // kinematics once, 20 stiffness sets
     for (long i = 0; i < n; ++i) {
       isowrench::ComputeFastKinematics(s.compiled, s.ws, s.postures.col(i & 1023), 0);
-      for (const auto& set : s.sets) g_sink += isowrench::SolveFastStatics(s.compiled, s.ws, set).wrench[0];
+      for (const auto& set : s.sets)
+        g_sink += isowrench::SolveFastStatics(s.compiled, s.ws, set).wrench[0];
     }
     return n * static_cast<long>(s.sets.size());
   }
@@ -86,23 +90,32 @@ extern "C" __attribute__((noinline)) long isowrench_measured_loop(Setup& s, cons
   }
   if (std::strcmp(kernel, "reference") == 0) {
     for (long i = 0; i < n; ++i) {
-      g_sink += isowrench::EvaluateWrench(s.model, s.postures.col(i & 1023), "GP").statics.wrench[0];
+      g_sink +=
+          isowrench::EvaluateWrench(s.model, s.postures.col(i & 1023), "GP").statics.wrench[0];
     }
     return n;
   }
-  std::fprintf(stderr, "unknown kernel '%s' (fast, fast-stiffness, fast-coupled, batch, batch-stiffness, batch-coupled, kdl, reference)\n", kernel);
+  std::fprintf(stderr,
+               "unknown kernel '%s' (fast, fast-stiffness, fast-coupled, batch, batch-stiffness, "
+               "batch-coupled, kdl, reference)\n",
+               kernel);
   std::exit(2);
 }
 
 int main(int argc, char** argv) {
   if (argc != 3) {
-    std::fprintf(stderr, "usage: %s fast|fast-stiffness|fast-coupled|batch|batch-stiffness|batch-coupled|kdl|reference <count>\n", argv[0]);
+    std::fprintf(stderr,
+                 "usage: %s "
+                 "fast|fast-stiffness|fast-coupled|batch|batch-stiffness|batch-coupled|kdl|"
+                 "reference <count>\n",
+                 argv[0]);
     return 2;
   }
   Setup s;
   const long n = std::atol(argv[2]);
   // Warm-up and measurement both run inside the collected function: report their sum.
-  const long evaluations = isowrench_measured_loop(s, argv[1], std::min(16L, n)) + isowrench_measured_loop(s, argv[1], n);
+  const long evaluations = isowrench_measured_loop(s, argv[1], std::min(16L, n)) +
+                           isowrench_measured_loop(s, argv[1], n);
   std::printf("%s: %ld evaluations collected (checksum %.6g)\n", argv[1], evaluations, g_sink);
   return 0;
 }

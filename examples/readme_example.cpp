@@ -1,7 +1,6 @@
 // The README's library example, built and run as a test so it never rots.
-#include <isowrench/isowrench.hpp>
-
 #include <iostream>
+#include <isowrench/isowrench.hpp>
 
 int main(int argc, char** argv) {
   const std::string urdf = argc > 1 ? argv[1] : "urdf/rat_hindlimb_5dof.urdf";
@@ -9,8 +8,7 @@ int main(int argc, char** argv) {
     isowrench::Model model = isowrench::Model::FromUrdfFile(urdf);
     // Release the transducer's z rotation: 5 restrained dofs for a 5-dof limb.
     model = isowrench::Model(isowrench::WithReleasedDofs(model.description(), {"rz"}));
-    isowrench::WrenchEvaluation e =
-        isowrench::EvaluateWrench(model, model.nominal_posture(), "GP");
+    isowrench::WrenchEvaluation e = isowrench::EvaluateWrench(model, model.nominal_posture(), "GP");
     if (!e.statics.ok()) {
       std::cerr << e.statics.message << "\n";
       return 2;

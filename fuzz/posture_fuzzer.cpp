@@ -24,7 +24,8 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   if (size > 4096) return -1;
   std::string text(reinterpret_cast<const char*>(data), size);
   try {
-    Eigen::VectorXd q = isowrench::ApplyPostureAssignments(*g_model, g_model->nominal_posture(), text);
+    Eigen::VectorXd q =
+        isowrench::ApplyPostureAssignments(*g_model, g_model->nominal_posture(), text);
     if (!q.allFinite()) __builtin_trap();
   } catch (const isowrench::Error&) {
   }

@@ -25,7 +25,8 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     isowrench::Model model(isowrench::ReadUrdfString(xml, "fuzz.urdf"));
     Eigen::VectorXd q = model.nominal_posture();
     for (int i = 0; i < model.muscle_count(); ++i) {
-      isowrench::WrenchEvaluation e = isowrench::EvaluateWrench(model, q, model.muscle(i).name, 0.5);
+      isowrench::WrenchEvaluation e =
+          isowrench::EvaluateWrench(model, q, model.muscle(i).name, 0.5);
       if (e.statics.ok() && !e.statics.wrench.allFinite()) __builtin_trap();  // "ok" must be finite
     }
     // A second posture from the input bytes (angles in [-pi, pi]).

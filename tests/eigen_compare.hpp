@@ -31,8 +31,9 @@ template <typename DerivedA, typename DerivedB>
   auto describe = [&](::testing::AssertionResult result) {
     std::ostringstream os;
     os.precision(17);
-    os << "\nfirst (" << A.rows() << "x" << A.cols() << "):\n" << A.format(fmt)
-       << "\nsecond (" << B.rows() << "x" << B.cols() << "):\n" << B.format(fmt);
+    os << "\nfirst (" << A.rows() << "x" << A.cols() << "):\n"
+       << A.format(fmt) << "\nsecond (" << B.rows() << "x" << B.cols() << "):\n"
+       << B.format(fmt);
     if (A.rows() == B.rows() && A.cols() == B.cols()) {
       os << "\nfirst - second:\n" << (A - B).format(fmt);
     }
@@ -51,9 +52,8 @@ template <typename DerivedA, typename DerivedB>
   Eigen::Index wi = 0, wj = 0;
   const double worst = (A - B).cwiseAbs().maxCoeff(&wi, &wj);
   if (!(worst <= tol)) {
-    return describe(::testing::AssertionFailure()
-                    << "largest difference " << worst << " at (" << wi << ", " << wj
-                    << ") exceeds tolerance " << tol);
+    return describe(::testing::AssertionFailure() << "largest difference " << worst << " at (" << wi
+                                                  << ", " << wj << ") exceeds tolerance " << tol);
   }
   return ::testing::AssertionSuccess();
 }

@@ -5,12 +5,12 @@
 // dependencies that `pkg-config --static --libs isowrench` lists.
 
 #include <cstdio>
+#include <isowrench/isowrench.hpp>
 #include <string>
 
-#include <isowrench/isowrench.hpp>
-
 int main(int argc, char** argv) {
-  const std::string urdf = argc > 1 ? argv[1] : std::string(APP_URDF_DIR) + "/rat_hindlimb_5dof.urdf";
+  const std::string urdf =
+      argc > 1 ? argv[1] : std::string(APP_URDF_DIR) + "/rat_hindlimb_5dof.urdf";
   try {
     const isowrench::Model model = isowrench::Model::FromUrdfFile(urdf);
     const Eigen::VectorXd q = model.nominal_posture();
@@ -18,13 +18,14 @@ int main(int argc, char** argv) {
 
     const isowrench::CompiledModel compiled(model);
     isowrench::FastWorkspace ws(compiled);
-    const isowrench::FastWrench fast =
-        isowrench::EvaluateFast(compiled, ws, q, model.MuscleIndex("GP"), compiled.model_stiffness());
+    const isowrench::FastWrench fast = isowrench::EvaluateFast(
+        compiled, ws, q, model.MuscleIndex("GP"), compiled.model_stiffness());
 
     const isowrench::Vector6d& w = e.statics.wrench;
-    std::printf("%s, GP at the nominal posture: %s\n", model.name().c_str(), isowrench::StatusName(e.statics.status));
-    std::printf("W = [%.6g %.6g %.6g] N, [%.6g %.6g %.6g] N·m (limb on transducer)\n", w[0], w[1], w[2],
-                w[3], w[4], w[5]);
+    std::printf("%s, GP at the nominal posture: %s\n", model.name().c_str(),
+                isowrench::StatusName(e.statics.status));
+    std::printf("W = [%.6g %.6g %.6g] N, [%.6g %.6g %.6g] N·m (limb on transducer)\n", w[0], w[1],
+                w[2], w[3], w[4], w[5]);
     const double difference = (fast.wrench - w).norm();
     std::printf("fast path differs by %.3g\n", difference);
     std::printf("identification layer linked: verdict names such as '%s'\n",

@@ -50,17 +50,17 @@ struct ConstraintOptions {
 
 /// A joint-space direction in named joints, with a geometric reading when one is found.
 struct JointMotion {
-  Eigen::VectorXd direction;  ///< m entries (rad or m per joint), largest |entry| = 1
-  std::string joints;         ///< DescribeJointMotion(), e.g. "hip_rx +1.00, knee_ry +0.97"
-  std::string interpretation; ///< e.g. "femur axial rotation (about the hip-knee line)", or ""
+  Eigen::VectorXd direction;   ///< m entries (rad or m per joint), largest |entry| = 1
+  std::string joints;          ///< DescribeJointMotion(), e.g. "hip_rx +1.00, knee_ry +0.97"
+  std::string interpretation;  ///< e.g. "femur axial rotation (about the hip-knee line)", or ""
 };
 
 /// A direction of null(J_r^T): a wrench on the restrained dofs the joints cannot feel.
 struct InternalWrench {
   Vector6d direction = Vector6d::Zero();  ///< N and N·m, transducer axes; released rows 0;
                                           ///< largest |force| = 1 N (or largest |moment| = 1 N·m)
-  std::vector<int> components;  ///< indices (x..rz = 0..5) the direction touches
-  std::string description;      ///< e.g. "fx +1.000 N, fy -0.532 N, mz +0.0123 N·m"
+  std::vector<int> components;            ///< indices (x..rz = 0..5) the direction touches
+  std::string description;                ///< e.g. "fx +1.000 N, fy -0.532 N, mz +0.0123 N·m"
 };
 
 /// A revolute joint centre: consecutive joints that share one world position, named by their
@@ -77,25 +77,25 @@ std::vector<JointCentre> FindJointCentres(const Model& model, const Eigen::Vecto
 
 /// Posture-only analysis of J_r (no muscle): rank, class, self-motions, internal wrenches.
 struct ConstraintAnalysis {
-  int joint_count = 0;        ///< m, movable joints (all roles)
-  int restrained_count = 0;   ///< n, restrained transducer dofs
+  int joint_count = 0;                  ///< m, movable joints (all roles)
+  int restrained_count = 0;             ///< n, restrained transducer dofs
   std::vector<std::string> restrained;  ///< their names (x y z rx ry rz)
-  int rank = 0;               ///< rank of J_r
-  double length_scale = 0.0;  ///< L (m) used for scaling
-  Eigen::VectorXd singular_values;  ///< of the scaled J_r, descending, dimensionless
-  double rank_tolerance = 0.0;      ///< the option used
-  double rank_threshold = 0.0;      ///< rank_tolerance * sigma_max
+  int rank = 0;                         ///< rank of J_r
+  double length_scale = 0.0;            ///< L (m) used for scaling
+  Eigen::VectorXd singular_values;      ///< of the scaled J_r, descending, dimensionless
+  double rank_tolerance = 0.0;          ///< the option used
+  double rank_threshold = 0.0;          ///< rank_tolerance * sigma_max
   ConstraintClass constraint_class = ConstraintClass::kMatched;
-  std::string explanation;          ///< one sentence: what the class means for this limb
-  std::vector<JointMotion> self_motion;        ///< basis of null(J_r)
-  std::vector<InternalWrench> internal_wrench; ///< basis of null(J_r^T) on the restrained rows
+  std::string explanation;               ///< one sentence: what the class means for this limb
+  std::vector<JointMotion> self_motion;  ///< basis of null(J_r)
+  std::vector<InternalWrench> internal_wrench;  ///< basis of null(J_r^T) on the restrained rows
   /// The same classification on the columns without a joint spring (S_p = 0): this one says
   /// whether W depends on the compliances (springs hold their joints, so base dofs or a
   /// stiff extra joint do not count as self-motion here).
   int free_joint_count = 0;
   int free_rank = 0;
   ConstraintClass free_class = ConstraintClass::kMatched;
-  Matrix6Xd jacobian;         ///< J_T_E (6 x m) at q, transducer axes
+  Matrix6Xd jacobian;  ///< J_T_E (6 x m) at q, transducer axes
 };
 
 /// Rank and SVD of the scaled J_r at q, the constraint class, null(J_r) as named joint motions
@@ -108,8 +108,8 @@ ConstraintAnalysis AnalyzeConstraints(const Model& model, const Eigen::VectorXd&
 
 /// dW/d(log k) for one stiffness k: how much W changes when k is scaled by e (first order).
 struct StiffnessSensitivity {
-  std::string parameter;  ///< "S_t x" ... "S_t rz", a joint name, or "base (x, y, z together)"
-  std::string kind;       ///< "transducer", "base", "joint"
+  std::string parameter;   ///< "S_t x" ... "S_t rz", a joint name, or "base (x, y, z together)"
+  std::string kind;        ///< "transducer", "base", "joint"
   double stiffness = 0.0;  ///< the value k (unit below)
   std::string unit;        ///< "N/m" or "N·m/rad"
   Vector6d dW_dlogk = Vector6d::Zero();  ///< N and N·m, transducer axes
@@ -122,14 +122,15 @@ struct StiffnessSensitivity {
 /// restrained transducer stiffness, every joint with a spring, and the three base
 /// translations together. K^+ is the pseudo-inverse on the non-null eigenvalues of K.
 struct SensitivityResult {
-  bool ok = false;         ///< false when the statics has no unique W (self-motion, bad input)
+  bool ok = false;  ///< false when the statics has no unique W (self-motion, bad input)
   std::string message;
   std::vector<StiffnessSensitivity> entries;
 };
 
 /// Sensitivities for an evaluation from EvaluateWrench (uses its J, S_t, S_p, tau, dtheta).
 /// Never throws.
-SensitivityResult ComputeStiffnessSensitivity(const Model& model, const WrenchEvaluation& evaluation,
+SensitivityResult ComputeStiffnessSensitivity(const Model& model,
+                                              const WrenchEvaluation& evaluation,
                                               double length_scale = 0.0,
                                               double rank_tolerance = 1e-12);
 
@@ -163,13 +164,13 @@ struct LargeDeflectionResult {
   LargeDeflectionStatus status = LargeDeflectionStatus::kNotConverged;
   std::string message;
   int iterations = 0;
-  double gradient_norm = 0.0;        ///< |grad U|_inf at the end (N·m or N)
-  Eigen::VectorXd dtheta_nonlinear;  ///< theta* - theta0 (rad / m)
-  Eigen::VectorXd dtheta_linear;     ///< K^+ tau (rad / m)
+  double gradient_norm = 0.0;                    ///< |grad U|_inf at the end (N·m or N)
+  Eigen::VectorXd dtheta_nonlinear;              ///< theta* - theta0 (rad / m)
+  Eigen::VectorXd dtheta_linear;                 ///< K^+ tau (rad / m)
   Vector6d wrench_nonlinear = Vector6d::Zero();  ///< N, N·m, transducer axes
   Vector6d wrench_linear = Vector6d::Zero();     ///< Eq. 10
-  double dtheta_difference = 0.0;   ///< |dtheta_nl - dtheta_lin|_inf (rad / m)
-  double displacement = 0.0;        ///< |dtheta_lin|_inf (rad / m), the size of the motion
+  double dtheta_difference = 0.0;                ///< |dtheta_nl - dtheta_lin|_inf (rad / m)
+  double displacement = 0.0;  ///< |dtheta_lin|_inf (rad / m), the size of the motion
   /// |D (W_nl - W_lin)| / |D W_lin|, D = diag(1,1,1,1/L,1/L,1/L).
   double wrench_relative_difference = 0.0;
 };
@@ -202,7 +203,7 @@ struct DiagnosisOptions {
 /// DiagnoseLimb's result for one muscle at one posture.
 struct Diagnosis {
   ConstraintAnalysis constraints;
-  WrenchEvaluation evaluation;         ///< Eq. 10 with the model's compliances
+  WrenchEvaluation evaluation;              ///< Eq. 10 with the model's compliances
   std::vector<JointMotion> stiffness_null;  ///< basis of null(K): self-motion no spring holds
   /// The part of W the compliances set: W - W_classic (pinv(J_r^T) tau, Eq. 15) written on the
   /// internal-wrench basis, W - W_classic ~ sum_i c_i direction_i (c_i dimensionless, since
@@ -232,7 +233,7 @@ enum class ReleaseKind {
 /// One candidate extra release, equivalent to a zero-stiffness joint between endpoint and
 /// transducer (docs/model.md "Released dofs").
 struct ReleaseCandidate {
-  std::string name;    ///< e.g. "rz", "endpoint-knee line", "user 1"
+  std::string name;  ///< e.g. "rz", "endpoint-knee line", "user 1"
   ReleaseKind kind = ReleaseKind::kRotation;
   Eigen::Vector3d axis_world = Eigen::Vector3d::UnitZ();  ///< unit, world axes
   std::string source;  ///< "transducer axis", "joint centre", "user", "baseline"
@@ -245,12 +246,13 @@ ReleaseCandidate MakeReleaseCandidate(const std::string& name, ReleaseKind kind,
 
 /// The transducer axes that are still restrained (rotations, then translations) and the
 /// rotations about the lines from the endpoint to each proximal joint centre.
-std::vector<ReleaseCandidate> DefaultReleaseCandidates(const Model& model, const Eigen::VectorXd& q);
+std::vector<ReleaseCandidate> DefaultReleaseCandidates(const Model& model,
+                                                       const Eigen::VectorXd& q);
 
 /// Transducer and base stiffness range a release is tested over (stated in every output).
 struct StiffnessRange {
   double translational = 1e7;  ///< N/m, the transducer's kx = ky = kz
-  std::vector<double> rotational_ratios{1e-4, 1e-3, 1e-2, 1e-1, 1.0};  ///< krot/ktrans, m²/rad
+  std::vector<double> rotational_ratios{1e-4, 1e-3, 1e-2, 1e-1, 1.0};     ///< krot/ktrans, m²/rad
   std::vector<double> base_stiffness{0.0, 1e4, 1e5, 1e6, 1e7, 1e8, 1e9};  ///< N/m, 0 = rigid
   std::string Describe() const;
 };
@@ -259,7 +261,7 @@ struct ReleaseOptions {
   double rank_tolerance = 1e-9;  ///< self-motion when sigma_min <= rank_tolerance * sigma_max
   /// Safe only when sigma_min / sigma_max > margin_warning (otherwise "near self-motion").
   double margin_warning = 1e-2;
-  double length_scale = 0.0;     ///< L (m); <= 0 means Model::chain_length()
+  double length_scale = 0.0;  ///< L (m); <= 0 means Model::chain_length()
   /// A spread |D(W - W_model)| / |D W_model| below this counts as compliance-independent.
   double spread_tolerance = 1e-6;
   double activation = 1.0;
@@ -273,29 +275,29 @@ struct ReleaseOptions {
 struct ReleaseAssessment {
   ReleaseCandidate candidate;
   Eigen::Vector3d axis_transducer = Eigen::Vector3d::Zero();  ///< the axis in transducer axes
-  int rank = 0;                 ///< rank of J_e on the spring-free columns
-  int columns = 0;              ///< spring-free joints (+ 1 for a release)
-  double margin = 0.0;          ///< sigma_min / sigma_max of the scaled J_e (dimensionless)
-  bool self_motion = false;     ///< rank < columns: the release lets the limb move freely
+  int rank = 0;                   ///< rank of J_e on the spring-free columns
+  int columns = 0;                ///< spring-free joints (+ 1 for a release)
+  double margin = 0.0;            ///< sigma_min / sigma_max of the scaled J_e (dimensionless)
+  bool self_motion = false;       ///< rank < columns: the release lets the limb move freely
   bool near_self_motion = false;  ///< margin <= margin_warning
   bool internal_wrench = false;   ///< rank < restrained rows: W depends on compliance
   /// Muscle joint torques tau follow from the measured wrench (tau = J^T W on spring-free
   /// joints) and distinct torques give distinct wrenches: J_e has full column rank.
   bool torques_recoverable = false;
-  StaticsResult statics;        ///< Eq. 10 with the model's compliances and this release
+  StaticsResult statics;                   ///< Eq. 10 with the model's compliances and this release
   Vector6d wrench_min = Vector6d::Zero();  ///< per component over the stiffness range
   Vector6d wrench_max = Vector6d::Zero();
-  double spread = 0.0;          ///< max over the range of |D(W - W_model)| / |D W_model|
-  int range_failures = 0;       ///< grid points with no equilibrium
-  int rank_order = 0;           ///< 1 = recommended; 0 = not ranked (self-motion)
-  std::string verdict;          ///< one line: why it is good or bad
+  double spread = 0.0;     ///< max over the range of |D(W - W_model)| / |D W_model|
+  int range_failures = 0;  ///< grid points with no equilibrium
+  int rank_order = 0;      ///< 1 = recommended; 0 = not ranked (self-motion)
+  std::string verdict;     ///< one line: why it is good or bad
 };
 
 /// Forbidden axes of one kind: the subspace of axes a whose release column lies in the range of
 /// J_r restricted to its spring-free columns (releasing such an axis creates a self-motion).
 struct ForbiddenAxes {
-  int dimension = 0;            ///< 0 none, 1 one axis, 2 a plane, 3 every axis
-  Eigen::Matrix3Xd basis;       ///< 3 x dimension, orthonormal, world axes
+  int dimension = 0;       ///< 0 none, 1 one axis, 2 a plane, 3 every axis
+  Eigen::Matrix3Xd basis;  ///< 3 x dimension, orthonormal, world axes
   Eigen::Vector3d plane_normal = Eigen::Vector3d::Zero();  ///< world, when dimension == 2
   std::string description;
 };
@@ -309,24 +311,27 @@ struct ReleaseComparison {
   std::vector<ReleaseAssessment> candidates;  ///< in input order
   ForbiddenAxes forbidden_rotations;          ///< rotations about axes through the endpoint
   ForbiddenAxes forbidden_translations;
-  int recommended = -1;                       ///< index into candidates, -1 if none is safe
-  std::string recommendation;                 ///< the reason, one paragraph
+  int recommended = -1;        ///< index into candidates, -1 if none is safe
+  std::string recommendation;  ///< the reason, one paragraph
 };
 
 /// Assess a single candidate (used by CompareReleases and SweepReleaseAxes).
 /// @throws Error for unknown muscles or a bad posture.
-ReleaseAssessment AssessRelease(const Model& model, const Eigen::VectorXd& q, const std::string& muscle,
-                                const ReleaseCandidate& candidate, const ReleaseOptions& options = {});
+ReleaseAssessment AssessRelease(const Model& model, const Eigen::VectorXd& q,
+                                const std::string& muscle, const ReleaseCandidate& candidate,
+                                const ReleaseOptions& options = {});
 
 /// Forbidden rotation and translation axes at q (first: rotations, second: translations).
-std::pair<ForbiddenAxes, ForbiddenAxes> FindForbiddenAxes(const Model& model, const Eigen::VectorXd& q,
+std::pair<ForbiddenAxes, ForbiddenAxes> FindForbiddenAxes(const Model& model,
+                                                          const Eigen::VectorXd& q,
                                                           const ReleaseOptions& options = {});
 
 /// Assess `candidates` (DefaultReleaseCandidates when empty) plus the baseline, find the
 /// forbidden axes and rank the safe candidates: no internal wrench first, then the smallest
 /// spread over the stiffness range, then the largest margin.
 /// @throws Error for unknown muscles or a bad posture.
-ReleaseComparison CompareReleases(const Model& model, const Eigen::VectorXd& q, const std::string& muscle,
+ReleaseComparison CompareReleases(const Model& model, const Eigen::VectorXd& q,
+                                  const std::string& muscle,
                                   std::vector<ReleaseCandidate> candidates = {},
                                   const ReleaseOptions& options = {});
 
@@ -344,15 +349,15 @@ struct AxisSweep {
 
 /// Sample `count` random axes and classify each by its expanded-Jacobian margin.
 /// @throws Error if count < 1 or the posture is bad.
-AxisSweep SweepReleaseAxes(const Model& model, const Eigen::VectorXd& q, int count, std::uint64_t seed,
-                           const ReleaseOptions& options = {});
+AxisSweep SweepReleaseAxes(const Model& model, const Eigen::VectorXd& q, int count,
+                           std::uint64_t seed, const ReleaseOptions& options = {});
 
 // ---- Several postures ------------------------------------------------------------------
 
 /// One posture row from a CSV table.
 struct NamedPosture {
-  std::string label;   ///< the "label" column, or "row N"
-  Eigen::VectorXd q;   ///< rad / m, model column order
+  std::string label;  ///< the "label" column, or "row N"
+  Eigen::VectorXd q;  ///< rad / m, model column order
 };
 
 /// Read a CSV of postures: header row of joint names (an optional "label" column), then one
@@ -365,6 +370,7 @@ std::vector<NamedPosture> ReadPostureTable(const Model& model, const std::string
 
 /// Same, for text already in memory; `source_name` appears in messages.
 std::vector<NamedPosture> ParsePostureTable(const Model& model, const std::string& text,
-                                            const std::string& source_name, const Eigen::VectorXd& base);
+                                            const std::string& source_name,
+                                            const Eigen::VectorXd& base);
 
 }  // namespace isowrench

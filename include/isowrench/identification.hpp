@@ -95,8 +95,8 @@ enum class ParameterScale { kLog10, kLinear };
 
 /// One parameter of an effect, in user units.
 struct EffectParameter {
-  std::string name;   ///< e.g. "k_base", "rx", "fx", "scale"
-  std::string unit;   ///< user unit: "N/m", "N·m/rad", "deg", "mm", "N", "N·m", "x"
+  std::string name;  ///< e.g. "k_base", "rx", "fx", "scale"
+  std::string unit;  ///< user unit: "N/m", "N·m/rad", "deg", "mm", "N", "N·m", "x"
   ParameterScale scale = ParameterScale::kLinear;
   double neutral = 0.0;  ///< value at which the effect vanishes (or nearly: a rigid stiffness)
   double initial = 0.0;  ///< starting value of the fit (user units)
@@ -117,11 +117,12 @@ struct Effect {
   std::string id;
   std::string description;  ///< one readable sentence
   EffectStage stage = EffectStage::kModel;
-  std::string joint;        ///< extra_joint: insert after this joint; joint_offset: the column
-  Eigen::Vector3d axis = Eigen::Vector3d::UnitZ();  ///< extra_joint: axis in that joint's child frame
-  int dof = -1;             ///< transducer_soft, gain: 0..5 (x y z rx ry rz / fx fy fz mx my mz)
-  std::string muscle;       ///< force_scale, attachment, coactivation
-  int point = -1;           ///< attachment: path point index
+  std::string joint;  ///< extra_joint: insert after this joint; joint_offset: the column
+  Eigen::Vector3d axis =
+      Eigen::Vector3d::UnitZ();  ///< extra_joint: axis in that joint's child frame
+  int dof = -1;        ///< transducer_soft, gain: 0..5 (x y z rx ry rz / fx fy fz mx my mz)
+  std::string muscle;  ///< force_scale, attachment, coactivation
+  int point = -1;      ///< attachment: path point index
   std::vector<EffectParameter> parameters;
   /// True when the effect does not change the model (stage other than kModel): the fit then
   /// reuses one model for all its evaluations.
@@ -137,8 +138,8 @@ struct Effect {
 
 /// What the registry says about one kind (for --list-effects and the docs).
 struct EffectKindInfo {
-  std::string kind;         ///< e.g. "gain"
-  std::string id_pattern;   ///< e.g. "gain:AXIS (AXIS one of fx fy fz mx my mz)"
+  std::string kind;        ///< e.g. "gain"
+  std::string id_pattern;  ///< e.g. "gain:AXIS (AXIS one of fx fy fz mx my mz)"
   EffectStage stage = EffectStage::kModel;
   std::string summary;      ///< what it changes, one paragraph
   std::string parameters;   ///< names, units, scale and range
@@ -154,7 +155,8 @@ std::vector<EffectKindInfo> EffectKinds();
 /// anisotropy, a soft dof per restrained transducer dof, misalignment, sensor offset, a force
 /// scale per muscle in `muscles` (all muscles when empty), an attachment offset per path point
 /// on a moving link (and the origin), moment reference offset.
-std::vector<Effect> CandidateEffects(const Model& model, const std::vector<std::string>& muscles = {});
+std::vector<Effect> CandidateEffects(const Model& model,
+                                     const std::vector<std::string>& muscles = {});
 
 /// Find an effect by id in CandidateEffects(model). @throws Error listing the known ids.
 Effect FindEffect(const Model& model, const std::string& id);
@@ -198,7 +200,8 @@ struct AugmentedModel {
 };
 
 /// Apply effects in order. @throws Error as ApplyEffect.
-AugmentedModel ApplyEffects(const LimbDescription& nominal, const std::vector<AppliedEffect>& effects);
+AugmentedModel ApplyEffects(const LimbDescription& nominal,
+                            const std::vector<AppliedEffect>& effects);
 
 // ---- Prediction -------------------------------------------------------------------------------
 
@@ -224,8 +227,8 @@ Prediction PredictTrials(const AugmentedModel& model, const std::vector<Trial>& 
 
 /// Options of SimulateTrials.
 struct SimulationOptions {
-  int postures = 50;              ///< number of trials, >= 1
-  unsigned long long seed = 1;    ///< std::mt19937_64 seed: same seed, same data
+  int postures = 50;            ///< number of trials, >= 1
+  unsigned long long seed = 1;  ///< std::mt19937_64 seed: same seed, same data
   /// Each limb joint (role kLimb) is drawn uniformly in nominal +- joint_range (rad for
   /// revolute joints); prismatic limb joints in nominal +- prismatic_range (m). Base, extra and
   /// release joints stay at 0.
@@ -333,59 +336,60 @@ struct FitOptions {
 
 /// Error statistics of a set of residuals, per component [fx fy fz mx my mz].
 struct ResidualStats {
-  Vector6d rms = Vector6d::Zero();        ///< RMS of measured - predicted (N, N·m)
-  Vector6d r2 = Vector6d::Zero();         ///< 1 - SS_res / SS_tot (about the component mean)
-  Vector6d normalized = Vector6d::Zero(); ///< RMS of (measured - predicted) / sd: noise multiples
-  Vector6d mean = Vector6d::Zero();       ///< mean residual (N, N·m): a constant offset shows here
-  double chi2 = 0.0;            ///< sum of squared weighted residuals
-  double reduced_chi2 = 0.0;    ///< chi2 / (residual count - parameter count)
-  int residual_count = 0;       ///< scalar residuals used (6 per trial)
+  Vector6d rms = Vector6d::Zero();         ///< RMS of measured - predicted (N, N·m)
+  Vector6d r2 = Vector6d::Zero();          ///< 1 - SS_res / SS_tot (about the component mean)
+  Vector6d normalized = Vector6d::Zero();  ///< RMS of (measured - predicted) / sd: noise multiples
+  Vector6d mean = Vector6d::Zero();  ///< mean residual (N, N·m): a constant offset shows here
+  double chi2 = 0.0;                 ///< sum of squared weighted residuals
+  double reduced_chi2 = 0.0;         ///< chi2 / (residual count - parameter count)
+  int residual_count = 0;            ///< scalar residuals used (6 per trial)
   int parameter_count = 0;
 };
 
 /// One candidate fitted in one round.
 struct CandidateFit {
   Effect effect;
-  std::vector<double> values;          ///< fitted parameters, user units
-  std::vector<double> standard_errors; ///< user units (log10 parameters: delta method); 0 if unknown
+  std::vector<double> values;  ///< fitted parameters, user units
+  std::vector<double>
+      standard_errors;  ///< user units (log10 parameters: delta method); 0 if unknown
   std::vector<double> log10_standard_errors;  ///< for kLog10 parameters: SE of log10(value)
-  Eigen::MatrixXd correlation;         ///< parameter correlation matrix (internal scale)
-  std::vector<bool> at_bound;          ///< parameter ended on its search range limit
-  double cost = 0.0;    ///< chi2 = sum of squared weighted residuals at the optimum
-  double aic = 0.0;     ///< AICc on chi2 (known-sd Gaussian likelihood, constants dropped)
-  double bic = 0.0;     ///< chi2 + k ln(n)
+  Eigen::MatrixXd correlation;                ///< parameter correlation matrix (internal scale)
+  std::vector<bool> at_bound;                 ///< parameter ended on its search range limit
+  double cost = 0.0;       ///< chi2 = sum of squared weighted residuals at the optimum
+  double aic = 0.0;        ///< AICc on chi2 (known-sd Gaussian likelihood, constants dropped)
+  double bic = 0.0;        ///< chi2 + k ln(n)
   double delta_bic = 0.0;  ///< BIC of the current model minus this BIC (> 0: better)
   double cv_error = -1.0;  ///< held-out chi2 per residual (K-fold); < 0 when not computed
   bool identifiable = true;
   std::string identifiability;  ///< why not identifiable (sensitivity, correlation), or ""
   bool converged = false;
   std::string solver_message;
-  bool accepted = false;   ///< chosen in this round
-  std::string verdict;     ///< "chosen", or why it lost
+  bool accepted = false;  ///< chosen in this round
+  std::string verdict;    ///< "chosen", or why it lost
 };
 
 /// One round: the model before, every candidate, the winner (if any).
 struct FitRound {
-  int index = 0;                 ///< 1-based
-  ResidualStats before;          ///< residual of the current model at the start of the round
+  int index = 0;         ///< 1-based
+  ResidualStats before;  ///< residual of the current model at the start of the round
   double bic_before = 0.0;
-  double cv_before = -1.0;       ///< held-out chi2 per residual of the current model
+  double cv_before = -1.0;  ///< held-out chi2 per residual of the current model
   /// ΔBIC an effect needed in this round (min_bic_improvement + look-elsewhere term).
   double bic_threshold = 0.0;
   std::vector<CandidateFit> candidates;  ///< sorted best BIC first
-  int chosen = -1;               ///< index in candidates, -1 when nothing earned its parameters
+  int chosen = -1;  ///< index in candidates, -1 when nothing earned its parameters
   /// Effect ids indistinguishable from the winner at these postures (BIC within
   /// FitOptions::indistinguishable_bic and passing the thresholds).
   std::vector<std::string> indistinguishable;
-  std::string summary;           ///< one readable sentence
+  std::string summary;  ///< one readable sentence
 };
 
 /// Final verdict of FitEffects.
 enum class FitVerdict {
-  kNominalFits,        ///< no effect needed: the nominal model explains the data to the noise
-  kExplained,          ///< effects added; the residual is at the noise level
-  kUnexplained,        ///< residual stays well above the noise: something outside the library
-  kNoNoiseStated,      ///< effects may have been added, but no sd given: cannot compare with noise
+  kNominalFits,    ///< no effect needed: the nominal model explains the data to the noise
+  kExplained,      ///< effects added; the residual is at the noise level
+  kUnexplained,    ///< residual stays well above the noise: something outside the library
+  kNoNoiseStated,  ///< effects may have been added, but no sd given: cannot compare with noise
 };
 const char* FitVerdictName(FitVerdict verdict);
 
@@ -404,14 +408,14 @@ struct TrialResidual {
 /// Everything FitEffects found (Ceres-style summary).
 struct FitReport {
   std::string model_name;
-  std::string source;        ///< data file, if known
+  std::string source;  ///< data file, if known
   int trial_count = 0;
-  bool sd_stated = false;    ///< every trial had sd columns
-  ResidualStats before;      ///< nominal model
-  ResidualStats after;       ///< augmented model
+  bool sd_stated = false;  ///< every trial had sd columns
+  ResidualStats before;    ///< nominal model
+  ResidualStats after;     ///< augmented model
   std::vector<FitRound> rounds;
-  std::vector<AppliedEffect> chosen;         ///< effects added, in order
-  std::vector<CandidateFit> chosen_fits;     ///< the accepted fit of each (values, SE, ...)
+  std::vector<AppliedEffect> chosen;      ///< effects added, in order
+  std::vector<CandidateFit> chosen_fits;  ///< the accepted fit of each (values, SE, ...)
   std::vector<TrialResidual> trials;
   FitVerdict verdict = FitVerdict::kNominalFits;
   std::string verdict_message;
@@ -424,7 +428,7 @@ struct FitReport {
   AugmentedModel augmented;  ///< nominal + chosen effects (write with WriteAugmentedUrdf)
   /// Other remarks, e.g. "base_per_axis simplified to base_isotropic" after the rounds.
   std::vector<std::string> notes;
-  double seconds = 0.0;      ///< wall time of the fit
+  double seconds = 0.0;  ///< wall time of the fit
 
   /// Robust loss used, and the CSV line numbers of the rows flagged as outliers.
   RobustLoss loss = RobustLoss::kHuber;
@@ -442,8 +446,9 @@ struct FitReport {
   /// Where the residual lives when it stays above the noise (empty otherwise): first the
   /// trends (trial order, coordinates, muscle lengths; best first), then the muscle/axis shares.
   struct TraceItem {
-    std::string variable;  ///< "trial order", "coordinate hip_rz", "length of GP", "muscle GP axis fx"
-    double share = 0.0;    ///< fraction of the excess chi^2 it explains (0..1)
+    std::string
+        variable;  ///< "trial order", "coordinate hip_rz", "length of GP", "muscle GP axis fx"
+    double share = 0.0;  ///< fraction of the excess chi^2 it explains (0..1)
     std::string note;
   };
   std::vector<TraceItem> trace;
@@ -474,28 +479,28 @@ FitReport FitEffects(const Model& nominal, const std::vector<Trial>& trials,
 
 /// Options of DesignExperiment.
 struct DesignOptions {
-  int postures = 20;              ///< N, the trials to choose (>= 1)
-  int candidates = 400;           ///< grid size when no candidate trials are given
-  unsigned long long seed = 1;    ///< grid sampling (as SimulateTrials)
+  int postures = 20;            ///< N, the trials to choose (>= 1)
+  int candidates = 400;         ///< grid size when no candidate trials are given
+  unsigned long long seed = 1;  ///< grid sampling (as SimulateTrials)
   double joint_range = 15.0 * 3.14159265358979323846 / 180.0;  ///< grid: nominal +- (rad)
-  double noise_force = 0.002;     ///< expected noise sd (N), weights the Fisher information
-  double noise_moment = 5e-5;     ///< expected noise sd (N·m)
+  double noise_force = 0.002;        ///< expected noise sd (N), weights the Fisher information
+  double noise_moment = 5e-5;        ///< expected noise sd (N·m)
   std::vector<std::string> muscles;  ///< grid muscles, cycled (empty = all)
 };
 
 /// The chosen postures and what they are expected to give.
 struct DesignResult {
-  std::vector<Trial> chosen;               ///< the N trials (posture, muscle, activation)
-  std::vector<int> chosen_index;           ///< their index among the candidates
-  std::vector<std::string> labels;         ///< "effect.parameter" per parameter
-  std::vector<std::string> units;          ///< user unit per parameter
-  std::vector<double> values;              ///< parameter values the information is computed at
-  std::vector<double> standard_errors;     ///< expected SE, user units (log10 ones: delta method)
+  std::vector<Trial> chosen;            ///< the N trials (posture, muscle, activation)
+  std::vector<int> chosen_index;        ///< their index among the candidates
+  std::vector<std::string> labels;      ///< "effect.parameter" per parameter
+  std::vector<std::string> units;       ///< user unit per parameter
+  std::vector<double> values;           ///< parameter values the information is computed at
+  std::vector<double> standard_errors;  ///< expected SE, user units (log10 ones: delta method)
   std::vector<double> random_standard_errors;  ///< same with N candidates taken in file/grid order
-  Eigen::MatrixXd correlation;             ///< expected parameter correlations
-  std::vector<std::string> confounded;     ///< pairs with |r| > 0.9, one sentence each
-  double log_det = 0.0;                    ///< log det of the Fisher information of the design
-  double log_det_random = 0.0;             ///< ... of the first N candidates
+  Eigen::MatrixXd correlation;                 ///< expected parameter correlations
+  std::vector<std::string> confounded;         ///< pairs with |r| > 0.9, one sentence each
+  double log_det = 0.0;                        ///< log det of the Fisher information of the design
+  double log_det_random = 0.0;                 ///< ... of the first N candidates
   int candidate_count = 0;
   std::vector<std::string> notes;
 };

@@ -60,10 +60,10 @@ Eigen::Matrix3Xd PointJacobian(const Model& model, KinematicsWorkspace& ws,
 
 /// A muscle's length, its derivative and its generalized force at a posture.
 struct MuscleTorque {
-  double length = 0.0;         ///< m, sum of segment lengths
-  double force = 0.0;          ///< N, activation * max_force
-  Eigen::RowVectorXd dL_dq;    ///< 1 x m, m/rad (revolute) or m/m (prismatic)
-  Eigen::VectorXd tau;         ///< m, -force * dL_dq^T: N·m (revolute) or N (prismatic)
+  double length = 0.0;       ///< m, sum of segment lengths
+  double force = 0.0;        ///< N, activation * max_force
+  Eigen::RowVectorXd dL_dq;  ///< 1 x m, m/rad (revolute) or m/m (prismatic)
+  Eigen::VectorXd tau;       ///< m, -force * dL_dq^T: N·m (revolute) or N (prismatic)
 };
 
 /// Evaluate muscle `muscle_index` at activation `activation` (force = activation * max_force).

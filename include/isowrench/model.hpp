@@ -54,7 +54,7 @@ struct JointSpec {
   std::string parent_link;
   std::string child_link;
   Eigen::Isometry3d origin = Eigen::Isometry3d::Identity();  ///< parent link -> joint frame at q=0
-  Eigen::Vector3d axis = Eigen::Vector3d::UnitZ();  ///< unit axis in the joint frame
+  Eigen::Vector3d axis = Eigen::Vector3d::UnitZ();           ///< unit axis in the joint frame
   JointRole role = JointRole::kLimb;
   /// N·m/rad (revolute) or N/m (prismatic), >= 0. For a joint that carries its own coordinate
   /// (coordinate == name, identity coupling) this is the coordinate's S_p entry, and it and
@@ -77,7 +77,7 @@ struct CoordinateSpec {
   std::string name;
   JointType type = JointType::kRevolute;  ///< kRevolute (rad) or kPrismatic (m)
   JointRole role = JointRole::kLimb;
-  double stiffness = 0.0;  ///< S_p entry: N·m/rad (revolute) or N/m (prismatic), >= 0
+  double stiffness = 0.0;      ///< S_p entry: N·m/rad (revolute) or N/m (prismatic), >= 0
   double default_value = 0.0;  ///< rad or m; the nominal posture unless nominal_posture names it
   double lower = -std::numeric_limits<double>::infinity();  ///< rad or m (informative)
   double upper = std::numeric_limits<double>::infinity();   ///< rad or m (informative)
@@ -97,7 +97,7 @@ struct PathPoint {
 /// A straight-line muscle through its path points (origin first, insertion last).
 struct MuscleSpec {
   std::string name;
-  double max_force = 0.0;  ///< N, > 0; the force used when activation is 1
+  double max_force = 0.0;       ///< N, > 0; the force used when activation is 1
   std::vector<PathPoint> path;  ///< at least two points
 };
 
@@ -109,7 +109,7 @@ const char* DofName(int dof);
 
 /// The endpoint and the transducer it is bolted to.
 struct TransducerSpec {
-  std::string link;  ///< the distal link carrying the endpoint
+  std::string link;                                    ///< the distal link carrying the endpoint
   Eigen::Vector3d endpoint = Eigen::Vector3d::Zero();  ///< m, endpoint origin in `link`'s frame
   /// Orientation of the transducer axes: in world (axes_in_world = true, the transducer is
   /// bolted to ground) or relative to `link` (false, the axes turn with the distal bone).
@@ -129,11 +129,11 @@ Vector6d TransducerPreset(const std::string& name);
 /// The full, editable description of a limb: everything a URDF with isowrench tags says.
 /// Only the joints on the path from the root link to the endpoint link are kept.
 struct LimbDescription {
-  std::string name;         ///< robot name
-  std::string source;       ///< file the description came from ("" when built in code)
-  std::string root_link;    ///< the ground link
-  std::vector<std::string> links;   ///< root first, then each joint's child link
-  std::vector<JointSpec> joints;    ///< chain order, root to endpoint, fixed joints included
+  std::string name;                ///< robot name
+  std::string source;              ///< file the description came from ("" when built in code)
+  std::string root_link;           ///< the ground link
+  std::vector<std::string> links;  ///< root first, then each joint's child link
+  std::vector<JointSpec> joints;   ///< chain order, root to endpoint, fixed joints included
   std::vector<MuscleSpec> muscles;
   TransducerSpec transducer;
   /// Independent coordinates in column order (see CoordinateSpec). ReadUrdfFile fills them;
@@ -200,8 +200,7 @@ LimbDescription WithExtraJoint(LimbDescription description, const std::string& a
                                double stiffness);
 
 /// Mark transducer dofs released; `dofs` holds names x y z rx ry rz (empty = none released).
-LimbDescription WithReleasedDofs(LimbDescription description,
-                                 const std::vector<std::string>& dofs);
+LimbDescription WithReleasedDofs(LimbDescription description, const std::vector<std::string>& dofs);
 
 /// Replace the S_t diagonal (each entry finite and >= 0).
 LimbDescription WithTransducerStiffness(LimbDescription description, const Vector6d& stiffness);

@@ -5,7 +5,8 @@
 /// couplings, and the muscles that stay on it. No OpenSim or Simbody code is needed: the file
 /// is read with tinyxml2 and OpenSim's semantics are reproduced (docs/opensim.md).
 ///
-/// Mapping (frames as in OpenSim: X_G_child = X_G_parentbody X_parentbody_P X_PC(q) X_childbody_C^-1):
+/// Mapping (frames as in OpenSim: X_G_child = X_G_parentbody X_parentbody_P X_PC(q)
+/// X_childbody_C^-1):
 ///  - every joint on the chain becomes a fixed URDF joint for the parent offset frame, then
 ///    prismatic joints for the translation axes (in the parent frame P, not rotated), then
 ///    revolute joints for the rotation axes (body-fixed sequence), then a fixed joint for the
@@ -17,10 +18,9 @@
 ///    values into one fixed joint, so world axes and positions are those of the .osim.
 /// Lengths are metres, angles radians (the .osim values, never rescaled).
 
+#include <Eigen/Core>
 #include <string>
 #include <vector>
-
-#include <Eigen/Core>
 
 #include "isowrench/model.hpp"
 

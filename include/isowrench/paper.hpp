@@ -14,16 +14,16 @@ namespace isowrench {
 
 /// One panel of a paper figure.
 struct PaperPanel {
-  int figure = 0;          ///< 2, 3 or 4
-  std::string row;         ///< "A".."F"
-  std::string column;      ///< "released rz (5 forces)" / "over-constrained (6 forces)" / ""
-  std::string condition;   ///< human-readable, with the stiffness values and units
-  std::string method;      ///< "Eq. 10", "J^-T tau (Eq. 11)", "pinv (Eq. 15)", "femur removed"
-  Vector6d s_t = Vector6d::Zero();  ///< S_t used (N/m, N·m/rad), 0 for released / not used
-  double base_stiffness = 0.0;      ///< N/m, 0 = rigid base (no base dofs)
+  int figure = 0;         ///< 2, 3 or 4
+  std::string row;        ///< "A".."F"
+  std::string column;     ///< "released rz (5 forces)" / "over-constrained (6 forces)" / ""
+  std::string condition;  ///< human-readable, with the stiffness values and units
+  std::string method;     ///< "Eq. 10", "J^-T tau (Eq. 11)", "pinv (Eq. 15)", "femur removed"
+  Vector6d s_t = Vector6d::Zero();     ///< S_t used (N/m, N·m/rad), 0 for released / not used
+  double base_stiffness = 0.0;         ///< N/m, 0 = rigid base (no base dofs)
   Vector6d wrench = Vector6d::Zero();  ///< W in transducer (world) axes, N and N·m
-  bool valid = true;        ///< small-motion rule holds (Eq. 10 panels only)
-  std::string note;         ///< status / validity message, empty when nothing to say
+  bool valid = true;                   ///< small-motion rule holds (Eq. 10 panels only)
+  std::string note;                    ///< status / validity message, empty when nothing to say
 };
 
 /// Compute the panels of figure 2, 3 or 4 from the URDFs in `urdf_dir`

@@ -58,7 +58,8 @@ Eigen::Vector2d ObliqueProjection(const Eigen::Vector3d& v, double px_per_unit,
 
 /// Scales (px per N, px per N·m) a figure uses to draw `wrenches` with `options`:
 /// scale_bar_px / scale bar, reduced so that max |component| * scale <= max_component_px.
-Eigen::Vector2d GlyphScales(const std::vector<Vector6d>& wrenches, const GlyphOptions& options = {});
+Eigen::Vector2d GlyphScales(const std::vector<Vector6d>& wrenches,
+                            const GlyphOptions& options = {});
 
 /// An SVG document (with XML declaration) of one wrench: force and moment glyphs side by side,
 /// with `title` above them. Scales from GlyphScales({wrench}) unless `scales` is given
@@ -99,7 +100,7 @@ struct FigureWriteOptions {
 struct FigureFiles {
   std::vector<std::string> files;  ///< paths written, in order svg, csv, json[, png]
   bool png_written = false;
-  std::string png_note;            ///< why no PNG was written, empty when one was
+  std::string png_note;  ///< why no PNG was written, empty when one was
 };
 
 /// Write figure<N>.svg, figure<N>.csv and figure<N>.json (and figure<N>.png when a rasterizer

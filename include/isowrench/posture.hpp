@@ -39,7 +39,8 @@ std::string FormatPosture(const Model& model, const Eigen::VectorXd& q, bool all
 ///         coordinate name), a row with the wrong number of fields, or a value that is not a
 ///         finite number (naming the column), or a file with no posture row.
 std::vector<Eigen::VectorXd> ParsePostureCsv(const Model& model, const std::string& text,
-                                             const std::string& source, const Eigen::VectorXd& base);
+                                             const std::string& source,
+                                             const Eigen::VectorXd& base);
 
 /// ParsePostureCsv on the contents of a file. @throws Error also if it cannot be read.
 std::vector<Eigen::VectorXd> ReadPostureCsv(const Model& model, const std::string& path,

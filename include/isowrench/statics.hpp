@@ -35,14 +35,14 @@ struct StaticsOptions {
 /// SolveStaticsFast, ClassicWrench): one convention, each result carrying one of these and,
 /// where it can hold one (all but the 64-byte FastWrench), a message.
 enum class StaticsStatus {
-  kOk,                 ///< unique W; K positive definite (classic: J_r^T W = tau solved exactly)
+  kOk,  ///< unique W; K positive definite (classic: J_r^T W = tau solved exactly)
   /// K singular but tau does not excite the self-motion: W still unique. Classic: J_r is rank
   /// deficient but tau is reachable (minimum-norm W).
   kSelfMotionHeld,
   /// K singular and tau excites it: no equilibrium; W is not defined (zeros). Classic: the
   /// restrained rows cannot balance tau (residual > 0); W is the least-squares answer.
   kSelfMotion,
-  kInvalidInput,       ///< non-finite, negative or mis-sized input; see message; W zeros
+  kInvalidInput,  ///< non-finite, negative or mis-sized input; see message; W zeros
 };
 /// "ok", "self-motion (not excited)", "self-motion", "invalid input".
 const char* StatusName(StaticsStatus status);
@@ -64,16 +64,16 @@ struct StaticsResult {
   Eigen::VectorXd k_eigenvalues;
   double rank_threshold = 0.0;  ///< absolute threshold: rank_tolerance * lambda_max
   int k_rank = 0;
-  double k_condition = 0.0;     ///< lambda_max / lambda_min over the non-null eigenvalues
+  double k_condition = 0.0;  ///< lambda_max / lambda_min over the non-null eigenvalues
   /// Self-motion basis: columns span null(K), unit length (m x r; r = 0 when K is regular).
   Eigen::MatrixXd self_motion;
   /// Small-motion check (docs/model.md "Validity of the linear model").
   bool small_motion_valid = true;
-  double endpoint_translation = 0.0;      ///< |J dtheta|_translation (m)
+  double endpoint_translation = 0.0;        ///< |J dtheta|_translation (m)
   double endpoint_translation_limit = 0.0;  ///< max_endpoint_fraction * leg length (m)
-  double max_joint_rotation = 0.0;        ///< max |dtheta_i| over revolute joints (rad)
-  double max_joint_rotation_limit = 0.0;  ///< rad
-  std::string validity_message;           ///< empty when valid
+  double max_joint_rotation = 0.0;          ///< max |dtheta_i| over revolute joints (rad)
+  double max_joint_rotation_limit = 0.0;    ///< rad
+  std::string validity_message;             ///< empty when valid
 
   bool ok() const {
     return status == StaticsStatus::kOk || status == StaticsStatus::kSelfMotionHeld;
@@ -111,18 +111,18 @@ ClassicResult ClassicWrench(const Matrix6Xd& J, const std::array<bool, 6>& restr
 /// Everything about one muscle at one posture on a model: kinematics, muscle torque, statics
 /// with the model's S_t, S_p and released dofs, and the classic comparison.
 struct WrenchEvaluation {
-  Eigen::VectorXd q;          ///< posture (rad / m)
-  Matrix6Xd jacobian;         ///< J_T_E, transducer axes, all 6 rows
-  Eigen::Matrix3d R_W_T;      ///< transducer axes in world
+  Eigen::VectorXd q;      ///< posture (rad / m)
+  Matrix6Xd jacobian;     ///< J_T_E, transducer axes, all 6 rows
+  Eigen::Matrix3d R_W_T;  ///< transducer axes in world
   std::string muscle;
   double muscle_length = 0.0;  ///< m
   double muscle_force = 0.0;   ///< N
-  Eigen::VectorXd tau;        ///< N·m / N
-  Vector6d s_t;               ///< effective S_t diagonal (0 on released dofs)
+  Eigen::VectorXd tau;         ///< N·m / N
+  Vector6d s_t;                ///< effective S_t diagonal (0 on released dofs)
   Eigen::VectorXd s_p;
-  StaticsResult statics;      ///< W in transducer axes
+  StaticsResult statics;                     ///< W in transducer axes
   Vector6d wrench_world = Vector6d::Zero();  ///< W rotated to world axes
-  ClassicResult classic;      ///< J^-T / pinv comparison on the restrained rows
+  ClassicResult classic;                     ///< J^-T / pinv comparison on the restrained rows
 };
 
 /// Evaluate `muscle` (by name) at posture q with activation in [0, 1] (force scale; > 1 allowed).
@@ -133,8 +133,8 @@ WrenchEvaluation EvaluateWrench(const Model& model, const Eigen::VectorXd& q,
 
 /// The same with a caller-owned workspace and a muscle index, for repeated evaluations (no new
 /// KinematicsWorkspace per call). @throws Error for a bad index or posture.
-WrenchEvaluation EvaluateWrench(const Model& model, KinematicsWorkspace& ws, const Eigen::VectorXd& q,
-                                int muscle_index, double activation = 1.0,
+WrenchEvaluation EvaluateWrench(const Model& model, KinematicsWorkspace& ws,
+                                const Eigen::VectorXd& q, int muscle_index, double activation = 1.0,
                                 const StaticsOptions& options = {});
 
 /// "hip_rx +1.00, knee_ry +0.97, knee_rx +0.26": a joint-space direction in named joints,

@@ -34,8 +34,8 @@ using TrialProgress = std::function<void(long rows, double fraction)>;
 /// @returns the number of trials. @throws Error as TrialReader, or if the file cannot be
 ///          opened or holds no trial.
 long ForEachTrial(const Model& model, const std::string& path,
-                  const std::function<void(const Trial&)>& on_trial, const TrialProgress& progress = {},
-                  long progress_every = 100000);
+                  const std::function<void(const Trial&)>& on_trial,
+                  const TrialProgress& progress = {}, long progress_every = 100000);
 
 /// A progress callback that rewrites one line on stderr ("reading data.csv: 300000 rows, 42%")
 /// when stderr is a terminal, and prints nothing otherwise.

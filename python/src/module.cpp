@@ -64,20 +64,22 @@ Eigen::VectorXd Posture(const Model& model, const py::object& q) {
   if (py::isinstance<py::dict>(q)) {
     for (const auto& item : q.cast<py::dict>()) {
       const std::string name = py::str(item.first);
-      out[model.JointIndex(FindCoordinate(model.description(), name).name)] = item.second.cast<double>();
+      out[model.JointIndex(FindCoordinate(model.description(), name).name)] =
+          item.second.cast<double>();
     }
   } else {
     CArray a = CArray::ensure(q);
     if (!a || a.ndim() != 1 || a.shape(0) != model.dof_count()) {
-      throw Error("q must be None, a dict {coordinate: value} or " + std::to_string(model.dof_count()) +
-                  " values in rad / m for the coordinates " + CoordinateList(model));
+      throw Error("q must be None, a dict {coordinate: value} or " +
+                  std::to_string(model.dof_count()) + " values in rad / m for the coordinates " +
+                  CoordinateList(model));
     }
     for (int i = 0; i < model.dof_count(); ++i) out[i] = a.at(i);
   }
   for (int i = 0; i < model.dof_count(); ++i) {
     if (!std::isfinite(out[i])) {
-      throw Error("q[" + std::to_string(i) + "] (" + model.joint_names()[i] + ") is " + std::to_string(out[i]) +
-                  "; posture values must be finite (rad / m)");
+      throw Error("q[" + std::to_string(i) + "] (" + model.joint_names()[i] + ") is " +
+                  std::to_string(out[i]) + "; posture values must be finite (rad / m)");
     }
   }
   return out;
@@ -87,7 +89,7 @@ Eigen::VectorXd Posture(const Model& model, const py::object& q) {
 /// itself when both are None. transducer: a preset name or 6 values (N/m, N·m/rad); released: a
 /// list of dof names (x y z rx ry rz), a comma-separated string, or [] / "none" for none.
 std::shared_ptr<PyModel> Variant(const std::shared_ptr<PyModel>& m, const py::object& transducer,
-                                       const py::object& released) {
+                                 const py::object& released) {
   if (transducer.is_none() && released.is_none()) return m;
   LimbDescription d = m->model.description();
   if (!transducer.is_none()) {
@@ -96,8 +98,9 @@ std::shared_ptr<PyModel> Variant(const std::shared_ptr<PyModel>& m, const py::ob
     } else {
       CArray a = CArray::ensure(transducer);
       if (!a || a.ndim() != 1 || a.shape(0) != 6) {
-        throw Error("transducer must be a preset name (balanced, ati-mini40, jr3) or 6 stiffnesses "
-                    "kx ky kz (N/m) krx kry krz (N·m/rad)");
+        throw Error(
+            "transducer must be a preset name (balanced, ati-mini40, jr3) or 6 stiffnesses "
+            "kx ky kz (N/m) krx kry krz (N·m/rad)");
       }
       Vector6d s;
       for (int i = 0; i < 6; ++i) s[i] = a.at(i);
@@ -125,14 +128,19 @@ std::shared_ptr<PyModel> Variant(const std::shared_ptr<PyModel>& m, const py::ob
   return std::make_shared<PyModel>(Model(std::move(d)), m->path);
 }
 
-std::shared_ptr<PyModel> Load(const std::string& path, const py::object& clamp, const py::object& endpoint) {
+std::shared_ptr<PyModel> Load(const std::string& path, const py::object& clamp,
+                              const py::object& endpoint) {
   if (!std::filesystem::exists(path)) ThrowFileNotFound(path);
   const std::string ext = std::filesystem::path(path).extension().string();
   if (ext == ".osim") {
     if (clamp.is_none() || endpoint.is_none()) {
-      throw Error("loading an OpenSim model needs clamp_body= and endpoint_body= (the bolted body and the body "
-                  "carrying the transducer), e.g. isowrench.load('" + path + "', clamp_body='pelvis', "
-                  "endpoint_body='tibia')");
+      throw Error(
+          "loading an OpenSim model needs clamp_body= and endpoint_body= (the bolted body and the "
+          "body "
+          "carrying the transducer), e.g. isowrench.load('" +
+          path +
+          "', clamp_body='pelvis', "
+          "endpoint_body='tibia')");
     }
     OpenSimImportOptions options;
     options.clamp_body = clamp.cast<std::string>();
@@ -189,7 +197,8 @@ struct PyWrench {
 PyWrench Wrench(const std::shared_ptr<PyModel>& m0, const std::string& muscle, const py::object& q,
                 const py::object& transducer, const py::object& released, double activation) {
   std::shared_ptr<PyModel> m = Variant(m0, transducer, released);
-  return {EvaluateWrench(m->model, Posture(m->model, q), muscle, activation), m->model.joint_names()};
+  return {EvaluateWrench(m->model, Posture(m->model, q), muscle, activation),
+          m->model.joint_names()};
 }
 
 /// (N, n) float64 C-contiguous postures checked for shape and finiteness.
@@ -199,10 +208,12 @@ CArray Postures(const Model& model, const py::object& Q) {
   const long n = model.dof_count();
   if (a.ndim() != 2 || a.shape(1) != n) {
     std::string shape = "(";
-    for (py::ssize_t i = 0; i < a.ndim(); ++i) shape += (i ? ", " : "") + std::to_string(a.shape(i));
+    for (py::ssize_t i = 0; i < a.ndim(); ++i)
+      shape += (i ? ", " : "") + std::to_string(a.shape(i));
     shape += a.ndim() == 1 ? ",)" : ")";
-    throw Error("Q has shape " + shape + "; it must be (N, " + std::to_string(n) + "): one row per posture, one column " +
-                "per coordinate (" + CoordinateList(model) + "), rad / m");
+    throw Error("Q has shape " + shape + "; it must be (N, " + std::to_string(n) +
+                "): one row per posture, one column " + "per coordinate (" + CoordinateList(model) +
+                "), rad / m");
   }
   const double* data = a.data();
   const py::ssize_t rows = a.shape(0);
@@ -210,24 +221,27 @@ CArray Postures(const Model& model, const py::object& Q) {
     for (long c = 0; c < n; ++c) {
       const double v = data[r * n + c];
       if (!std::isfinite(v)) {
-        throw Error("Q[" + std::to_string(r) + ", " + std::to_string(c) + "] (" + model.joint_names()[c] + ") is " +
-                    std::to_string(v) + "; postures must be finite (rad / m)");
+        throw Error("Q[" + std::to_string(r) + ", " + std::to_string(c) + "] (" +
+                    model.joint_names()[c] + ") is " + std::to_string(v) +
+                    "; postures must be finite (rad / m)");
       }
     }
   }
   return a;
 }
 
-py::object WrenchBatch(const std::shared_ptr<PyModel>& m0, const std::string& muscle, const py::object& Q,
-                       double activation, const py::object& transducer, const py::object& released, int threads,
-                       bool return_status) {
+py::object WrenchBatch(const std::shared_ptr<PyModel>& m0, const std::string& muscle,
+                       const py::object& Q, double activation, const py::object& transducer,
+                       const py::object& released, int threads, bool return_status) {
   std::shared_ptr<PyModel> m = Variant(m0, transducer, released);
   const int muscle_index = m->model.MuscleIndex(muscle);
   CArray postures = Postures(m->model, Q);
   const py::ssize_t count = postures.shape(0);
   const int n = m->model.dof_count();
-  if (!std::isfinite(activation)) throw Error("activation is " + std::to_string(activation) + "; it must be finite");
-  if (threads < 0) throw Error("threads is " + std::to_string(threads) + "; it must be >= 1, or 0 for every core");
+  if (!std::isfinite(activation))
+    throw Error("activation is " + std::to_string(activation) + "; it must be finite");
+  if (threads < 0)
+    throw Error("threads is " + std::to_string(threads) + "; it must be >= 1, or 0 for every core");
   py::array_t<double> out({count, static_cast<py::ssize_t>(6)});
   py::array_t<std::uint8_t> status(count);
   double* w = out.mutable_data();
@@ -241,8 +255,8 @@ py::object WrenchBatch(const std::shared_ptr<PyModel>& m0, const std::string& mu
       std::vector<FastWrench> results;
       BatchOptions options;
       options.threads = threads > 0 ? threads : std::max(1u, std::thread::hardware_concurrency());
-      EvaluateBatch(*m->compiled, columns, muscle_index, {m->compiled->model_stiffness()}, results, activation,
-                    options);
+      EvaluateBatch(*m->compiled, columns, muscle_index, {m->compiled->model_stiffness()}, results,
+                    activation, options);
       for (py::ssize_t p = 0; p < count; ++p) {
         for (int k = 0; k < 6; ++k) w[p * 6 + k] = results[static_cast<size_t>(p)].wrench[k];
         s[p] = static_cast<std::uint8_t>(results[static_cast<size_t>(p)].status);
@@ -304,8 +318,10 @@ py::dict Releases(const PyModel& m, const std::string& muscle, const py::object&
   py::list list;
   for (const ReleaseAssessment& a : c.candidates) list.append(AssessmentDict(a));
   d["candidates"] = list;
-  d["recommended"] = c.recommended >= 0 ? py::object(py::str(c.candidates[static_cast<size_t>(c.recommended)].candidate.name))
-                                        : py::object(py::none());
+  d["recommended"] =
+      c.recommended >= 0
+          ? py::object(py::str(c.candidates[static_cast<size_t>(c.recommended)].candidate.name))
+          : py::object(py::none());
   d["recommendation"] = c.recommendation;
   d["length_scale_m"] = c.length_scale;
   d["stiffness_range"] = c.range_description;
@@ -322,7 +338,8 @@ py::dict MotionDict(const JointMotion& m) {
   return d;
 }
 
-py::dict Diagnose(const PyModel& m, const std::string& muscle, const py::object& q, bool large_deflection) {
+py::dict Diagnose(const PyModel& m, const std::string& muscle, const py::object& q,
+                  bool large_deflection) {
   DiagnosisOptions options;
   options.large_deflection = large_deflection;
   Diagnosis d = DiagnoseLimb(m.model, Posture(m.model, q), muscle, options);
@@ -405,8 +422,9 @@ py::dict Diagnose(const PyModel& m, const std::string& muscle, const py::object&
   return out;
 }
 
-std::string Simulate(const PyModel& m, const std::string& output, const std::vector<std::string>& effects, int n,
-                     unsigned long long seed, double noise_force, double noise_moment, double joint_range,
+std::string Simulate(const PyModel& m, const std::string& output,
+                     const std::vector<std::string>& effects, int n, unsigned long long seed,
+                     double noise_force, double noise_moment, double joint_range,
                      const std::vector<std::string>& muscles) {
   std::vector<AppliedEffect> applied;
   for (const std::string& text : effects) applied.push_back(ParseEffectAssignment(m.model, text));
@@ -472,9 +490,11 @@ std::string WrenchRepr(const PyWrench& w) {
   const Vector6d& t = w.e.statics.wrench;
   char buffer[256];
   std::snprintf(buffer, sizeof(buffer),
-                "<isowrench.Wrench %s: fx=%.6g fy=%.6g fz=%.6g N, mx=%.6g my=%.6g mz=%.6g N·m (transducer axes), "
+                "<isowrench.Wrench %s: fx=%.6g fy=%.6g fz=%.6g N, mx=%.6g my=%.6g mz=%.6g N·m "
+                "(transducer axes), "
                 "status '%s'%s>",
-                w.e.muscle.c_str(), t[0], t[1], t[2], t[3], t[4], t[5], StatusName(w.e.statics.status),
+                w.e.muscle.c_str(), t[0], t[1], t[2], t[3], t[4], t[5],
+                StatusName(w.e.statics.status),
                 w.e.statics.small_motion_valid ? "" : ", small motion INVALID");
   return buffer;
 }
@@ -486,11 +506,12 @@ PYBIND11_MODULE(_core, mod) {
   using namespace isowrench;
   using namespace isowrench::python;
   mod.doc() =
-      "isowrench._core: the C++ engine behind the isowrench package (pybind11). Use `import isowrench`.";
+      "isowrench._core: the C++ engine behind the isowrench package (pybind11). Use `import "
+      "isowrench`.";
   mod.attr("__version__") = ISOWRENCH_VERSION;
-  mod.attr("STATUS_NAMES") = py::make_tuple(StatusName(StaticsStatus::kOk), StatusName(StaticsStatus::kSelfMotionHeld),
-                                            StatusName(StaticsStatus::kSelfMotion),
-                                            StatusName(StaticsStatus::kInvalidInput));
+  mod.attr("STATUS_NAMES") = py::make_tuple(
+      StatusName(StaticsStatus::kOk), StatusName(StaticsStatus::kSelfMotionHeld),
+      StatusName(StaticsStatus::kSelfMotion), StatusName(StaticsStatus::kInvalidInput));
 
   py::register_exception_translator([](std::exception_ptr p) {
     try {
@@ -500,60 +521,85 @@ PYBIND11_MODULE(_core, mod) {
     }
   });
 
-  py::class_<PyWrench>(mod, "Wrench",
-                       "One muscle at one posture: the Eq. 10 wrench W = S_t J (J^T S_t J + S_p)^-1 tau that the limb "
-                       "applies to the transducer (forces N, moments N·m about the endpoint), with the statics "
-                       "behind it. Returned by Model.wrench().")
-      .def_property_readonly("transducer", [](const PyWrench& w) { return Array(Eigen::VectorXd(w.e.statics.wrench)); },
-                             "(6,) [fx fy fz mx my mz] in the transducer's axes (N, N·m); released rows are 0; zeros "
-                             "when status is 'self-motion' (no equilibrium).")
-      .def_property_readonly("world", [](const PyWrench& w) { return Array(Eigen::VectorXd(w.e.wrench_world)); },
-                             "(6,) the same wrench in world axes (N, N·m).")
-      .def_property_readonly("classic", [](const PyWrench& w) { return Array(Eigen::VectorXd(w.e.classic.wrench)); },
-                             "(6,) the classic answer without compliance, J^-T tau (Eq. 11) or pinv(J^T) tau (Eq. "
-                             "15), transducer axes (N, N·m).")
-      .def_property_readonly("dtheta", [](const PyWrench& w) { return Array(w.e.statics.dtheta); },
-                             "(n,) equilibrium displacement K^+ tau per coordinate (rad, or m for prismatic ones).")
-      .def_property_readonly("tau", [](const PyWrench& w) { return Array(w.e.tau); },
-                             "(n,) muscle generalized force -F dL/dq per coordinate (N·m, or N for prismatic ones).")
-      .def_property_readonly("q", [](const PyWrench& w) { return Array(w.e.q); }, "(n,) the posture (rad / m).")
-      .def_property_readonly("jacobian", [](const PyWrench& w) { return Array(Eigen::MatrixXd(w.e.jacobian)); },
-                             "(6, n) endpoint Jacobian in transducer axes, rows [v; w].")
-      .def_property_readonly("status", [](const PyWrench& w) { return std::string(StatusName(w.e.statics.status)); },
-                             "'ok', 'self-motion (not excited)' (W still unique), 'self-motion' (no equilibrium, W "
-                             "is zeros) or 'invalid input'.")
-      .def_property_readonly("message", [](const PyWrench& w) { return w.e.statics.message; },
-                             "The statics' one-sentence explanation of the status.")
-      .def_property_readonly("small_motion", [](const PyWrench& w) { return w.e.statics.small_motion_valid; },
-                             "True when the linear (small-motion) answer is valid: endpoint translation <= 0.1% of "
-                             "the leg length and every joint rotation <= 0.01 rad.")
-      .def_property_readonly("small_motion_message", [](const PyWrench& w) { return w.e.statics.validity_message; },
-                             "Why the small-motion check failed ('' when valid).")
-      .def_property_readonly("muscle", [](const PyWrench& w) { return w.e.muscle; }, "The muscle's name.")
-      .def_property_readonly("muscle_force_N", [](const PyWrench& w) { return w.e.muscle_force; },
-                             "Muscle force F = activation x max_force (N).")
-      .def_property_readonly("muscle_length_m", [](const PyWrench& w) { return w.e.muscle_length; },
-                             "Muscle path length (m).")
-      .def_property_readonly("coordinates", [](const PyWrench& w) { return w.coordinates; },
-                             "Coordinate names: the order of dtheta, tau and q.")
+  py::class_<PyWrench>(
+      mod, "Wrench",
+      "One muscle at one posture: the Eq. 10 wrench W = S_t J (J^T S_t J + S_p)^-1 tau that the "
+      "limb "
+      "applies to the transducer (forces N, moments N·m about the endpoint), with the statics "
+      "behind it. Returned by Model.wrench().")
+      .def_property_readonly(
+          "transducer",
+          [](const PyWrench& w) { return Array(Eigen::VectorXd(w.e.statics.wrench)); },
+          "(6,) [fx fy fz mx my mz] in the transducer's axes (N, N·m); released rows are 0; zeros "
+          "when status is 'self-motion' (no equilibrium).")
+      .def_property_readonly(
+          "world", [](const PyWrench& w) { return Array(Eigen::VectorXd(w.e.wrench_world)); },
+          "(6,) the same wrench in world axes (N, N·m).")
+      .def_property_readonly(
+          "classic", [](const PyWrench& w) { return Array(Eigen::VectorXd(w.e.classic.wrench)); },
+          "(6,) the classic answer without compliance, J^-T tau (Eq. 11) or pinv(J^T) tau (Eq. "
+          "15), transducer axes (N, N·m).")
+      .def_property_readonly(
+          "dtheta", [](const PyWrench& w) { return Array(w.e.statics.dtheta); },
+          "(n,) equilibrium displacement K^+ tau per coordinate (rad, or m for prismatic ones).")
+      .def_property_readonly(
+          "tau", [](const PyWrench& w) { return Array(w.e.tau); },
+          "(n,) muscle generalized force -F dL/dq per coordinate (N·m, or N for prismatic ones).")
+      .def_property_readonly(
+          "q", [](const PyWrench& w) { return Array(w.e.q); }, "(n,) the posture (rad / m).")
+      .def_property_readonly(
+          "jacobian", [](const PyWrench& w) { return Array(Eigen::MatrixXd(w.e.jacobian)); },
+          "(6, n) endpoint Jacobian in transducer axes, rows [v; w].")
+      .def_property_readonly(
+          "status", [](const PyWrench& w) { return std::string(StatusName(w.e.statics.status)); },
+          "'ok', 'self-motion (not excited)' (W still unique), 'self-motion' (no equilibrium, W "
+          "is zeros) or 'invalid input'.")
+      .def_property_readonly(
+          "message", [](const PyWrench& w) { return w.e.statics.message; },
+          "The statics' one-sentence explanation of the status.")
+      .def_property_readonly(
+          "small_motion", [](const PyWrench& w) { return w.e.statics.small_motion_valid; },
+          "True when the linear (small-motion) answer is valid: endpoint translation <= 0.1% of "
+          "the leg length and every joint rotation <= 0.01 rad.")
+      .def_property_readonly(
+          "small_motion_message", [](const PyWrench& w) { return w.e.statics.validity_message; },
+          "Why the small-motion check failed ('' when valid).")
+      .def_property_readonly(
+          "muscle", [](const PyWrench& w) { return w.e.muscle; }, "The muscle's name.")
+      .def_property_readonly(
+          "muscle_force_N", [](const PyWrench& w) { return w.e.muscle_force; },
+          "Muscle force F = activation x max_force (N).")
+      .def_property_readonly(
+          "muscle_length_m", [](const PyWrench& w) { return w.e.muscle_length; },
+          "Muscle path length (m).")
+      .def_property_readonly(
+          "coordinates", [](const PyWrench& w) { return w.coordinates; },
+          "Coordinate names: the order of dtheta, tau and q.")
       .def("__repr__", &WrenchRepr);
 
   py::class_<PyModel, std::shared_ptr<PyModel>>(
       mod, "Model",
-      "An immutable limb model (URDF with isowrench tags, or an imported .osim): the chain from ground to the "
-      "endpoint, its coordinates, muscles and transducer. Create it with isowrench.load(). Thread-safe.")
-      .def_property_readonly("name", [](const PyModel& m) { return m.model.name(); }, "The model's (robot's) name.")
-      .def_property_readonly("path", [](const PyModel& m) { return m.path; }, "The file it was loaded from.")
-      .def_property_readonly("coordinates", [](const PyModel& m) { return m.model.joint_names(); },
-                             "Independent coordinate names in column order (the Jacobian's columns, a posture's "
-                             "entries).")
+      "An immutable limb model (URDF with isowrench tags, or an imported .osim): the chain from "
+      "ground to the "
+      "endpoint, its coordinates, muscles and transducer. Create it with isowrench.load(). "
+      "Thread-safe.")
+      .def_property_readonly(
+          "name", [](const PyModel& m) { return m.model.name(); }, "The model's (robot's) name.")
+      .def_property_readonly(
+          "path", [](const PyModel& m) { return m.path; }, "The file it was loaded from.")
+      .def_property_readonly(
+          "coordinates", [](const PyModel& m) { return m.model.joint_names(); },
+          "Independent coordinate names in column order (the Jacobian's columns, a posture's "
+          "entries).")
       .def_property_readonly(
           "coordinate_types",
           [](const PyModel& m) {
             std::vector<std::string> out;
             for (const std::string& name : m.model.joint_names()) {
-              out.push_back(FindCoordinate(m.model.description(), name).type == JointType::kPrismatic ? "prismatic"
-                                                                                                      : "revolute");
+              out.push_back(FindCoordinate(m.model.description(), name).type ==
+                                    JointType::kPrismatic
+                                ? "prismatic"
+                                : "revolute");
             }
             return out;
           },
@@ -566,12 +612,15 @@ PYBIND11_MODULE(_core, mod) {
             return out;
           },
           "Muscle names.")
-      .def_property_readonly("default_posture", [](const PyModel& m) { return Array(m.model.nominal_posture()); },
-                             "(n,) the model's nominal posture (rad / m), used when q is None.")
-      .def_property_readonly("joint_stiffness", [](const PyModel& m) { return Array(m.model.joint_stiffness()); },
-                             "(n,) S_p diagonal per coordinate (N·m/rad or N/m).")
       .def_property_readonly(
-          "transducer_stiffness", [](const PyModel& m) { return Array(Eigen::VectorXd(m.model.transducer().stiffness)); },
+          "default_posture", [](const PyModel& m) { return Array(m.model.nominal_posture()); },
+          "(n,) the model's nominal posture (rad / m), used when q is None.")
+      .def_property_readonly(
+          "joint_stiffness", [](const PyModel& m) { return Array(m.model.joint_stiffness()); },
+          "(n,) S_p diagonal per coordinate (N·m/rad or N/m).")
+      .def_property_readonly(
+          "transducer_stiffness",
+          [](const PyModel& m) { return Array(Eigen::VectorXd(m.model.transducer().stiffness)); },
           "(6,) S_t diagonal [kx ky kz (N/m), krx kry krz (N·m/rad)] in transducer axes.")
       .def_property_readonly(
           "released",
@@ -583,70 +632,107 @@ PYBIND11_MODULE(_core, mod) {
             return out;
           },
           "Released transducer dofs (names among x y z rx ry rz).")
-      .def_property_readonly("leg_length_m", [](const PyModel& m) { return m.model.chain_length(); },
-                             "Sum of joint-to-joint distances plus the endpoint offset (m).")
+      .def_property_readonly(
+          "leg_length_m", [](const PyModel& m) { return m.model.chain_length(); },
+          "Sum of joint-to-joint distances plus the endpoint offset (m).")
       .def("kinematics", &Kinematics, py::arg("q") = py::none(),
            "kinematics(q=None) -> dict\n\n"
-           "Endpoint position, endpoint Jacobian and every muscle's length and moment arm at posture q (None: the "
-           "default posture; n values in rad / m; or a dict {coordinate: value} over the default posture).\n"
-           "Returns {'q': (n,), 'endpoint_m': (3,) world position (m), 'jacobian': (6, n) world axes, rows vx vy vz "
-           "(m/rad) wx wy wz (rad/rad), 'muscles': {name: {'length_m': float, 'moment_arm_m': (n,) -dL/dq}}}: the "
+           "Endpoint position, endpoint Jacobian and every muscle's length and moment arm at "
+           "posture q (None: the "
+           "default posture; n values in rad / m; or a dict {coordinate: value} over the default "
+           "posture).\n"
+           "Returns {'q': (n,), 'endpoint_m': (3,) world position (m), 'jacobian': (6, n) world "
+           "axes, rows vx vy vz "
+           "(m/rad) wx wy wz (rad/rad), 'muscles': {name: {'length_m': float, 'moment_arm_m': (n,) "
+           "-dL/dq}}}: the "
            "same numbers as `isowrench kinematics --json`.\nRaises ValueError for a bad posture.")
-      .def("wrench", &Wrench, py::arg("muscle"), py::arg("q") = py::none(), py::arg("transducer") = py::none(),
-           py::arg("released") = py::none(), py::arg("activation") = 1.0,
+      .def("wrench", &Wrench, py::arg("muscle"), py::arg("q") = py::none(),
+           py::arg("transducer") = py::none(), py::arg("released") = py::none(),
+           py::arg("activation") = 1.0,
            "wrench(muscle, q=None, transducer=None, released=None, activation=1.0) -> Wrench\n\n"
-           "The Eq. 10 wrench muscle `muscle` applies through the limb to the transducer at posture q (None: default "
-           "posture; n values in rad / m; or a dict {coordinate: value}). transducer: None (the model's S_t), a "
-           "preset name ('balanced', 'ati-mini40', 'jr3') or 6 stiffnesses (N/m, N·m/rad); released: None (the "
-           "model's), a list of dof names among x y z rx ry rz, or [] for none. activation scales the force "
+           "The Eq. 10 wrench muscle `muscle` applies through the limb to the transducer at "
+           "posture q (None: default "
+           "posture; n values in rad / m; or a dict {coordinate: value}). transducer: None (the "
+           "model's S_t), a "
+           "preset name ('balanced', 'ati-mini40', 'jr3') or 6 stiffnesses (N/m, N·m/rad); "
+           "released: None (the "
+           "model's), a list of dof names among x y z rx ry rz, or [] for none. activation scales "
+           "the force "
            "(F = activation x max_force). Same numbers as `isowrench wrench --json`.\n"
            "Raises ValueError for an unknown muscle, a bad posture or bad stiffnesses.")
-      .def("wrench_batch", &WrenchBatch, py::arg("muscle"), py::arg("Q"), py::arg("activation") = 1.0,
-           py::arg("transducer") = py::none(), py::arg("released") = py::none(), py::arg("threads") = 0,
+      .def("wrench_batch", &WrenchBatch, py::arg("muscle"), py::arg("Q"),
+           py::arg("activation") = 1.0, py::arg("transducer") = py::none(),
+           py::arg("released") = py::none(), py::arg("threads") = 0,
            py::arg("return_status") = false,
-           "wrench_batch(muscle, Q, activation=1.0, transducer=None, released=None, threads=0, return_status=False)"
+           "wrench_batch(muscle, Q, activation=1.0, transducer=None, released=None, threads=0, "
+           "return_status=False)"
            " -> ndarray (N, 6)\n\n"
-           "The Eq. 10 wrench at every posture (row) of Q (N, n) in rad / m: row i = [fx fy fz mx my mz] (N, N·m) in "
-           "transducer axes, equal to wrench(muscle, Q[i]).transducer to rounding. Runs the C++ batch kernel with "
-           "the GIL released on `threads` threads (0: every core). Rows without equilibrium are zeros; with "
-           "return_status=True a uint8 status array (N,) is returned too, indexing isowrench.STATUS_NAMES.\n"
-           "Raises ValueError for an unknown muscle, Q of the wrong shape (not (N, n)) or a non-finite entry.")
+           "The Eq. 10 wrench at every posture (row) of Q (N, n) in rad / m: row i = [fx fy fz mx "
+           "my mz] (N, N·m) in "
+           "transducer axes, equal to wrench(muscle, Q[i]).transducer to rounding. Runs the C++ "
+           "batch kernel with "
+           "the GIL released on `threads` threads (0: every core). Rows without equilibrium are "
+           "zeros; with "
+           "return_status=True a uint8 status array (N,) is returned too, indexing "
+           "isowrench.STATUS_NAMES.\n"
+           "Raises ValueError for an unknown muscle, Q of the wrong shape (not (N, n)) or a "
+           "non-finite entry.")
       .def("releases", &Releases, py::arg("muscle"), py::arg("q") = py::none(),
            "releases(muscle, q=None) -> dict\n\n"
-           "Which extra transducer dof to release (CompareReleases): the baseline and every default candidate "
-           "assessed, the forbidden axes and the recommendation; the keys of `isowrench releases --json` for one "
+           "Which extra transducer dof to release (CompareReleases): the baseline and every "
+           "default candidate "
+           "assessed, the forbidden axes and the recommendation; the keys of `isowrench releases "
+           "--json` for one "
            "muscle (wrenches as {fx..mz} dicts, N and N·m; axes as numpy arrays).")
-      .def("diagnose", &Diagnose, py::arg("muscle"), py::arg("q") = py::none(), py::arg("large_deflection") = true,
+      .def("diagnose", &Diagnose, py::arg("muscle"), py::arg("q") = py::none(),
+           py::arg("large_deflection") = true,
            "diagnose(muscle, q=None, large_deflection=True) -> dict\n\n"
-           "DiagnoseLimb: constraint class, self-motions and internal wrenches ('constraints'), the Eq. 10 wrench "
-           "and classic answer, sensitivities dW/dlog k and (optionally) the nonlinear equilibrium; the keys of "
+           "DiagnoseLimb: constraint class, self-motions and internal wrenches ('constraints'), "
+           "the Eq. 10 wrench "
+           "and classic answer, sensitivities dW/dlog k and (optionally) the nonlinear "
+           "equilibrium; the keys of "
            "`isowrench diagnose --json` for one muscle.")
       .def("__repr__", [](const PyModel& m) {
-        return "<isowrench.Model '" + m.model.name() + "': " + std::to_string(m.model.dof_count()) + " coordinates (" +
-               CoordinateList(m.model) + "), " + std::to_string(m.model.muscle_count()) + " muscles>";
+        return "<isowrench.Model '" + m.model.name() + "': " + std::to_string(m.model.dof_count()) +
+               " coordinates (" + CoordinateList(m.model) + "), " +
+               std::to_string(m.model.muscle_count()) + " muscles>";
       });
 
-  mod.def("simulate", &Simulate, py::arg("model"), py::arg("path"), py::arg("effects") = std::vector<std::string>{},
-          py::arg("n") = 60, py::arg("seed") = 7, py::arg("noise_force") = 0.002, py::arg("noise_moment") = 5e-5,
+  mod.def("simulate", &Simulate, py::arg("model"), py::arg("path"),
+          py::arg("effects") = std::vector<std::string>{}, py::arg("n") = 60, py::arg("seed") = 7,
+          py::arg("noise_force") = 0.002, py::arg("noise_moment") = 5e-5,
           py::arg("joint_range") = 15.0 * 3.14159265358979323846 / 180.0,
           py::arg("muscles") = std::vector<std::string>{},
-          "simulate(model, path, effects=[], n=60, seed=7, noise_force=0.002, noise_moment=5e-5, joint_range=0.2618, "
+          "simulate(model, path, effects=[], n=60, seed=7, noise_force=0.002, noise_moment=5e-5, "
+          "joint_range=0.2618, "
           "muscles=[]) -> str\n\n"
-          "Synthetic trials (SimulateTrials, as `isowrench simulate`): n postures drawn uniformly within +- joint_range "
-          "(rad) of the default posture, wrenches of the model with `effects` applied (strings 'NAME=V1,V2' in the "
-          "CLI's user units, e.g. 'base_isotropic=2e5'; `isowrench fit --list-effects` lists them) plus Gaussian "
-          "noise (N, N·m); written as a trial CSV at `path` (the file isowrench.fit and `isowrench fit` read). "
+          "Synthetic trials (SimulateTrials, as `isowrench simulate`): n postures drawn uniformly "
+          "within +- joint_range "
+          "(rad) of the default posture, wrenches of the model with `effects` applied (strings "
+          "'NAME=V1,V2' in the "
+          "CLI's user units, e.g. 'base_isotropic=2e5'; `isowrench fit --list-effects` lists them) "
+          "plus Gaussian "
+          "noise (N, N·m); written as a trial CSV at `path` (the file isowrench.fit and `isowrench "
+          "fit` read). "
           "Returns path. Same seed, same data.");
   mod.def("fit", &Fit, py::arg("model"), py::arg("csv"),
           "fit(model, csv) -> dict\n\n"
-          "FitEffects on a trial CSV (as `isowrench fit`): which unmodelled effects explain the measured wrenches. "
-          "Returns {'verdict', 'verdict_message', 'effects_claimed', 'chosen': [{'id', 'parameters': [{'name', "
-          "'value', 'standard_error', 'unit'}]}], 'trial_count', 'rms_before', 'rms_after' (6,) N and N·m, "
-          "'normalized_before', 'normalized_after' (noise multiples), 'indistinguishable', 'notes', 'report' (text), "
+          "FitEffects on a trial CSV (as `isowrench fit`): which unmodelled effects explain the "
+          "measured wrenches. "
+          "Returns {'verdict', 'verdict_message', 'effects_claimed', 'chosen': [{'id', "
+          "'parameters': [{'name', "
+          "'value', 'standard_error', 'unit'}]}], 'trial_count', 'rms_before', 'rms_after' (6,) N "
+          "and N·m, "
+          "'normalized_before', 'normalized_after' (noise multiples), 'indistinguishable', "
+          "'notes', 'report' (text), "
           "'seconds'}. The GIL is released while fitting.");
-  mod.def("load", &Load, py::arg("path"), py::arg("clamp_body") = py::none(), py::arg("endpoint_body") = py::none(),
+  mod.def("load", &Load, py::arg("path"), py::arg("clamp_body") = py::none(),
+          py::arg("endpoint_body") = py::none(),
           "load(path, clamp_body=None, endpoint_body=None) -> Model\n\n"
-          "Read a limb model: a URDF with isowrench extension tags, or an OpenSim .osim (then clamp_body and "
-          "endpoint_body are required, as for `isowrench import`; import warnings become UserWarnings).\n"
-          "Raises FileNotFoundError for a missing file and ValueError (with file and line) for a bad model.");
+          "Read a limb model: a URDF with isowrench extension tags, or an OpenSim .osim (then "
+          "clamp_body and "
+          "endpoint_body are required, as for `isowrench import`; import warnings become "
+          "UserWarnings).\n"
+          "Raises FileNotFoundError for a missing file and ValueError (with file and line) for a "
+          "bad model.");
 }

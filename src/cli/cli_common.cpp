@@ -23,7 +23,8 @@ bool RegisterCommand(Command command) {
 }
 
 void AddModelOptions(CLI::App& app, ModelOptions& o, bool with_muscle) {
-  app.add_option("urdf", o.urdf, "Limb URDF with isowrench extension tags (e.g. urdf/rat_hindlimb_5dof.urdf)")
+  app.add_option("urdf", o.urdf,
+                 "Limb URDF with isowrench extension tags (e.g. urdf/rat_hindlimb_5dof.urdf)")
       ->required();
   app.add_option("--posture", o.posture,
                  "Joint positions over the URDF's nominal posture: joint=value,... in degrees "
@@ -33,19 +34,22 @@ void AddModelOptions(CLI::App& app, ModelOptions& o, bool with_muscle) {
                  "URDF's; 'none' restrains all six")
       ->delimiter(',')
       ->each([&o](const std::string&) { o.release_given = true; });
-  app.add_option("--transducer", o.transducer, "Transducer stiffness preset: balanced, ati-mini40, jr3")
+  app.add_option("--transducer", o.transducer,
+                 "Transducer stiffness preset: balanced, ati-mini40, jr3")
       ->check(CLI::IsMember({"balanced", "ati-mini40", "jr3"}));
   app.add_option("--transducer-stiffness", o.transducer_stiffness,
                  "S_t diagonal kx,ky,kz,krx,kry,krz in N/m and N·m/rad (transducer axes)");
-  app.add_option("--base-stiffness", o.base_stiffness,
-                 "Base translation stiffness in N/m; adds base_x/y/z prismatic dofs if the URDF has none")
+  app.add_option(
+         "--base-stiffness", o.base_stiffness,
+         "Base translation stiffness in N/m; adds base_x/y/z prismatic dofs if the URDF has none")
       ->each([&o](const std::string&) { o.base_given = true; });
   app.add_option("--joint-stiffness", o.joint_stiffness,
                  "Passive joint stiffness joint=value (N·m/rad, or N/m for prismatic); repeatable")
       ->delimiter(',');
   if (with_muscle) {
     app.add_option("--muscle", o.muscle, "Muscle name (default: the first muscle in the URDF)");
-    app.add_option("--activation", o.activation, "Force scale: force = activation x max_force (default 1)");
+    app.add_option("--activation", o.activation,
+                   "Force scale: force = activation x max_force (default 1)");
   }
   app.add_option("--max-endpoint-fraction", o.statics.max_endpoint_fraction,
                  "Small-motion rule: endpoint translation <= this x leg length (default 0.001)");
@@ -61,15 +65,18 @@ Model LoadModel(const ModelOptions& o) {
   if (!o.transducer.empty() && !o.transducer_stiffness.empty()) {
     throw Error("give either --transducer or --transducer-stiffness, not both");
   }
-  if (!o.transducer.empty()) d = WithTransducerStiffness(std::move(d), TransducerPreset(o.transducer));
+  if (!o.transducer.empty())
+    d = WithTransducerStiffness(std::move(d), TransducerPreset(o.transducer));
   if (!o.transducer_stiffness.empty()) {
     std::vector<std::string> items = util::Split(o.transducer_stiffness, ", ");
     if (items.size() != 6) {
-      throw Error("--transducer-stiffness needs 6 values kx,ky,kz,krx,kry,krz; got '" + o.transducer_stiffness + "'");
+      throw Error("--transducer-stiffness needs 6 values kx,ky,kz,krx,kry,krz; got '" +
+                  o.transducer_stiffness + "'");
     }
     Vector6d s;
     for (int i = 0; i < 6; ++i) {
-      s[i] = util::ParseDoubleOrThrow(items[i], std::string("--transducer-stiffness ") + DofName(i));
+      s[i] =
+          util::ParseDoubleOrThrow(items[i], std::string("--transducer-stiffness ") + DofName(i));
       CheckStiffnessValue(s[i], std::string("--transducer-stiffness ") + DofName(i));
     }
     d = WithTransducerStiffness(std::move(d), s);
@@ -96,7 +103,8 @@ std::string ChooseMuscle(const Model& model, const ModelOptions& o) {
     model.MuscleIndex(o.muscle);  // throws with the list of muscles
     return o.muscle;
   }
-  if (model.muscle_count() == 0) throw Error("model '" + model.name() + "' has no <isowrench:muscle>");
+  if (model.muscle_count() == 0)
+    throw Error("model '" + model.name() + "' has no <isowrench:muscle>");
   return model.muscle(0).name;
 }
 
@@ -127,7 +135,8 @@ std::string WrenchHeader(int label_width) {
 
 std::string WrenchRow(const std::string& label, const Vector6d& w, int label_width) {
   std::string line = label;
-  if (static_cast<int>(line.size()) < label_width) line += std::string(label_width - line.size(), ' ');
+  if (static_cast<int>(line.size()) < label_width)
+    line += std::string(label_width - line.size(), ' ');
   for (int i = 0; i < 6; ++i) line += Cell(w[i]);
   return line;
 }
@@ -142,7 +151,12 @@ nlohmann::json ToJson(const Eigen::VectorXd& v) {
 
 nlohmann::json WrenchJson(const Vector6d& wrench) {
   Vector6d w = wrench.unaryExpr([](double x) { return x == 0.0 ? 0.0 : x; });
-  return {{"fx", w[0]}, {"fy", w[1]}, {"fz", w[2]}, {"mx", w[3]}, {"my", w[4]}, {"mz", w[5]},
+  return {{"fx", w[0]},
+          {"fy", w[1]},
+          {"fz", w[2]},
+          {"mx", w[3]},
+          {"my", w[4]},
+          {"mz", w[5]},
           {"units", {{"force", "N"}, {"moment", "N·m"}}}};
 }
 
@@ -159,8 +173,8 @@ void Progress::Update(long done) {
   if (percent == last_percent_) return;
   last_percent_ = percent;
   int filled = percent * 30 / 100;
-  std::cerr << "\r" << label_ << " [" << std::string(filled, '#') << std::string(30 - filled, '.') << "] "
-            << percent << "% (" << done << "/" << total_ << ")" << std::flush;
+  std::cerr << "\r" << label_ << " [" << std::string(filled, '#') << std::string(30 - filled, '.')
+            << "] " << percent << "% (" << done << "/" << total_ << ")" << std::flush;
 }
 
 }  // namespace isowrench::cli

@@ -31,15 +31,15 @@ std::vector<Command>& RegisteredCommands();
 /// Options shared by commands that load one limb and override parts of it.
 struct ModelOptions {
   std::string urdf;
-  std::string posture;                 ///< "joint=deg,..." applied over the nominal posture
-  std::vector<std::string> release;    ///< transducer dofs to release ("none" clears)
+  std::string posture;               ///< "joint=deg,..." applied over the nominal posture
+  std::vector<std::string> release;  ///< transducer dofs to release ("none" clears)
   bool release_given = false;
-  std::string transducer;              ///< preset name
-  std::string transducer_stiffness;    ///< "kx,ky,kz,krx,kry,krz"
-  double base_stiffness = 0;           ///< N/m, used when base_given
+  std::string transducer;            ///< preset name
+  std::string transducer_stiffness;  ///< "kx,ky,kz,krx,kry,krz"
+  double base_stiffness = 0;         ///< N/m, used when base_given
   bool base_given = false;
   std::vector<std::string> joint_stiffness;  ///< "joint=value"
-  std::string muscle;                  ///< empty = the first muscle
+  std::string muscle;                        ///< empty = the first muscle
   double activation = 1.0;
   StaticsOptions statics;
 };

@@ -41,7 +41,9 @@ std::vector<NamedPosture> Postures(const Model& model, const DiagnoseOptions& o)
 }
 
 nlohmann::json MotionJson(const JointMotion& m) {
-  return {{"direction", ToJson(m.direction)}, {"joints", m.joints}, {"interpretation", m.interpretation}};
+  return {{"direction", ToJson(m.direction)},
+          {"joints", m.joints},
+          {"interpretation", m.interpretation}};
 }
 
 nlohmann::json ConstraintsJson(const ConstraintAnalysis& a) {
@@ -50,7 +52,9 @@ nlohmann::json ConstraintsJson(const ConstraintAnalysis& a) {
   for (const InternalWrench& w : a.internal_wrench) {
     std::vector<std::string> names;
     for (int c : w.components) names.push_back(DofName(c));
-    internal.push_back({{"direction", WrenchJson(w.direction)}, {"components", names}, {"description", w.description}});
+    internal.push_back({{"direction", WrenchJson(w.direction)},
+                        {"components", names},
+                        {"description", w.description}});
   }
   return {{"class", ConstraintClassName(a.constraint_class)},
           {"explanation", a.explanation},
@@ -72,38 +76,49 @@ nlohmann::json MuscleJson(const Diagnosis& d) {
   nlohmann::json null_k = nlohmann::json::array(), sens = nlohmann::json::array();
   for (const JointMotion& m : d.stiffness_null) null_k.push_back(MotionJson(m));
   for (const StiffnessSensitivity& s : d.sensitivity.entries) {
-    sens.push_back({{"parameter", s.parameter}, {"kind", s.kind}, {"stiffness", s.stiffness}, {"unit", s.unit},
-                    {"dW_dlogk", WrenchJson(s.dW_dlogk)}, {"relative", s.relative}});
+    sens.push_back({{"parameter", s.parameter},
+                    {"kind", s.kind},
+                    {"stiffness", s.stiffness},
+                    {"unit", s.unit},
+                    {"dW_dlogk", WrenchJson(s.dW_dlogk)},
+                    {"relative", s.relative}});
   }
   nlohmann::json j = {
       {"muscle", e.muscle},
       {"force_N", e.muscle_force},
       {"tau", ToJson(e.tau)},
       {"wrench", WrenchJson(e.statics.wrench)},
-      {"wrench_sign", "wrench the limb applies to the transducer; moment about the endpoint; transducer axes"},
-      {"statics", {{"status", StatusName(e.statics.status)}, {"message", e.statics.message},
-                   {"small_motion_valid", e.statics.small_motion_valid},
-                   {"validity_message", e.statics.validity_message}}},
+      {"wrench_sign",
+       "wrench the limb applies to the transducer; moment about the endpoint; transducer axes"},
+      {"statics",
+       {{"status", StatusName(e.statics.status)},
+        {"message", e.statics.message},
+        {"small_motion_valid", e.statics.small_motion_valid},
+        {"validity_message", e.statics.validity_message}}},
       {"stiffness_null", null_k},
       {"internal_coefficients", ToJson(d.internal_coefficients)},
       {"internal_residual", d.internal_residual},
       {"classic_wrench", WrenchJson(e.classic.wrench)},
-      {"sensitivity", {{"ok", d.sensitivity.ok}, {"message", d.sensitivity.message}, {"entries", sens},
-                       {"relative_definition", "|D dW| / |D W|, D = diag(1,1,1,1/L,1/L,1/L)"}}},
+      {"sensitivity",
+       {{"ok", d.sensitivity.ok},
+        {"message", d.sensitivity.message},
+        {"entries", sens},
+        {"relative_definition", "|D dW| / |D W|, D = diag(1,1,1,1/L,1/L,1/L)"}}},
   };
   if (d.large_deflection_run) {
     const LargeDeflectionResult& l = d.large_deflection;
-    j["large_deflection"] = {{"status", LargeDeflectionStatusName(l.status)},
-                             {"message", l.message},
-                             {"iterations", l.iterations},
-                             {"wrench_linear", WrenchJson(l.wrench_linear)},
-                             {"wrench_nonlinear", WrenchJson(l.wrench_nonlinear)},
-                             {"wrench_relative_difference", l.wrench_relative_difference},
-                             {"displacement", l.displacement},
-                             {"dtheta_difference", l.dtheta_difference},
-                             {"dtheta_nonlinear", ToJson(l.dtheta_nonlinear)},
-                             {"dtheta_linear", ToJson(l.dtheta_linear)},
-                             {"units", "dtheta and displacement: rad (m for prismatic joints), max norm"}};
+    j["large_deflection"] = {
+        {"status", LargeDeflectionStatusName(l.status)},
+        {"message", l.message},
+        {"iterations", l.iterations},
+        {"wrench_linear", WrenchJson(l.wrench_linear)},
+        {"wrench_nonlinear", WrenchJson(l.wrench_nonlinear)},
+        {"wrench_relative_difference", l.wrench_relative_difference},
+        {"displacement", l.displacement},
+        {"dtheta_difference", l.dtheta_difference},
+        {"dtheta_nonlinear", ToJson(l.dtheta_nonlinear)},
+        {"dtheta_linear", ToJson(l.dtheta_linear)},
+        {"units", "dtheta and displacement: rad (m for prismatic joints), max norm"}};
   }
   return j;
 }
@@ -111,19 +126,25 @@ nlohmann::json MuscleJson(const Diagnosis& d) {
 void PrintMotions(const char* title, const std::vector<JointMotion>& motions, const char* none) {
   std::cout << "  " << title << (motions.empty() ? std::string(": ") + none : ":") << "\n";
   for (const JointMotion& m : motions) {
-    std::cout << "    " << m.joints << (m.interpretation.empty() ? "" : "  (" + m.interpretation + ")") << "\n";
+    std::cout << "    " << m.joints
+              << (m.interpretation.empty() ? "" : "  (" + m.interpretation + ")") << "\n";
   }
 }
 
 void PrintConstraints(const ConstraintAnalysis& a) {
-  std::cout << "  class        " << ConstraintClassName(a.constraint_class) << ": " << a.explanation << "\n"
+  std::cout << "  class        " << ConstraintClassName(a.constraint_class) << ": " << a.explanation
+            << "\n"
             << "  restrained   " << util::Join(a.restrained, " ") << " (transducer axes)\n"
-            << "  J_r singular values (translation rows / L, L = " << N(a.length_scale * 1e3) << " mm; rad/rad):";
-  for (Eigen::Index i = 0; i < a.singular_values.size(); ++i) std::cout << " " << N(a.singular_values[i]);
-  std::cout << "\n  rank         " << a.rank << " (sigma counts as zero when <= " << N(a.rank_tolerance, 3)
+            << "  J_r singular values (translation rows / L, L = " << N(a.length_scale * 1e3)
+            << " mm; rad/rad):";
+  for (Eigen::Index i = 0; i < a.singular_values.size(); ++i)
+    std::cout << " " << N(a.singular_values[i]);
+  std::cout << "\n  rank         " << a.rank
+            << " (sigma counts as zero when <= " << N(a.rank_tolerance, 3)
             << " x sigma_max = " << N(a.rank_threshold, 3) << ")\n";
   PrintMotions("self-motion, null(J_r)", a.self_motion, "none");
-  std::cout << "  internal wrench, null(J_r^T)" << (a.internal_wrench.empty() ? ": none" : ":") << "\n";
+  std::cout << "  internal wrench, null(J_r^T)" << (a.internal_wrench.empty() ? ": none" : ":")
+            << "\n";
   for (const InternalWrench& w : a.internal_wrench) {
     std::vector<std::string> names;
     for (int c : w.components) names.push_back(DofName(c));
@@ -134,14 +155,17 @@ void PrintConstraints(const ConstraintAnalysis& a) {
 void PrintMuscle(const Diagnosis& d) {
   const WrenchEvaluation& e = d.evaluation;
   std::cout << "\n  muscle " << e.muscle << " (" << N(e.muscle_force) << " N)\n"
-            << "    statics      " << StatusName(e.statics.status) << ": " << e.statics.message << "\n";
-  if (!e.statics.validity_message.empty()) std::cout << "    warning      " << e.statics.validity_message << "\n";
-  const int w = 34;
-  std::cout << "  " << WrenchHeader(w) << "\n  " << WrenchRow("  W, Eq. 10 (limb on transducer)", e.statics.wrench, w)
+            << "    statics      " << StatusName(e.statics.status) << ": " << e.statics.message
             << "\n";
+  if (!e.statics.validity_message.empty())
+    std::cout << "    warning      " << e.statics.validity_message << "\n";
+  const int w = 34;
+  std::cout << "  " << WrenchHeader(w) << "\n  "
+            << WrenchRow("  W, Eq. 10 (limb on transducer)", e.statics.wrench, w) << "\n";
   for (Eigen::Index i = 0; i < d.internal_coefficients.size(); ++i) {
-    std::cout << "    internal part of W: W - pinv(J_r^T) tau = " << N(d.internal_coefficients[i]) << " x internal wrench "
-              << i + 1 << " (residual " << N(d.internal_residual, 2) << " of |W|)\n";
+    std::cout << "    internal part of W: W - pinv(J_r^T) tau = " << N(d.internal_coefficients[i])
+              << " x internal wrench " << i + 1 << " (residual " << N(d.internal_residual, 2)
+              << " of |W|)\n";
   }
   PrintMotions("  null(K), self-motion no stiffness holds", d.stiffness_null, "none");
   std::cout << "    sensitivity dW/dlog(k): " << d.sensitivity.message << "\n";
@@ -156,15 +180,18 @@ void PrintMuscle(const Diagnosis& d) {
   }
   if (d.large_deflection_run) {
     const LargeDeflectionResult& l = d.large_deflection;
-    std::cout << "    large deflection: " << LargeDeflectionStatusName(l.status) << ": " << l.message << "\n"
+    std::cout << "    large deflection: " << LargeDeflectionStatusName(l.status) << ": "
+              << l.message << "\n"
               << "  "
-              << WrenchRow(l.status == LargeDeflectionStatus::kConverged ? "  W nonlinear (updated kinematics)"
-                                                                        : "  W at the last iterate",
+              << WrenchRow(l.status == LargeDeflectionStatus::kConverged
+                               ? "  W nonlinear (updated kinematics)"
+                               : "  W at the last iterate",
                            l.wrench_nonlinear, w)
               << "\n"
               << "      linear motion max |dtheta| = " << N(l.displacement, 3)
               << " rad; |dtheta_nonlinear - dtheta_linear| = " << N(l.dtheta_difference, 3)
-              << " rad; wrench difference " << N(100 * l.wrench_relative_difference, 3) << "% of |W|\n";
+              << " rad; wrench difference " << N(100 * l.wrench_relative_difference, 3)
+              << "% of |W|\n";
   }
 }
 
@@ -176,17 +203,22 @@ const bool registered = RegisterCommand({
     [](CLI::App& app) -> std::function<int()> {
       auto o = std::make_shared<DiagnoseOptions>();
       AddModelOptions(app, o->model, /*with_muscle=*/false);
-      app.add_option("--muscle", o->muscles, "Muscle name(s), repeatable or comma-separated (default: the first)")
+      app.add_option("--muscle", o->muscles,
+                     "Muscle name(s), repeatable or comma-separated (default: the first)")
           ->delimiter(',');
-      app.add_option("--activation", o->activation, "Force scale: force = activation x max_force (default 1)");
-      app.add_option("--postures", o->postures,
-                     "CSV of postures: header of joint names (optional 'label' column), rows in degrees "
-                     "(mm for prismatic joints); unnamed joints keep the --posture/nominal value");
+      app.add_option("--activation", o->activation,
+                     "Force scale: force = activation x max_force (default 1)");
+      app.add_option(
+          "--postures", o->postures,
+          "CSV of postures: header of joint names (optional 'label' column), rows in degrees "
+          "(mm for prismatic joints); unnamed joints keep the --posture/nominal value");
       app.add_option("--svd-tolerance", o->constraints.rank_tolerance,
-                     "Singular value of the scaled J_r counts as zero when <= this x the largest (default 1e-9)");
+                     "Singular value of the scaled J_r counts as zero when <= this x the largest "
+                     "(default 1e-9)");
       app.add_option("--length-scale", o->constraints.length_scale,
                      "Length L (m) dividing translation rows for the SVD (default: leg length)");
-      app.add_flag("--no-large-deflection", o->no_large_deflection, "Skip the nonlinear equilibrium check");
+      app.add_flag("--no-large-deflection", o->no_large_deflection,
+                   "Skip the nonlinear equilibrium check");
       app.add_flag("--json", o->json, "Print JSON instead of text");
       return [o]() {
         Model model = LoadModel(o->model);
@@ -198,14 +230,16 @@ const bool registered = RegisterCommand({
         options.activation = o->activation;
         options.large_deflection = !o->no_large_deflection;
         nlohmann::json out_postures = nlohmann::json::array();
-        if (!o->json) std::cout << "isowrench diagnose: " << model.name() << " (" << o->model.urdf << ")\n";
+        if (!o->json)
+          std::cout << "isowrench diagnose: " << model.name() << " (" << o->model.urdf << ")\n";
         Progress progress("diagnose", static_cast<long>(postures.size() * muscles.size()));
         long done = 0;
         for (const NamedPosture& p : postures) {
           ConstraintAnalysis a = AnalyzeConstraints(model, p.q, options.constraints);
           nlohmann::json jm = nlohmann::json::array();
           if (!o->json) {
-            std::cout << "\nposture " << p.label << ": " << FormatPosture(model, p.q) << " (degrees)\n";
+            std::cout << "\nposture " << p.label << ": " << FormatPosture(model, p.q)
+                      << " (degrees)\n";
             PrintConstraints(a);
           }
           for (const std::string& muscle : muscles) {
@@ -218,13 +252,18 @@ const bool registered = RegisterCommand({
             progress.Update(++done);
           }
           if (o->json) {
-            out_postures.push_back({{"label", p.label}, {"posture", FormatPosture(model, p.q)},
-                                    {"q", ToJson(p.q)}, {"q_units", "rad (m for prismatic joints)"},
-                                    {"constraints", ConstraintsJson(a)}, {"muscles", jm}});
+            out_postures.push_back({{"label", p.label},
+                                    {"posture", FormatPosture(model, p.q)},
+                                    {"q", ToJson(p.q)},
+                                    {"q_units", "rad (m for prismatic joints)"},
+                                    {"constraints", ConstraintsJson(a)},
+                                    {"muscles", jm}});
           }
         }
         if (o->json) {
-          nlohmann::json j = {{"command", "diagnose"}, {"model", model.name()}, {"urdf", o->model.urdf},
+          nlohmann::json j = {{"command", "diagnose"},
+                              {"model", model.name()},
+                              {"urdf", o->model.urdf},
                               {"postures", out_postures}};
           std::cout << j.dump(2) << "\n";
         }

@@ -14,7 +14,8 @@ namespace {
 
 const bool registered = RegisterCommand({
     "draw",
-    "Draw a two-view stick figure (top x-y, side x-z) of the limb at a posture: joint centres and axes, "
+    "Draw a two-view stick figure (top x-y, side x-z) of the limb at a posture: joint centres and "
+    "axes, "
     "bones, muscle paths, endpoint frame (SVG)",
     70,
     [](CLI::App& app) -> std::function<int()> {
@@ -23,9 +24,11 @@ const bool registered = RegisterCommand({
       auto axis_mm = std::make_shared<double>(0.0);
       auto title = std::make_shared<std::string>();
       AddModelOptions(app, *options, false);
-      app.add_option("-o,--output", *output, "SVG file to write ('-' = standard output)")->required();
-      app.add_option("--axis-length", *axis_mm,
-                     "Length of joint-axis segments and frame axes in mm (default: 12% of the leg length)");
+      app.add_option("-o,--output", *output, "SVG file to write ('-' = standard output)")
+          ->required();
+      app.add_option(
+          "--axis-length", *axis_mm,
+          "Length of joint-axis segments and frame axes in mm (default: 12% of the leg length)");
       app.add_option("--title", *title, "Title above the views (default: model name and posture)");
       return [options, output, axis_mm, title]() {
         Model model = LoadModel(*options);
@@ -39,10 +42,11 @@ const bool registered = RegisterCommand({
           return 0;
         }
         WriteTextFile(*output, svg);
-        std::cout << "wrote " << *output << ": " << model.name() << " at " << FormatPosture(model, q) << " ("
-                  << model.dof_count() << " joints, " << model.muscle_count() << " muscle"
-                  << (model.muscle_count() == 1 ? "" : "s") << ", leg length "
-                  << util::FormatNumber(model.chain_length() * 1e3, 4) << " mm)\n";
+        std::cout << "wrote " << *output << ": " << model.name() << " at "
+                  << FormatPosture(model, q) << " (" << model.dof_count() << " joints, "
+                  << model.muscle_count() << " muscle" << (model.muscle_count() == 1 ? "" : "s")
+                  << ", leg length " << util::FormatNumber(model.chain_length() * 1e3, 4)
+                  << " mm)\n";
         return 0;
       };
     },

@@ -23,11 +23,14 @@ const bool registered = RegisterCommand({
       auto urdf_dir = std::make_shared<std::string>();
       auto no_png = std::make_shared<bool>(false);
       auto json = std::make_shared<bool>(false);
-      app.add_option("out-dir", *out_dir, "Directory for figure<N>.svg/.csv/.json/.png (created if missing)")
+      app.add_option("out-dir", *out_dir,
+                     "Directory for figure<N>.svg/.csv/.json/.png (created if missing)")
           ->required();
-      app.add_option("--figure", *figures, "Figures to draw: 2, 3, 4 (repeatable; default all three)")
+      app.add_option("--figure", *figures,
+                     "Figures to draw: 2, 3, 4 (repeatable; default all three)")
           ->check(CLI::IsMember({2, 3, 4}));
-      app.add_option("--urdf-dir", *urdf_dir, "Directory holding rat_hindlimb_5dof.urdf and rat_hindlimb_6dof.urdf");
+      app.add_option("--urdf-dir", *urdf_dir,
+                     "Directory holding rat_hindlimb_5dof.urdf and rat_hindlimb_6dof.urdf");
       app.add_flag("--no-png", *no_png, "Do not try to rasterize to PNG");
       app.add_flag("--json", *json, "Print the list of files written as JSON");
       return [out_dir, figures, urdf_dir, no_png, json]() {
@@ -51,7 +54,9 @@ const bool registered = RegisterCommand({
         }
         for (const auto& [figure, files] : written) {
           if (*json) {
-            out.push_back({{"figure", figure}, {"files", files.files}, {"png", files.png_written},
+            out.push_back({{"figure", figure},
+                           {"files", files.files},
+                           {"png", files.png_written},
                            {"png_note", files.png_note}});
             continue;
           }

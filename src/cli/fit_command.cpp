@@ -45,10 +45,19 @@ nlohmann::json StatsJson(const ResidualStats& s) {
 nlohmann::json EffectJson(const Effect& e) {
   nlohmann::json params = nlohmann::json::array();
   for (const EffectParameter& p : e.parameters) {
-    params.push_back({{"name", p.name}, {"unit", p.unit}, {"scale", p.scale == ParameterScale::kLog10 ? "log10" : "linear"},
-                      {"neutral", p.neutral}, {"initial", p.initial}, {"lower", p.lower}, {"upper", p.upper}});
+    params.push_back({{"name", p.name},
+                      {"unit", p.unit},
+                      {"scale", p.scale == ParameterScale::kLog10 ? "log10" : "linear"},
+                      {"neutral", p.neutral},
+                      {"initial", p.initial},
+                      {"lower", p.lower},
+                      {"upper", p.upper}});
   }
-  return {{"id", e.id}, {"kind", e.kind}, {"stage", EffectStageName(e.stage)}, {"description", e.description}, {"parameters", params}};
+  return {{"id", e.id},
+          {"kind", e.kind},
+          {"stage", EffectStageName(e.stage)},
+          {"description", e.description},
+          {"parameters", params}};
 }
 
 nlohmann::json CandidateJson(const CandidateFit& f) {
@@ -67,13 +76,20 @@ nlohmann::json CandidateJson(const CandidateFit& f) {
     for (int j = 0; j < f.correlation.cols(); ++j) row.push_back(f.correlation(i, j));
     corr.push_back(row);
   }
-  nlohmann::json j = {{"effect", f.effect.id},        {"description", f.effect.description},
-                      {"parameters", params},         {"correlation", corr},
-                      {"chi2", f.cost},               {"aicc", f.aic},
-                      {"bic", f.bic},                 {"delta_bic", f.delta_bic},
-                      {"identifiable", f.identifiable}, {"identifiability", f.identifiability},
-                      {"converged", f.converged},     {"solver_message", f.solver_message},
-                      {"accepted", f.accepted},       {"verdict", f.verdict}};
+  nlohmann::json j = {{"effect", f.effect.id},
+                      {"description", f.effect.description},
+                      {"parameters", params},
+                      {"correlation", corr},
+                      {"chi2", f.cost},
+                      {"aicc", f.aic},
+                      {"bic", f.bic},
+                      {"delta_bic", f.delta_bic},
+                      {"identifiable", f.identifiable},
+                      {"identifiability", f.identifiability},
+                      {"converged", f.converged},
+                      {"solver_message", f.solver_message},
+                      {"accepted", f.accepted},
+                      {"verdict", f.verdict}};
   j["cv_error"] = f.cv_error >= 0 ? nlohmann::json(f.cv_error) : nlohmann::json(nullptr);
   return j;
 }
@@ -90,7 +106,9 @@ nlohmann::json CorrelationsJson(const FitReport& r) {
 
 nlohmann::json TrialForceJson(const FitReport& r) {
   if (r.trial_factors.empty()) return nullptr;
-  return {{"factors", r.trial_factors}, {"spread_ln", r.trial_force_spread}, {"far_lines", r.trial_force_outliers}};
+  return {{"factors", r.trial_factors},
+          {"spread_ln", r.trial_force_spread},
+          {"far_lines", r.trial_force_outliers}};
 }
 
 nlohmann::json TraceJson(const FitReport& r) {
@@ -98,8 +116,10 @@ nlohmann::json TraceJson(const FitReport& r) {
   for (const FitReport::TraceItem& i : r.trace) {
     items.push_back({{"variable", i.variable}, {"share", i.share}, {"note", i.note}});
   }
-  return {{"summary", r.trace_summary}, {"items", items},
-          {"closest_rejected", r.closest_rejected.empty() ? nlohmann::json(nullptr) : nlohmann::json(r.closest_rejected)}};
+  return {{"summary", r.trace_summary},
+          {"items", items},
+          {"closest_rejected", r.closest_rejected.empty() ? nlohmann::json(nullptr)
+                                                          : nlohmann::json(r.closest_rejected)}};
 }
 
 nlohmann::json ReportJson(const FitReport& r, const std::string& urdf, const std::string& data,
@@ -108,24 +128,29 @@ nlohmann::json ReportJson(const FitReport& r, const std::string& urdf, const std
   for (const FitRound& round : r.rounds) {
     nlohmann::json c = nlohmann::json::array();
     for (const CandidateFit& f : round.candidates) c.push_back(CandidateJson(f));
-    rounds.push_back({{"index", round.index},
-                      {"before", StatsJson(round.before)},
-                      {"bic_before", round.bic_before},
-                      {"bic_threshold", round.bic_threshold},
-                      {"cv_before", round.cv_before},
-                      {"candidates", c},
-                      {"chosen", round.chosen >= 0 ? nlohmann::json(round.candidates[round.chosen].effect.id)
-                                                   : nlohmann::json(nullptr)},
-                      {"indistinguishable", round.indistinguishable},
-                      {"summary", round.summary}});
+    rounds.push_back(
+        {{"index", round.index},
+         {"before", StatsJson(round.before)},
+         {"bic_before", round.bic_before},
+         {"bic_threshold", round.bic_threshold},
+         {"cv_before", round.cv_before},
+         {"candidates", c},
+         {"chosen", round.chosen >= 0 ? nlohmann::json(round.candidates[round.chosen].effect.id)
+                                      : nlohmann::json(nullptr)},
+         {"indistinguishable", round.indistinguishable},
+         {"summary", round.summary}});
   }
   nlohmann::json chosen = nlohmann::json::array();
   for (const CandidateFit& f : r.chosen_fits) chosen.push_back(CandidateJson(f));
   nlohmann::json trials = nlohmann::json::array();
   for (const TrialResidual& t : r.trials) {
-    trials.push_back({{"line", t.line}, {"muscle", t.muscle}, {"activation", t.activation},
-                      {"measured", ToJson(t.measured)}, {"residual_before", ToJson(t.before)},
-                      {"residual_after", ToJson(t.after)}, {"noise_multiple_before", t.normalized_before},
+    trials.push_back({{"line", t.line},
+                      {"muscle", t.muscle},
+                      {"activation", t.activation},
+                      {"measured", ToJson(t.measured)},
+                      {"residual_before", ToJson(t.before)},
+                      {"residual_after", ToJson(t.after)},
+                      {"noise_multiple_before", t.normalized_before},
                       {"noise_multiple_after", t.normalized_after}});
   }
   return {{"model", r.model_name},
@@ -162,11 +187,13 @@ std::string Fixed(double v, int width, int precision) {
 
 void PrintReport(const FitReport& r, const FitCommandOptions& o) {
   const int w = 24;
-  std::cout << "isowrench fit: " << r.model_name << " (" << o.model.urdf << ") against " << o.data << "\n"
-            << "  trials       " << r.trial_count << ", stated noise (sd columns): " << (r.sd_stated ? "yes" : "no")
+  std::cout << "isowrench fit: " << r.model_name << " (" << o.model.urdf << ") against " << o.data
             << "\n"
+            << "  trials       " << r.trial_count
+            << ", stated noise (sd columns): " << (r.sd_stated ? "yes" : "no") << "\n"
             << "  verdict      " << FitVerdictName(r.verdict) << ": " << r.verdict_message << "\n";
-  std::cout << "\nError before (nominal model) and after (with the chosen effects); residual = measured - predicted,\n"
+  std::cout << "\nError before (nominal model) and after (with the chosen effects); residual = "
+               "measured - predicted,\n"
             << "transducer axes, moment about the endpoint:\n"
             << WrenchHeader(w) << "\n"
             << WrenchRow("RMS before", r.before.rms, w) << "\n"
@@ -177,26 +204,30 @@ void PrintReport(const FitReport& r, const FitCommandOptions& o) {
     std::cout << WrenchRow("x noise before", r.before.normalized, w) << "\n"
               << WrenchRow("x noise after", r.after.normalized, w) << "\n";
   }
-  std::cout << WrenchRow("R^2 before", r.before.r2, w) << "\n" << WrenchRow("R^2 after", r.after.r2, w) << "\n";
+  std::cout << WrenchRow("R^2 before", r.before.r2, w) << "\n"
+            << WrenchRow("R^2 after", r.after.r2, w) << "\n";
   std::cout << "  reduced chi^2: " << util::FormatNumber(r.before.reduced_chi2, 4) << " before, "
             << util::FormatNumber(r.after.reduced_chi2, 4) << " after (1 = at the noise)\n";
 
   for (const FitRound& round : r.rounds) {
     std::cout << "\nRound " << round.index << ": " << round.summary << "\n"
-              << "  BIC of the current model " << util::FormatNumber(round.bic_before, 6) << ", held-out chi^2 per residual "
-              << util::FormatNumber(round.cv_before, 4) << "; an effect needs ΔBIC >= "
-              << util::FormatNumber(round.bic_threshold, 3) << " and a lower held-out error\n"
+              << "  BIC of the current model " << util::FormatNumber(round.bic_before, 6)
+              << ", held-out chi^2 per residual " << util::FormatNumber(round.cv_before, 4)
+              << "; an effect needs ΔBIC >= " << util::FormatNumber(round.bic_threshold, 3)
+              << " and a lower held-out error\n"
               << "  candidate                        k      ΔBIC  held-out  verdict\n";
     for (const CandidateFit& f : round.candidates) {
       char line[160];
-      std::snprintf(line, sizeof(line), "  %-30s %3zu %9s %9s  ", f.effect.id.c_str(), f.effect.parameters.size(),
-                    util::FormatNumber(f.delta_bic, 4).c_str(),
+      std::snprintf(line, sizeof(line), "  %-30s %3zu %9s %9s  ", f.effect.id.c_str(),
+                    f.effect.parameters.size(), util::FormatNumber(f.delta_bic, 4).c_str(),
                     f.cv_error >= 0 ? util::FormatNumber(f.cv_error, 4).c_str() : "-");
       std::cout << line << f.verdict << "\n";
     }
   }
-  std::cout << (r.effects_claimed ? "\nChosen effects (parameters ± standard error from the covariance):\n"
-                                  : "\nTentative partial fits, NOT claimed (the residual stays above the noise):\n");
+  std::cout
+      << (r.effects_claimed
+              ? "\nChosen effects (parameters ± standard error from the covariance):\n"
+              : "\nTentative partial fits, NOT claimed (the residual stays above the noise):\n");
   if (r.chosen_fits.empty()) std::cout << "  none\n";
   for (size_t i = 0; i < r.chosen_fits.size(); ++i) {
     const CandidateFit& f = r.chosen_fits[i];
@@ -220,10 +251,12 @@ void PrintReport(const FitReport& r, const FitCommandOptions& o) {
   }
   std::cout << "\nRobust loss: " << RobustLossName(r.loss) << "; outlier rows (CSV line numbers): ";
   if (r.outlier_rows.empty()) std::cout << "none";
-  for (size_t i = 0; i < r.outlier_rows.size(); ++i) std::cout << (i ? ", " : "") << r.outlier_rows[i];
+  for (size_t i = 0; i < r.outlier_rows.size(); ++i)
+    std::cout << (i ? ", " : "") << r.outlier_rows[i];
   std::cout << "\n";
   if (!r.trial_factors.empty()) {
-    std::cout << "Per-trial force factors: spread (sd of ln factor) " << util::FormatNumber(r.trial_force_spread, 3);
+    std::cout << "Per-trial force factors: spread (sd of ln factor) "
+              << util::FormatNumber(r.trial_force_spread, 3);
     if (!r.trial_force_outliers.empty()) {
       std::cout << "; trials far from the rest (CSV lines):";
       for (long l : r.trial_force_outliers) std::cout << " " << l;
@@ -231,113 +264,132 @@ void PrintReport(const FitReport& r, const FitCommandOptions& o) {
     std::cout << "\n";
   }
   if (!r.trace.empty() || !r.trace_summary.empty()) {
-    std::cout << "\nWhere the unexplained residual lives (share of the weighted residual explained by a smooth trend,\n"
+    std::cout << "\nWhere the unexplained residual lives (share of the weighted residual explained "
+                 "by a smooth trend,\n"
               << "or held by one muscle's trials on one axis):\n";
     for (const FitReport::TraceItem& i : r.trace) {
-      std::cout << "  " << Fixed(100 * i.share, 5, 1) << " %  " << i.variable << "  (" << i.note << ")\n";
+      std::cout << "  " << Fixed(100 * i.share, 5, 1) << " %  " << i.variable << "  (" << i.note
+                << ")\n";
     }
-    if (!r.closest_rejected.empty()) std::cout << "  closest rejected candidate: " << r.closest_rejected << "\n";
+    if (!r.closest_rejected.empty())
+      std::cout << "  closest rejected candidate: " << r.closest_rejected << "\n";
   }
   if (!r.indistinguishable.empty()) {
     std::cout << "\nEffects wrench data cannot tell apart at these postures:\n";
     for (const std::string& s : r.indistinguishable) std::cout << "  " << s << "\n";
   }
-  std::cout << "\nPer-trial residuals after the fit (N, N·m) and |weighted residual| in noise multiples:\n"
-            << "  line  muscle  activ.   x noise before  x noise after  " << WrenchHeader(0) << "\n";
+  std::cout << "\nPer-trial residuals after the fit (N, N·m) and |weighted residual| in noise "
+               "multiples:\n"
+            << "  line  muscle  activ.   x noise before  x noise after  " << WrenchHeader(0)
+            << "\n";
   size_t shown = 0;
   for (const TrialResidual& t : r.trials) {
     if (o.rows > 0 && static_cast<int>(shown) >= o.rows) break;
     char line[128];
-    std::snprintf(line, sizeof(line), "  %4ld  %-6s %6.3f %16s %14s  ", t.line, t.muscle.c_str(), t.activation,
-                  Fixed(t.normalized_before, 10, 2).c_str(), Fixed(t.normalized_after, 10, 2).c_str());
+    std::snprintf(line, sizeof(line), "  %4ld  %-6s %6.3f %16s %14s  ", t.line, t.muscle.c_str(),
+                  t.activation, Fixed(t.normalized_before, 10, 2).c_str(),
+                  Fixed(t.normalized_after, 10, 2).c_str());
     std::cout << line;
     for (int c = 0; c < 6; ++c) std::cout << Cell(t.after[c]);
     std::cout << "\n";
     ++shown;
   }
   if (shown < r.trials.size()) {
-    std::cout << "  ... " << r.trials.size() - shown << " more (--rows 0 shows all, --json gives everything)\n";
+    std::cout << "  ... " << r.trials.size() - shown
+              << " more (--rows 0 shows all, --json gives everything)\n";
   }
   std::cout << "\nfit took " << util::FormatNumber(r.seconds, 3) << " s\n";
   if (!o.output.empty()) std::cout << "wrote the augmented model to " << o.output << "\n";
   if (!o.report_html.empty()) std::cout << "wrote the HTML report to " << o.report_html << "\n";
-  if (!o.report_markdown.empty()) std::cout << "wrote the markdown report to " << o.report_markdown << "\n";
+  if (!o.report_markdown.empty())
+    std::cout << "wrote the markdown report to " << o.report_markdown << "\n";
 }
 
-const bool registered = RegisterCommand({
-    "fit",
-    "Fit measured wrenches (CSV): trace the residual to missing effects, report the error before/after "
-    "and write the augmented model",
-    41,
-    [](CLI::App& app) -> std::function<int()> {
-      auto o = std::make_shared<FitCommandOptions>();
-      AddModelOptions(app, o->model, /*with_muscle=*/false);
-      app.add_option("data", o->data, "Measured wrenches, CSV (format: docs/identification.md)");
-      app.add_option("-o,--output", o->output, "Write the augmented model (URDF + chosen effects) here");
-      app.add_flag("--json", o->json, "Print everything as JSON");
-      app.add_option("--report", o->report_html,
-                     "Also write a self-contained HTML report (plots, ranked candidates, glyphs) here");
-      app.add_option("--report-md", o->report_markdown, "Also write the report as markdown (lab notebooks) here");
-      app.add_option("--rounds", o->rounds, "Most effects to add (default 3)");
-      app.add_option("--folds", o->folds, "Cross-validation folds (default 5)");
-      app.add_option("--candidates", o->candidates, "Only try these effect ids (default: the whole library)");
-      app.add_option("--loss", o->loss,
-                     "Loss per row: huber (default), cauchy or none (plain least squares)");
-      app.add_option("--loss-scale", o->loss_scale,
-                     "Knee of the robust loss in stated-noise multiples of a row's RMS residual (default 2)");
-      app.add_option("--rows", o->rows, "Per-trial rows in the table (default 20, 0 = all)");
-      app.add_flag("--list-effects", o->list_effects, "List the candidate effects for the model and exit");
-      return [o]() {
-        Model model = LoadModel(o->model);
-        if (o->list_effects) {
-          std::vector<Effect> effects = CandidateEffects(model);
-          if (o->json) {
-            nlohmann::json j = nlohmann::json::array();
-            for (const Effect& e : effects) j.push_back(EffectJson(e));
-            std::cout << j.dump(2) << "\n";
-            return 0;
-          }
-          std::cout << "Effect kinds in the registry:\n";
-          for (const EffectKindInfo& k : EffectKinds()) {
-            std::cout << "  " << k.id_pattern << "  [" << EffectStageName(k.stage) << "]\n      " << k.summary
-                      << "\n      parameters: " << k.parameters << "\n      confounded with: " << k.confounders << "\n";
-          }
-          std::cout << "\nCandidate effects for " << model.name() << " (simulate: --effect ID=V1,V2,... in these units):\n";
-          for (const Effect& e : effects) {
-            std::vector<std::string> p;
-            for (const EffectParameter& q : e.parameters) {
-              p.push_back(q.name + " (" + q.unit + ", " + util::FormatNumber(q.lower, 3) + " to " +
-                          util::FormatNumber(q.upper, 3) + ")");
-            }
-            std::cout << "  " << e.id << "\n      " << e.description << "\n      " << util::Join(p, ", ") << "\n";
-          }
-          return 0;
-        }
-        if (o->data.empty()) throw Error("fit: missing <data.csv> (measured wrenches; see docs/identification.md)");
-        if (o->rounds < 0) throw Error("fit: --rounds must be >= 0");
-        std::vector<Trial> trials = ReadTrialsCsv(model, o->data);
-        FitOptions options;
-        options.max_rounds = o->rounds;
-        options.folds = o->folds;
-        options.candidates = o->candidates;
-        options.loss = ParseRobustLoss(o->loss);
-        options.loss_scale = o->loss_scale;
-        FitReport report = FitEffects(model, trials, options);
-        report.source = o->data;
-        if (!o->output.empty()) WriteAugmentedUrdf(report, o->output);
-        FitReportOptions report_options;
-        report_options.trials = &trials;
-        report_options.model = &model;
-        if (!o->report_html.empty()) WriteFitReportHtml(report, o->report_html, report_options);
-        if (!o->report_markdown.empty()) WriteFitReportMarkdown(report, o->report_markdown, report_options);
-        if (o->json) {
-          std::cout << ReportJson(report, o->model.urdf, o->data, o->output).dump(2) << "\n";
-        } else {
-          PrintReport(report, *o);
-        }
-        return 0;
-      };
-    }});
+const bool registered = RegisterCommand(
+    {"fit",
+     "Fit measured wrenches (CSV): trace the residual to missing effects, report the error "
+     "before/after "
+     "and write the augmented model",
+     41, [](CLI::App& app) -> std::function<int()> {
+       auto o = std::make_shared<FitCommandOptions>();
+       AddModelOptions(app, o->model, /*with_muscle=*/false);
+       app.add_option("data", o->data, "Measured wrenches, CSV (format: docs/identification.md)");
+       app.add_option("-o,--output", o->output,
+                      "Write the augmented model (URDF + chosen effects) here");
+       app.add_flag("--json", o->json, "Print everything as JSON");
+       app.add_option(
+           "--report", o->report_html,
+           "Also write a self-contained HTML report (plots, ranked candidates, glyphs) here");
+       app.add_option("--report-md", o->report_markdown,
+                      "Also write the report as markdown (lab notebooks) here");
+       app.add_option("--rounds", o->rounds, "Most effects to add (default 3)");
+       app.add_option("--folds", o->folds, "Cross-validation folds (default 5)");
+       app.add_option("--candidates", o->candidates,
+                      "Only try these effect ids (default: the whole library)");
+       app.add_option("--loss", o->loss,
+                      "Loss per row: huber (default), cauchy or none (plain least squares)");
+       app.add_option(
+           "--loss-scale", o->loss_scale,
+           "Knee of the robust loss in stated-noise multiples of a row's RMS residual (default 2)");
+       app.add_option("--rows", o->rows, "Per-trial rows in the table (default 20, 0 = all)");
+       app.add_flag("--list-effects", o->list_effects,
+                    "List the candidate effects for the model and exit");
+       return [o]() {
+         Model model = LoadModel(o->model);
+         if (o->list_effects) {
+           std::vector<Effect> effects = CandidateEffects(model);
+           if (o->json) {
+             nlohmann::json j = nlohmann::json::array();
+             for (const Effect& e : effects) j.push_back(EffectJson(e));
+             std::cout << j.dump(2) << "\n";
+             return 0;
+           }
+           std::cout << "Effect kinds in the registry:\n";
+           for (const EffectKindInfo& k : EffectKinds()) {
+             std::cout << "  " << k.id_pattern << "  [" << EffectStageName(k.stage) << "]\n      "
+                       << k.summary << "\n      parameters: " << k.parameters
+                       << "\n      confounded with: " << k.confounders << "\n";
+           }
+           std::cout << "\nCandidate effects for " << model.name()
+                     << " (simulate: --effect ID=V1,V2,... in these units):\n";
+           for (const Effect& e : effects) {
+             std::vector<std::string> p;
+             for (const EffectParameter& q : e.parameters) {
+               p.push_back(q.name + " (" + q.unit + ", " + util::FormatNumber(q.lower, 3) + " to " +
+                           util::FormatNumber(q.upper, 3) + ")");
+             }
+             std::cout << "  " << e.id << "\n      " << e.description << "\n      "
+                       << util::Join(p, ", ") << "\n";
+           }
+           return 0;
+         }
+         if (o->data.empty())
+           throw Error("fit: missing <data.csv> (measured wrenches; see docs/identification.md)");
+         if (o->rounds < 0) throw Error("fit: --rounds must be >= 0");
+         std::vector<Trial> trials = ReadTrialsCsv(model, o->data);
+         FitOptions options;
+         options.max_rounds = o->rounds;
+         options.folds = o->folds;
+         options.candidates = o->candidates;
+         options.loss = ParseRobustLoss(o->loss);
+         options.loss_scale = o->loss_scale;
+         FitReport report = FitEffects(model, trials, options);
+         report.source = o->data;
+         if (!o->output.empty()) WriteAugmentedUrdf(report, o->output);
+         FitReportOptions report_options;
+         report_options.trials = &trials;
+         report_options.model = &model;
+         if (!o->report_html.empty()) WriteFitReportHtml(report, o->report_html, report_options);
+         if (!o->report_markdown.empty())
+           WriteFitReportMarkdown(report, o->report_markdown, report_options);
+         if (o->json) {
+           std::cout << ReportJson(report, o->model.urdf, o->data, o->output).dump(2) << "\n";
+         } else {
+           PrintReport(report, *o);
+         }
+         return 0;
+       };
+     }});
 
 }  // namespace
 }  // namespace isowrench::cli

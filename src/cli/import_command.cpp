@@ -68,7 +68,8 @@ const bool registered = RegisterCommand({
             nlohmann::json rows = nlohmann::json::array();
             for (const auto& row : t.rows) {
               nlohmann::json r;
-              for (size_t i = 0; i < row.size() && i < t.header.size(); ++i) r[t.header[i]] = row[i];
+              for (size_t i = 0; i < row.size() && i < t.header.size(); ++i)
+                r[t.header[i]] = row[i];
               rows.push_back(r);
             }
             tables[t.title] = rows;

@@ -25,7 +25,7 @@ struct PostureKinematics {
   Eigen::VectorXd q;
   Eigen::Vector3d endpoint;
   Matrix6Xd jacobian;
-  std::vector<double> length;              // per muscle, m
+  std::vector<double> length;               // per muscle, m
   std::vector<Eigen::VectorXd> moment_arm;  // per muscle, -dL/dq
 };
 
@@ -43,7 +43,8 @@ PostureKinematics Evaluate(const Model& model, KinematicsWorkspace& ws, const Ei
 }
 
 bool Prismatic(const Model& model, int column) {
-  return FindCoordinate(model.description(), model.joint_names()[column]).type == JointType::kPrismatic;
+  return FindCoordinate(model.description(), model.joint_names()[column]).type ==
+         JointType::kPrismatic;
 }
 
 /// v with -0 written as 0.
@@ -69,7 +70,8 @@ nlohmann::ordered_json Json(const Model& model, const std::vector<PostureKinemat
     nlohmann::ordered_json muscles = nlohmann::ordered_json::object();
     for (int m = 0; m < model.muscle_count(); ++m) {
       const Eigen::VectorXd& r = k.moment_arm[m];
-      muscles[model.muscle(m).name] = {{"length_m", k.length[m]}, {"moment_arm_m", Values(r.data(), r.size())}};
+      muscles[model.muscle(m).name] = {{"length_m", k.length[m]},
+                                       {"moment_arm_m", Values(r.data(), r.size())}};
     }
     p["muscles"] = muscles;
     postures.push_back(p);
@@ -84,12 +86,15 @@ std::string JsonText(const nlohmann::ordered_json& j) {
   const auto& postures = j["postures"];
   for (size_t i = 0; i < postures.size(); ++i) {
     const auto& p = postures[i];
-    out += std::string(i ? ",\n  " : "") + "{\"endpoint_m\": " + p["endpoint_m"].dump() + ",\n   \"jacobian\": [";
-    for (size_t r = 0; r < p["jacobian"].size(); ++r) out += std::string(r ? ",\n                " : "") + p["jacobian"][r].dump();
+    out += std::string(i ? ",\n  " : "") + "{\"endpoint_m\": " + p["endpoint_m"].dump() +
+           ",\n   \"jacobian\": [";
+    for (size_t r = 0; r < p["jacobian"].size(); ++r)
+      out += std::string(r ? ",\n                " : "") + p["jacobian"][r].dump();
     out += "],\n   \"muscles\": {";
     size_t m = 0;
     for (const auto& [name, muscle] : p["muscles"].items()) {
-      out += std::string(m++ ? ",\n               " : "") + nlohmann::ordered_json(name).dump() + ": " + muscle.dump();
+      out += std::string(m++ ? ",\n               " : "") + nlohmann::ordered_json(name).dump() +
+             ": " + muscle.dump();
     }
     out += "}}";
   }
@@ -97,7 +102,8 @@ std::string JsonText(const nlohmann::ordered_json& j) {
 }
 
 std::string Padded(const std::string& text, int width) {
-  return text.size() >= static_cast<size_t>(width) ? text + " " : text + std::string(width - text.size(), ' ');
+  return text.size() >= static_cast<size_t>(width) ? text + " "
+                                                   : text + std::string(width - text.size(), ' ');
 }
 
 std::string Table(const Model& model, const std::vector<PostureKinematics>& results) {
@@ -106,15 +112,19 @@ std::string Table(const Model& model, const std::vector<PostureKinematics>& resu
   std::ostringstream o;
   o << "model " << model.name() << ": " << n << " coordinates (columns), world axes\n";
   std::string header = std::string(label, ' ');
-  for (const std::string& name : model.joint_names()) header += std::string(name.size() < 11 ? 11 - name.size() : 1, ' ') + name;
+  for (const std::string& name : model.joint_names())
+    header += std::string(name.size() < 11 ? 11 - name.size() : 1, ' ') + name;
   std::string units = std::string(label, ' ');
-  for (int c = 0; c < n; ++c) units += std::string(Prismatic(model, c) ? "      (m/m)" : "    (m/rad)");
+  for (int c = 0; c < n; ++c)
+    units += std::string(Prismatic(model, c) ? "      (m/m)" : "    (m/rad)");
   for (size_t i = 0; i < results.size(); ++i) {
     const PostureKinematics& k = results[i];
     o << "\nposture " << i + 1 << ": " << FormatPosture(model, k.q, true) << "\n";
-    o << "endpoint (m)  x " << util::FormatNumber(k.endpoint.x(), 6) << "  y " << util::FormatNumber(k.endpoint.y(), 6)
-      << "  z " << util::FormatNumber(k.endpoint.z(), 6) << "\n";
-    o << "Jacobian: rows vx vy vz in m/rad (m/m for a prismatic column), wx wy wz in rad/rad (rad/m)\n"
+    o << "endpoint (m)  x " << util::FormatNumber(k.endpoint.x(), 6) << "  y "
+      << util::FormatNumber(k.endpoint.y(), 6) << "  z " << util::FormatNumber(k.endpoint.z(), 6)
+      << "\n";
+    o << "Jacobian: rows vx vy vz in m/rad (m/m for a prismatic column), wx wy wz in rad/rad "
+         "(rad/m)\n"
       << header << "\n";
     const char* rows[6] = {"vx", "vy", "vz", "wx", "wy", "wz"};
     for (int r = 0; r < 6; ++r) {
@@ -124,7 +134,8 @@ std::string Table(const Model& model, const std::vector<PostureKinematics>& resu
     }
     if (model.muscle_count() == 0) continue;
     o << "muscles: length (m) and moment arm -dL/dq about each coordinate\n"
-      << header << "  length (m)\n" << units << "\n";
+      << header << "  length (m)\n"
+      << units << "\n";
     for (int m = 0; m < model.muscle_count(); ++m) {
       o << Padded(model.muscle(m).name, label);
       for (int c = 0; c < n; ++c) o << Cell(k.moment_arm[m][c]);
@@ -136,29 +147,36 @@ std::string Table(const Model& model, const std::vector<PostureKinematics>& resu
 
 const bool registered = RegisterCommand({
     "kinematics",
-    "Endpoint position, 6 x n endpoint Jacobian and every muscle's length and moment arms (-dL/dq) at "
+    "Endpoint position, 6 x n endpoint Jacobian and every muscle's length and moment arms (-dL/dq) "
+    "at "
     "one or more postures, in independent coordinates",
     15,
     [](CLI::App& app) -> std::function<int()> {
       auto options = std::make_shared<KinematicsOptions>();
       app.add_option("urdf", options->urdf, "Limb URDF with isowrench extension tags")->required();
-      app.add_option("--posture", options->posture,
-                     "Coordinates over the URDF's nominal posture: name=value in degrees (mm for prismatic "
-                     "coordinates); repeatable or comma-separated, e.g. --posture hip_rz=-110 --posture knee_rz=105");
+      app.add_option(
+          "--posture", options->posture,
+          "Coordinates over the URDF's nominal posture: name=value in degrees (mm for prismatic "
+          "coordinates); repeatable or comma-separated, e.g. --posture hip_rz=-110 --posture "
+          "knee_rz=105");
       app.add_option("--postures", options->postures_csv,
-                     "CSV file: a header naming coordinates, then one posture per row (degrees, mm for prismatic); "
+                     "CSV file: a header naming coordinates, then one posture per row (degrees, mm "
+                     "for prismatic); "
                      "coordinates without a column keep the nominal (or --posture) value");
-      app.add_flag("--json", options->json,
-                   "Print {\"coordinates\": [...], \"postures\": [{\"endpoint_m\", \"jacobian\" (6 rows), "
-                   "\"muscles\": {name: {\"length_m\", \"moment_arm_m\"}}}]} in SI units, world axes");
+      app.add_flag(
+          "--json", options->json,
+          "Print {\"coordinates\": [...], \"postures\": [{\"endpoint_m\", \"jacobian\" (6 rows), "
+          "\"muscles\": {name: {\"length_m\", \"moment_arm_m\"}}}]} in SI units, world axes");
       return [options]() {
         ModelOptions load;
         load.urdf = options->urdf;
         Model model = LoadModel(load);
         Eigen::VectorXd base = model.nominal_posture();
-        for (const std::string& assignment : options->posture) base = ApplyPostureAssignments(model, base, assignment);
+        for (const std::string& assignment : options->posture)
+          base = ApplyPostureAssignments(model, base, assignment);
         std::vector<Eigen::VectorXd> postures = {base};
-        if (!options->postures_csv.empty()) postures = ReadPostureCsv(model, options->postures_csv, base);
+        if (!options->postures_csv.empty())
+          postures = ReadPostureCsv(model, options->postures_csv, base);
         KinematicsWorkspace ws(model);
         std::vector<PostureKinematics> results;
         for (const Eigen::VectorXd& q : postures) results.push_back(Evaluate(model, ws, q));

@@ -14,7 +14,8 @@ namespace {
 const char* kExitCodes =
     "Exit codes:\n"
     "  0  success\n"
-    "  1  bad input: a file, option value, model or data the command cannot use (message on stderr)\n"
+    "  1  bad input: a file, option value, model or data the command cannot use (message on "
+    "stderr)\n"
     "  2  command-line usage error: unknown option or subcommand, missing or malformed argument\n"
     "  3  internal error (a bug in isowrench; please report it with the command line)\n"
     "  4  no equilibrium: the muscle torque drives a self-motion (wrench); the output says which";
@@ -31,8 +32,9 @@ int main(int argc, char** argv) {
   app.footer(kExitCodes);
   app.set_version_flag("--version", "isowrench 0.1.0");
   auto commands = isowrench::cli::RegisteredCommands();
-  std::sort(commands.begin(), commands.end(),
-            [](const auto& a, const auto& b) { return a.order < b.order || (a.order == b.order && a.name < b.name); });
+  std::sort(commands.begin(), commands.end(), [](const auto& a, const auto& b) {
+    return a.order < b.order || (a.order == b.order && a.name < b.name);
+  });
   std::vector<std::pair<CLI::App*, std::function<int()>>> runners;
   for (const auto& command : commands) {
     CLI::App* sub = app.add_subcommand(command.name, command.description);

@@ -18,13 +18,15 @@ void PrintFigure(int figure, const std::vector<PaperPanel>& panels) {
       "(balanced S_t = 1e7)",
       "Figure 4: knee ab/adduction as a joint dof with 1 N·m/rad stiffness (6-dof limb, all 6 "
       "transducer dofs restrained)"};
-  std::cout << kTitles[figure] << "\n"
-            << "GP muscle, 2.3 N, posture hip_rz=-110°, knee_rz=105°. W = wrench the limb applies to "
-               "the transducer, world axes, moment about the ankle.\n\n";
+  std::cout
+      << kTitles[figure] << "\n"
+      << "GP muscle, 2.3 N, posture hip_rz=-110°, knee_rz=105°. W = wrench the limb applies to "
+         "the transducer, world axes, moment about the ankle.\n\n";
   const int w = 34;
   std::vector<std::string> columns;
   for (const PaperPanel& p : panels) {
-    if (std::find(columns.begin(), columns.end(), p.column) == columns.end()) columns.push_back(p.column);
+    if (std::find(columns.begin(), columns.end(), p.column) == columns.end())
+      columns.push_back(p.column);
   }
   for (const std::string& column : columns) {
     if (!column.empty()) std::cout << "[" << column << "]\n";
@@ -33,7 +35,8 @@ void PrintFigure(int figure, const std::vector<PaperPanel>& panels) {
       if (p.column != column) continue;
       std::cout << WrenchRow(p.row + "  " + p.method, p.wrench, w) << "\n";
       std::cout << "     " << p.condition << "\n";
-      if (!p.valid || !p.note.empty()) std::cout << "     ! " << (p.note.empty() ? "not valid" : p.note) << "\n";
+      if (!p.valid || !p.note.empty())
+        std::cout << "     ! " << (p.note.empty() ? "not valid" : p.note) << "\n";
     }
     std::cout << "\n";
   }
@@ -48,8 +51,10 @@ const bool registered = RegisterCommand({
       auto figure = std::make_shared<int>(2);
       auto json = std::make_shared<bool>(false);
       auto dir = std::make_shared<std::string>();
-      app.add_option("--figure", *figure, "Figure number: 2, 3 or 4 (default 2)")->check(CLI::IsMember({2, 3, 4}));
-      app.add_option("--urdf-dir", *dir, "Directory holding rat_hindlimb_5dof.urdf and rat_hindlimb_6dof.urdf");
+      app.add_option("--figure", *figure, "Figure number: 2, 3 or 4 (default 2)")
+          ->check(CLI::IsMember({2, 3, 4}));
+      app.add_option("--urdf-dir", *dir,
+                     "Directory holding rat_hindlimb_5dof.urdf and rat_hindlimb_6dof.urdf");
       app.add_flag("--json", *json, "Print JSON instead of the table");
       return [figure, json, dir]() {
         std::string urdf_dir = dir->empty() ? DefaultUrdfDirectory() : *dir;
@@ -57,10 +62,16 @@ const bool registered = RegisterCommand({
         if (*json) {
           nlohmann::json out = nlohmann::json::array();
           for (const PaperPanel& p : panels) {
-            out.push_back({{"figure", p.figure}, {"row", p.row}, {"column", p.column},
-                           {"method", p.method}, {"condition", p.condition},
-                           {"s_t", ToJson(p.s_t)}, {"base_stiffness_N_per_m", p.base_stiffness},
-                           {"wrench", WrenchJson(p.wrench)}, {"valid", p.valid}, {"note", p.note}});
+            out.push_back({{"figure", p.figure},
+                           {"row", p.row},
+                           {"column", p.column},
+                           {"method", p.method},
+                           {"condition", p.condition},
+                           {"s_t", ToJson(p.s_t)},
+                           {"base_stiffness_N_per_m", p.base_stiffness},
+                           {"wrench", WrenchJson(p.wrench)},
+                           {"valid", p.valid},
+                           {"note", p.note}});
           }
           std::cout << out.dump(2) << "\n";
         } else {

@@ -29,8 +29,9 @@ struct ReleasesOptions {
 
 // "x,y,z" or "name:x,y,z".
 ReleaseCandidate ParseAxis(const std::string& text, ReleaseKind kind, int number) {
-  std::string name = std::string(kind == ReleaseKind::kRotation ? "user axis " : "user translation ") +
-                     std::to_string(number);
+  std::string name =
+      std::string(kind == ReleaseKind::kRotation ? "user axis " : "user translation ") +
+      std::to_string(number);
   std::string values = text;
   size_t colon = text.find(':');
   if (colon != std::string::npos) {
@@ -39,7 +40,8 @@ ReleaseCandidate ParseAxis(const std::string& text, ReleaseKind kind, int number
   }
   std::vector<std::string> items = util::Split(values, ", ");
   if (items.size() != 3) {
-    throw Error("release axis '" + text + "' needs three components x,y,z (world axes), optionally name:x,y,z");
+    throw Error("release axis '" + text +
+                "' needs three components x,y,z (world axes), optionally name:x,y,z");
   }
   Eigen::Vector3d a;
   for (int i = 0; i < 3; ++i) {
@@ -60,7 +62,9 @@ std::string AxisText(const Eigen::Vector3d& a) {
 }
 
 const char* Kind(ReleaseKind k) {
-  return k == ReleaseKind::kRotation ? "rotation" : k == ReleaseKind::kTranslation ? "translation" : "none";
+  return k == ReleaseKind::kRotation      ? "rotation"
+         : k == ReleaseKind::kTranslation ? "translation"
+                                          : "none";
 }
 
 nlohmann::json AxisJson(const Eigen::Vector3d& a) { return {a.x(), a.y(), a.z()}; }
@@ -92,7 +96,8 @@ nlohmann::json AssessmentJson(const ReleaseAssessment& a) {
 nlohmann::json ForbiddenJson(const ForbiddenAxes& f) {
   nlohmann::json basis = nlohmann::json::array();
   for (Eigen::Index c = 0; c < f.basis.cols(); ++c) basis.push_back(AxisJson(f.basis.col(c)));
-  nlohmann::json j = {{"dimension", f.dimension}, {"basis_world", basis}, {"description", f.description}};
+  nlohmann::json j = {
+      {"dimension", f.dimension}, {"basis_world", basis}, {"description", f.description}};
   if (f.dimension == 2) j["plane_normal_world"] = AxisJson(f.plane_normal);
   return j;
 }
@@ -100,10 +105,15 @@ nlohmann::json ForbiddenJson(const ForbiddenAxes& f) {
 void PrintRow(const ReleaseAssessment& a) {
   char line[400];
   std::string rank = a.rank_order > 0 ? std::to_string(a.rank_order) : "-";
-  std::snprintf(line, sizeof(line), "  %-4s %-22s %-11s %-24s %9.3g  %d/%-3d %-8s %10.3g   %s\n", rank.c_str(),
-                a.candidate.name.c_str(), Kind(a.candidate.kind),
-                a.candidate.kind == ReleaseKind::kNone ? "" : AxisText(a.candidate.axis_world).c_str(), a.margin,
-                a.rank, a.columns, a.self_motion ? "-" : a.internal_wrench ? "yes" : "no", 100 * a.spread, a.verdict.c_str());
+  std::snprintf(
+      line, sizeof(line), "  %-4s %-22s %-11s %-24s %9.3g  %d/%-3d %-8s %10.3g   %s\n",
+      rank.c_str(), a.candidate.name.c_str(), Kind(a.candidate.kind),
+      a.candidate.kind == ReleaseKind::kNone ? "" : AxisText(a.candidate.axis_world).c_str(),
+      a.margin, a.rank, a.columns,
+      a.self_motion       ? "-"
+      : a.internal_wrench ? "yes"
+                          : "no",
+      100 * a.spread, a.verdict.c_str());
   std::cout << line;
 }
 
@@ -116,20 +126,28 @@ const bool registered = RegisterCommand({
     [](CLI::App& app) -> std::function<int()> {
       auto o = std::make_shared<ReleasesOptions>();
       AddModelOptions(app, o->model, /*with_muscle=*/false);
-      app.add_option("--muscle", o->muscles, "Muscle name(s), repeatable or comma-separated (default: the first)")
+      app.add_option("--muscle", o->muscles,
+                     "Muscle name(s), repeatable or comma-separated (default: the first)")
           ->delimiter(',');
-      app.add_option("--activation", o->activation, "Force scale: force = activation x max_force (default 1)");
-      app.add_option("--postures", o->postures,
-                     "CSV of postures: header of joint names (optional 'label' column), rows in degrees");
-      app.add_option("--axis", o->axes,
-                     "Extra candidate: rotation about x,y,z (world axes) through the endpoint, optionally "
-                     "name:x,y,z; repeatable");
+      app.add_option("--activation", o->activation,
+                     "Force scale: force = activation x max_force (default 1)");
+      app.add_option(
+          "--postures", o->postures,
+          "CSV of postures: header of joint names (optional 'label' column), rows in degrees");
+      app.add_option(
+          "--axis", o->axes,
+          "Extra candidate: rotation about x,y,z (world axes) through the endpoint, optionally "
+          "name:x,y,z; repeatable");
       app.add_option("--translation-axis", o->translation_axes,
-                     "Extra candidate: translation along x,y,z (world axes), optionally name:x,y,z; repeatable");
-      app.add_option("--sweep", o->sweep, "Sample N random rotation axes through the endpoint and count the safe ones");
-      app.add_option("--seed", o->seed, "Seed of the --sweep generator (std::mt19937_64; default 1)");
+                     "Extra candidate: translation along x,y,z (world axes), optionally "
+                     "name:x,y,z; repeatable");
+      app.add_option("--sweep", o->sweep,
+                     "Sample N random rotation axes through the endpoint and count the safe ones");
+      app.add_option("--seed", o->seed,
+                     "Seed of the --sweep generator (std::mt19937_64; default 1)");
       app.add_option("--margin-warning", o->release.margin_warning,
-                     "A release is safe only when sigma_min / sigma_max of the expanded Jacobian > this (default 0.01)");
+                     "A release is safe only when sigma_min / sigma_max of the expanded Jacobian > "
+                     "this (default 0.01)");
       app.add_option("--svd-tolerance", o->release.rank_tolerance,
                      "Self-motion when sigma_min <= this x sigma_max (default 1e-9)");
       app.add_flag("--json", o->json, "Print JSON instead of text");
@@ -143,14 +161,16 @@ const bool registered = RegisterCommand({
         if (muscles.empty()) muscles.push_back(ChooseMuscle(model, o->model));
         Eigen::VectorXd base = LoadPosture(model, o->model);
         std::vector<NamedPosture> postures =
-            o->postures.empty() ? std::vector<NamedPosture>{{o->model.posture.empty() ? "nominal" : "given", base}}
-                                : ReadPostureTable(model, o->postures, base);
+            o->postures.empty()
+                ? std::vector<NamedPosture>{{o->model.posture.empty() ? "nominal" : "given", base}}
+                : ReadPostureTable(model, o->postures, base);
         std::vector<ReleaseCandidate> user;
         for (size_t i = 0; i < o->axes.size(); ++i) {
           user.push_back(ParseAxis(o->axes[i], ReleaseKind::kRotation, static_cast<int>(i + 1)));
         }
         for (size_t i = 0; i < o->translation_axes.size(); ++i) {
-          user.push_back(ParseAxis(o->translation_axes[i], ReleaseKind::kTranslation, static_cast<int>(i + 1)));
+          user.push_back(ParseAxis(o->translation_axes[i], ReleaseKind::kTranslation,
+                                   static_cast<int>(i + 1)));
         }
         if (o->sweep < 0) throw Error("--sweep " + std::to_string(o->sweep) + " must be >= 0");
         ReleaseOptions options = o->release;
@@ -158,7 +178,8 @@ const bool registered = RegisterCommand({
         options.statics = o->model.statics;
 
         nlohmann::json jp = nlohmann::json::array();
-        if (!o->json) std::cout << "isowrench releases: " << model.name() << " (" << o->model.urdf << ")\n";
+        if (!o->json)
+          std::cout << "isowrench releases: " << model.name() << " (" << o->model.urdf << ")\n";
         for (const NamedPosture& p : postures) {
           std::vector<ReleaseCandidate> candidates = DefaultReleaseCandidates(model, p.q);
           candidates.insert(candidates.end(), user.begin(), user.end());
@@ -170,38 +191,51 @@ const bool registered = RegisterCommand({
             if (o->json) {
               nlohmann::json list = nlohmann::json::array();
               for (const ReleaseAssessment& a : c.candidates) list.push_back(AssessmentJson(a));
-              jm.push_back({{"muscle", muscle}, {"baseline", AssessmentJson(c.baseline)}, {"candidates", list},
-                            {"recommended", c.recommended >= 0 ? nlohmann::json(c.candidates[static_cast<size_t>(c.recommended)].candidate.name)
-                                                               : nlohmann::json(nullptr)},
-                            {"recommendation", c.recommendation}});
+              jm.push_back(
+                  {{"muscle", muscle},
+                   {"baseline", AssessmentJson(c.baseline)},
+                   {"candidates", list},
+                   {"recommended",
+                    c.recommended >= 0
+                        ? nlohmann::json(
+                              c.candidates[static_cast<size_t>(c.recommended)].candidate.name)
+                        : nlohmann::json(nullptr)},
+                   {"recommendation", c.recommendation}});
               if (first) {
-                jsweep = {{"length_scale_m", c.length_scale}, {"stiffness_range", c.range_description},
+                jsweep = {{"length_scale_m", c.length_scale},
+                          {"stiffness_range", c.range_description},
                           {"forbidden_rotations", ForbiddenJson(c.forbidden_rotations)},
                           {"forbidden_translations", ForbiddenJson(c.forbidden_translations)}};
               }
             } else {
               if (first) {
-                std::cout << "\nposture " << p.label << ": " << FormatPosture(model, p.q) << " (degrees)\n"
-                          << "  forbidden rotation axes (through the endpoint): " << c.forbidden_rotations.description
-                          << "\n  forbidden translation axes: " << c.forbidden_translations.description << "\n"
+                std::cout << "\nposture " << p.label << ": " << FormatPosture(model, p.q)
+                          << " (degrees)\n"
+                          << "  forbidden rotation axes (through the endpoint): "
+                          << c.forbidden_rotations.description << "\n  forbidden translation axes: "
+                          << c.forbidden_translations.description << "\n"
                           << "  stiffness range: " << c.range_description << "\n"
-                          << "  margin = sigma_min / sigma_max of the expanded Jacobian [J_r | j_release] "
+                          << "  margin = sigma_min / sigma_max of the expanded Jacobian [J_r | "
+                             "j_release] "
                              "(translation rows / L, L = "
                           << N(c.length_scale * 1e3, 4) << " mm)\n";
               }
               std::cout << "\n  muscle " << muscle << ":\n"
-                        << "  rank candidate              kind        axis (world)                margin  rank    "
+                        << "  rank candidate              kind        axis (world)                "
+                           "margin  rank    "
                            "internal  spread (%)  verdict\n";
               PrintRow(c.baseline);
               for (const ReleaseAssessment& a : c.candidates) PrintRow(a);
               const int w = 30;
-              std::cout << "\n  Wrench the limb applies to the transducer with each release (Eq. 10, model "
+              std::cout << "\n  Wrench the limb applies to the transducer with each release (Eq. "
+                           "10, model "
                            "stiffness, transducer axes):\n  "
-                        << WrenchHeader(w) << "\n  " << WrenchRow("none (baseline)", c.baseline.statics.wrench, w)
-                        << "\n";
+                        << WrenchHeader(w) << "\n  "
+                        << WrenchRow("none (baseline)", c.baseline.statics.wrench, w) << "\n";
               for (const ReleaseAssessment& a : c.candidates) {
                 std::cout << "  "
-                          << WrenchRow(a.candidate.name, a.statics.ok() ? a.statics.wrench : Vector6d::Zero(), w)
+                          << WrenchRow(a.candidate.name,
+                                       a.statics.ok() ? a.statics.wrench : Vector6d::Zero(), w)
                           << (a.statics.ok() ? "" : "  (no equilibrium: self-motion)") << "\n";
               }
               std::cout << "\n  recommendation: " << c.recommendation << "\n";
@@ -212,27 +246,39 @@ const bool registered = RegisterCommand({
           if (o->sweep > 0) {
             AxisSweep s = SweepReleaseAxes(model, p.q, o->sweep, o->seed, options);
             if (o->json) {
-              js = {{"samples", s.samples}, {"seed", s.seed}, {"safe", s.safe}, {"near_self_motion", s.near},
-                    {"self_motion", s.self_motion}, {"already_free", s.already_free}, {"smallest_margin", s.smallest_margin},
-                    {"worst_axis_world", AxisJson(s.worst_axis)}, {"margin_warning", options.margin_warning}};
+              js = {{"samples", s.samples},
+                    {"seed", s.seed},
+                    {"safe", s.safe},
+                    {"near_self_motion", s.near},
+                    {"self_motion", s.self_motion},
+                    {"already_free", s.already_free},
+                    {"smallest_margin", s.smallest_margin},
+                    {"worst_axis_world", AxisJson(s.worst_axis)},
+                    {"margin_warning", options.margin_warning}};
             } else {
-              std::cout << "\n  sweep: " << s.samples << " random rotation axes through the endpoint (seed " << s.seed
-                        << "): " << s.safe << " safe (margin > " << N(options.margin_warning) << "), " << s.near
-                        << " near self-motion, " << s.self_motion << " self-motion"
-                        << (s.already_free ? ", " + std::to_string(s.already_free) + " already free" : "")
-                        << "; smallest margin "
-                        << N(s.smallest_margin) << " at axis " << AxisText(s.worst_axis) << " (world)\n";
+              std::cout << "\n  sweep: " << s.samples
+                        << " random rotation axes through the endpoint (seed " << s.seed
+                        << "): " << s.safe << " safe (margin > " << N(options.margin_warning)
+                        << "), " << s.near << " near self-motion, " << s.self_motion
+                        << " self-motion"
+                        << (s.already_free ? ", " + std::to_string(s.already_free) + " already free"
+                                           : "")
+                        << "; smallest margin " << N(s.smallest_margin) << " at axis "
+                        << AxisText(s.worst_axis) << " (world)\n";
             }
           }
           if (o->json) {
-            nlohmann::json entry = {{"label", p.label}, {"posture", FormatPosture(model, p.q)}, {"muscles", jm}};
+            nlohmann::json entry = {
+                {"label", p.label}, {"posture", FormatPosture(model, p.q)}, {"muscles", jm}};
             entry.update(jsweep);
             if (o->sweep > 0) entry["sweep"] = js;
             jp.push_back(entry);
           }
         }
         if (o->json) {
-          std::cout << nlohmann::json({{"command", "releases"}, {"model", model.name()}, {"urdf", o->model.urdf},
+          std::cout << nlohmann::json({{"command", "releases"},
+                                       {"model", model.name()},
+                                       {"urdf", o->model.urdf},
                                        {"postures", jp}})
                            .dump(2)
                     << "\n";

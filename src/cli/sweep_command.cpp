@@ -1,13 +1,13 @@
 // `isowrench sweep <urdf> --grid joint=from:to:step ... --stiffness-ratio r1,r2 -o out.csv`:
 // the wrench over a posture grid x transducer stiffness ratios, on the fast path, both cores.
 
+#include <algorithm>
 #include <charconv>
 #include <chrono>
 #include <cmath>
 #include <iostream>
 #include <map>
 #include <thread>
-#include <algorithm>
 
 #include "cli/command.hpp"
 #include "isowrench/error.hpp"
@@ -48,9 +48,11 @@ GridAxis ParseGrid(const Model& model, const std::string& text) {
   if (!std::isfinite(from) || !std::isfinite(to) || !std::isfinite(step)) {
     throw Error(what + ": from, to and step must be finite");
   }
-  if (!(step > 0)) throw Error(what + ": step " + util::FormatNumber(step) + " " + unit + " must be > 0");
-  if (to < from) throw Error(what + ": to (" + util::FormatNumber(to) + ") is below from (" +
-                             util::FormatNumber(from) + ")");
+  if (!(step > 0))
+    throw Error(what + ": step " + util::FormatNumber(step) + " " + unit + " must be > 0");
+  if (to < from)
+    throw Error(what + ": to (" + util::FormatNumber(to) + ") is below from (" +
+                util::FormatNumber(from) + ")");
   // Steps that land within 1e-9 of a step of `to` include it (0:180:1 gives 181 values).
   const double count = std::floor((to - from) / step + 1e-9) + 1;
   if (count > kMaxEvaluations) throw Error(what + " has " + util::FormatNumber(count) + " values");
@@ -67,7 +69,8 @@ std::vector<double> ParseRatios(const std::vector<std::string>& items) {
   for (const std::string& item : items) {
     const double r = util::ParseDoubleOrThrow(item, "--stiffness-ratio");
     if (!std::isfinite(r) || r <= 0) {
-      throw Error("--stiffness-ratio " + item + " must be finite and > 0 (it scales S_t's rotational terms)");
+      throw Error("--stiffness-ratio " + item +
+                  " must be finite and > 0 (it scales S_t's rotational terms)");
     }
     ratios.push_back(r);
   }
@@ -127,7 +130,8 @@ const bool registered = RegisterCommand({
         for (const std::string& g : *grids) {
           GridAxis axis = ParseGrid(model, g);
           for (const GridAxis& other : axes) {
-            if (other.column == axis.column) throw Error("--grid names joint '" + axis.joint + "' twice");
+            if (other.column == axis.column)
+              throw Error("--grid names joint '" + axis.joint + "' twice");
           }
           axes.push_back(std::move(axis));
         }
@@ -135,8 +139,9 @@ const bool registered = RegisterCommand({
         double postures_d = 1;
         for (const GridAxis& a : axes) postures_d *= static_cast<double>(a.model_values.size());
         if (postures_d * static_cast<double>(r.size()) > kMaxEvaluations) {
-          throw Error("the sweep has " + util::FormatNumber(postures_d * static_cast<double>(r.size())) +
-                      " evaluations; at most " + util::FormatNumber(kMaxEvaluations) + " are accepted");
+          throw Error(
+              "the sweep has " + util::FormatNumber(postures_d * static_cast<double>(r.size())) +
+              " evaluations; at most " + util::FormatNumber(kMaxEvaluations) + " are accepted");
         }
         const long P = static_cast<long>(postures_d);
         const auto start = std::chrono::steady_clock::now();
@@ -153,7 +158,8 @@ const bool registered = RegisterCommand({
         std::vector<size_t> index(axes.size(), 0);
         for (long p = 0; p < P; ++p) {
           postures.col(p) = base;
-          for (size_t a = 0; a < axes.size(); ++a) postures(axes[a].column, p) = axes[a].model_values[index[a]];
+          for (size_t a = 0; a < axes.size(); ++a)
+            postures(axes[a].column, p) = axes[a].model_values[index[a]];
           for (size_t a = axes.size(); a-- > 0;) {
             if (++index[a] < axes[a].model_values.size()) break;
             index[a] = 0;
@@ -177,8 +183,9 @@ const bool registered = RegisterCommand({
         std::ostream& os = file.stream();
         std::string header;
         for (const GridAxis& a : axes) header += a.joint + (a.prismatic ? " (mm)," : " (deg),");
-        header += "stiffness_ratio (1),status,"
-                  "fx (N),fy (N),fz (N),mx (N·m),my (N·m),mz (N·m),self_motion_dims (1)\n";
+        header +=
+            "stiffness_ratio (1),status,"
+            "fx (N),fy (N),fz (N),mx (N·m),my (N·m),mz (N·m),self_motion_dims (1)\n";
         os << header;
         const long S = static_cast<long>(sets.size());
         const int blocks = static_cast<int>(std::clamp<long>(*threads, 1, std::max<long>(P, 1)));
@@ -253,9 +260,10 @@ const bool registered = RegisterCommand({
                     << util::FormatNumber(options->activation * model.muscle(muscle).max_force, 6)
                     << " N), other joints at " << FormatPosture(model, base) << "\n"
                     << "  " << P << " postures x " << S << " stiffness ratios = " << evaluations
-                    << " evaluations on " << *threads << " threads: "
-                    << util::FormatNumber(compute_seconds, 3) << " s computing ("
-                    << util::FormatNumber(compute_seconds * 1e9 * *threads / static_cast<double>(evaluations), 3)
+                    << " evaluations on " << *threads
+                    << " threads: " << util::FormatNumber(compute_seconds, 3) << " s computing ("
+                    << util::FormatNumber(
+                           compute_seconds * 1e9 * *threads / static_cast<double>(evaluations), 3)
                     << " ns per evaluation per thread), " << util::FormatNumber(total_seconds, 3)
                     << " s with the CSV\n  status:";
           for (const auto& [status, n] : counts) std::cout << " " << StatusWord(status) << " " << n;

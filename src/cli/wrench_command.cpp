@@ -43,24 +43,30 @@ std::string ClassicOmitted(const std::vector<std::string>& base) {
 
 bool NoEquilibrium(const StaticsResult& s) { return s.status == StaticsStatus::kSelfMotion; }
 
-nlohmann::json EvaluationJson(const Model& model, const WrenchEvaluation& e, const std::string& urdf) {
+nlohmann::json EvaluationJson(const Model& model, const WrenchEvaluation& e,
+                              const std::string& urdf) {
   const StaticsResult& s = e.statics;
   nlohmann::json joints = nlohmann::json::array();
   for (int i = 0; i < model.dof_count(); ++i) {
-    joints.push_back({{"name", model.joint_names()[i]},
-                      {"role", RoleName(model.joint(i).role)},
-                      {"q", NoNegativeZero(e.q[i])},
-                      {"stiffness", e.s_p[i]},
-                      {"tau", NoNegativeZero(e.tau[i])},
-                      {"dtheta", NoEquilibrium(s) ? nlohmann::json(nullptr) : nlohmann::json(NoNegativeZero(s.dtheta[i]))},
-                      {"units", model.joint(i).type == JointType::kPrismatic
-                                    ? nlohmann::json{{"q", "m"}, {"stiffness", "N/m"}, {"tau", "N"}, {"dtheta", "m"}}
-                                    : nlohmann::json{{"q", "rad"}, {"stiffness", "N·m/rad"}, {"tau", "N·m"}, {"dtheta", "rad"}}}});
+    joints.push_back(
+        {{"name", model.joint_names()[i]},
+         {"role", RoleName(model.joint(i).role)},
+         {"q", NoNegativeZero(e.q[i])},
+         {"stiffness", e.s_p[i]},
+         {"tau", NoNegativeZero(e.tau[i])},
+         {"dtheta",
+          NoEquilibrium(s) ? nlohmann::json(nullptr) : nlohmann::json(NoNegativeZero(s.dtheta[i]))},
+         {"units",
+          model.joint(i).type == JointType::kPrismatic
+              ? nlohmann::json{{"q", "m"}, {"stiffness", "N/m"}, {"tau", "N"}, {"dtheta", "m"}}
+              : nlohmann::json{
+                    {"q", "rad"}, {"stiffness", "N·m/rad"}, {"tau", "N·m"}, {"dtheta", "rad"}}}});
   }
   nlohmann::json self_motion = nlohmann::json::array();
   for (int c = 0; c < s.self_motion.cols(); ++c) {
     Eigen::VectorXd v = s.self_motion.col(c);
-    self_motion.push_back({{"direction", ToJson(v)}, {"description", DescribeJointMotion(model, v)}});
+    self_motion.push_back(
+        {{"direction", ToJson(v)}, {"description", DescribeJointMotion(model, v)}});
   }
   std::vector<std::string> released;
   for (int i = 0; i < 6; ++i) {
@@ -69,7 +75,8 @@ nlohmann::json EvaluationJson(const Model& model, const WrenchEvaluation& e, con
   const bool none = NoEquilibrium(s);
   const std::vector<std::string> base = BaseDofs(model);
   nlohmann::json classic =
-      base.empty() ? nlohmann::json{{"method", e.classic.square_inverse ? "J^-T tau (Eq. 11)" : "pinv(J^T) tau (Eq. 15)"},
+      base.empty() ? nlohmann::json{{"method", e.classic.square_inverse ? "J^-T tau (Eq. 11)"
+                                                                        : "pinv(J^T) tau (Eq. 15)"},
                                     {"wrench", WrenchJson(e.classic.wrench)},
                                     {"rank", e.classic.rank},
                                     {"residual", e.classic.residual}}
@@ -78,30 +85,35 @@ nlohmann::json EvaluationJson(const Model& model, const WrenchEvaluation& e, con
       {"model", model.name()},
       {"urdf", urdf},
       {"muscle", {{"name", e.muscle}, {"force_N", e.muscle_force}, {"length_m", e.muscle_length}}},
-      {"transducer", {{"stiffness", ToJson(e.s_t)}, {"released", released},
-                      {"units", "N/m for x y z, N·m/rad for rx ry rz"}}},
+      {"transducer",
+       {{"stiffness", ToJson(e.s_t)},
+        {"released", released},
+        {"units", "N/m for x y z, N·m/rad for rx ry rz"}}},
       {"joints", joints},
       {"equilibrium", !none},
       {"wrench", none ? nlohmann::json(nullptr) : WrenchJson(s.wrench)},
       {"wrench_world", none ? nlohmann::json(nullptr) : WrenchJson(e.wrench_world)},
       {"wrench_sign", "wrench the limb applies to the transducer; moment about the endpoint"},
       {"classic", classic},
-      {"statics", {{"status", StatusName(s.status)},
-                   {"message", s.message},
-                   {"k_rank", s.k_rank},
-                   {"k_condition", s.k_condition},
-                   {"rank_threshold", s.rank_threshold},
-                   {"k_eigenvalues", ToJson(s.k_eigenvalues)},
-                   {"equilibrium_residual", s.equilibrium_residual},
-                   {"self_motion", self_motion}}},
-      {"endpoint_displacement", {{"value", none ? nlohmann::json(nullptr) : ToJson(s.endpoint_displacement)},
-                                 {"units", "m for x y z, rad for rx ry rz"}}},
-      {"small_motion", {{"valid", none ? nlohmann::json(nullptr) : nlohmann::json(s.small_motion_valid)},
-                        {"endpoint_translation_m", s.endpoint_translation},
-                        {"endpoint_translation_limit_m", s.endpoint_translation_limit},
-                        {"max_joint_rotation_rad", s.max_joint_rotation},
-                        {"max_joint_rotation_limit_rad", s.max_joint_rotation_limit},
-                        {"message", s.validity_message}}},
+      {"statics",
+       {{"status", StatusName(s.status)},
+        {"message", s.message},
+        {"k_rank", s.k_rank},
+        {"k_condition", s.k_condition},
+        {"rank_threshold", s.rank_threshold},
+        {"k_eigenvalues", ToJson(s.k_eigenvalues)},
+        {"equilibrium_residual", s.equilibrium_residual},
+        {"self_motion", self_motion}}},
+      {"endpoint_displacement",
+       {{"value", none ? nlohmann::json(nullptr) : ToJson(s.endpoint_displacement)},
+        {"units", "m for x y z, rad for rx ry rz"}}},
+      {"small_motion",
+       {{"valid", none ? nlohmann::json(nullptr) : nlohmann::json(s.small_motion_valid)},
+        {"endpoint_translation_m", s.endpoint_translation},
+        {"endpoint_translation_limit_m", s.endpoint_translation_limit},
+        {"max_joint_rotation_rad", s.max_joint_rotation},
+        {"max_joint_rotation_limit_rad", s.max_joint_rotation_limit},
+        {"message", s.validity_message}}},
   };
 }
 
@@ -113,7 +125,8 @@ void PrintEvaluation(const Model& model, const WrenchEvaluation& e, const std::s
             << "  muscle       " << e.muscle << ": " << util::FormatNumber(e.muscle_force, 4)
             << " N, length " << util::FormatNumber(e.muscle_length * 1e3, 4) << " mm\n"
             << "  transducer   S_t = " << StiffnessText(t.stiffness) << ", axes "
-            << (t.axes_in_world ? "world" : "of link " + t.link) << ", released: " << ReleasedText(t) << "\n";
+            << (t.axes_in_world ? "world" : "of link " + t.link)
+            << ", released: " << ReleasedText(t) << "\n";
   std::vector<std::string> springs;
   for (int i = 0; i < model.dof_count(); ++i) {
     if (e.s_p[i] > 0) {
@@ -121,7 +134,8 @@ void PrintEvaluation(const Model& model, const WrenchEvaluation& e, const std::s
                         Unit(model, i, " N·m/rad", " N/m"));
     }
   }
-  std::cout << "  S_p          " << (springs.empty() ? "none (all joints free)" : util::Join(springs, ", ")) << "\n"
+  std::cout << "  S_p          "
+            << (springs.empty() ? "none (all joints free)" : util::Join(springs, ", ")) << "\n"
             << "  statics      " << StatusName(s.status) << ": " << s.message << "\n";
   for (int c = 0; c < s.self_motion.cols(); ++c) {
     std::cout << "  self-motion  " << DescribeJointMotion(model, s.self_motion.col(c)) << "\n";
@@ -129,13 +143,14 @@ void PrintEvaluation(const Model& model, const WrenchEvaluation& e, const std::s
   const bool none = NoEquilibrium(s);
   if (none) {
     // The small-motion check needs a displacement, and there is none without equilibrium.
-    std::cout << "  small motion not applicable: no equilibrium (the muscle torque drives a self-motion)\n";
+    std::cout << "  small motion not applicable: no equilibrium (the muscle torque drives a "
+                 "self-motion)\n";
   } else {
-    std::cout << "  small motion " << (s.small_motion_valid ? "valid" : "INVALID") << ": endpoint moves "
-              << util::FormatNumber(s.endpoint_translation, 3) << " m (limit "
-              << util::FormatNumber(s.endpoint_translation_limit, 3) << " m), largest joint rotation "
-              << util::FormatNumber(s.max_joint_rotation, 3) << " rad (limit "
-              << util::FormatNumber(s.max_joint_rotation_limit, 3) << " rad)\n";
+    std::cout << "  small motion " << (s.small_motion_valid ? "valid" : "INVALID")
+              << ": endpoint moves " << util::FormatNumber(s.endpoint_translation, 3)
+              << " m (limit " << util::FormatNumber(s.endpoint_translation_limit, 3)
+              << " m), largest joint rotation " << util::FormatNumber(s.max_joint_rotation, 3)
+              << " rad (limit " << util::FormatNumber(s.max_joint_rotation_limit, 3) << " rad)\n";
     if (!s.validity_message.empty()) std::cout << "  warning      " << s.validity_message << "\n";
   }
 
@@ -153,27 +168,31 @@ void PrintEvaluation(const Model& model, const WrenchEvaluation& e, const std::s
   if (!base.empty()) {
     std::cout << "  (classic J^-T / pinv(J^T) tau not shown: " << ClassicOmitted(base) << ")\n";
   } else {
-    std::cout << WrenchRow(e.classic.square_inverse ? "J^-T tau (Eq. 11)" : "pinv(J^T) tau (Eq. 15)",
-                           e.classic.wrench, w)
+    std::cout << WrenchRow(
+                     e.classic.square_inverse ? "J^-T tau (Eq. 11)" : "pinv(J^T) tau (Eq. 15)",
+                     e.classic.wrench, w)
               << "\n";
   }
   if (base.empty() && e.classic.residual > 1e-9 * std::max(1.0, e.tau.norm())) {
-    std::cout << "  (the classic answer leaves |J^T W - tau| = " << util::FormatNumber(e.classic.residual, 3)
+    std::cout << "  (the classic answer leaves |J^T W - tau| = "
+              << util::FormatNumber(e.classic.residual, 3)
               << " N·m: the restrained dofs cannot balance the muscle torque without compliance)\n";
   }
-  std::cout << "\nPer joint:\n" << "  joint        role       tau            dtheta         stiffness\n";
+  std::cout << "\nPer joint:\n"
+            << "  joint        role       tau            dtheta         stiffness\n";
   for (int i = 0; i < model.dof_count(); ++i) {
     char line[200];
     char dtheta[64];
     if (none) {
       std::snprintf(dtheta, sizeof(dtheta), "%-16s", "no equilibrium");
     } else {
-      std::snprintf(dtheta, sizeof(dtheta), "%11.4g %-4s", NoNegativeZero(s.dtheta[i]), Unit(model, i, "rad", "m").c_str());
+      std::snprintf(dtheta, sizeof(dtheta), "%11.4g %-4s", NoNegativeZero(s.dtheta[i]),
+                    Unit(model, i, "rad", "m").c_str());
     }
     std::snprintf(line, sizeof(line), "  %-12s %-8s %11.4g %-4s %s %10.4g %s\n",
-                  model.joint_names()[i].c_str(), RoleName(model.joint(i).role), NoNegativeZero(e.tau[i]),
-                  Unit(model, i, "N·m", "N").c_str(), dtheta, NoNegativeZero(e.s_p[i]),
-                  Unit(model, i, "N·m/rad", "N/m").c_str());
+                  model.joint_names()[i].c_str(), RoleName(model.joint(i).role),
+                  NoNegativeZero(e.tau[i]), Unit(model, i, "N·m", "N").c_str(), dtheta,
+                  NoNegativeZero(e.s_p[i]), Unit(model, i, "N·m/rad", "N/m").c_str());
     std::cout << line;
   }
 }
@@ -191,8 +210,8 @@ const bool registered = RegisterCommand({
       return [options, json]() {
         Model model = LoadModel(*options);
         Eigen::VectorXd q = LoadPosture(model, *options);
-        WrenchEvaluation e = EvaluateWrench(model, q, ChooseMuscle(model, *options), options->activation,
-                                            options->statics);
+        WrenchEvaluation e = EvaluateWrench(model, q, ChooseMuscle(model, *options),
+                                            options->activation, options->statics);
         if (*json) {
           std::cout << EvaluationJson(model, e, options->urdf).dump(2) << "\n";
         } else {

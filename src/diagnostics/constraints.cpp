@@ -46,8 +46,9 @@ std::string CommonPrefix(const std::vector<std::string>& names) {
 
 // Geometric reading of a joint motion: find the bone (the link after the last joint of a
 // joint centre) that turns fastest and say about which line it turns.
-std::string InterpretMotion(const Model& model, const Eigen::VectorXd& q, const Eigen::VectorXd& dtheta,
-                            const std::vector<JointCentre>& centres, double L) {
+std::string InterpretMotion(const Model& model, const Eigen::VectorXd& q,
+                            const Eigen::VectorXd& dtheta, const std::vector<JointCentre>& centres,
+                            double L) {
   KinematicsWorkspace ws(model);
   Matrix6Xd Jw = EndpointJacobianWorld(model, ws, q);
   Eigen::Vector3d p_E = EndpointPose(model, ws, q).translation();
@@ -73,9 +74,11 @@ std::string InterpretMotion(const Model& model, const Eigen::VectorXd& q, const 
         if ((p - point).cross(u).norm() <= kSamePointFraction * L * 1e3) on_axis.push_back(name);
       }
       double pitch = std::abs(u.dot(v)) / w.norm();
-      std::string screw = pitch > kSamePointFraction * L * 1e3 ? " with translation along it (a screw)" : "";
+      std::string screw =
+          pitch > kSamePointFraction * L * 1e3 ? " with translation along it (a screw)" : "";
       if (on_axis.size() >= 2) {
-        best_text = bone + " axial rotation (about the " + on_axis[0] + "-" + on_axis[1] + " line)" + screw;
+        best_text =
+            bone + " axial rotation (about the " + on_axis[0] + "-" + on_axis[1] + " line)" + screw;
       } else if (on_axis.size() == 1) {
         best_text = bone + " rotation about an axis through the " + on_axis[0] + screw;
       } else {
@@ -132,7 +135,8 @@ ConstraintAnalysis AnalyzeConstraints(const Model& model, const Eigen::VectorXd&
                                       const ConstraintOptions& options) {
   ValidatePosture(model, q);
   if (!std::isfinite(options.rank_tolerance) || options.rank_tolerance < 0) {
-    throw Error("rank tolerance " + util::FormatNumber(options.rank_tolerance) + " must be finite and >= 0");
+    throw Error("rank tolerance " + util::FormatNumber(options.rank_tolerance) +
+                " must be finite and >= 0");
   }
   ConstraintAnalysis a;
   a.length_scale = diagnostics::LengthScale(model, options.length_scale);
@@ -166,19 +170,22 @@ ConstraintAnalysis AnalyzeConstraints(const Model& model, const Eigen::VectorXd&
                              " restrained dofs, rank " + std::to_string(a.rank);
   switch (a.constraint_class) {
     case ConstraintClass::kMatched:
-      a.explanation = counts + ": the restrained dofs match the limb, so W = J_r^-T tau does not depend on "
+      a.explanation = counts +
+                      ": the restrained dofs match the limb, so W = J_r^-T tau does not depend on "
                       "transducer or base compliance (joint springs aside)";
       break;
     case ConstraintClass::kOverConstrained:
-      a.explanation = counts + ": " + std::to_string(n - a.rank) +
-                      " internal wrench direction(s) the muscle does not determine; the compliances do";
+      a.explanation =
+          counts + ": " + std::to_string(n - a.rank) +
+          " internal wrench direction(s) the muscle does not determine; the compliances do";
       break;
     case ConstraintClass::kUnderConstrained:
       a.explanation = counts + ": " + std::to_string(m - a.rank) +
                       " self-motion(s) the transducer does not hold; only joint stiffness can";
       break;
     case ConstraintClass::kDeficient:
-      a.explanation = counts + ": both self-motions and internal wrenches (a singular posture or a "
+      a.explanation = counts +
+                      ": both self-motions and internal wrenches (a singular posture or a "
                       "redundant chain)";
       break;
   }
@@ -206,13 +213,13 @@ ConstraintAnalysis AnalyzeConstraints(const Model& model, const Eigen::VectorXd&
                    : fs     ? ConstraintClass::kUnderConstrained
                             : ConstraintClass::kMatched;
     if (a.free_joint_count < m) {
-      a.explanation += "; on the " + std::to_string(a.free_joint_count) + " joints without a spring (rank " +
-                       std::to_string(a.free_rank) + ") it is " + ConstraintClassName(a.free_class) +
-                       (a.free_class == ConstraintClass::kMatched
-                            ? ", so W does not depend on the compliances"
-                            : a.free_class == ConstraintClass::kUnderConstrained
-                                  ? ", so a self-motion no stiffness holds exists"
-                                  : ", so W depends on the compliances");
+      a.explanation +=
+          "; on the " + std::to_string(a.free_joint_count) + " joints without a spring (rank " +
+          std::to_string(a.free_rank) + ") it is " + ConstraintClassName(a.free_class) +
+          (a.free_class == ConstraintClass::kMatched ? ", so W does not depend on the compliances"
+           : a.free_class == ConstraintClass::kUnderConstrained
+               ? ", so a self-motion no stiffness holds exists"
+               : ", so W depends on the compliances");
     }
   }
 
@@ -225,7 +232,8 @@ ConstraintAnalysis AnalyzeConstraints(const Model& model, const Eigen::VectorXd&
     }
     d /= d.cwiseAbs().maxCoeff();
     CanonicalSign(d);
-    a.self_motion.push_back({d, DescribeJointMotion(model, d), InterpretMotion(model, q, d, centres, L)});
+    a.self_motion.push_back(
+        {d, DescribeJointMotion(model, d), InterpretMotion(model, q, d, centres, L)});
   }
   const Eigen::MatrixXd& U = svd.U;
   for (int c = a.rank; c < n; ++c) {
@@ -238,9 +246,11 @@ ConstraintAnalysis AnalyzeConstraints(const Model& model, const Eigen::VectorXd&
       if (std::abs(u[k]) > options.component_cutoff) iw.components.push_back(row);
     }
     double largest_force = iw.direction.head<3>().cwiseAbs().maxCoeff();
-    iw.direction /= largest_force > 0 ? largest_force : iw.direction.tail<3>().cwiseAbs().maxCoeff();
+    iw.direction /=
+        largest_force > 0 ? largest_force : iw.direction.tail<3>().cwiseAbs().maxCoeff();
     for (int k = 0; k < 6; ++k) {
-      if (std::find(iw.components.begin(), iw.components.end(), k) == iw.components.end()) iw.direction[k] = 0.0;
+      if (std::find(iw.components.begin(), iw.components.end(), k) == iw.components.end())
+        iw.direction[k] = 0.0;
     }
     iw.description = diagnostics::DescribeWrench(iw.direction, 0.0);
     a.internal_wrench.push_back(iw);
@@ -280,7 +290,8 @@ Diagnosis DiagnoseLimb(const Model& model, const Eigen::VectorXd& q, const std::
                                               options.statics.rank_tolerance);
   if (options.large_deflection) {
     d.large_deflection_run = true;
-    d.large_deflection = SolveLargeDeflection(model, q, muscle, options.activation, options.large_deflection_options);
+    d.large_deflection = SolveLargeDeflection(model, q, muscle, options.activation,
+                                              options.large_deflection_options);
   }
   return d;
 }

@@ -100,16 +100,18 @@ const char* LargeDeflectionStatusName(LargeDeflectionStatus s) {
   return "?";
 }
 
-Eigen::VectorXd LargeDeflectionGradient(const Model& model, const Eigen::VectorXd& q0, const Eigen::VectorXd& theta,
-                                        int muscle_index, double activation, double* potential, Vector6d* wrench) {
+Eigen::VectorXd LargeDeflectionGradient(const Model& model, const Eigen::VectorXd& q0,
+                                        const Eigen::VectorXd& theta, int muscle_index,
+                                        double activation, double* potential, Vector6d* wrench) {
   ValidatePosture(model, q0);
   ValidatePosture(model, theta);
   Problem p(model, q0, muscle_index, activation);
   return p.Gradient(theta, potential, wrench);
 }
 
-LargeDeflectionResult SolveLargeDeflection(const Model& model, const Eigen::VectorXd& q, const std::string& muscle,
-                                           double activation, const LargeDeflectionOptions& options) {
+LargeDeflectionResult SolveLargeDeflection(const Model& model, const Eigen::VectorXd& q,
+                                           const std::string& muscle, double activation,
+                                           const LargeDeflectionOptions& options) {
   const int muscle_index = model.MuscleIndex(muscle);
   ValidatePosture(model, q);
   LargeDeflectionResult r;
@@ -206,10 +208,12 @@ LargeDeflectionResult SolveLargeDeflection(const Model& model, const Eigen::Vect
         alpha *= 0.5;
       }
       if (!accepted) {
-        r.message = broken.empty()
-                        ? "line search failed: no decrease of the potential along the Newton step"
-                        : "no equilibrium near the posture: the limb is pulled until the geometry breaks "
-                          "down (" + broken + ")";
+        r.message =
+            broken.empty()
+                ? "line search failed: no decrease of the potential along the Newton step"
+                : "no equilibrium near the posture: the limb is pulled until the geometry breaks "
+                  "down (" +
+                      broken + ")";
         failed = !broken.empty();
         break;
       }
@@ -239,15 +243,17 @@ LargeDeflectionResult SolveLargeDeflection(const Model& model, const Eigen::Vect
     r.wrench_nonlinear = W;
     if (!converged) {
       r.status = failed ? LargeDeflectionStatus::kFailed : LargeDeflectionStatus::kNotConverged;
-      if (r.message.empty()) r.message = "no convergence in " + std::to_string(options.max_iterations) + " iterations";
+      if (r.message.empty())
+        r.message = "no convergence in " + std::to_string(options.max_iterations) + " iterations";
     } else {
       Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(H);
       const bool stable = r.iterations == 0 || eig.eigenvalues()[0] > 0;
       r.status = stable ? LargeDeflectionStatus::kConverged : LargeDeflectionStatus::kUnstable;
-      r.message = std::string(stable ? "stable equilibrium" : "stationary point with a non-positive Hessian "
-                                                              "eigenvalue (not a stable equilibrium)") +
-                  " after " + std::to_string(r.iterations) + " Newton iterations, |grad U| = " +
-                  util::FormatNumber(r.gradient_norm, 3);
+      r.message = std::string(stable ? "stable equilibrium"
+                                     : "stationary point with a non-positive Hessian "
+                                       "eigenvalue (not a stable equilibrium)") +
+                  " after " + std::to_string(r.iterations) +
+                  " Newton iterations, |grad U| = " + util::FormatNumber(r.gradient_norm, 3);
     }
   } catch (const Error& e) {
     r.status = LargeDeflectionStatus::kFailed;
@@ -258,9 +264,11 @@ LargeDeflectionResult SolveLargeDeflection(const Model& model, const Eigen::Vect
   r.dtheta_difference = (r.dtheta_nonlinear - r.dtheta_linear).cwiseAbs().maxCoeff();
   const double w_norm = diagnostics::ScaledWrenchNorm(r.wrench_linear, Ls);
   r.wrench_relative_difference =
-      w_norm > 0 ? diagnostics::ScaledWrenchNorm(r.wrench_nonlinear - r.wrench_linear, Ls) / w_norm : 0.0;
+      w_norm > 0 ? diagnostics::ScaledWrenchNorm(r.wrench_nonlinear - r.wrench_linear, Ls) / w_norm
+                 : 0.0;
   if (!lin.statics.ok()) {
-    r.message += "; the linear model has no unique answer (" + std::string(StatusName(lin.statics.status)) + ")";
+    r.message += "; the linear model has no unique answer (" +
+                 std::string(StatusName(lin.statics.status)) + ")";
   }
   return r;
 }

@@ -24,13 +24,15 @@ std::vector<std::string> SplitKeepEmpty(const std::string& line) {
 }
 
 std::string Lower(std::string s) {
-  std::transform(s.begin(), s.end(), s.begin(), [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+  std::transform(s.begin(), s.end(), s.begin(),
+                 [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
   return s;
 }
 
 }  // namespace
 
-std::vector<NamedPosture> ParsePostureTable(const Model& model, const std::string& text, const std::string& source,
+std::vector<NamedPosture> ParsePostureTable(const Model& model, const std::string& text,
+                                            const std::string& source,
                                             const Eigen::VectorXd& base) {
   ValidatePosture(model, base);
   std::istringstream in(text);
@@ -57,10 +59,12 @@ std::vector<NamedPosture> ParsePostureTable(const Model& model, const std::strin
         try {
           index = model.JointIndex(name);
         } catch (const Error& e) {
-          throw Error(where + ": column " + std::to_string(c + 1) + " header '" + name + "': " + e.what());
+          throw Error(where + ": column " + std::to_string(c + 1) + " header '" + name +
+                      "': " + e.what());
         }
         if (std::find(columns.begin(), columns.end(), index) != columns.end()) {
-          throw Error(where + ": column " + std::to_string(c + 1) + " repeats joint '" + name + "'");
+          throw Error(where + ": column " + std::to_string(c + 1) + " repeats joint '" + name +
+                      "'");
         }
         columns.push_back(index);
       }
@@ -68,8 +72,8 @@ std::vector<NamedPosture> ParsePostureTable(const Model& model, const std::strin
       continue;
     }
     if (cells.size() != columns.size()) {
-      throw Error(where + ": " + std::to_string(cells.size()) + " values for " + std::to_string(columns.size()) +
-                  " header columns");
+      throw Error(where + ": " + std::to_string(cells.size()) + " values for " +
+                  std::to_string(columns.size()) + " header columns");
     }
     NamedPosture p;
     p.q = base;
@@ -94,7 +98,8 @@ std::vector<NamedPosture> ParsePostureTable(const Model& model, const std::strin
   return out;
 }
 
-std::vector<NamedPosture> ReadPostureTable(const Model& model, const std::string& path, const Eigen::VectorXd& base) {
+std::vector<NamedPosture> ReadPostureTable(const Model& model, const std::string& path,
+                                           const Eigen::VectorXd& base) {
   std::ifstream in(path, std::ios::binary);
   if (!in) throw Error("cannot open posture table '" + path + "'");
   std::ostringstream text;

@@ -74,8 +74,8 @@ struct Systems {
   WrenchEvaluation evaluation;
 };
 
-Systems BuildSystems(const Model& model, const Eigen::VectorXd& q, const std::string& muscle, double activation,
-                     const StaticsOptions& statics) {
+Systems BuildSystems(const Model& model, const Eigen::VectorXd& q, const std::string& muscle,
+                     double activation, const StaticsOptions& statics) {
   Systems out;
   out.evaluation = EvaluateWrench(model, q, muscle, activation, statics);
   out.R_W_T = out.evaluation.R_W_T;
@@ -87,7 +87,8 @@ Systems BuildSystems(const Model& model, const Eigen::VectorXd& q, const std::st
     out.rigid = out.model;
     Model base_model(WithBaseStiffness(model.description(), 1.0));
     Eigen::VectorXd qb = Eigen::VectorXd::Zero(base_model.dof_count());
-    for (int i = 0; i < model.dof_count(); ++i) qb[base_model.JointIndex(model.joint_names()[i])] = q[i];
+    for (int i = 0; i < model.dof_count(); ++i)
+      qb[base_model.JointIndex(model.joint_names()[i])] = q[i];
     out.base = MakeSystem(EvaluateWrench(base_model, qb, muscle, activation, statics), base_model);
   }
   return out;
@@ -123,7 +124,7 @@ std::vector<bool> Revolute(const System& s) {
 struct Margin {
   int rank = 0;
   int columns = 0;
-  double margin = 0.0;  // sigma_min / sigma_max, 0 when columns > rows
+  double margin = 0.0;             // sigma_min / sigma_max, 0 when columns > rows
   Eigen::VectorXd null_direction;  // a unit null vector (columns), when rank < columns
 };
 
@@ -137,7 +138,8 @@ std::vector<int> FreeColumns(const System& s) {
   return free;
 }
 
-Margin ComputeMargin(const System& s, const std::vector<int>& rows, double L, double rank_tolerance) {
+Margin ComputeMargin(const System& s, const std::vector<int>& rows, double L,
+                     double rank_tolerance) {
   Margin out;
   const std::vector<int> free = FreeColumns(s);
   Matrix6Xd Jf(6, static_cast<Eigen::Index>(free.size()));
@@ -155,7 +157,9 @@ Margin ComputeMargin(const System& s, const std::vector<int>& rows, double L, do
     if (smax > 0 && sv[i] > rank_tolerance * smax) ++out.rank;
   }
   // No columns: nothing can move (margin 1 by convention); more columns than rows: margin 0.
-  out.margin = Js.cols() == 0 ? 1.0 : (Js.cols() <= Js.rows() && smax > 0) ? sv[Js.cols() - 1] / smax : 0.0;
+  out.margin = Js.cols() == 0                         ? 1.0
+               : (Js.cols() <= Js.rows() && smax > 0) ? sv[Js.cols() - 1] / smax
+                                                      : 0.0;
   if (out.rank < out.columns) {
     Eigen::VectorXd v = svd.V.col(out.columns - 1);
     out.null_direction = Eigen::VectorXd::Zero(s.J.cols());
@@ -166,7 +170,9 @@ Margin ComputeMargin(const System& s, const std::vector<int>& rows, double L, do
   return out;
 }
 
-Eigen::Vector3d ToTransducer(const Eigen::Matrix3d& R_W_T, const Eigen::Vector3d& a) { return R_W_T.transpose() * a; }
+Eigen::Vector3d ToTransducer(const Eigen::Matrix3d& R_W_T, const Eigen::Vector3d& a) {
+  return R_W_T.transpose() * a;
+}
 
 const char* KindName(ReleaseKind k) {
   switch (k) {
@@ -181,7 +187,8 @@ ReleaseAssessment Assess(const Model& model, const Systems& sys, const ReleaseCa
                          const ReleaseOptions& options, double L) {
   ReleaseAssessment a;
   a.candidate = cand;
-  a.axis_transducer = cand.kind == ReleaseKind::kNone ? Eigen::Vector3d::Zero() : ToTransducer(sys.R_W_T, cand.axis_world);
+  a.axis_transducer = cand.kind == ReleaseKind::kNone ? Eigen::Vector3d::Zero()
+                                                      : ToTransducer(sys.R_W_T, cand.axis_world);
   const std::vector<int> rows = diagnostics::RestrainedRows(model);
   const int n = static_cast<int>(rows.size());
   System expanded = Expand(sys.model, cand, a.axis_transducer);
@@ -210,8 +217,8 @@ ReleaseAssessment Assess(const Model& model, const Systems& sys, const ReleaseCa
   System rigid_expanded = Expand(sys.rigid, cand, a.axis_transducer);
   for (double ratio : range.rotational_ratios) {
     Vector6d grid_t;
-    grid_t << range.translational, range.translational, range.translational, ratio * range.translational,
-        ratio * range.translational, ratio * range.translational;
+    grid_t << range.translational, range.translational, range.translational,
+        ratio * range.translational, ratio * range.translational, ratio * range.translational;
     for (int i = 0; i < 6; ++i) {
       if (model.transducer().released[i]) grid_t[i] = 0.0;
     }
@@ -247,16 +254,20 @@ ReleaseAssessment Assess(const Model& model, const Systems& sys, const ReleaseCa
   // A unit axis whose restrained components are all rounding moves only released dofs.
   constexpr double kAlreadyFree = 1e-12;
   if (cand.kind != ReleaseKind::kNone && restrained_part <= kAlreadyFree) {
-    a.verdict = "already free: the model's released dofs cover this motion, so releasing it adds nothing (and "
-                "the extra joint would be a self-motion)";
+    a.verdict =
+        "already free: the model's released dofs cover this motion, so releasing it adds nothing "
+        "(and "
+        "the extra joint would be a self-motion)";
   } else if (a.self_motion) {
     std::string motion;
     if (mg.null_direction.size() == expanded.J.cols()) {
       Eigen::VectorXd joints = mg.null_direction.head(model.dof_count());
-      if (joints.cwiseAbs().maxCoeff() > 0) motion = "; self-motion: " + DescribeJointMotion(model, joints);
+      if (joints.cwiseAbs().maxCoeff() > 0)
+        motion = "; self-motion: " + DescribeJointMotion(model, joints);
     }
-    a.verdict = "forbidden: the limb can move without loading the transducer (expanded Jacobian rank " +
-                std::to_string(a.rank) + " < " + std::to_string(a.columns) + " columns)" + motion;
+    a.verdict =
+        "forbidden: the limb can move without loading the transducer (expanded Jacobian rank " +
+        std::to_string(a.rank) + " < " + std::to_string(a.columns) + " columns)" + motion;
   } else if (a.near_self_motion) {
     a.verdict = "near self-motion: margin " + N3(a.margin) + " <= " + N3(options.margin_warning) +
                 "; the wrench amplifies small stiffness and geometry errors";
@@ -265,13 +276,14 @@ ReleaseAssessment Assess(const Model& model, const Systems& sys, const ReleaseCa
                 " internal wrench direction(s)): W moves by up to " + N3(100 * a.spread) +
                 "% over the stiffness range";
   } else {
-    a.verdict = "matched: W = J_e^-T [tau; 0] whatever the compliances (spread " + N3(100 * a.spread) +
-                "% over the range), margin " + N3(a.margin);
+    a.verdict = "matched: W = J_e^-T [tau; 0] whatever the compliances (spread " +
+                N3(100 * a.spread) + "% over the range), margin " + N3(a.margin);
   }
   return a;
 }
 
-ForbiddenAxes Forbidden(const Eigen::MatrixXd& Js, const Eigen::MatrixXd& B, double tol, const char* what) {
+ForbiddenAxes Forbidden(const Eigen::MatrixXd& Js, const Eigen::MatrixXd& B, double tol,
+                        const char* what) {
   ForbiddenAxes f;
   const diagnostics::FullSvd svd = diagnostics::ComputeFullSvd(Js);
   const Eigen::VectorXd& sv = svd.singular_values;
@@ -287,7 +299,8 @@ ForbiddenAxes Forbidden(const Eigen::MatrixXd& Js, const Eigen::MatrixXd& B, dou
     return f;
   }
   const Eigen::MatrixXd U = svd.U.leftCols(rank);
-  Eigen::MatrixXd M = B - U * (U.transpose() * B);  // the part of each release column outside range(J_s)
+  Eigen::MatrixXd M =
+      B - U * (U.transpose() * B);  // the part of each release column outside range(J_s)
   const diagnostics::FullSvd svd_m = diagnostics::ComputeFullSvd(M);
   const Eigen::VectorXd& s = svd_m.singular_values;
   std::vector<int> null;
@@ -298,7 +311,8 @@ ForbiddenAxes Forbidden(const Eigen::MatrixXd& Js, const Eigen::MatrixXd& B, dou
   f.basis.resize(3, f.dimension);
   for (int k = 0; k < f.dimension; ++k) f.basis.col(k) = svd_m.V.col(null[static_cast<size_t>(k)]);
   if (f.dimension == 0) {
-    f.description = std::string("none: every ") + what + " axis keeps the expanded Jacobian full rank";
+    f.description =
+        std::string("none: every ") + what + " axis keeps the expanded Jacobian full rank";
   } else if (f.dimension == 1) {
     Eigen::Vector3d a = f.basis.col(0);
     diagnostics::CanonicalSign(a);
@@ -308,7 +322,8 @@ ForbiddenAxes Forbidden(const Eigen::MatrixXd& Js, const Eigen::MatrixXd& B, dou
     Eigen::Vector3d normal = svd_m.V.col(0);
     diagnostics::CanonicalSign(normal);
     f.plane_normal = normal;
-    f.description = std::string("every ") + what + " axis in the plane with normal " + AxisText(normal) + " (world)";
+    f.description = std::string("every ") + what + " axis in the plane with normal " +
+                    AxisText(normal) + " (world)";
   } else {
     f.description = std::string("every ") + what + " axis";
   }
@@ -323,50 +338,59 @@ std::string StiffnessRange::Describe() const {
   for (double b : base_stiffness) bases.push_back(b > 0 ? util::FormatNumber(b, 3) : "rigid");
   return "transducer kx = ky = kz = " + util::FormatNumber(translational, 3) +
          " N/m, krot = ratio x ktrans with ratio in {" + util::Join(ratios, ", ") +
-         "} m²/rad; base stiffness in {" + util::Join(bases, ", ") + "} N/m; joint springs as in the model";
+         "} m²/rad; base stiffness in {" + util::Join(bases, ", ") +
+         "} N/m; joint springs as in the model";
 }
 
-ReleaseCandidate MakeReleaseCandidate(const std::string& name, ReleaseKind kind, const Eigen::Vector3d& axis) {
+ReleaseCandidate MakeReleaseCandidate(const std::string& name, ReleaseKind kind,
+                                      const Eigen::Vector3d& axis) {
   if (!axis.allFinite()) {
     throw Error("release axis '" + name + "' " + AxisText(axis) + " has a non-finite component");
   }
   // Below this length the axis has no reliable direction (axes are given in any unit length).
   constexpr double kMinAxisLength = 1e-12;
   if (axis.norm() <= kMinAxisLength) {
-    throw Error("release axis '" + name + "' " + AxisText(axis) + " has zero length; give a direction");
+    throw Error("release axis '" + name + "' " + AxisText(axis) +
+                " has zero length; give a direction");
   }
-  if (kind == ReleaseKind::kNone) throw Error("release axis '" + name + "' needs a kind (rotation or translation)");
+  if (kind == ReleaseKind::kNone)
+    throw Error("release axis '" + name + "' needs a kind (rotation or translation)");
   return {name, kind, axis.normalized(), "user"};
 }
 
-std::vector<ReleaseCandidate> DefaultReleaseCandidates(const Model& model, const Eigen::VectorXd& q) {
+std::vector<ReleaseCandidate> DefaultReleaseCandidates(const Model& model,
+                                                       const Eigen::VectorXd& q) {
   ValidatePosture(model, q);
   KinematicsWorkspace ws(model);
   const Eigen::Matrix3d R = TransducerRotation(model, ws, q);
   std::vector<ReleaseCandidate> out;
   const auto& released = model.transducer().released;
   for (int i = 3; i < 6; ++i) {
-    if (!released[i]) out.push_back({DofName(i), ReleaseKind::kRotation, R.col(i - 3), "transducer axis"});
+    if (!released[i])
+      out.push_back({DofName(i), ReleaseKind::kRotation, R.col(i - 3), "transducer axis"});
   }
   for (int i = 0; i < 3; ++i) {
-    if (!released[i]) out.push_back({DofName(i), ReleaseKind::kTranslation, R.col(i), "transducer axis"});
+    if (!released[i])
+      out.push_back({DofName(i), ReleaseKind::kTranslation, R.col(i), "transducer axis"});
   }
   const Eigen::Vector3d p_E = EndpointPose(model, ws, q).translation();
   for (const JointCentre& c : FindJointCentres(model, q)) {
-    out.push_back({"endpoint-" + c.name + " line", ReleaseKind::kRotation, (c.position - p_E).normalized(),
-                   "joint centre"});
+    out.push_back({"endpoint-" + c.name + " line", ReleaseKind::kRotation,
+                   (c.position - p_E).normalized(), "joint centre"});
   }
   return out;
 }
 
-ReleaseAssessment AssessRelease(const Model& model, const Eigen::VectorXd& q, const std::string& muscle,
-                                const ReleaseCandidate& candidate, const ReleaseOptions& options) {
+ReleaseAssessment AssessRelease(const Model& model, const Eigen::VectorXd& q,
+                                const std::string& muscle, const ReleaseCandidate& candidate,
+                                const ReleaseOptions& options) {
   const double L = diagnostics::LengthScale(model, options.length_scale);
   Systems sys = BuildSystems(model, q, muscle, options.activation, options.statics);
   return Assess(model, sys, candidate, options, L);
 }
 
-std::pair<ForbiddenAxes, ForbiddenAxes> FindForbiddenAxes(const Model& model, const Eigen::VectorXd& q,
+std::pair<ForbiddenAxes, ForbiddenAxes> FindForbiddenAxes(const Model& model,
+                                                          const Eigen::VectorXd& q,
                                                           const ReleaseOptions& options) {
   ValidatePosture(model, q);
   const double L = diagnostics::LengthScale(model, options.length_scale);
@@ -399,8 +423,10 @@ std::pair<ForbiddenAxes, ForbiddenAxes> FindForbiddenAxes(const Model& model, co
           Forbidden(Js, B_trans, options.rank_tolerance, "translation")};
 }
 
-ReleaseComparison CompareReleases(const Model& model, const Eigen::VectorXd& q, const std::string& muscle,
-                                  std::vector<ReleaseCandidate> candidates, const ReleaseOptions& options) {
+ReleaseComparison CompareReleases(const Model& model, const Eigen::VectorXd& q,
+                                  const std::string& muscle,
+                                  std::vector<ReleaseCandidate> candidates,
+                                  const ReleaseOptions& options) {
   ValidatePosture(model, q);
   if (candidates.empty()) candidates = DefaultReleaseCandidates(model, q);
   ReleaseComparison out;
@@ -408,9 +434,11 @@ ReleaseComparison CompareReleases(const Model& model, const Eigen::VectorXd& q, 
   out.length_scale = diagnostics::LengthScale(model, options.length_scale);
   out.range_description = options.range.Describe();
   Systems sys = BuildSystems(model, q, muscle, options.activation, options.statics);
-  out.baseline = Assess(model, sys, {"none", ReleaseKind::kNone, Eigen::Vector3d::Zero(), "baseline"}, options,
-                        out.length_scale);
-  for (const ReleaseCandidate& c : candidates) out.candidates.push_back(Assess(model, sys, c, options, out.length_scale));
+  out.baseline =
+      Assess(model, sys, {"none", ReleaseKind::kNone, Eigen::Vector3d::Zero(), "baseline"}, options,
+             out.length_scale);
+  for (const ReleaseCandidate& c : candidates)
+    out.candidates.push_back(Assess(model, sys, c, options, out.length_scale));
   auto forbidden = FindForbiddenAxes(model, q, options);
   out.forbidden_rotations = forbidden.first;
   out.forbidden_translations = forbidden.second;
@@ -424,32 +452,35 @@ ReleaseComparison CompareReleases(const Model& model, const Eigen::VectorXd& q, 
   auto key = [&](int i) {
     const ReleaseAssessment& a = out.candidates[static_cast<size_t>(i)];
     const bool independent = a.spread <= options.spread_tolerance;
-    return std::make_tuple(a.near_self_motion, a.internal_wrench, !independent, independent ? 0.0 : a.spread,
-                           -a.margin);
+    return std::make_tuple(a.near_self_motion, a.internal_wrench, !independent,
+                           independent ? 0.0 : a.spread, -a.margin);
   };
   std::stable_sort(order.begin(), order.end(), [&](int x, int y) { return key(x) < key(y); });
-  for (size_t r = 0; r < order.size(); ++r) out.candidates[static_cast<size_t>(order[r])].rank_order = static_cast<int>(r + 1);
+  for (size_t r = 0; r < order.size(); ++r)
+    out.candidates[static_cast<size_t>(order[r])].rank_order = static_cast<int>(r + 1);
 
   if (order.empty() || out.candidates[static_cast<size_t>(order[0])].near_self_motion) {
     out.recommended = -1;
-    out.recommendation = "no candidate is safe: every one allows (or nearly allows) a self-motion; " +
-                         std::string(out.baseline.internal_wrench
-                                         ? "keep all dofs restrained and model the compliances"
-                                         : "keep the current restraint");
+    out.recommendation =
+        "no candidate is safe: every one allows (or nearly allows) a self-motion; " +
+        std::string(out.baseline.internal_wrench
+                        ? "keep all dofs restrained and model the compliances"
+                        : "keep the current restraint");
   } else {
     out.recommended = order[0];
     const ReleaseAssessment& best = out.candidates[static_cast<size_t>(order[0])];
     out.recommendation = "release the " + std::string(KindName(best.candidate.kind)) + " " +
-                         (best.candidate.kind == ReleaseKind::kRotation ? "about " : "along ") + best.candidate.name +
-                         " (axis " + AxisText(best.candidate.axis_world) + " world): " + best.verdict + ".";
+                         (best.candidate.kind == ReleaseKind::kRotation ? "about " : "along ") +
+                         best.candidate.name + " (axis " + AxisText(best.candidate.axis_world) +
+                         " world): " + best.verdict + ".";
     if (out.baseline.internal_wrench) {
-      out.recommendation += " Without a release the wrench moves by up to " + N3(100 * out.baseline.spread) +
-                            "% over the same stiffness range.";
+      out.recommendation += " Without a release the wrench moves by up to " +
+                            N3(100 * out.baseline.spread) + "% over the same stiffness range.";
     }
     if (order.size() > 1) {
       const ReleaseAssessment& next = out.candidates[static_cast<size_t>(order[1])];
-      out.recommendation += " Next best: " + next.candidate.name + " (" + KindName(next.candidate.kind) +
-                            ", margin " + N3(next.margin) + ").";
+      out.recommendation += " Next best: " + next.candidate.name + " (" +
+                            KindName(next.candidate.kind) + ", margin " + N3(next.margin) + ").";
     }
     if (best.candidate.kind != ReleaseKind::kRotation) {
       // A bearing (a released rotation) is the usual hardware: name the best one too.
@@ -466,8 +497,8 @@ ReleaseComparison CompareReleases(const Model& model, const Eigen::VectorXd& q, 
   return out;
 }
 
-AxisSweep SweepReleaseAxes(const Model& model, const Eigen::VectorXd& q, int count, std::uint64_t seed,
-                           const ReleaseOptions& options) {
+AxisSweep SweepReleaseAxes(const Model& model, const Eigen::VectorXd& q, int count,
+                           std::uint64_t seed, const ReleaseOptions& options) {
   if (count < 1) throw Error("--sweep needs at least 1 sample; got " + std::to_string(count));
   ValidatePosture(model, q);
   const double L = diagnostics::LengthScale(model, options.length_scale);

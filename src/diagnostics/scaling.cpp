@@ -23,18 +23,20 @@ double LengthScale(const Model& model, double length_scale) {
     throw Error("length scale " + util::FormatNumber(length_scale) + " m is not finite");
   }
   double L = length_scale > 0 ? length_scale : model.chain_length();
-  if (!(L > 0)) throw Error("model '" + model.name() + "' has zero chain length; give a length scale");
+  if (!(L > 0))
+    throw Error("model '" + model.name() + "' has zero chain length; give a length scale");
   return L;
 }
 
-Eigen::MatrixXd ScaledRows(const Matrix6Xd& J, const std::vector<int>& rows, const std::vector<bool>& prismatic,
-                           double L) {
+Eigen::MatrixXd ScaledRows(const Matrix6Xd& J, const std::vector<int>& rows,
+                           const std::vector<bool>& prismatic, double L) {
   Eigen::MatrixXd out(static_cast<Eigen::Index>(rows.size()), J.cols());
   for (size_t k = 0; k < rows.size(); ++k) {
     out.row(static_cast<Eigen::Index>(k)) = J.row(rows[k]) * (rows[k] < 3 ? 1.0 / L : 1.0);
   }
   for (Eigen::Index c = 0; c < J.cols(); ++c) {
-    if (static_cast<size_t>(c) < prismatic.size() && prismatic[static_cast<size_t>(c)]) out.col(c) *= L;
+    if (static_cast<size_t>(c) < prismatic.size() && prismatic[static_cast<size_t>(c)])
+      out.col(c) *= L;
   }
   return out;
 }
@@ -56,7 +58,8 @@ FullSvd ComputeFullSvd(const Eigen::MatrixXd& A) {
 
 std::vector<bool> PrismaticColumns(const Model& model) {
   std::vector<bool> p(static_cast<size_t>(model.dof_count()));
-  for (int i = 0; i < model.dof_count(); ++i) p[static_cast<size_t>(i)] = model.joint(i).type == JointType::kPrismatic;
+  for (int i = 0; i < model.dof_count(); ++i)
+    p[static_cast<size_t>(i)] = model.joint(i).type == JointType::kPrismatic;
   return p;
 }
 

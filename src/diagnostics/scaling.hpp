@@ -21,8 +21,8 @@ double LengthScale(const Model& model, double length_scale);
 
 /// J_s on the given rows: (rows.size() x J.cols()); `prismatic` flags columns (may be longer
 /// than model.dof_count() for expanded Jacobians).
-Eigen::MatrixXd ScaledRows(const Matrix6Xd& J, const std::vector<int>& rows, const std::vector<bool>& prismatic,
-                           double L);
+Eigen::MatrixXd ScaledRows(const Matrix6Xd& J, const std::vector<int>& rows,
+                           const std::vector<bool>& prismatic, double L);
 
 /// Full SVD that also accepts matrices with no rows or no columns (Eigen's JacobiSVD does not):
 /// then the singular values are empty and U, V are identities of the right sizes.

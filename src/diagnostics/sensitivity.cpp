@@ -13,11 +13,12 @@
 
 namespace isowrench {
 
-SensitivityResult ComputeStiffnessSensitivity(const Model& model, const WrenchEvaluation& e, double length_scale,
-                                              double rank_tolerance) {
+SensitivityResult ComputeStiffnessSensitivity(const Model& model, const WrenchEvaluation& e,
+                                              double length_scale, double rank_tolerance) {
   SensitivityResult out;
   if (!e.statics.ok()) {
-    out.message = std::string("no unique wrench (") + StatusName(e.statics.status) + "): " + e.statics.message;
+    out.message = std::string("no unique wrench (") + StatusName(e.statics.status) +
+                  "): " + e.statics.message;
     return out;
   }
   const Matrix6Xd& J = e.jacobian;
@@ -47,7 +48,8 @@ SensitivityResult ComputeStiffnessSensitivity(const Model& model, const WrenchEv
   const Vector6d W = e.s_t.cwiseProduct(Jd);
   const double w_norm = diagnostics::ScaledWrenchNorm(W, L);
 
-  auto add = [&](std::string parameter, std::string kind, double k, std::string unit, const Vector6d& dW) {
+  auto add = [&](std::string parameter, std::string kind, double k, std::string unit,
+                 const Vector6d& dW) {
     StiffnessSensitivity s;
     s.parameter = std::move(parameter);
     s.kind = std::move(kind);
@@ -83,17 +85,21 @@ SensitivityResult ComputeStiffnessSensitivity(const Model& model, const WrenchEv
       any_base = true;
       base_k = std::max(base_k, k);
     }
-    add(spec.name, base ? "base" : "joint", k, spec.type == JointType::kPrismatic ? "N/m" : "N·m/rad", dW);
+    add(spec.name, base ? "base" : "joint", k,
+        spec.type == JointType::kPrismatic ? "N/m" : "N·m/rad", dW);
   }
   if (any_base) {
     Vector6d dW = e.s_t.cwiseProduct(J * (-K_pinv(base_sum)));
     add("base (all base joints scaled together)", "base", base_k, "N/m", dW);
   }
   out.ok = true;
-  out.message = out.entries.empty() ? "no stiffness to vary" : "analytic dW/dlog k, K^+ on eigenvalues > " +
-                                                                   util::FormatNumber(threshold, 3);
+  out.message = out.entries.empty() ? "no stiffness to vary"
+                                    : "analytic dW/dlog k, K^+ on eigenvalues > " +
+                                          util::FormatNumber(threshold, 3);
   if (!any_base) {
-    out.message += "; the model has no base dofs (a rigid base): give --base-stiffness to see the base's effect";
+    out.message +=
+        "; the model has no base dofs (a rigid base): give --base-stiffness to see the base's "
+        "effect";
   }
   return out;
 }

@@ -28,19 +28,29 @@ long RoundUpToLanes(long n) { return (n + kLanes - 1) / kLanes * kLanes; }
 // A set the solve accepts: finite, non-negative compliances (the scalar path's input check;
 // the torque is finite because postures and activation are).
 bool ValidStiffness(const StiffnessSet& s) {
-  return s.s_t.allFinite() && s.s_p.allFinite() && (s.s_t.array() >= 0.0).all() && (s.s_p.array() >= 0.0).all();
+  return s.s_t.allFinite() && s.s_p.allFinite() && (s.s_t.array() >= 0.0).all() &&
+         (s.s_p.array() >= 0.0).all();
 }
 
 // One thread's evaluator: the lane workspace, plus one scalar workspace per lane for the
 // evaluations the lanes leave undecided (and for postures evaluated alone).
 class UnitEvaluator {
  public:
-  UnitEvaluator(const CompiledModel& model, const Eigen::Ref<const Eigen::MatrixXd>& postures, int muscle,
-                const std::vector<StiffnessSet>& stiffness, const std::vector<char>& valid, double activation,
-                const FastOptions& options, FastWrench* results)
-      : model_(model), postures_(postures), muscle_(muscle), stiffness_(stiffness), valid_(valid),
-        activation_(activation), options_(options), results_(results), lanes_(model),
-        scalar_{FastWorkspace(model), FastWorkspace(model), FastWorkspace(model), FastWorkspace(model)} {}
+  UnitEvaluator(const CompiledModel& model, const Eigen::Ref<const Eigen::MatrixXd>& postures,
+                int muscle, const std::vector<StiffnessSet>& stiffness,
+                const std::vector<char>& valid, double activation, const FastOptions& options,
+                FastWrench* results)
+      : model_(model),
+        postures_(postures),
+        muscle_(muscle),
+        stiffness_(stiffness),
+        valid_(valid),
+        activation_(activation),
+        options_(options),
+        results_(results),
+        lanes_(model),
+        scalar_{FastWorkspace(model), FastWorkspace(model), FastWorkspace(model),
+                FastWorkspace(model)} {}
 
   // Postures [p0, p1) x sets [s0, s1).
   void Run(long p0, long p1, long s0, long s1) {
@@ -56,7 +66,9 @@ class UnitEvaluator {
   }
 
  private:
-  FastWrench& Result(long p, long s) { return results_[p * static_cast<long>(stiffness_.size()) + s]; }
+  FastWrench& Result(long p, long s) {
+    return results_[p * static_cast<long>(stiffness_.size()) + s];
+  }
 
   // Postures p .. p + lanes - 1 in lanes 0 .. lanes - 1 (the last repeated in padding lanes).
   void PostureLanes(long p, int lanes, long s0, long s1) {
@@ -70,7 +82,8 @@ class UnitEvaluator {
         for (int l = 0; l < lanes; ++l) Result(p + l, s) = FastWrench{};
         continue;
       }
-      const StiffnessSet* sets[kLanes] = {&stiffness_[s], &stiffness_[s], &stiffness_[s], &stiffness_[s]};
+      const StiffnessSet* sets[kLanes] = {&stiffness_[s], &stiffness_[s], &stiffness_[s],
+                                          &stiffness_[s]};
       for (int l = 0; l < kLanes; ++l) out[l] = l < lanes ? &Result(p + l, s) : &padding_;
       const unsigned undecided = LaneSolve(model_, lanes_, sets, options_, out) & ~scalar_lanes;
       for (int l = 0; l < lanes; ++l) {
@@ -109,7 +122,8 @@ class UnitEvaluator {
       }
       const unsigned undecided = LaneSolve(model_, lanes_, sets, options_, out);
       for (int l = 0; l < filled; ++l) {
-        if (undecided & (1u << l)) Result(p, group[l]) = SolveFastStatics(model_, ws, stiffness_[group[l]], options_);
+        if (undecided & (1u << l))
+          Result(p, group[l]) = SolveFastStatics(model_, ws, stiffness_[group[l]], options_);
       }
       filled = 0;
     };
@@ -144,8 +158,8 @@ void EvaluateBatch(const CompiledModel& model, const Eigen::Ref<const Eigen::Mat
                    std::vector<FastWrench>& out, double activation, const BatchOptions& options) {
   const int m = model.dof_count();
   if (postures.rows() != m) {
-    throw Error("EvaluateBatch: postures have " + std::to_string(postures.rows()) + " rows; model '" +
-                model.model().name() + "' has " + std::to_string(m) + " joints");
+    throw Error("EvaluateBatch: postures have " + std::to_string(postures.rows()) +
+                " rows; model '" + model.model().name() + "' has " + std::to_string(m) + " joints");
   }
   {
     // An entry is inf or NaN when its exponent bits are all set: one vectorisable pass of
@@ -169,15 +183,16 @@ void EvaluateBatch(const CompiledModel& model, const Eigen::Ref<const Eigen::Mat
     }
   }
   if (muscle < 0 || muscle >= model.muscle_count()) {
-    throw Error("EvaluateBatch: muscle index " + std::to_string(muscle) + " is out of range (model '" +
-                model.model().name() + "' has " + std::to_string(model.muscle_count()) + " muscles)");
+    throw Error("EvaluateBatch: muscle index " + std::to_string(muscle) +
+                " is out of range (model '" + model.model().name() + "' has " +
+                std::to_string(model.muscle_count()) + " muscles)");
   }
   if (stiffness.empty()) throw Error("EvaluateBatch: no stiffness set given");
   for (size_t s = 0; s < stiffness.size(); ++s) {
     if (stiffness[s].s_p.size() != m) {
       throw Error("EvaluateBatch: stiffness set " + std::to_string(s) + " has " +
-                  std::to_string(stiffness[s].s_p.size()) + " S_p entries for " + std::to_string(m) +
-                  " joints");
+                  std::to_string(stiffness[s].s_p.size()) + " S_p entries for " +
+                  std::to_string(m) + " joints");
     }
   }
   if (!std::isfinite(activation)) throw Error("EvaluateBatch: activation is not finite");
@@ -195,13 +210,14 @@ void EvaluateBatch(const CompiledModel& model, const Eigen::Ref<const Eigen::Mat
   // Units: posture blocks, and set blocks when the posture blocks alone are too few.
   const long threads_wanted = std::max(1, options.threads);
   const long wanted_units = threads_wanted * kUnitsPerThread;
-  const long posture_block =
-      std::clamp<long>(RoundUpToLanes((P + wanted_units - 1) / wanted_units), kLanes, kMaxPostureBlock);
+  const long posture_block = std::clamp<long>(RoundUpToLanes((P + wanted_units - 1) / wanted_units),
+                                              kLanes, kMaxPostureBlock);
   const long posture_units = (P + posture_block - 1) / posture_block;
   long set_block = S;
   if (posture_units < wanted_units) {
     const long set_units_wanted = (wanted_units + posture_units - 1) / posture_units;
-    set_block = std::max<long>(kLanes, RoundUpToLanes((S + set_units_wanted - 1) / set_units_wanted));
+    set_block =
+        std::max<long>(kLanes, RoundUpToLanes((S + set_units_wanted - 1) / set_units_wanted));
   }
   const long set_units = (S + set_block - 1) / set_block;
   const long units = posture_units * set_units;
@@ -211,7 +227,8 @@ void EvaluateBatch(const CompiledModel& model, const Eigen::Ref<const Eigen::Mat
   FastWrench* results = out.data();
 
   auto work = [&](bool report) {
-    UnitEvaluator evaluator(model, postures, muscle, stiffness, valid, activation, options.solve, results);
+    UnitEvaluator evaluator(model, postures, muscle, stiffness, valid, activation, options.solve,
+                            results);
     for (;;) {
       const long unit = next_unit.fetch_add(1, std::memory_order_relaxed);
       if (unit >= units) break;

@@ -80,15 +80,16 @@ ISOWRENCH_INLINE void AxisAndTurn(double* M, double sign, double c, double s, do
 
 // The same for a general unit axis, out of line (no shipped chain has one); M goes through a
 // copy so that the caller's frame never has its address taken and stays in registers.
-ISOWRENCH_NOINLINE void GeneralAxisAndTurnOutOfLine(Eigen::Matrix3d& M, const FastJoint& j, double q,
-                                                    double* z, bool turn) {
+ISOWRENCH_NOINLINE void GeneralAxisAndTurnOutOfLine(Eigen::Matrix3d& M, const FastJoint& j,
+                                                    double q, double* z, bool turn) {
   Eigen::Map<Eigen::Vector3d>(z).noalias() = M * j.axis;
   if (turn) {
     const Eigen::Matrix3d rot = Eigen::AngleAxisd(q, j.axis).toRotationMatrix();
     M = (M * rot).eval();
   }
 }
-ISOWRENCH_INLINE void GeneralAxisAndTurn(double* M, const FastJoint& j, double q, double* z, bool turn) {
+ISOWRENCH_INLINE void GeneralAxisAndTurn(double* M, const FastJoint& j, double q, double* z,
+                                         bool turn) {
   Eigen::Matrix3d copy;
   for (int i = 0; i < 9; ++i) copy.data()[i] = M[i];
   GeneralAxisAndTurnOutOfLine(copy, j, q, z, turn);
@@ -153,7 +154,8 @@ FastWrench SolveByEigen(FastWorkspace::Impl& ws, int m, const double* J, const d
 // Inputs of a solve are checked, not trusted: negative or non-finite values give kInvalidInput.
 // Branch-free so it vectorises: 0 * v is 0 for finite v and NaN for inf/NaN, so the sum of
 // those is 0 exactly when every entry is finite; the minimum catches negative stiffness.
-ISOWRENCH_INLINE bool ValidSolveInput(int m, const double* s_t, const double* s_p, const double* tau) {
+ISOWRENCH_INLINE bool ValidSolveInput(int m, const double* s_t, const double* s_p,
+                                      const double* tau) {
   double nonfinite = 0.0;
   double lowest = 0.0;
   for (int r = 0; r < 6; ++r) {
@@ -183,8 +185,9 @@ FastWrench Invalid(FastWorkspace::Impl& ws) {
 // Forward and back substitution with U (only its strict upper triangle and the reciprocal
 // diagonal are read), then W = S_t J dtheta. N > 0 fixes m at compile time (loops unroll).
 template <int N>
-ISOWRENCH_INLINE FastWrench Substitute(FastWorkspace::Impl& ws, int m, const double* U, const double* inv_diag,
-                                       const double* J, const double* s_t, const double* tau) {
+ISOWRENCH_INLINE FastWrench Substitute(FastWorkspace::Impl& ws, int m, const double* U,
+                                       const double* inv_diag, const double* J, const double* s_t,
+                                       const double* tau) {
   constexpr int S = kFastMaxDofs;
   double y[S];
   ws.dtheta.resize(m);
@@ -227,8 +230,9 @@ ISOWRENCH_INLINE FastWrench Substitute(FastWorkspace::Impl& ws, int m, const dou
 
 // K, Cholesky, the solves, on scalars: any m (N = 0: the runtime m).
 template <int N>
-ISOWRENCH_INLINE FastWrench SolveKernel(FastWorkspace::Impl& ws, int m_runtime, const double* J, const double* s_t,
-                       const double* s_p, const double* tau, const FastOptions& options) {
+ISOWRENCH_INLINE FastWrench SolveKernel(FastWorkspace::Impl& ws, int m_runtime, const double* J,
+                                        const double* s_t, const double* s_p, const double* tau,
+                                        const FastOptions& options) {
   constexpr int S = kFastMaxDofs;
   const int m = N > 0 ? N : std::min(m_runtime, S);  // workspaces never exceed S
   if (!ValidSolveInput(m, s_t, s_p, tau)) return Invalid(ws);
@@ -302,8 +306,9 @@ ISOWRENCH_INLINE bool ValidSolveInputV4(const double* s_t, const double* s_p, co
 }
 
 template <int N>
-ISOWRENCH_INLINE FastWrench SolveKernelV4(FastWorkspace::Impl& ws, const double* J, const double* s_t,
-                                          const double* s_p, const double* tau, const FastOptions& options) {
+ISOWRENCH_INLINE FastWrench SolveKernelV4(FastWorkspace::Impl& ws, const double* J,
+                                          const double* s_t, const double* s_p, const double* tau,
+                                          const FastOptions& options) {
   static_assert(N >= 1 && 4 * ((N + 3) / 4) <= kFastMaxDofs, "blocks within a row of J_rows");
   constexpr int S = kFastMaxDofs;
   constexpr int B = (N + 3) / 4;  // blocks of 4 columns
@@ -365,8 +370,9 @@ ISOWRENCH_INLINE FastWrench SolveKernelV4(FastWorkspace::Impl& ws, const double*
   return Substitute<N>(ws, N, U, inv_diag, J, s_t, tau);
 }
 
-ISOWRENCH_CLONES FastWrench SolveDispatch(FastWorkspace::Impl& ws, const double* J, const double* s_t,
-                         const double* s_p, const double* tau, const FastOptions& options) {
+ISOWRENCH_CLONES FastWrench SolveDispatch(FastWorkspace::Impl& ws, const double* J,
+                                          const double* s_t, const double* s_p, const double* tau,
+                                          const FastOptions& options) {
   switch (ws.m) {
     case 1: return SolveKernelV4<1>(ws, J, s_t, s_p, tau, options);
     case 2: return SolveKernelV4<2>(ws, J, s_t, s_p, tau, options);
@@ -446,8 +452,8 @@ namespace {
 
 // Column k of the endpoint Jacobian (reference point p_E, world axes turned into transducer
 // axes by T = R_W_T unless `rotate` is false), stored column-major in J and row-major in J_rows.
-ISOWRENCH_INLINE void JacobianColumn(FastWorkspace::Impl& ws, int k, bool revolute, const double* pe,
-                                     bool rotate, const double* T) {
+ISOWRENCH_INLINE void JacobianColumn(FastWorkspace::Impl& ws, int k, bool revolute,
+                                     const double* pe, bool rotate, const double* T) {
   constexpr int S = kFastMaxDofs;
   const double* z = ws.axis[k].data();
   double v[3], w[3];
@@ -537,8 +543,8 @@ ISOWRENCH_NOINLINE void Fold(const FlatChain& d, FastWorkspace::Impl& ws, double
 // accept muscle < 0 (no muscle) and world_axes (J in world axes); the evaluation path
 // instantiates it with kFrames = false, where those are compile-time off.
 template <bool kFrames>
-ISOWRENCH_INLINE bool Kinematics(const FlatChain& d, FastWorkspace::Impl& ws, const double* qv, int muscle,
-                                 double activation, bool world_axes) {
+ISOWRENCH_INLINE bool Kinematics(const FlatChain& d, FastWorkspace::Impl& ws, const double* qv,
+                                 int muscle, double activation, bool world_axes) {
   const int m = d.m;
   assert(ws.m == d.n);
   assert(muscle < static_cast<int>(d.muscles.size()) && (kFrames || muscle >= 0));
@@ -717,7 +723,8 @@ ISOWRENCH_INLINE bool Kinematics(const FlatChain& d, FastWorkspace::Impl& ws, co
 // least 1), so that K has an isolated diagonal there and dtheta is exactly 0 on them; the
 // other entries of dtheta and W are those of the statics without the locked columns. The
 // reported J and tau (ws.J, ws.tau) keep every column.
-ISOWRENCH_NOINLINE FastWrench SolveLocked(const FlatChain& d, FastWorkspace::Impl& ws, const StiffnessSet& stiffness,
+ISOWRENCH_NOINLINE FastWrench SolveLocked(const FlatChain& d, FastWorkspace::Impl& ws,
+                                          const StiffnessSet& stiffness,
                                           const FastOptions& options) {
   constexpr int S = kFastMaxDofs;
   const int n = d.n;
@@ -745,11 +752,12 @@ ISOWRENCH_CLONES bool ComputeFastKinematics(const CompiledModel& model, FastWork
                                             const Eigen::Ref<const Eigen::VectorXd>& q, int muscle,
                                             double activation) {
   assert(q.size() == model.dof_count());
-  return Kinematics<false>(model.data().flat(), workspace.impl(), q.data(), muscle, activation, false);
+  return Kinematics<false>(model.data().flat(), workspace.impl(), q.data(), muscle, activation,
+                           false);
 }
 
-bool ComputeKinematicsWithFrames(const FlatChain& chain, FastWorkspace::Impl& ws, const double* q, int muscle,
-                                 double activation, bool world_axes) {
+bool ComputeKinematicsWithFrames(const FlatChain& chain, FastWorkspace::Impl& ws, const double* q,
+                                 int muscle, double activation, bool world_axes) {
   return Kinematics<true>(chain, ws, q, muscle, activation, world_axes);
 }
 
@@ -767,14 +775,16 @@ FastWrench SolveFastStatics(const CompiledModel& model, FastWorkspace& workspace
 
 FastWrench EvaluateFast(const CompiledModel& model, FastWorkspace& ws,
                         const Eigen::Ref<const Eigen::VectorXd>& q, int muscle,
-                        const StiffnessSet& stiffness, double activation, const FastOptions& options) {
+                        const StiffnessSet& stiffness, double activation,
+                        const FastOptions& options) {
   if (!ComputeFastKinematics(model, ws, q, muscle, activation)) return Invalid(ws.impl());
   return SolveFastStatics(model, ws, stiffness, options);
 }
 
 FastWrench SolveStaticsFast(FastWorkspace& workspace, const Eigen::Ref<const Matrix6Xd>& J,
                             const Vector6d& s_t, const Eigen::Ref<const Eigen::VectorXd>& s_p,
-                            const Eigen::Ref<const Eigen::VectorXd>& tau, const FastOptions& options) {
+                            const Eigen::Ref<const Eigen::VectorXd>& tau,
+                            const FastOptions& options) {
   FastWorkspace::Impl& ws = workspace.impl();
   const int m = ws.m;
   if (J.cols() != m || s_p.size() != m || tau.size() != m || !J.allFinite()) return Invalid(ws);

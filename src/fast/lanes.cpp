@@ -65,11 +65,11 @@ struct LaneWorkspace::Impl {
   V points[kFastMaxPathPoints][3];
   V pulls[kFastMaxPathPoints][3];
   bool frame_needed[kFastMaxDofs] = {};  // a path point of some muscle hangs on frame k
-  V J[kFastMaxDofs][6];  // column k: [v; w] in transducer axes
+  V J[kFastMaxDofs][6];                  // column k: [v; w] in transducer axes
   V tau[kFastMaxDofs];
   V K[kFastMaxDofs * kFastMaxDofs];  // statics: lower triangle of K by rows,
   V U[kFastMaxDofs * kFastMaxDofs];  // its Cholesky factor U = L^T (upper triangle by rows)
-  V x[kFastMaxDofs];  // dtheta
+  V x[kFastMaxDofs];                 // dtheta
 };
 
 // The buffers are written before they are read; only the flags are initialised.
@@ -124,7 +124,8 @@ ISOWRENCH_INLINE void RotateFrame(const FastJoint& j, const V& q, V* M) {
       const V t = 1.0 - c;
       V rot[9];
       for (int r = 0; r < 3; ++r) {
-        for (int k = 0; k < 3; ++k) rot[3 * r + k] = t * (a[r] * a[k]) + (r == k ? c : ISOWRENCH_V4_SPLAT(0.0));
+        for (int k = 0; k < 3; ++k)
+          rot[3 * r + k] = t * (a[r] * a[k]) + (r == k ? c : ISOWRENCH_V4_SPLAT(0.0));
       }
       rot[1] -= s * a[2];
       rot[2] += s * a[1];
@@ -134,7 +135,9 @@ ISOWRENCH_INLINE void RotateFrame(const FastJoint& j, const V& q, V* M) {
       rot[7] += s * a[0];
       V out[9];
       for (int r = 0; r < 3; ++r) {
-        for (int k = 0; k < 3; ++k) out[3 * r + k] = M[3 * r] * rot[k] + M[3 * r + 1] * rot[3 + k] + M[3 * r + 2] * rot[6 + k];
+        for (int k = 0; k < 3; ++k)
+          out[3 * r + k] =
+              M[3 * r] * rot[k] + M[3 * r + 1] * rot[3 + k] + M[3 * r + 2] * rot[6 + k];
       }
       std::memcpy(M, out, sizeof(out));
       break;
@@ -161,7 +164,8 @@ ISOWRENCH_INLINE void ForwardKinematics(const FlatChain& d, LaneWorkspace::Impl&
         V R[9];
         for (int r = 0; r < 3; ++r) {
           for (int c = 0; c < 3; ++c) {
-            R[3 * r + c] = M[3 * r] * j.origin_rotation(0, c) + M[3 * r + 1] * j.origin_rotation(1, c) +
+            R[3 * r + c] = M[3 * r] * j.origin_rotation(0, c) +
+                           M[3 * r + 1] * j.origin_rotation(1, c) +
                            M[3 * r + 2] * j.origin_rotation(2, c);
           }
         }
@@ -170,9 +174,15 @@ ISOWRENCH_INLINE void ForwardKinematics(const FlatChain& d, LaneWorkspace::Impl&
     }
     V* z = ws.axis[k];
     switch (j.axis_kind) {
-      case 0: for (int i = 0; i < 3; ++i) z[i] = j.axis_sign * M[3 * i]; break;
-      case 1: for (int i = 0; i < 3; ++i) z[i] = j.axis_sign * M[3 * i + 1]; break;
-      case 2: for (int i = 0; i < 3; ++i) z[i] = j.axis_sign * M[3 * i + 2]; break;
+      case 0:
+        for (int i = 0; i < 3; ++i) z[i] = j.axis_sign * M[3 * i];
+        break;
+      case 1:
+        for (int i = 0; i < 3; ++i) z[i] = j.axis_sign * M[3 * i + 1];
+        break;
+      case 2:
+        for (int i = 0; i < 3; ++i) z[i] = j.axis_sign * M[3 * i + 2];
+        break;
       default: MulConst(M, j.axis, z); break;
     }
     if (j.revolute) {
@@ -190,7 +200,8 @@ ISOWRENCH_INLINE void ForwardKinematics(const FlatChain& d, LaneWorkspace::Impl&
 }  // namespace
 
 ISOWRENCH_CLONES unsigned LaneKinematics(const CompiledModel& model, LaneWorkspace& workspace,
-                                              const double* const q[kLanes], int muscle, double activation) {
+                                         const double* const q[kLanes], int muscle,
+                                         double activation) {
   const FlatChain& d = model.data().flat();
   LaneWorkspace::Impl& ws = workspace.impl();
   const int m = d.m;
@@ -242,7 +253,8 @@ ISOWRENCH_CLONES unsigned LaneKinematics(const CompiledModel& model, LaneWorkspa
   if (!d.transducer_identity) {
     V R_W_T[9];
     if (d.transducer_in_world) {
-      for (int i = 0; i < 9; ++i) R_W_T[i] = ISOWRENCH_V4_SPLAT(d.transducer_rotation(i / 3, i % 3));
+      for (int i = 0; i < 9; ++i)
+        R_W_T[i] = ISOWRENCH_V4_SPLAT(d.transducer_rotation(i / 3, i % 3));
     } else {
       for (int r = 0; r < 3; ++r) {
         for (int c = 0; c < 3; ++c) {
@@ -310,7 +322,8 @@ ISOWRENCH_CLONES unsigned LaneKinematics(const CompiledModel& model, LaneWorkspa
     if (d.joints[k].revolute) {
       V arm[3];
       Cross(ws.origin[k], pull_sum, arm);
-      dL = z[0] * (moment_sum[0] - arm[0]) + z[1] * (moment_sum[1] - arm[1]) + z[2] * (moment_sum[2] - arm[2]);
+      dL = z[0] * (moment_sum[0] - arm[0]) + z[1] * (moment_sum[1] - arm[1]) +
+           z[2] * (moment_sum[2] - arm[2]);
     } else {
       dL = z[0] * pull_sum[0] + z[1] * pull_sum[1] + z[2] * pull_sum[2];
     }
@@ -350,8 +363,9 @@ namespace {
 // SolveKernel of fast.cpp on lanes: K = J^T S_t J + S_p (lower triangle), Cholesky with the
 // same pivot rule, two triangular solves, W = S_t J dtheta. Returns the undecided lanes' mask.
 template <int N>
-ISOWRENCH_INLINE void SolveLanesKernel(LaneWorkspace::Impl& ws, int m_runtime, const V* s_t, const V* s_p,
-                                            const FastOptions& options, V* wrench, VI& undecided) {
+ISOWRENCH_INLINE void SolveLanesKernel(LaneWorkspace::Impl& ws, int m_runtime, const V* s_t,
+                                       const V* s_p, const FastOptions& options, V* wrench,
+                                       VI& undecided) {
   constexpr int S = kFastMaxDofs;
   const int m = N > 0 ? N : std::min(m_runtime, S);
   V* K = ws.K;
@@ -408,7 +422,7 @@ ISOWRENCH_INLINE void SolveLanesKernel(LaneWorkspace::Impl& ws, int m_runtime, c
 
 // Returns the undecided lanes' bitmask.
 ISOWRENCH_INLINE unsigned SolveLanesDispatch(LaneWorkspace::Impl& ws, const V* s_t, const V* s_p,
-                                                  const FastOptions& options, V* wrench) {
+                                             const FastOptions& options, V* wrench) {
   VI undecided;
   switch (ws.m) {
     case 1: SolveLanesKernel<1>(ws, 1, s_t, s_p, options, wrench, undecided); break;
@@ -427,8 +441,8 @@ ISOWRENCH_INLINE unsigned SolveLanesDispatch(LaneWorkspace::Impl& ws, const V* s
 }  // namespace
 
 ISOWRENCH_CLONES unsigned LaneSolve(const CompiledModel& model, LaneWorkspace& workspace,
-                                         const StiffnessSet* const sets[kLanes],
-                   const FastOptions& options, FastWrench* const out[kLanes]) {
+                                    const StiffnessSet* const sets[kLanes],
+                                    const FastOptions& options, FastWrench* const out[kLanes]) {
   LaneWorkspace::Impl& ws = workspace.impl();
   const int m = model.dof_count();
   // Locked coordinates: the scalar path's SolveLocked decides every lane.
@@ -439,8 +453,10 @@ ISOWRENCH_CLONES unsigned LaneSolve(const CompiledModel& model, LaneWorkspace& w
     for (int r = 0; r < 6; ++r) s_t[r] = ISOWRENCH_V4_SPLAT(sets[0]->s_t[r]);
     for (int i = 0; i < m; ++i) s_p[i] = ISOWRENCH_V4_SPLAT(sets[0]->s_p[i]);
   } else {
-    for (int r = 0; r < 6; ++r) s_t[r] = V{sets[0]->s_t[r], sets[1]->s_t[r], sets[2]->s_t[r], sets[3]->s_t[r]};
-    for (int i = 0; i < m; ++i) s_p[i] = V{sets[0]->s_p[i], sets[1]->s_p[i], sets[2]->s_p[i], sets[3]->s_p[i]};
+    for (int r = 0; r < 6; ++r)
+      s_t[r] = V{sets[0]->s_t[r], sets[1]->s_t[r], sets[2]->s_t[r], sets[3]->s_t[r]};
+    for (int i = 0; i < m; ++i)
+      s_p[i] = V{sets[0]->s_p[i], sets[1]->s_p[i], sets[2]->s_p[i], sets[3]->s_p[i]};
   }
   V wrench[6];
   const unsigned undecided = SolveLanesDispatch(ws, s_t, s_p, options, wrench);

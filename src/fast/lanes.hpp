@@ -33,8 +33,8 @@ class LaneWorkspace {
 /// q[l] (dof_count() entries each) in lane l. Returns the bitmask of lanes (bit l) the caller
 /// must evaluate on the scalar path instead: two consecutive path points coincide (kInvalidInput
 /// there), or a revolute angle has |q| >= 1e5 rad, beyond the lane sin/cos range reduction.
-unsigned LaneKinematics(const CompiledModel& model, LaneWorkspace& ws, const double* const q[kLanes],
-                        int muscle, double activation);
+unsigned LaneKinematics(const CompiledModel& model, LaneWorkspace& ws,
+                        const double* const q[kLanes], int muscle, double activation);
 
 /// Puts the Jacobian and torque of the scalar workspace (after ComputeFastKinematics) in every
 /// lane: one posture, a different stiffness set per lane.
@@ -45,7 +45,8 @@ void LaneBroadcast(const FastWorkspace& scalar, LaneWorkspace& ws);
 /// undecided (a Cholesky pivot at or below FastOptions::cholesky_pivot_tolerance, or a
 /// non-finite result); their *out[l] is not written and the caller solves them on the scalar
 /// path.
-unsigned LaneSolve(const CompiledModel& model, LaneWorkspace& ws, const StiffnessSet* const sets[kLanes],
-                   const FastOptions& options, FastWrench* const out[kLanes]);
+unsigned LaneSolve(const CompiledModel& model, LaneWorkspace& ws,
+                   const StiffnessSet* const sets[kLanes], const FastOptions& options,
+                   FastWrench* const out[kLanes]);
 
 }  // namespace isowrench

@@ -84,7 +84,8 @@ ISOWRENCH_INLINE void Kernel(const T& x, const T& k, T& sin_r, T& cos_r) {
   sin_r = r + r * z * (S1 + z * (S2 + z * (S3 + z * (S4 + z * (S5 + z * S6)))));
   const T hz = 0.5 * z;
   const T w = 1.0 - hz;
-  cos_r = w + (((1.0 - w) - hz) + z * z * (C1 + z * (C2 + z * (C3 + z * (C4 + z * (C5 + z * C6))))));
+  cos_r =
+      w + (((1.0 - w) - hz) + z * z * (C1 + z * (C2 + z * (C3 + z * (C4 + z * (C5 + z * C6))))));
 }
 }  // namespace sincos
 
@@ -93,7 +94,8 @@ ISOWRENCH_INLINE void Kernel(const T& x, const T& k, T& sin_r, T& cos_r) {
 /// inv_diag are read): forward substitution into y, back substitution into x. T is double or
 /// V4; N > 0 fixes m at compile time (loops unroll).
 template <int N, class T>
-ISOWRENCH_INLINE void SolveWithFactor(int m, const T* U, const T* inv_diag, const T* b, T* y, T* x) {
+ISOWRENCH_INLINE void SolveWithFactor(int m, const T* U, const T* inv_diag, const T* b, T* y,
+                                      T* x) {
   constexpr int S = kFastMaxDofs;  // the row stride of U
   ISOWRENCH_UNROLL
   for (int i = 0; i < m; ++i) {

@@ -37,8 +37,8 @@ double LogDet(const Eigen::MatrixXd& F) {
   return sum;
 }
 
-Eigen::MatrixXd Information(const std::vector<Eigen::MatrixXd>& blocks, const std::vector<int>& chosen, int p,
-                            double ridge) {
+Eigen::MatrixXd Information(const std::vector<Eigen::MatrixXd>& blocks,
+                            const std::vector<int>& chosen, int p, double ridge) {
   Eigen::MatrixXd F = ridge * Eigen::MatrixXd::Identity(p, p);
   for (int i : chosen) F += blocks[i].transpose() * blocks[i];
   return F;
@@ -48,17 +48,20 @@ Eigen::MatrixXd Information(const std::vector<Eigen::MatrixXd>& blocks, const st
 
 DesignResult DesignExperiment(const Model& model, const std::vector<std::string>& effect_ids,
                               const std::vector<Trial>* candidates, const DesignOptions& options) {
-  if (options.postures < 1) throw Error("design: --n must be >= 1, got " + std::to_string(options.postures));
+  if (options.postures < 1)
+    throw Error("design: --n must be >= 1, got " + std::to_string(options.postures));
   if (!(options.noise_force > 0) || !(options.noise_moment > 0)) {
     throw Error("design: the expected noise levels must be > 0");
   }
-  if (effect_ids.empty()) throw Error("design: no effect named (--effects ID,...; `isowrench fit --list-effects`)");
+  if (effect_ids.empty())
+    throw Error("design: no effect named (--effects ID,...; `isowrench fit --list-effects`)");
   DesignResult out;
   std::vector<AppliedEffect> effects;
   for (const std::string& id : effect_ids) {
     Effect e = FindEffect(model, id);
     if (e.per_trial) {
-      out.notes.push_back(id + " has one nuisance parameter per trial: no posture choice identifies it better");
+      out.notes.push_back(
+          id + " has one nuisance parameter per trial: no posture choice identifies it better");
       continue;
     }
     AppliedEffect a{e, {}};
@@ -110,11 +113,12 @@ DesignResult DesignExperiment(const Model& model, const std::vector<std::string>
       Prediction a = PredictTrials(ApplyEffects(model.description(), plus), grid);
       Prediction b = PredictTrials(ApplyEffects(model.description(), minus), grid);
       if (a.failed || b.failed) {
-        throw Error("design: the model with " + out.labels.back() + " changed cannot predict a candidate: " +
-                    (a.failed ? a.message : b.message));
+        throw Error("design: the model with " + out.labels.back() +
+                    " changed cannot predict a candidate: " + (a.failed ? a.message : b.message));
       }
       for (size_t k = 0; k < grid.size(); ++k) {
-        for (int c = 0; c < 6; ++c) blocks[k](c, column) = (a.wrench[k][c] - b.wrench[k][c]) / (2 * h) / grid[k].sd[c];
+        for (int c = 0; c < 6; ++c)
+          blocks[k](c, column) = (a.wrench[k][c] - b.wrench[k][c]) / (2 * h) / grid[k].sd[c];
       }
     }
   }
@@ -176,9 +180,11 @@ DesignResult DesignExperiment(const Model& model, const std::vector<std::string>
     int worst = 0;
     v.cwiseAbs().maxCoeff(&worst);
     throw Error("design: no choice of these candidate postures identifies " + out.labels[worst] +
-                " (the Fisher information is singular in its direction); remove an effect or give other postures");
+                " (the Fisher information is singular in its direction); remove an effect or give "
+                "other postures");
   }
-  auto covariance_se = [&](const Eigen::MatrixXd& info, std::vector<double>* se, Eigen::MatrixXd* corr) {
+  auto covariance_se = [&](const Eigen::MatrixXd& info, std::vector<double>* se,
+                           Eigen::MatrixXd* corr) {
     const Eigen::MatrixXd cov = info.ldlt().solve(Eigen::MatrixXd::Identity(p, p));
     se->assign(p, 0.0);
     for (int i = 0; i < p; ++i) {
@@ -192,7 +198,8 @@ DesignResult DesignExperiment(const Model& model, const std::vector<std::string>
         k -= static_cast<int>(a.values.size());
       }
       const double s = std::sqrt(std::max(0.0, cov(i, i)));
-      (*se)[i] = par && par->scale == ParameterScale::kLog10 ? out.values[i] * std::log(10.0) * s : s;
+      (*se)[i] =
+          par && par->scale == ParameterScale::kLog10 ? out.values[i] * std::log(10.0) * s : s;
       if (!std::isfinite((*se)[i])) (*se)[i] = 0.0;
     }
     if (corr) {
@@ -207,7 +214,8 @@ DesignResult DesignExperiment(const Model& model, const std::vector<std::string>
   };
   covariance_se(F, &out.standard_errors, &out.correlation);
   Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig_random(F_random);
-  if (p > 0 && eig_random.eigenvalues()[0] > 1e-12 * std::max(eig_random.eigenvalues()[p - 1], 1e-300)) {
+  if (p > 0 &&
+      eig_random.eigenvalues()[0] > 1e-12 * std::max(eig_random.eigenvalues()[p - 1], 1e-300)) {
     covariance_se(F_random, &out.random_standard_errors, nullptr);
   } else {
     out.random_standard_errors.assign(p, 0.0);
@@ -217,8 +225,9 @@ DesignResult DesignExperiment(const Model& model, const std::vector<std::string>
   for (int i = 0; i < p; ++i) {
     for (int j = i + 1; j < p; ++j) {
       if (std::abs(out.correlation(i, j)) > kConfounded) {
-        out.confounded.push_back(out.labels[i] + " and " + out.labels[j] + " stay correlated (r = " +
-                                 util::FormatNumber(out.correlation(i, j), 3) + ")");
+        out.confounded.push_back(
+            out.labels[i] + " and " + out.labels[j] +
+            " stay correlated (r = " + util::FormatNumber(out.correlation(i, j), 3) + ")");
       }
     }
   }

@@ -20,10 +20,12 @@ class EffectType {
   virtual EffectKindInfo Info() const = 0;
   /// The candidates of this kind for `model`; `muscles` restricts muscle-specific ones (empty =
   /// all muscles).
-  virtual std::vector<Effect> Candidates(const Model& model, const std::vector<std::string>& muscles) const = 0;
+  virtual std::vector<Effect> Candidates(const Model& model,
+                                         const std::vector<std::string>& muscles) const = 0;
   /// Apply `effect` at `values` (user units, already checked: right count, finite, > 0 for
   /// log10 parameters). @throws Error for names the model does not have.
-  virtual void Apply(const Effect& effect, const std::vector<double>& values, AugmentedModel* model) const = 0;
+  virtual void Apply(const Effect& effect, const std::vector<double>& values,
+                     AugmentedModel* model) const = 0;
 };
 
 /// Every registered kind, sorted by kind name.
@@ -32,8 +34,8 @@ const std::vector<const EffectType*>& EffectTypes();
 const EffectType& TypeOf(const Effect& effect);
 
 /// Parameter helpers for the effect files.
-EffectParameter LogParameter(const std::string& name, const std::string& unit, double neutral, double initial,
-                             double lower, double upper);
+EffectParameter LogParameter(const std::string& name, const std::string& unit, double neutral,
+                             double initial, double lower, double upper);
 EffectParameter LinearParameter(const std::string& name, const std::string& unit, double range);
 /// "fx" ... "mz" for 0..5.
 const char* AxisName(int axis);

@@ -22,9 +22,10 @@ const std::vector<const EffectType*>& EffectTypes() {
 #define ISOWRENCH_EFFECT(kind) v.push_back(MakeEffect_##kind());
 #include "effect_list.inc"
 #undef ISOWRENCH_EFFECT
-    std::sort(v.begin(), v.end(), [](const std::unique_ptr<EffectType>& a, const std::unique_ptr<EffectType>& b) {
-      return a->Info().kind < b->Info().kind;
-    });
+    std::sort(v.begin(), v.end(),
+              [](const std::unique_ptr<EffectType>& a, const std::unique_ptr<EffectType>& b) {
+                return a->Info().kind < b->Info().kind;
+              });
     return v;
   }();
   static const std::vector<const EffectType*> types = [] {
@@ -42,8 +43,8 @@ const EffectType& TypeOf(const Effect& effect) {
   throw Error("effect '" + effect.id + "': unknown kind '" + effect.kind + "'");
 }
 
-EffectParameter LogParameter(const std::string& name, const std::string& unit, double neutral, double initial,
-                             double lower, double upper) {
+EffectParameter LogParameter(const std::string& name, const std::string& unit, double neutral,
+                             double initial, double lower, double upper) {
   EffectParameter p;
   p.name = name;
   p.unit = unit;
@@ -153,7 +154,8 @@ Effect FindEffect(const Model& model, const std::string& id) {
     if (e.id == id) return e;
     ids.push_back(e.id);
   }
-  throw Error("unknown effect '" + id + "' for model '" + model.name() + "' (known: " + util::Join(ids, ", ") + ")");
+  throw Error("unknown effect '" + id + "' for model '" + model.name() +
+              "' (known: " + util::Join(ids, ", ") + ")");
 }
 
 namespace {
@@ -166,15 +168,17 @@ void CheckValues(const Effect& effect, const std::vector<double>& values) {
   for (size_t i = 0; i < values.size(); ++i) {
     const EffectParameter& p = effect.parameters[i];
     if (!std::isfinite(values[i]) || (p.scale == ParameterScale::kLog10 && !(values[i] > 0))) {
-      throw Error("effect '" + effect.id + "': parameter " + p.name + " = " + util::FormatNumber(values[i]) +
-                  " must be finite" + (p.scale == ParameterScale::kLog10 ? " and > 0" : ""));
+      throw Error("effect '" + effect.id + "': parameter " + p.name + " = " +
+                  util::FormatNumber(values[i]) + " must be finite" +
+                  (p.scale == ParameterScale::kLog10 ? " and > 0" : ""));
     }
   }
 }
 
 }  // namespace
 
-LimbDescription ApplyEffect(LimbDescription d, const Effect& effect, const std::vector<double>& values) {
+LimbDescription ApplyEffect(LimbDescription d, const Effect& effect,
+                            const std::vector<double>& values) {
   CheckValues(effect, values);
   AugmentedModel m;
   m.description = std::move(d);
@@ -182,7 +186,8 @@ LimbDescription ApplyEffect(LimbDescription d, const Effect& effect, const std::
   return std::move(m.description);
 }
 
-AugmentedModel ApplyEffects(const LimbDescription& nominal, const std::vector<AppliedEffect>& effects) {
+AugmentedModel ApplyEffects(const LimbDescription& nominal,
+                            const std::vector<AppliedEffect>& effects) {
   AugmentedModel out;
   out.description = nominal;
   for (const AppliedEffect& a : effects) {
@@ -196,7 +201,8 @@ AugmentedModel ApplyEffects(const LimbDescription& nominal, const std::vector<Ap
 AppliedEffect ParseEffectAssignment(const Model& model, const std::string& text) {
   size_t eq = text.find('=');
   if (eq == std::string::npos) {
-    throw Error("effect '" + text + "': expected NAME=VALUE[,VALUE...] (user units, see docs/identification.md)");
+    throw Error("effect '" + text +
+                "': expected NAME=VALUE[,VALUE...] (user units, see docs/identification.md)");
   }
   std::string id = util::Trim(text.substr(0, eq));
   AppliedEffect out;
@@ -207,9 +213,11 @@ AppliedEffect ParseEffectAssignment(const Model& model, const std::string& text)
   }
   if (out.values.size() != out.effect.parameters.size()) {
     std::vector<std::string> names;
-    for (const EffectParameter& p : out.effect.parameters) names.push_back(p.name + " (" + p.unit + ")");
+    for (const EffectParameter& p : out.effect.parameters)
+      names.push_back(p.name + " (" + p.unit + ")");
     throw Error("effect '" + id + "' takes " + std::to_string(out.effect.parameters.size()) +
-                " value(s): " + util::Join(names, ", ") + "; got " + std::to_string(out.values.size()));
+                " value(s): " + util::Join(names, ", ") + "; got " +
+                std::to_string(out.values.size()));
   }
   // Validate now so the error names the effect.
   ApplyEffects(model.description(), {out});

@@ -66,22 +66,24 @@ double RowLoss(double s, const FitOptions& o) {
 
 /// Everything the residual functor needs; owned by the caller for the duration of a solve.
 struct Context {
-  AugmentedModel base;               ///< current model: fixed effects already applied
-  std::vector<Effect> free;          ///< effects whose parameters are fitted, in order
-  std::vector<int> start;            ///< first internal parameter of each free effect
-  int parameter_count = 0;           ///< least-squares parameters (per-trial ones excluded)
+  AugmentedModel base;       ///< current model: fixed effects already applied
+  std::vector<Effect> free;  ///< effects whose parameters are fitted, in order
+  std::vector<int> start;    ///< first internal parameter of each free effect
+  int parameter_count = 0;   ///< least-squares parameters (per-trial ones excluded)
   const std::vector<Trial>* trials = nullptr;
   std::vector<int> subset;
-  std::vector<double> weights;       ///< 6 per subset entry
+  std::vector<double> weights;  ///< 6 per subset entry
   FitOptions options;
-  bool rebuild = true;               ///< a free model-stage effect: build a model per evaluation
+  bool rebuild = true;                 ///< a free model-stage effect: build a model per evaluation
   std::shared_ptr<const Model> model;  ///< otherwise the base model, built once
-  bool cached = false;               ///< no free posture effect either: raw wrenches once
+  bool cached = false;                 ///< no free posture effect either: raw wrenches once
   ident::RawWrenches raw;
-  std::vector<std::string> others;   ///< coactivated muscles (base and free)
-  std::string setup_message;         ///< why the base model cannot be evaluated, if so
+  std::vector<std::string> others;  ///< coactivated muscles (base and free)
+  std::string setup_message;        ///< why the base model cannot be evaluated, if so
 
-  int FreeCount(int e) const { return free[e].per_trial ? 0 : static_cast<int>(free[e].parameters.size()); }
+  int FreeCount(int e) const {
+    return free[e].per_trial ? 0 : static_cast<int>(free[e].parameters.size());
+  }
 
   std::vector<double> UserValues(const double* x, int e) const {
     std::vector<double> v;
@@ -143,7 +145,8 @@ struct Context {
   double RowChi2(size_t k, const Vector6d& prediction) const {
     const Trial& t = (*trials)[subset[k]];
     double s = 0;
-    for (int c = 0; c < 6; ++c) s += std::pow(weights[6 * k + c] * (t.wrench[c] - prediction[c]), 2);
+    for (int c = 0; c < 6; ++c)
+      s += std::pow(weights[6 * k + c] * (t.wrench[c] - prediction[c]), 2);
     return s;
   }
 
@@ -160,7 +163,8 @@ struct Context {
       const Trial& t = (*trials)[subset[k]];
       const double s = RowChi2(k, prediction[k]);
       const double scale = s > 0 ? std::sqrt(RowLoss(s, options) / s) : 1.0;
-      for (int c = 0; c < 6; ++c) residuals[6 * k + c] = scale * weights[6 * k + c] * (t.wrench[c] - prediction[k][c]);
+      for (int c = 0; c < 6; ++c)
+        residuals[6 * k + c] = scale * weights[6 * k + c] * (t.wrench[c] - prediction[k][c]);
     }
   }
 };
@@ -180,8 +184,9 @@ struct ResidualFunctor {
 
 using CostFunction = ceres::DynamicNumericDiffCostFunction<ResidualFunctor, ceres::CENTRAL>;
 
-Context MakeContext(const AugmentedModel& base, const std::vector<Effect>& free, const std::vector<Trial>& trials,
-                    const std::vector<int>& subset, const FitOptions& options) {
+Context MakeContext(const AugmentedModel& base, const std::vector<Effect>& free,
+                    const std::vector<Trial>& trials, const std::vector<int>& subset,
+                    const FitOptions& options) {
   Context c;
   c.base = base;
   c.free = free;
@@ -200,7 +205,8 @@ Context MakeContext(const AugmentedModel& base, const std::vector<Effect>& free,
   bool posture = false;
   c.rebuild = false;
   for (const Effect& e : free) {
-    if (e.kind == "coactivation" && std::find(c.others.begin(), c.others.end(), e.muscle) == c.others.end()) {
+    if (e.kind == "coactivation" &&
+        std::find(c.others.begin(), c.others.end(), e.muscle) == c.others.end()) {
       c.others.push_back(e.muscle);
     }
     posture |= e.stage == EffectStage::kPosture;
@@ -232,7 +238,8 @@ std::vector<double> Bounds(const Context& c, bool upper) {
   std::vector<double> v;
   for (size_t e = 0; e < c.free.size(); ++e) {
     if (c.free[e].per_trial) continue;
-    for (const EffectParameter& p : c.free[e].parameters) v.push_back(ident::ToInternal(p, upper ? p.upper : p.lower));
+    for (const EffectParameter& p : c.free[e].parameters)
+      v.push_back(ident::ToInternal(p, upper ? p.upper : p.lower));
   }
   return v;
 }
@@ -300,7 +307,9 @@ SolveResult Solve(const Context& c, std::vector<double> x) {
 SolveResult SolveWithStarts(const Context& c, const std::vector<double>& x0) {
   SolveResult best = Solve(c, x0);
   const Effect& last = c.free.back();
-  if (last.per_trial || last.parameters.size() != 1 || last.parameters[0].scale != ParameterScale::kLog10) return best;
+  if (last.per_trial || last.parameters.size() != 1 ||
+      last.parameters[0].scale != ParameterScale::kLog10)
+    return best;
   const int k = c.parameter_count - 1;
   const EffectParameter& p = last.parameters[0];
   double lo = ident::ToInternal(p, p.lower), hi = ident::ToInternal(p, p.upper);
@@ -366,7 +375,8 @@ Analysis Analyze(const Context& c, const std::vector<double>& x, double cost, bo
     double range = hi[i] - lo[i];
     if (x[i] - lo[i] <= kAtBoundFraction * range || hi[i] - x[i] <= kAtBoundFraction * range) {
       a.at_bound[i] = true;
-      reasons.push_back(ParameterLabel(c, i) + " ended on its search limit (only bounded by the data)");
+      reasons.push_back(ParameterLabel(c, i) +
+                        " ended on its search limit (only bounded by the data)");
     }
   }
   CostFunction cost_function(new ResidualFunctor{&c});
@@ -409,8 +419,9 @@ Analysis Analyze(const Context& c, const std::vector<double>& x, double cost, bo
     for (int i = 0; i < p; ++i) {
       for (int j = i + 1; j < p; ++j) {
         if (std::abs(a.correlation(i, j)) > c.options.max_correlation) {
-          reasons.push_back(ParameterLabel(c, i) + " and " + ParameterLabel(c, j) + " are correlated (r = " +
-                            util::FormatNumber(a.correlation(i, j), 4) + ")");
+          reasons.push_back(ParameterLabel(c, i) + " and " + ParameterLabel(c, j) +
+                            " are correlated (r = " + util::FormatNumber(a.correlation(i, j), 4) +
+                            ")");
         }
       }
       if (a.se_internal[i] > kUndeterminedFraction * (hi[i] - lo[i])) {
@@ -464,7 +475,8 @@ double RobustSpread(std::vector<double> v, double* median_out = nullptr) {
 
 /// Fill a CandidateFit for free effect `which` (default: the last) of the context; earlier free
 /// effects are the already chosen ones, refitted jointly.
-CandidateFit MakeFit(const Context& c, const SolveResult& r, const Analysis& a, bool sd_stated, int which = -1) {
+CandidateFit MakeFit(const Context& c, const SolveResult& r, const Analysis& a, bool sd_stated,
+                     int which = -1) {
   const int e = which < 0 ? static_cast<int>(c.free.size()) - 1 : which;
   const Effect& effect = c.free[e];
   CandidateFit f;
@@ -493,7 +505,8 @@ CandidateFit MakeFit(const Context& c, const SolveResult& r, const Analysis& a, 
       f.values.push_back(value);
       double se = a.se_internal[p0 + i];
       f.log10_standard_errors.push_back(p.scale == ParameterScale::kLog10 ? se : 0.0);
-      f.standard_errors.push_back(p.scale == ParameterScale::kLog10 ? value * std::log(10.0) * se : se);
+      f.standard_errors.push_back(p.scale == ParameterScale::kLog10 ? value * std::log(10.0) * se
+                                                                    : se);
       f.at_bound.push_back(a.at_bound[p0 + i]);
     }
     const int pn = static_cast<int>(effect.parameters.size());
@@ -513,9 +526,11 @@ CandidateFit MakeFit(const Context& c, const SolveResult& r, const Analysis& a, 
 /// Fit `effect` jointly with the already chosen effects `previous` (their values are the start)
 /// on the trials in `subset`. `start` (optional) is a full internal start vector; the solution's
 /// full internal vector goes to `x_out`.
-CandidateFit FitOnSubset(const AugmentedModel& base, const std::vector<AppliedEffect>& previous, const Effect& effect,
-                         const std::vector<Trial>& trials, const std::vector<int>& subset, const FitOptions& options,
-                         const std::vector<double>* start, bool analyze, std::vector<double>* x_out = nullptr) {
+CandidateFit FitOnSubset(const AugmentedModel& base, const std::vector<AppliedEffect>& previous,
+                         const Effect& effect, const std::vector<Trial>& trials,
+                         const std::vector<int>& subset, const FitOptions& options,
+                         const std::vector<double>* start, bool analyze,
+                         std::vector<double>* x_out = nullptr) {
   const bool sd_stated = AllSd(trials);
   std::vector<Effect> free;
   std::vector<double> x0;
@@ -543,7 +558,8 @@ CandidateFit FitOnSubset(const AugmentedModel& base, const std::vector<AppliedEf
   return MakeFit(c, r, a, sd_stated);
 }
 
-std::string ValueText(const Effect& e, const std::vector<double>& v, const std::vector<double>& se) {
+std::string ValueText(const Effect& e, const std::vector<double>& v,
+                      const std::vector<double>& se) {
   std::vector<std::string> items;
   for (size_t i = 0; i < e.parameters.size() && i < v.size(); ++i) {
     std::string s = e.parameters[i].name + " = " + util::FormatNumber(v[i], 4);
@@ -572,7 +588,8 @@ Folds MakeFolds(size_t trial_count, const FitOptions& options) {
   f.train.resize(folds);
   f.test.resize(folds);
   for (size_t i = 0; i < order.size(); ++i) {
-    for (int k = 0; k < folds; ++k) (static_cast<int>(i % folds) == k ? f.test[k] : f.train[k]).push_back(order[i]);
+    for (int k = 0; k < folds; ++k)
+      (static_cast<int>(i % folds) == k ? f.test[k] : f.train[k]).push_back(order[i]);
   }
   for (int k = 0; k < folds; ++k) {
     std::sort(f.train[k].begin(), f.train[k].end());
@@ -587,20 +604,23 @@ struct Current {
   std::vector<CandidateFit> fits;
   AugmentedModel augmented;
   std::vector<Vector6d> prediction;
-  double cost = 0.0;  ///< robust cost of the prediction
-  int parameters = 0; ///< counted parameters (per-trial factors included)
+  double cost = 0.0;   ///< robust cost of the prediction
+  int parameters = 0;  ///< counted parameters (per-trial factors included)
 };
 
 Current MakeCurrent(const LimbDescription& nominal, const std::vector<AppliedEffect>& effects,
-                    const std::vector<CandidateFit>& fits, const std::vector<Trial>& trials, const FitOptions& options) {
+                    const std::vector<CandidateFit>& fits, const std::vector<Trial>& trials,
+                    const FitOptions& options) {
   Current c;
   c.effects = effects;
   c.fits = fits;
   c.augmented = ApplyEffects(nominal, effects);
   Prediction p = PredictTrials(c.augmented, trials);
-  if (p.failed) throw Error("fit: the model with the chosen effects cannot predict the trials: " + p.message);
+  if (p.failed)
+    throw Error("fit: the model with the chosen effects cannot predict the trials: " + p.message);
   c.prediction = p.wrench;
-  Context context = MakeContext(ApplyEffects(nominal, {}), {}, trials, AllIndices(trials.size()), options);
+  Context context =
+      MakeContext(ApplyEffects(nominal, {}), {}, trials, AllIndices(trials.size()), options);
   c.cost = context.Cost(c.prediction);
   c.parameters = TotalParameters(effects, static_cast<int>(trials.size()));
   return c;
@@ -621,8 +641,9 @@ std::vector<Effect> Screen(const std::vector<Effect>& library, const Current& cu
 /// (each thread builds its own models and workspaces). Returns the fits in input order and the
 /// full internal solution of each.
 std::vector<CandidateFit> FitCandidates(const LimbDescription& nominal, const Current& current,
-                                        const std::vector<Effect>& candidates, const std::vector<Trial>& trials,
-                                        const FitOptions& options, std::vector<std::vector<double>>* solutions) {
+                                        const std::vector<Effect>& candidates,
+                                        const std::vector<Trial>& trials, const FitOptions& options,
+                                        std::vector<std::vector<double>>* solutions) {
   const AugmentedModel base = ApplyEffects(nominal, {});
   const std::vector<int> all = AllIndices(trials.size());
   std::vector<CandidateFit> fits(candidates.size());
@@ -630,10 +651,12 @@ std::vector<CandidateFit> FitCandidates(const LimbDescription& nominal, const Cu
   std::atomic<size_t> next{0};
   auto work = [&]() {
     for (size_t i = next++; i < candidates.size(); i = next++) {
-      fits[i] = FitOnSubset(base, current.effects, candidates[i], trials, all, options, nullptr, true, &(*solutions)[i]);
+      fits[i] = FitOnSubset(base, current.effects, candidates[i], trials, all, options, nullptr,
+                            true, &(*solutions)[i]);
     }
   };
-  int threads = options.threads > 0 ? options.threads : static_cast<int>(std::thread::hardware_concurrency());
+  int threads =
+      options.threads > 0 ? options.threads : static_cast<int>(std::thread::hardware_concurrency());
   threads = std::max(1, std::min<int>(threads, static_cast<int>(candidates.size())));
   std::vector<std::thread> pool;
   for (int t = 1; t < threads; ++t) pool.emplace_back(work);
@@ -644,9 +667,10 @@ std::vector<CandidateFit> FitCandidates(const LimbDescription& nominal, const Cu
 
 /// Cross-validate: held-out robust cost per residual of each of the best few candidates that
 /// could win (converged, identifiable, over the ΔBIC threshold); cv_error -2 marks a failed fold.
-void CrossValidate(const LimbDescription& nominal, const Current& current, const std::vector<Trial>& trials,
-                   const Folds& folds, const FitOptions& options, double threshold,
-                   const std::map<std::string, std::vector<double>>& solutions, std::vector<CandidateFit>* candidates) {
+void CrossValidate(const LimbDescription& nominal, const Current& current,
+                   const std::vector<Trial>& trials, const Folds& folds, const FitOptions& options,
+                   double threshold, const std::map<std::string, std::vector<double>>& solutions,
+                   std::vector<CandidateFit>* candidates) {
   if (folds.train.empty()) return;
   const AugmentedModel base = ApplyEffects(nominal, {});
   int done = 0;
@@ -663,7 +687,8 @@ void CrossValidate(const LimbDescription& nominal, const Current& current, const
     bool ok = true;
     for (size_t fold = 0; fold < folds.train.size() && ok; ++fold) {
       std::vector<double> x;
-      CandidateFit g = FitOnSubset(base, current.effects, f.effect, trials, folds.train[fold], options, &start, false, &x);
+      CandidateFit g = FitOnSubset(base, current.effects, f.effect, trials, folds.train[fold],
+                                   options, &start, false, &x);
       Context c = MakeContext(base, free, trials, folds.test[fold], options);
       std::vector<Vector6d> prediction;
       ok = g.converged && c.Predict(x.data(), &prediction);
@@ -683,22 +708,26 @@ void CrossValidate(const LimbDescription& nominal, const Current& current, const
 int Select(FitRound* r, bool cross_validated, const FitOptions& options) {
   for (size_t i = 0; i < r->candidates.size(); ++i) {
     CandidateFit& f = r->candidates[i];
-    std::string p = std::to_string(f.effect.parameters.size()) + " parameter" + (f.effect.parameters.size() > 1 ? "s" : "");
+    std::string p = std::to_string(f.effect.parameters.size()) + " parameter" +
+                    (f.effect.parameters.size() > 1 ? "s" : "");
     if (f.effect.per_trial) p = "per-trial parameters";
     if (!f.converged) {
       f.verdict = "fit failed: " + f.solver_message;
     } else if (f.delta_bic < r->bic_threshold) {
-      f.verdict = "does not earn its " + p + ": ΔBIC = " + util::FormatNumber(f.delta_bic, 3) + " < " +
-                  util::FormatNumber(r->bic_threshold, 3);
+      f.verdict = "does not earn its " + p + ": ΔBIC = " + util::FormatNumber(f.delta_bic, 3) +
+                  " < " + util::FormatNumber(r->bic_threshold, 3);
       if (!f.identifiable) f.verdict += "; not identifiable: " + f.identifiability;
     } else if (!f.identifiable) {
       f.verdict = "not identifiable from these data: " + f.identifiability;
     } else if (cross_validated && f.cv_error == -1.0) {
       f.verdict = "not cross-validated (a better candidate was)";
-    } else if (cross_validated && (f.cv_error < 0 || f.cv_error > r->cv_before - options.min_cv_improvement * std::min(r->cv_before, 1.0))) {
-      f.verdict = f.cv_error < 0 ? "cross-validation fit failed"
-                                 : "held-out error not lower: " + util::FormatNumber(f.cv_error, 4) + " vs " +
-                                       util::FormatNumber(r->cv_before, 4) + " per residual";
+    } else if (cross_validated &&
+               (f.cv_error < 0 || f.cv_error > r->cv_before - options.min_cv_improvement *
+                                                                  std::min(r->cv_before, 1.0))) {
+      f.verdict = f.cv_error < 0
+                      ? "cross-validation fit failed"
+                      : "held-out error not lower: " + util::FormatNumber(f.cv_error, 4) + " vs " +
+                            util::FormatNumber(r->cv_before, 4) + " per residual";
     } else if (r->chosen < 0) {
       r->chosen = static_cast<int>(i);
       f.accepted = true;
@@ -737,7 +766,8 @@ JointFit FitJointly(const LimbDescription& nominal, const std::vector<AppliedEff
     free.push_back(a.effect);
     for (double v : InternalValues(a.effect, &a.values)) x0.push_back(v);
   }
-  Context c = MakeContext(ApplyEffects(nominal, {}), free, trials, AllIndices(trials.size()), options);
+  Context c =
+      MakeContext(ApplyEffects(nominal, {}), free, trials, AllIndices(trials.size()), options);
   SolveResult r = Solve(c, x0);
   if (!r.usable) return out;
   Analysis a = Analyze(c, r.x, r.cost, AllSd(trials));
@@ -760,8 +790,8 @@ JointFit FitJointly(const LimbDescription& nominal, const std::vector<AppliedEff
 
 /// Simplify: a per-axis base compliance is replaced by the isotropic one when that lowers the
 /// BIC (the nested, simpler effect explains the data as well).
-bool Simplify(const Model& nominal, const std::vector<Trial>& trials, const FitOptions& options, Current* current,
-              std::string* note) {
+bool Simplify(const Model& nominal, const std::vector<Trial>& trials, const FitOptions& options,
+              Current* current, std::string* note) {
   const int n = static_cast<int>(6 * trials.size());
   for (size_t i = 0; i < current->effects.size(); ++i) {
     if (current->effects[i].effect.kind != "base_per_axis") continue;
@@ -791,8 +821,9 @@ bool Simplify(const Model& nominal, const std::vector<Trial>& trials, const FitO
 }
 
 /// One round: screen, fit, cross-validate, select. The winner (if any) is in r.chosen.
-FitRound RunRound(int index, const Model& nominal, const std::vector<Effect>& library, const Current& current,
-                  const std::vector<Trial>& trials, const Folds& folds, const FitOptions& options,
+FitRound RunRound(int index, const Model& nominal, const std::vector<Effect>& library,
+                  const Current& current, const std::vector<Trial>& trials, const Folds& folds,
+                  const FitOptions& options,
                   std::map<std::string, std::vector<double>>* solutions) {
   const bool sd_stated = AllSd(trials);
   const int n = static_cast<int>(6 * trials.size());
@@ -803,7 +834,8 @@ FitRound RunRound(int index, const Model& nominal, const std::vector<Effect>& li
   r.cv_before = current.cost / n;
   const std::vector<Effect> screened = Screen(library, current);
   std::vector<std::vector<double>> x;
-  std::vector<CandidateFit> fits = FitCandidates(nominal.description(), current, screened, trials, options, &x);
+  std::vector<CandidateFit> fits =
+      FitCandidates(nominal.description(), current, screened, trials, options, &x);
   solutions->clear();
   for (size_t i = 0; i < screened.size(); ++i) {
     fits[i].delta_bic = r.bic_before - fits[i].bic;
@@ -811,17 +843,21 @@ FitRound RunRound(int index, const Model& nominal, const std::vector<Effect>& li
     r.candidates.push_back(std::move(fits[i]));
   }
   r.bic_threshold =
-      options.min_bic_improvement +
-      (options.look_elsewhere && r.candidates.size() > 1 ? 2.0 * std::log(static_cast<double>(r.candidates.size())) : 0.0);
-  std::stable_sort(r.candidates.begin(), r.candidates.end(), [](const CandidateFit& a, const CandidateFit& b) {
-    if (a.converged != b.converged) return a.converged;
-    return a.bic < b.bic;
-  });
-  CrossValidate(nominal.description(), current, trials, folds, options, r.bic_threshold, *solutions, &r.candidates);
+      options.min_bic_improvement + (options.look_elsewhere && r.candidates.size() > 1
+                                         ? 2.0 * std::log(static_cast<double>(r.candidates.size()))
+                                         : 0.0);
+  std::stable_sort(r.candidates.begin(), r.candidates.end(),
+                   [](const CandidateFit& a, const CandidateFit& b) {
+                     if (a.converged != b.converged) return a.converged;
+                     return a.bic < b.bic;
+                   });
+  CrossValidate(nominal.description(), current, trials, folds, options, r.bic_threshold, *solutions,
+                &r.candidates);
   Select(&r, !folds.train.empty(), options);
   if (r.chosen < 0) {
     r.summary = "no candidate earns its parameters";
-    if (!r.candidates.empty()) r.summary += " (best: " + r.candidates[0].effect.id + ", " + r.candidates[0].verdict + ")";
+    if (!r.candidates.empty())
+      r.summary += " (best: " + r.candidates[0].effect.id + ", " + r.candidates[0].verdict + ")";
   } else {
     const CandidateFit& w = r.candidates[r.chosen];
     r.summary = "added " + w.effect.id + " (" + ValueText(w.effect, w.values, w.standard_errors) +
@@ -832,8 +868,8 @@ FitRound RunRound(int index, const Model& nominal, const std::vector<Effect>& li
 
 /// Adopt the round's winner: refit all chosen effects jointly (values from the candidate fit as
 /// the start) and make them the current model.
-Current Adopt(const Model& nominal, const Current& current, const FitRound& r, const std::vector<Trial>& trials,
-              const FitOptions& options) {
+Current Adopt(const Model& nominal, const Current& current, const FitRound& r,
+              const std::vector<Trial>& trials, const FitOptions& options) {
   const CandidateFit& winner = r.candidates[r.chosen];
   std::vector<AppliedEffect> chosen = current.effects;
   chosen.push_back({winner.effect, winner.values});
@@ -857,8 +893,8 @@ Current Adopt(const Model& nominal, const Current& current, const FitRound& r, c
 // ---- report steps ----------------------------------------------------------------------------
 
 /// Per-trial residuals, outlier rows (robust loss only), per-trial force factors.
-void ReportTrials(const std::vector<Trial>& trials, const Prediction& nominal, const Current& current,
-                  const FitOptions& options, FitReport* report) {
+void ReportTrials(const std::vector<Trial>& trials, const Prediction& nominal,
+                  const Current& current, const FitOptions& options, FitReport* report) {
   for (size_t k = 0; k < trials.size(); ++k) {
     TrialResidual t;
     t.line = trials[k].line;
@@ -883,8 +919,9 @@ void ReportTrials(const std::vector<Trial>& trials, const Prediction& nominal, c
   // Outliers are a minority by definition: when more rows than kMaxOutlierFraction are far off,
   // the model misses something everywhere and no row is singled out.
   if (report->outlier_rows.size() > kMaxOutlierFraction * trials.size()) {
-    report->notes.push_back(std::to_string(report->outlier_rows.size()) + " of " + std::to_string(trials.size()) +
-                            " rows are beyond " + util::FormatNumber(options.outlier_threshold, 3) +
+    report->notes.push_back(std::to_string(report->outlier_rows.size()) + " of " +
+                            std::to_string(trials.size()) + " rows are beyond " +
+                            util::FormatNumber(options.outlier_threshold, 3) +
                             " x noise: a systematic misfit, not outliers (no row flagged)");
     report->outlier_rows.clear();
   }
@@ -903,8 +940,8 @@ void ReportTrials(const std::vector<Trial>& trials, const Prediction& nominal, c
 }
 
 /// Correlations of all chosen parameters (joint fit) and the confounded pairs.
-void ReportCorrelations(const Model& nominal, const std::vector<Trial>& trials, const Current& current,
-                        const FitOptions& options, FitReport* report) {
+void ReportCorrelations(const Model& nominal, const std::vector<Trial>& trials,
+                        const Current& current, const FitOptions& options, FitReport* report) {
   if (current.effects.empty()) return;
   JointFit joint = FitJointly(nominal.description(), current.effects, trials, options);
   if (!joint.usable) return;
@@ -913,16 +950,17 @@ void ReportCorrelations(const Model& nominal, const std::vector<Trial>& trials, 
   for (int i = 0; i < joint.correlation.rows(); ++i) {
     for (int j = i + 1; j < joint.correlation.cols(); ++j) {
       if (std::abs(joint.correlation(i, j)) > kConfoundedCorrelation) {
-        report->confounded.push_back(joint.labels[i] + " and " + joint.labels[j] + " are confounded (r = " +
-                                     util::FormatNumber(joint.correlation(i, j), 3) + ")");
+        report->confounded.push_back(
+            joint.labels[i] + " and " + joint.labels[j] +
+            " are confounded (r = " + util::FormatNumber(joint.correlation(i, j), 3) + ")");
       }
     }
   }
 }
 
 /// Share of the weighted residual explained by a quadratic in x (per component, summed).
-double QuadraticShare(const std::vector<Eigen::Matrix<double, 6, 1>>& r, const std::vector<double>& x,
-                      const std::vector<bool>& use, double total) {
+double QuadraticShare(const std::vector<Eigen::Matrix<double, 6, 1>>& r,
+                      const std::vector<double>& x, const std::vector<bool>& use, double total) {
   std::vector<int> rows;
   for (size_t k = 0; k < x.size(); ++k) {
     if (use[k] && std::isfinite(x[k])) rows.push_back(static_cast<int>(k));
@@ -962,7 +1000,8 @@ void ReportTrace(const Model& nominal, const std::vector<Trial>& trials, const C
   double total = 0;
   for (size_t k = 0; k < trials.size(); ++k) {
     for (int c = 0; c < 6; ++c) {
-      r[k][c] = ident::Weight(trials[k], c, options) * (trials[k].wrench[c] - current.prediction[k][c]);
+      r[k][c] =
+          ident::Weight(trials[k], c, options) * (trials[k].wrench[c] - current.prediction[k][c]);
     }
     if (use[k]) total += r[k].squaredNorm();
   }
@@ -976,24 +1015,30 @@ void ReportTrace(const Model& nominal, const std::vector<Trial>& trials, const C
     try {
       mapper.Map(trials[k], &q[k]);
     } catch (const Error&) {
-      q[k] = Eigen::VectorXd::Constant(nominal.dof_count(), std::numeric_limits<double>::quiet_NaN());
+      q[k] =
+          Eigen::VectorXd::Constant(nominal.dof_count(), std::numeric_limits<double>::quiet_NaN());
     }
   }
   for (int j = 0; j < nominal.dof_count(); ++j) {
     if (nominal.joint(j).role != JointRole::kLimb) continue;
     std::vector<double> x(trials.size());
     for (size_t k = 0; k < trials.size(); ++k) x[k] = q[k][j];
-    items.push_back({"coordinate " + nominal.joint_names()[j], QuadraticShare(r, x, use, total),
-                     "a trend with this coordinate (joint_offset, a stiffness or a path outside the library)"});
+    items.push_back(
+        {"coordinate " + nominal.joint_names()[j], QuadraticShare(r, x, use, total),
+         "a trend with this coordinate (joint_offset, a stiffness or a path outside the library)"});
   }
   for (int m = 0; m < nominal.muscle_count(); ++m) {
     const std::string& name = nominal.muscle(m).name;
-    items.push_back({"length of " + name, QuadraticShare(r, ident::MuscleLengths(nominal, name, trials), use, total),
-                     "a trend with the muscle's length (force-length behaviour outside the model)"});
+    items.push_back(
+        {"length of " + name,
+         QuadraticShare(r, ident::MuscleLengths(nominal, name, trials), use, total),
+         "a trend with the muscle's length (force-length behaviour outside the model)"});
   }
   // Trends first (best first), then where the residual sits: per muscle and axis.
   std::stable_sort(items.begin(), items.end(),
-                   [](const FitReport::TraceItem& a, const FitReport::TraceItem& b) { return a.share > b.share; });
+                   [](const FitReport::TraceItem& a, const FitReport::TraceItem& b) {
+                     return a.share > b.share;
+                   });
   const size_t trends = items.size();
   // Per muscle and axis: share of the residual in the trials of each muscle, per component.
   const char* axes[6] = {"fx", "fy", "fz", "mx", "my", "mz"};
@@ -1005,39 +1050,45 @@ void ReportTrace(const Model& nominal, const std::vector<Trial>& trials, const C
   }
   for (const auto& m : per_muscle) {
     for (int c = 0; c < 6; ++c) {
-      items.push_back({"muscle " + m.first + " axis " + axes[c], total > 0 ? m.second[c] / total : 0.0,
+      items.push_back({"muscle " + m.first + " axis " + axes[c],
+                       total > 0 ? m.second[c] / total : 0.0,
                        "share of the residual in this muscle's trials on this axis"});
     }
   }
   std::stable_sort(items.begin() + trends, items.end(),
-                   [](const FitReport::TraceItem& a, const FitReport::TraceItem& b) { return a.share > b.share; });
+                   [](const FitReport::TraceItem& a, const FitReport::TraceItem& b) {
+                     return a.share > b.share;
+                   });
   std::vector<std::string> top_trends, top_axes;
   for (size_t k = 0; k < items.size(); ++k) {
     const FitReport::TraceItem& i = items[k];
     if (!(i.share >= kTraceMinShare) || !std::isfinite(i.share)) continue;
     report->trace.push_back(i);
     std::vector<std::string>& top = k < trends ? top_trends : top_axes;
-    if (top.size() < 2) top.push_back(i.variable + " (" + util::FormatNumber(100 * i.share, 3) + " %)");
+    if (top.size() < 2)
+      top.push_back(i.variable + " (" + util::FormatNumber(100 * i.share, 3) + " %)");
   }
   if (!top_trends.empty()) report->trace_summary = "it follows " + util::Join(top_trends, ", ");
   if (!top_axes.empty()) {
-    report->trace_summary += (report->trace_summary.empty() ? "it sits in " : "; it sits in ") + util::Join(top_axes, ", ");
+    report->trace_summary += (report->trace_summary.empty() ? "it sits in " : "; it sits in ") +
+                             util::Join(top_axes, ", ");
   }
   if (!report->closest_rejected.empty()) {
-    report->trace_summary += (report->trace_summary.empty() ? "" : "; ") + std::string("closest rejected candidate: ") +
-                             report->closest_rejected;
+    report->trace_summary += (report->trace_summary.empty() ? "" : "; ") +
+                             std::string("closest rejected candidate: ") + report->closest_rejected;
   }
 }
 
 /// Verdict from the residual of the rows not flagged as outliers.
-void ReportVerdict(const std::vector<Trial>& trials, const Current& current, const FitOptions& options,
-                   FitReport* report) {
+void ReportVerdict(const std::vector<Trial>& trials, const Current& current,
+                   const FitOptions& options, FitReport* report) {
   std::ostringstream m;
   if (!report->sd_stated) {
     report->verdict = FitVerdict::kNoNoiseStated;
-    m << "the data state no standard deviations, so the residual cannot be compared with the noise; weighted with "
-      << util::FormatNumber(options.default_sd_force, 3) << " N and " << util::FormatNumber(options.default_sd_moment, 3)
-      << " N·m";
+    m << "the data state no standard deviations, so the residual cannot be compared with the "
+         "noise; weighted with "
+      << util::FormatNumber(options.default_sd_force, 3) << " N and "
+      << util::FormatNumber(options.default_sd_moment, 3) << " N·m";
     report->verdict_message = m.str();
     return;
   }
@@ -1057,28 +1108,32 @@ void ReportVerdict(const std::vector<Trial>& trials, const Current& current, con
   const double threshold = 1.0 + options.unexplained_sigmas * std::sqrt(2.0 / dof);
   const double multiple = std::sqrt(reduced);
   const std::string outliers =
-      report->outlier_rows.empty() ? ""
-                                   : " (" + std::to_string(report->outlier_rows.size()) + " outlier row(s) left out)";
+      report->outlier_rows.empty()
+          ? ""
+          : " (" + std::to_string(report->outlier_rows.size()) + " outlier row(s) left out)";
   if (reduced > threshold) {
     report->verdict = FitVerdict::kUnexplained;
     report->effects_claimed = report->chosen.empty();
-    m << "after " << report->chosen.size() << " effect(s) the residual is " << util::FormatNumber(multiple, 3)
-      << " x the stated noise (reduced chi^2 " << util::FormatNumber(reduced, 4) << " > "
-      << util::FormatNumber(threshold, 4) << ")" << outliers << "; something outside the candidate library is missing";
+    m << "after " << report->chosen.size() << " effect(s) the residual is "
+      << util::FormatNumber(multiple, 3) << " x the stated noise (reduced chi^2 "
+      << util::FormatNumber(reduced, 4) << " > " << util::FormatNumber(threshold, 4) << ")"
+      << outliers << "; something outside the candidate library is missing";
     if (!report->chosen.empty()) {
-      m << "; the effects tried reduce the residual but do not explain it, so none is claimed (tentative partial "
+      m << "; the effects tried reduce the residual but do not explain it, so none is claimed "
+           "(tentative partial "
            "fits below)";
     }
   } else if (report->chosen.empty()) {
     report->verdict = FitVerdict::kNominalFits;
-    m << "the nominal model explains the data to the noise (residual " << util::FormatNumber(multiple, 3)
-      << " x noise)" << outliers << "; no effect is claimed";
+    m << "the nominal model explains the data to the noise (residual "
+      << util::FormatNumber(multiple, 3) << " x noise)" << outliers << "; no effect is claimed";
   } else {
     report->verdict = FitVerdict::kExplained;
     std::vector<std::string> ids;
     for (const AppliedEffect& a : report->chosen) ids.push_back(a.effect.id);
     m << "explained by " << util::Join(ids, " + ") << ": residual from "
-      << util::FormatNumber(std::sqrt(report->before.chi2 / std::max(1, report->before.residual_count)), 3)
+      << util::FormatNumber(
+             std::sqrt(report->before.chi2 / std::max(1, report->before.residual_count)), 3)
       << " x noise to " << util::FormatNumber(multiple, 3) << " x noise" << outliers;
   }
   report->verdict_message = m.str();
@@ -1094,7 +1149,8 @@ void GuardFinite(CandidateFit* f) {
       f->identifiable = false;
     }
   }
-  if (!f->correlation.allFinite()) f->correlation.setIdentity(f->correlation.rows(), f->correlation.cols());
+  if (!f->correlation.allFinite())
+    f->correlation.setIdentity(f->correlation.rows(), f->correlation.cols());
   for (double* v : {&f->cost, &f->aic, &f->bic, &f->delta_bic, &f->cv_error}) {
     if (!std::isfinite(*v)) *v = -1.0;
   }
@@ -1128,24 +1184,28 @@ RobustLoss ParseRobustLoss(const std::string& text) {
   throw Error("--loss '" + text + "': expected one of huber, cauchy, none");
 }
 
-CandidateFit FitCandidate(const AugmentedModel& current, const Effect& effect, const std::vector<Trial>& trials,
-                          const FitOptions& options) {
+CandidateFit FitCandidate(const AugmentedModel& current, const Effect& effect,
+                          const std::vector<Trial>& trials, const FitOptions& options) {
   // The already chosen effects stay fixed: a context whose only free effect is `effect`, on a
   // base that already holds them. BIC counts their parameters too.
-  CandidateFit f = FitOnSubset(current, {}, effect, trials, AllIndices(trials.size()), options, nullptr, true);
+  CandidateFit f =
+      FitOnSubset(current, {}, effect, trials, AllIndices(trials.size()), options, nullptr, true);
   const int n = static_cast<int>(6 * trials.size());
   const int k = TotalParameters(current.effects, static_cast<int>(trials.size())) +
-                (effect.per_trial ? static_cast<int>(trials.size()) : static_cast<int>(effect.parameters.size()));
+                (effect.per_trial ? static_cast<int>(trials.size())
+                                  : static_cast<int>(effect.parameters.size()));
   f.bic = Bic(f.cost, n, k, AllSd(trials));
   f.aic = Aicc(f.cost, n, k, AllSd(trials));
   GuardFinite(&f);
   return f;
 }
 
-FitReport FitEffects(const Model& nominal, const std::vector<Trial>& trials, const FitOptions& options) {
+FitReport FitEffects(const Model& nominal, const std::vector<Trial>& trials,
+                     const FitOptions& options) {
   auto clock_start = std::chrono::steady_clock::now();
   if (trials.empty()) throw Error("fit: no trials");
-  if (options.loss != RobustLoss::kNone && !(options.loss_scale > 0 && std::isfinite(options.loss_scale))) {
+  if (options.loss != RobustLoss::kNone &&
+      !(options.loss_scale > 0 && std::isfinite(options.loss_scale))) {
     throw Error("fit: the robust loss scale must be > 0 (noise multiples), got " +
                 util::FormatNumber(options.loss_scale));
   }
@@ -1186,9 +1246,10 @@ FitReport FitEffects(const Model& nominal, const std::vector<Trial>& trials, con
     report.closest_rejected.clear();
     const CandidateFit& winner = r.candidates[r.chosen];
     if (!r.indistinguishable.empty()) {
-      report.indistinguishable.push_back("At the sampled postures " + winner.effect.id + " cannot be told apart from " +
-                                         util::Join(r.indistinguishable, ", ") + " (BIC within " +
-                                         util::FormatNumber(options.indistinguishable_bic, 3) + ")");
+      report.indistinguishable.push_back(
+          "At the sampled postures " + winner.effect.id + " cannot be told apart from " +
+          util::Join(r.indistinguishable, ", ") + " (BIC within " +
+          util::FormatNumber(options.indistinguishable_bic, 3) + ")");
     }
     current = Adopt(nominal, current, r, trials, options);
     report.rounds.push_back(std::move(r));
@@ -1205,8 +1266,10 @@ FitReport FitEffects(const Model& nominal, const std::vector<Trial>& trials, con
   ReportTrials(trials, nominal_prediction, current, options, &report);
   ReportCorrelations(nominal, trials, current, options, &report);
   ReportVerdict(trials, current, options, &report);
-  if (report.verdict == FitVerdict::kUnexplained) ReportTrace(nominal, trials, current, options, &report);
-  report.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - clock_start).count();
+  if (report.verdict == FitVerdict::kUnexplained)
+    ReportTrace(nominal, trials, current, options, &report);
+  report.seconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - clock_start).count();
   return report;
 }
 
@@ -1215,25 +1278,28 @@ std::string FitReport::BriefReport() const {
   o << "verdict: " << FitVerdictName(verdict) << ": " << verdict_message << "\n";
   for (size_t i = 0; i < chosen_fits.size(); ++i) {
     const CandidateFit& f = chosen_fits[i];
-    o << (effects_claimed ? "effect " : "tentative, not claimed: ") << i + 1 << ": " << f.effect.id << ": " << ValueText(f.effect, f.values, f.standard_errors) << "\n";
+    o << (effects_claimed ? "effect " : "tentative, not claimed: ") << i + 1 << ": " << f.effect.id
+      << ": " << ValueText(f.effect, f.values, f.standard_errors) << "\n";
   }
   const char* names[6] = {"fx", "fy", "fz", "mx", "my", "mz"};
   for (int c = 0; c < 6; ++c) {
     o << "  " << names[c] << " RMS " << util::FormatNumber(before.rms[c], 3) << " -> "
       << util::FormatNumber(after.rms[c], 3) << (c < 3 ? " N" : " N·m");
     if (sd_stated) {
-      o << " (" << util::FormatNumber(before.normalized[c], 3) << " -> " << util::FormatNumber(after.normalized[c], 3)
-        << " x noise)";
+      o << " (" << util::FormatNumber(before.normalized[c], 3) << " -> "
+        << util::FormatNumber(after.normalized[c], 3) << " x noise)";
     }
     o << "\n";
   }
   if (!outlier_rows.empty()) {
     std::vector<std::string> lines;
     for (long l : outlier_rows) lines.push_back(std::to_string(l));
-    o << "outlier rows (CSV lines, " << RobustLossName(loss) << " loss): " << util::Join(lines, ", ") << "\n";
+    o << "outlier rows (CSV lines, " << RobustLossName(loss)
+      << " loss): " << util::Join(lines, ", ") << "\n";
   }
   if (!trial_factors.empty()) {
-    o << "trial force factors: spread (sd of ln factor) " << util::FormatNumber(trial_force_spread, 3);
+    o << "trial force factors: spread (sd of ln factor) "
+      << util::FormatNumber(trial_force_spread, 3);
     if (!trial_force_outliers.empty()) {
       std::vector<std::string> lines;
       for (long l : trial_force_outliers) lines.push_back(std::to_string(l));
@@ -1250,8 +1316,8 @@ std::string FitReport::BriefReport() const {
 
 void WriteAugmentedUrdf(const FitReport& report, const std::string& path) {
   std::string xml = WriteUrdfString(report.augmented.description);
-  std::string comment = "isowrench fit of " + report.model_name + " (" + std::to_string(report.trial_count) +
-                        " trials): " + report.BriefReport();
+  std::string comment = "isowrench fit of " + report.model_name + " (" +
+                        std::to_string(report.trial_count) + " trials): " + report.BriefReport();
   const AugmentedModel& a = report.augmented;
   const Vector6d& o = a.sensor_offset;
   if (o.norm() > 0) {
@@ -1260,16 +1326,19 @@ void WriteAugmentedUrdf(const FitReport& report, const std::string& path) {
     comment += "\n";
   }
   for (const auto& p : a.posture_offset) {
-    comment += "recorded " + p.first + " is offset (add to the recorded value): " + util::FormatNumber(p.second, 6) +
+    comment += "recorded " + p.first +
+               " is offset (add to the recorded value): " + util::FormatNumber(p.second, 6) +
                " rad or m\n";
   }
   for (const auto& c : a.coactivation) {
-    comment += "muscle " + c.first + " also pulls in other muscles' trials with " + util::FormatNumber(c.second, 4) +
-               " x its max force\n";
+    comment += "muscle " + c.first + " also pulls in other muscles' trials with " +
+               util::FormatNumber(c.second, 4) + " x its max force\n";
   }
   if (a.sensor_origin.norm() > 0) {
-    comment += "transducer moment origin offset (transducer axes, m): " + util::FormatNumber(a.sensor_origin[0], 4) +
-               " " + util::FormatNumber(a.sensor_origin[1], 4) + " " + util::FormatNumber(a.sensor_origin[2], 4) + "\n";
+    comment += "transducer moment origin offset (transducer axes, m): " +
+               util::FormatNumber(a.sensor_origin[0], 4) + " " +
+               util::FormatNumber(a.sensor_origin[1], 4) + " " +
+               util::FormatNumber(a.sensor_origin[2], 4) + "\n";
   }
   if (!a.calibration.isIdentity(0.0)) {
     comment += "transducer calibration error (reading = C x wrench), rows fx..mz:";

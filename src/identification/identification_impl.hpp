@@ -14,10 +14,10 @@ namespace isowrench::ident {
 class Random {
  public:
   explicit Random(unsigned long long seed) : state_(seed) {}
-  std::uint64_t Next();                 ///< splitmix64
-  double Uniform();                     ///< [0, 1)
-  double Uniform(double lo, double hi); ///< [lo, hi)
-  double Normal();                      ///< standard normal (Box-Muller)
+  std::uint64_t Next();                  ///< splitmix64
+  double Uniform();                      ///< [0, 1)
+  double Uniform(double lo, double hi);  ///< [lo, hi)
+  double Normal();                       ///< standard normal (Box-Muller)
 
  private:
   std::uint64_t state_;
@@ -52,9 +52,9 @@ class TrialMapper {
 };
 
 /// Prediction on a subset of trials (indices), without rebuilding anything but a workspace.
-void PredictSubset(const Model& model, const std::vector<Trial>& trials, const std::vector<int>& subset,
-                   const Vector6d& sensor_offset, std::vector<Vector6d>* wrench, std::vector<bool>* ok,
-                   std::string* message);
+void PredictSubset(const Model& model, const std::vector<Trial>& trials,
+                   const std::vector<int>& subset, const Vector6d& sensor_offset,
+                   std::vector<Vector6d>* wrench, std::vector<bool>* ok, std::string* message);
 
 /// Statics wrenches of a subset of trials on one model, at the recorded posture plus
 /// `posture_offset`: own[k] = the trial's muscle at its activation; other[i][k] = muscle
@@ -65,7 +65,7 @@ struct RawWrenches {
   std::vector<Vector6d> own;
   std::vector<std::vector<Vector6d>> other;
   std::vector<bool> ok;
-  std::string message;  ///< first failure
+  std::string message;            ///< first failure
   std::vector<double> max_force;  ///< max force per muscle of the model evaluated (N)
   bool all_ok() const;
 };
@@ -78,8 +78,9 @@ RawWrenches EvaluateRaw(const Model& model, const std::map<std::string, double>&
 /// sensor origin, calibration, per-trial factors (closed form, weights 1/sd), sensor offset.
 /// `factors` (optional) receives the per-trial factors (1 without trial_force). Trials whose
 /// raw wrench failed keep a zero reading.
-void ComposeReadings(const AugmentedModel& model, const std::vector<Trial>& trials, const std::vector<int>& subset,
-                     const RawWrenches& raw, const FitOptions& options, std::vector<Vector6d>* readings,
+void ComposeReadings(const AugmentedModel& model, const std::vector<Trial>& trials,
+                     const std::vector<int>& subset, const RawWrenches& raw,
+                     const FitOptions& options, std::vector<Vector6d>* readings,
                      std::vector<double>* factors);
 
 /// Coactivated muscles of an augmented model (keys of `coactivation`).
@@ -91,7 +92,8 @@ Eigen::VectorXd NominalJacobianColumn(const Model& model, const std::string& joi
 
 /// Muscle length of `muscle` at each trial's recorded posture (m); NaN where it cannot be
 /// evaluated.
-std::vector<double> MuscleLengths(const Model& model, const std::string& muscle, const std::vector<Trial>& trials);
+std::vector<double> MuscleLengths(const Model& model, const std::string& muscle,
+                                  const std::vector<Trial>& trials);
 
 /// Two effects that cannot both be in one model (same id, or one excludes the other).
 bool Excluded(const Effect& a, const Effect& b);

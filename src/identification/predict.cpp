@@ -40,8 +40,8 @@ namespace {
 /// with w set, or why the model cannot predict the trial. The first failure goes to raw->message.
 template <class Evaluate>
 void EvaluateEach(const Model& model, const std::map<std::string, double>& posture_offset,
-                  const std::vector<Trial>& trials, const std::vector<int>& subset, RawWrenches* raw,
-                  Evaluate evaluate) {
+                  const std::vector<Trial>& trials, const std::vector<int>& subset,
+                  RawWrenches* raw, Evaluate evaluate) {
   TrialMapper mapper(model);
   Eigen::VectorXd q(model.dof_count());
   std::vector<std::pair<int, double>> offsets;
@@ -62,7 +62,8 @@ void EvaluateEach(const Model& model, const std::map<std::string, double>& postu
         raw->other[i][k] = w;
       }
       if (!failure.empty()) {
-        if (raw->message.empty()) raw->message = "trial at line " + std::to_string(trial.line) + ": " + failure;
+        if (raw->message.empty())
+          raw->message = "trial at line " + std::to_string(trial.line) + ": " + failure;
         continue;
       }
       raw->ok[k] = true;
@@ -90,8 +91,9 @@ int TrialMapper::Map(const Trial& trial, Eigen::VectorXd* q) {
   } else if (trial.q.size() == q->size()) {
     *q = trial.q;
   } else {
-    throw Error("trial at line " + std::to_string(trial.line) + " has " + std::to_string(trial.q.size()) +
-                " joint values and no joint names; model has " + std::to_string(q->size()));
+    throw Error("trial at line " + std::to_string(trial.line) + " has " +
+                std::to_string(trial.q.size()) + " joint values and no joint names; model has " +
+                std::to_string(q->size()));
   }
   if (trial.muscle != last_muscle_ || muscle_index_ < 0) {
     muscle_index_ = model.MuscleIndex(trial.muscle);
@@ -115,8 +117,10 @@ RawWrenches EvaluateRaw(const Model& model, const std::map<std::string, double>&
     // Reference path (KDL kinematics + SolveStatics): the fast path cannot compile the model.
     KinematicsWorkspace kinematics(model);
     EvaluateEach(model, posture_offset, trials, subset, &raw,
-                 [&](const Eigen::VectorXd& q, int muscle_index, double activation, Vector6d* w) -> std::string {
-                   const StaticsResult s = EvaluateWrench(model, kinematics, q, muscle_index, activation).statics;
+                 [&](const Eigen::VectorXd& q, int muscle_index, double activation,
+                     Vector6d* w) -> std::string {
+                   const StaticsResult s =
+                       EvaluateWrench(model, kinematics, q, muscle_index, activation).statics;
                    if (!s.ok()) return std::string(StatusName(s.status)) + ": " + s.message;
                    *w = s.wrench;
                    return "";
@@ -127,9 +131,12 @@ RawWrenches EvaluateRaw(const Model& model, const std::map<std::string, double>&
   FastWorkspace ws(compiled);
   const StiffnessSet stiffness = compiled.model_stiffness();
   EvaluateEach(model, posture_offset, trials, subset, &raw,
-               [&](const Eigen::VectorXd& q, int muscle_index, double activation, Vector6d* w) -> std::string {
-                 if (!q.allFinite() || !std::isfinite(activation)) return "non-finite posture or activation";
-                 const FastWrench f = EvaluateFast(compiled, ws, q, muscle_index, stiffness, activation);
+               [&](const Eigen::VectorXd& q, int muscle_index, double activation,
+                   Vector6d* w) -> std::string {
+                 if (!q.allFinite() || !std::isfinite(activation))
+                   return "non-finite posture or activation";
+                 const FastWrench f =
+                     EvaluateFast(compiled, ws, q, muscle_index, stiffness, activation);
                  if (f.status != StaticsStatus::kOk && f.status != StaticsStatus::kSelfMotionHeld) {
                    return std::string(StatusName(f.status)) +
                           " (the model cannot hold this posture; see `isowrench wrench`)";
@@ -146,20 +153,23 @@ std::vector<std::string> CoactivatedMuscles(const AugmentedModel& model) {
   return out;
 }
 
-void ComposeReadings(const AugmentedModel& model, const std::vector<Trial>& trials, const std::vector<int>& subset,
-                     const RawWrenches& raw, const FitOptions& options, std::vector<Vector6d>* readings,
+void ComposeReadings(const AugmentedModel& model, const std::vector<Trial>& trials,
+                     const std::vector<int>& subset, const RawWrenches& raw,
+                     const FitOptions& options, std::vector<Vector6d>* readings,
                      std::vector<double>* factors) {
   const std::vector<MuscleSpec>& muscles = model.description.muscles;
   // Force ratio per muscle name: the description's max force over the one evaluated.
   std::map<std::string, double> ratio;
   for (size_t i = 0; i < muscles.size(); ++i) {
-    ratio[muscles[i].name] = i < raw.max_force.size() && raw.max_force[i] > 0 ? muscles[i].max_force / raw.max_force[i]
-                                                                               : 1.0;
+    ratio[muscles[i].name] = i < raw.max_force.size() && raw.max_force[i] > 0
+                                 ? muscles[i].max_force / raw.max_force[i]
+                                 : 1.0;
   }
   std::vector<std::pair<int, double>> coactivation;  // index in raw.others, fraction x ratio
   for (const auto& c : model.coactivation) {
     auto it = std::find(raw.others.begin(), raw.others.end(), c.first);
-    if (it == raw.others.end()) throw Error("coactivation of '" + c.first + "': its wrench was not evaluated");
+    if (it == raw.others.end())
+      throw Error("coactivation of '" + c.first + "': its wrench was not evaluated");
     coactivation.emplace_back(static_cast<int>(it - raw.others.begin()), c.second * ratio[c.first]);
   }
   readings->assign(subset.size(), Vector6d::Zero());
@@ -205,7 +215,9 @@ void ComposeReadings(const AugmentedModel& model, const std::vector<Trial>& tria
         const Trial& trial = trials[subset[k]];
         double s = 0;
         for (int c = 0; c < 6; ++c) {
-          s += std::pow(Weight(trial, c, options) * (trial.wrench[c] - model.sensor_offset[c] - factor_of[k] * force[k][c]), 2);
+          s += std::pow(Weight(trial, c, options) *
+                            (trial.wrench[c] - model.sensor_offset[c] - factor_of[k] * force[k][c]),
+                        2);
         }
         if (std::sqrt(s / 6.0) > options.outlier_threshold) factor_of[k] = median;
       }
@@ -218,9 +230,9 @@ void ComposeReadings(const AugmentedModel& model, const std::vector<Trial>& tria
   }
 }
 
-void PredictSubset(const Model& model, const std::vector<Trial>& trials, const std::vector<int>& subset,
-                   const Vector6d& sensor_offset, std::vector<Vector6d>* wrench, std::vector<bool>* ok,
-                   std::string* message) {
+void PredictSubset(const Model& model, const std::vector<Trial>& trials,
+                   const std::vector<int>& subset, const Vector6d& sensor_offset,
+                   std::vector<Vector6d>* wrench, std::vector<bool>* ok, std::string* message) {
   RawWrenches raw = EvaluateRaw(model, {}, {}, trials, subset);
   wrench->assign(subset.size(), Vector6d::Zero());
   for (size_t k = 0; k < subset.size(); ++k) {
@@ -236,7 +248,8 @@ Eigen::VectorXd NominalJacobianColumn(const Model& model, const std::string& joi
   return J.col(model.JointIndex(joint));
 }
 
-std::vector<double> MuscleLengths(const Model& model, const std::string& muscle, const std::vector<Trial>& trials) {
+std::vector<double> MuscleLengths(const Model& model, const std::string& muscle,
+                                  const std::vector<Trial>& trials) {
   std::vector<double> out(trials.size(), std::numeric_limits<double>::quiet_NaN());
   KinematicsWorkspace ws(model);
   TrialMapper mapper(model);
@@ -259,7 +272,8 @@ std::vector<double> MuscleLengths(const Model& model, const std::string& muscle,
 
 }  // namespace ident
 
-Prediction PredictTrials(const Model& model, const std::vector<Trial>& trials, const Vector6d& sensor_offset) {
+Prediction PredictTrials(const Model& model, const std::vector<Trial>& trials,
+                         const Vector6d& sensor_offset) {
   std::vector<int> all(trials.size());
   for (size_t i = 0; i < trials.size(); ++i) all[i] = static_cast<int>(i);
   Prediction p;
@@ -268,11 +282,13 @@ Prediction PredictTrials(const Model& model, const std::vector<Trial>& trials, c
   return p;
 }
 
-Prediction PredictTrials(const AugmentedModel& model, const std::vector<Trial>& trials, std::vector<double>* factors) {
+Prediction PredictTrials(const AugmentedModel& model, const std::vector<Trial>& trials,
+                         std::vector<double>* factors) {
   std::vector<int> all(trials.size());
   for (size_t i = 0; i < trials.size(); ++i) all[i] = static_cast<int>(i);
   Model built(model.description);
-  ident::RawWrenches raw = ident::EvaluateRaw(built, model.posture_offset, ident::CoactivatedMuscles(model), trials, all);
+  ident::RawWrenches raw = ident::EvaluateRaw(built, model.posture_offset,
+                                              ident::CoactivatedMuscles(model), trials, all);
   Prediction p;
   ident::ComposeReadings(model, trials, all, raw, FitOptions(), &p.wrench, factors);
   p.ok = raw.ok;
@@ -281,13 +297,16 @@ Prediction PredictTrials(const AugmentedModel& model, const std::vector<Trial>& 
   return p;
 }
 
-std::vector<Trial> SimulateTrials(const Model& nominal, const AugmentedModel& truth, const SimulationOptions& o) {
-  if (o.postures < 1) throw Error("simulate: --postures must be >= 1, got " + std::to_string(o.postures));
+std::vector<Trial> SimulateTrials(const Model& nominal, const AugmentedModel& truth,
+                                  const SimulationOptions& o) {
+  if (o.postures < 1)
+    throw Error("simulate: --postures must be >= 1, got " + std::to_string(o.postures));
   if (!(o.noise_force >= 0) || !(o.noise_moment >= 0) || !std::isfinite(o.noise_force) ||
       !std::isfinite(o.noise_moment)) {
     throw Error("simulate: noise levels must be finite and >= 0");
   }
-  if (!(o.joint_range >= 0) || !(o.prismatic_range >= 0)) throw Error("simulate: posture ranges must be >= 0");
+  if (!(o.joint_range >= 0) || !(o.prismatic_range >= 0))
+    throw Error("simulate: posture ranges must be >= 0");
   if (!(o.activation_min >= 0) || !(o.activation_max >= o.activation_min)) {
     throw Error("simulate: activation range must satisfy 0 <= min <= max");
   }
@@ -305,7 +324,8 @@ std::vector<Trial> SimulateTrials(const Model& nominal, const AugmentedModel& tr
   if (muscles.empty()) throw Error("simulate: model '" + nominal.name() + "' has no muscle");
   for (const std::string& m : muscles) nominal.MuscleIndex(m);
   Eigen::VectorXd center = o.center.size() ? o.center : nominal.nominal_posture();
-  if (center.size() != nominal.dof_count()) throw Error("simulate: centre posture has the wrong size");
+  if (center.size() != nominal.dof_count())
+    throw Error("simulate: centre posture has the wrong size");
   auto names = std::make_shared<const std::vector<std::string>>(nominal.joint_names());
   ident::Random rng(o.seed);
   std::vector<Trial> trials(o.postures);
@@ -327,7 +347,8 @@ std::vector<Trial> SimulateTrials(const Model& nominal, const AugmentedModel& tr
   force_part.trial_force = false;
   force_part.sensor_offset.setZero();
   Prediction p = PredictTrials(force_part, trials);
-  if (p.failed) throw Error("simulate: the model with the effects cannot be evaluated: " + p.message);
+  if (p.failed)
+    throw Error("simulate: the model with the effects cannot be evaluated: " + p.message);
   // Student-t with nu dof scaled to unit variance: N / sqrt(chi2_nu / nu) * sqrt((nu - 2) / nu).
   auto noise = [&]() {
     double z = rng.Normal();
@@ -340,7 +361,8 @@ std::vector<Trial> SimulateTrials(const Model& nominal, const AugmentedModel& tr
   for (int k = 0; k < o.postures; ++k) {
     Trial& t = trials[k];
     t.has_sd = true;
-    const double factor = truth.trial_force_spread > 0 ? std::exp(truth.trial_force_spread * rng.Normal()) : 1.0;
+    const double factor =
+        truth.trial_force_spread > 0 ? std::exp(truth.trial_force_spread * rng.Normal()) : 1.0;
     for (int c = 0; c < 6; ++c) {
       double sd = c < 3 ? o.noise_force : o.noise_moment;
       t.wrench[c] = factor * p.wrench[k][c] + truth.sensor_offset[c] + sd * noise();
@@ -351,13 +373,15 @@ std::vector<Trial> SimulateTrials(const Model& nominal, const AugmentedModel& tr
   // outlier_size sd with a random sign.
   for (int i = 0; i < outliers; ++i) {
     Trial& t = trials[(static_cast<long>(i) * o.postures) / outliers + (o.postures / outliers) / 2];
-    for (int c = 0; c < 6; ++c) t.wrench[c] += (rng.Uniform() < 0.5 ? -1 : 1) * o.outlier_size * t.sd[c];
+    for (int c = 0; c < 6; ++c)
+      t.wrench[c] += (rng.Uniform() < 0.5 ? -1 : 1) * o.outlier_size * t.sd[c];
   }
   return trials;
 }
 
-ResidualStats ComputeResidualStats(const std::vector<Trial>& trials, const std::vector<Vector6d>& predicted,
-                                   int parameter_count, const FitOptions& options) {
+ResidualStats ComputeResidualStats(const std::vector<Trial>& trials,
+                                   const std::vector<Vector6d>& predicted, int parameter_count,
+                                   const FitOptions& options) {
   ResidualStats s;
   s.parameter_count = parameter_count;
   const size_t n = trials.size();

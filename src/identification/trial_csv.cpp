@@ -3,6 +3,8 @@
 // 2013) and fast-cpp-csv-parser (no quoted line breaks, fixed column count at compile time) do
 // not fit; the record reader below is ~100 lines and fuzzed (fuzz/trial_csv_fuzzer.cpp).
 
+#include "isowrench/trial_csv.hpp"
+
 #include <unistd.h>
 
 #include <cmath>
@@ -16,7 +18,6 @@
 #include "isowrench/error.hpp"
 #include "isowrench/input_checks.hpp"
 #include "isowrench/posture.hpp"
-#include "isowrench/trial_csv.hpp"
 #include "util/atomic_file.hpp"
 #include "util/text.hpp"
 
@@ -99,7 +100,8 @@ class CsvRecords {
       bool quoted = false;
       // leading blanks of an unquoted field, or before an opening quote
       int c;
-      while ((c = buf_->sgetc()) == ' ' || c == '\t') Add(&field, static_cast<char>(buf_->sbumpc()));
+      while ((c = buf_->sgetc()) == ' ' || c == '\t')
+        Add(&field, static_cast<char>(buf_->sbumpc()));
       if (c == '"') {
         quoted = quoted_any_ = true;
         field.clear();
@@ -108,7 +110,8 @@ class CsvRecords {
         while (true) {
           c = buf_->sbumpc();
           if (c == EOF) {
-            throw Error(source_ + ":" + std::to_string(opened) + ": a quoted field opened here never closes");
+            throw Error(source_ + ":" + std::to_string(opened) +
+                        ": a quoted field opened here never closes");
           }
           if (c == '"') {
             if (buf_->sgetc() == '"') {
@@ -173,8 +176,8 @@ struct TrialReader::Impl {
   long line_number = 0;
   std::vector<std::string> columns;
   std::vector<std::string> fields;  ///< the current record (reused: no allocation per row)
-  std::vector<int> joint_column;  ///< per file column: model joint index or -1
-  std::vector<bool> warned;       ///< per file column: a range warning was issued
+  std::vector<int> joint_column;    ///< per file column: model joint index or -1
+  std::vector<bool> warned;         ///< per file column: a range warning was issued
   int muscle_column = -1;
   int activation_column = -1;
   int wrench_column[6] = {-1, -1, -1, -1, -1, -1};
@@ -200,13 +203,15 @@ TrialReader::TrialReader(const Model& model, std::istream& input, std::string so
   m.joint_names = std::make_shared<const std::vector<std::string>>(model.joint_names());
   m.records = std::make_unique<CsvRecords>(input, m.source);
   if (!m.records->Next(&m.columns, &m.line_number)) {
-    throw Error(m.source + ": no header line (expected column names such as muscle,fx,fy,fz,mx,my,mz)");
+    throw Error(m.source +
+                ": no header line (expected column names such as muscle,fx,fy,fz,mx,my,mz)");
   }
   for (std::string& name : m.columns) name = util::Trim(name);
   if (m.columns.size() == 1) {
     for (char separator : {';', '\t', '|'}) {
       if (m.columns[0].find(separator) != std::string::npos) {
-        std::string shown = separator == '\t' ? std::string("a tab") : "'" + std::string(1, separator) + "'";
+        std::string shown =
+            separator == '\t' ? std::string("a tab") : "'" + std::string(1, separator) + "'";
         throw Error(m.Where(-1) + ": the header '" + m.columns[0] + "' uses " + shown +
                     " as the separator (a spreadsheet export in a locale with decimal commas?); " +
                     kSeparatorAdvice);
@@ -221,17 +226,31 @@ TrialReader::TrialReader(const Model& model, std::istream& input, std::string so
   for (size_t c = 0; c < m.columns.size(); ++c) {
     const std::string& name = m.columns[c];
     int col = static_cast<int>(c);
-    if (name.empty()) throw Error(m.Where(-1) + ", column " + std::to_string(c + 1) + ": empty column name");
+    if (name.empty())
+      throw Error(m.Where(-1) + ", column " + std::to_string(c + 1) + ": empty column name");
     if (seen.count(name)) {
-      throw Error(m.Where(col) + ": duplicate column (also column " + std::to_string(seen[name] + 1) + ")");
+      throw Error(m.Where(col) + ": duplicate column (also column " +
+                  std::to_string(seen[name] + 1) + ")");
     }
     seen[name] = col;
-    if (name == "muscle") { m.muscle_column = col; continue; }
-    if (name == "activation") { m.activation_column = col; continue; }
+    if (name == "muscle") {
+      m.muscle_column = col;
+      continue;
+    }
+    if (name == "activation") {
+      m.activation_column = col;
+      continue;
+    }
     bool matched = false;
     for (int i = 0; i < 6; ++i) {
-      if (name == kWrenchColumns[i]) { m.wrench_column[i] = col; matched = true; }
-      if (name == kSdColumns[i]) { m.sd_column[i] = col; matched = true; }
+      if (name == kWrenchColumns[i]) {
+        m.wrench_column[i] = col;
+        matched = true;
+      }
+      if (name == kSdColumns[i]) {
+        m.sd_column[i] = col;
+        matched = true;
+      }
     }
     if (matched) continue;
     for (size_t j = 0; j < joints.size(); ++j) {
@@ -248,8 +267,8 @@ TrialReader::TrialReader(const Model& model, std::istream& input, std::string so
         known.push_back(kWrenchColumns[i]);
         known.push_back(kSdColumns[i]);
       }
-      throw Error(m.Where(col) + ": unknown column" + DidYouMean(name, known) + ": not a joint of model '" +
-                  model.name() + "' (" + util::Join(joints, ", ") +
+      throw Error(m.Where(col) + ": unknown column" + DidYouMean(name, known) +
+                  ": not a joint of model '" + model.name() + "' (" + util::Join(joints, ", ") +
                   ") nor one of muscle, activation, fx fy fz mx my mz, sd_fx ... sd_mz");
     }
   }
@@ -276,8 +295,9 @@ TrialReader::TrialReader(const Model& model, std::istream& input, std::string so
     const JointSpec& spec = model.joint(static_cast<int>(j));
     if (joint_present[j] || spec.role != JointRole::kLimb) continue;
     bool revolute = spec.type == JointType::kRevolute;
-    Warn(m.Where(-1) + ": no column '" + joints[j] + "': every trial uses the model's nominal " + joints[j] +
-         " = " + util::FormatNumber(JointValueToUserUnits(spec.type, m.nominal[static_cast<int>(j)])) +
+    Warn(m.Where(-1) + ": no column '" + joints[j] + "': every trial uses the model's nominal " +
+         joints[j] + " = " +
+         util::FormatNumber(JointValueToUserUnits(spec.type, m.nominal[static_cast<int>(j)])) +
          (revolute ? " deg" : " mm"));
   }
 }
@@ -290,7 +310,8 @@ bool TrialReader::Next(Trial* trial) {
   Impl& m = *impl_;
   std::vector<std::string>& fields = m.fields;
   if (!m.records->Next(&fields, &m.line_number)) {
-    if (m.input->bad()) throw Error(m.source + ": read error after line " + std::to_string(m.records->line()));
+    if (m.input->bad())
+      throw Error(m.source + ": read error after line " + std::to_string(m.records->line()));
     return false;
   }
   if (fields.size() != m.columns.size()) {
@@ -302,8 +323,8 @@ bool TrialReader::Next(Trial* trial) {
     } else if (fields.size() == 1 && fields[0].find(';') != std::string::npos) {
       hint = std::string(" (';' separators? ") + kSeparatorAdvice + ")";
     }
-    throw Error(m.Where(-1) + ": expected " + std::to_string(m.columns.size()) + " fields (as the header), found " +
-                std::to_string(fields.size()) + hint);
+    throw Error(m.Where(-1) + ": expected " + std::to_string(m.columns.size()) +
+                " fields (as the header), found " + std::to_string(fields.size()) + hint);
   }
   auto number = [&](int c) {
     double v = 0.0;
@@ -336,8 +357,10 @@ bool TrialReader::Next(Trial* trial) {
     }
     if (std::abs(v) > full && !m.warned[c]) {
       m.warned[c] = true;
-      Warn(m.Where(col) + ": " + fields[c] + (revolute ? " deg is more than a full turn" : " mm is more than 2 m") +
-           " from 0, far outside any limb joint's range (later rows of this column are not reported)");
+      Warn(m.Where(col) + ": " + fields[c] +
+           (revolute ? " deg is more than a full turn" : " mm is more than 2 m") +
+           " from 0, far outside any limb joint's range (later rows of this column are not "
+           "reported)");
     }
     t.q[j] = JointValueFromUserUnits(type, v);
   }
@@ -358,7 +381,8 @@ bool TrialReader::Next(Trial* trial) {
     int c = m.wrench_column[i];
     t.wrench[i] = number(c);
     if (std::abs(t.wrench[i]) > kMaxMeasuredWrench) {
-      throw Error(m.Where(c) + ": " + fields[c] + (i < 3 ? " N cannot be a measured force" : " N·m cannot be a measured moment") +
+      throw Error(m.Where(c) + ": " + fields[c] +
+                  (i < 3 ? " N cannot be a measured force" : " N·m cannot be a measured moment") +
                   " (|value| > " + util::FormatNumber(kMaxMeasuredWrench) + ")");
     }
   }
@@ -367,7 +391,8 @@ bool TrialReader::Next(Trial* trial) {
     for (int i = 0; i < 6; ++i) {
       int c = m.sd_column[i];
       t.sd[i] = number(c);
-      if (!(t.sd[i] > 0)) throw Error(m.Where(c) + ": standard deviation " + fields[c] + " must be > 0");
+      if (!(t.sd[i] > 0))
+        throw Error(m.Where(c) + ": standard deviation " + fields[c] + " must be > 0");
       if (t.sd[i] > kMaxMeasuredWrench) {
         throw Error(m.Where(c) + ": standard deviation " + fields[c] + " is not plausible (> " +
                     util::FormatNumber(kMaxMeasuredWrench) + ")");
@@ -384,8 +409,9 @@ std::vector<Trial> ReadTrialsCsv(const Model& model, const std::string& path) {
   return trials;
 }
 
-long ForEachTrial(const Model& model, const std::string& path, const std::function<void(const Trial&)>& on_trial,
-                  const TrialProgress& progress, long progress_every) {
+long ForEachTrial(const Model& model, const std::string& path,
+                  const std::function<void(const Trial&)>& on_trial, const TrialProgress& progress,
+                  long progress_every) {
   std::ifstream file(path, std::ios::binary);
   if (!file) throw Error("cannot open data file '" + path + "'");
   double size = -1;
@@ -430,7 +456,8 @@ struct TrialCsvWriter::Impl {
 TrialCsvWriter::TrialCsvWriter(const Model& model, std::ostream& out, bool with_sd)
     : impl_(std::make_unique<Impl>(Impl{&model, &out, with_sd})) {
   const std::vector<std::string>& joints = model.joint_names();
-  out << "# isowrench measured wrenches; joints in degrees (mm for prismatic), forces N, moments N·m, "
+  out << "# isowrench measured wrenches; joints in degrees (mm for prismatic), forces N, moments "
+         "N·m, "
          "transducer axes\n";
   for (size_t j = 0; j < joints.size(); ++j) out << joints[j] << ",";
   out << "muscle,activation,fx,fy,fz,mx,my,mz";
@@ -443,7 +470,8 @@ TrialCsvWriter::~TrialCsvWriter() = default;
 void TrialCsvWriter::Write(const Trial& t) {
   const Model& model = *impl_->model;
   std::ostream& out = *impl_->out;
-  std::vector<int> map = t.joint_names ? ident::JointMap(model, *t.joint_names) : std::vector<int>();
+  std::vector<int> map =
+      t.joint_names ? ident::JointMap(model, *t.joint_names) : std::vector<int>();
   Eigen::VectorXd q = model.nominal_posture();
   if (t.joint_names) {
     for (size_t i = 0; i < map.size(); ++i) {
@@ -452,8 +480,10 @@ void TrialCsvWriter::Write(const Trial& t) {
   } else if (t.q.size() == q.size()) {
     q = t.q;
   }
-  if (!q.allFinite() || !t.wrench.allFinite() || !std::isfinite(t.activation) || (impl_->sd && !t.sd.allFinite())) {
-    throw Error("trial CSV: a trial of muscle '" + t.muscle + "' holds a non-finite value; nothing written for it");
+  if (!q.allFinite() || !t.wrench.allFinite() || !std::isfinite(t.activation) ||
+      (impl_->sd && !t.sd.allFinite())) {
+    throw Error("trial CSV: a trial of muscle '" + t.muscle +
+                "' holds a non-finite value; nothing written for it");
   }
   for (int j = 0; j < q.size(); ++j) {
     double v = JointValueToUserUnits(model.joint(j).type, q[j]);

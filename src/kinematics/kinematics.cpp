@@ -24,20 +24,25 @@ const LinkFrame& LinkOf(const Model& model, const std::string& link) {
 
 }  // namespace
 
-FastWorkspace::Impl& RunKinematics(const Model& model, KinematicsWorkspace& ws, const Eigen::VectorXd& q,
-                                   int muscle, double activation, bool world_axes) {
+FastWorkspace::Impl& RunKinematics(const Model& model, KinematicsWorkspace& ws,
+                                   const Eigen::VectorXd& q, int muscle, double activation,
+                                   bool world_axes) {
   ValidatePosture(model, q);
   if (muscle >= model.muscle_count()) {
-    throw Error("muscle index " + std::to_string(muscle) + " is out of range for model '" + model.name() + "'");
+    throw Error("muscle index " + std::to_string(muscle) + " is out of range for model '" +
+                model.name() + "'");
   }
   if (muscle >= 0 && !std::isfinite(activation)) {
     throw Error("muscle '" + model.muscle(muscle).name + "': activation is not finite");
   }
   FastWorkspace::Impl& b = ws.impl().buffers;
-  if (!ComputeKinematicsWithFrames(model.impl().flat, b, q.data(), muscle, activation, world_axes)) {
+  if (!ComputeKinematicsWithFrames(model.impl().flat, b, q.data(), muscle, activation,
+                                   world_axes)) {
     const MuscleSpec& spec = model.muscle(muscle);
     size_t i = 1;
-    while (i + 1 < spec.path.size() && (b.points[i] - b.points[i - 1]).norm() >= kFastMinSegmentLength) ++i;
+    while (i + 1 < spec.path.size() &&
+           (b.points[i] - b.points[i - 1]).norm() >= kFastMinSegmentLength)
+      ++i;
     throw Error("muscle '" + spec.name + "': path points " + std::to_string(i - 1) + " and " +
                 std::to_string(i) + " coincide at this posture");
   }
@@ -50,7 +55,8 @@ KinematicsWorkspace::~KinematicsWorkspace() = default;
 KinematicsWorkspace::KinematicsWorkspace(KinematicsWorkspace&&) noexcept = default;
 KinematicsWorkspace& KinematicsWorkspace::operator=(KinematicsWorkspace&&) noexcept = default;
 
-Eigen::Isometry3d EndpointPose(const Model& model, KinematicsWorkspace& ws, const Eigen::VectorXd& q) {
+Eigen::Isometry3d EndpointPose(const Model& model, KinematicsWorkspace& ws,
+                               const Eigen::VectorXd& q) {
   const FastWorkspace::Impl& b = RunKinematics(model, ws, q, -1, 1.0, true);
   Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
   const FlatChain& chain = model.impl().flat;
@@ -59,11 +65,13 @@ Eigen::Isometry3d EndpointPose(const Model& model, KinematicsWorkspace& ws, cons
   return pose;
 }
 
-Matrix6Xd EndpointJacobianWorld(const Model& model, KinematicsWorkspace& ws, const Eigen::VectorXd& q) {
+Matrix6Xd EndpointJacobianWorld(const Model& model, KinematicsWorkspace& ws,
+                                const Eigen::VectorXd& q) {
   return RunKinematics(model, ws, q, -1, 1.0, true).J;
 }
 
-Eigen::Matrix3d TransducerRotation(const Model& model, KinematicsWorkspace& ws, const Eigen::VectorXd& q) {
+Eigen::Matrix3d TransducerRotation(const Model& model, KinematicsWorkspace& ws,
+                                   const Eigen::VectorXd& q) {
   const TransducerSpec& t = model.transducer();
   if (t.axes_in_world) return t.rotation;
   return RunKinematics(model, ws, q, -1, 1.0, false).R_W_T;
@@ -82,8 +90,9 @@ Eigen::Vector3d PointPosition(const Model& model, KinematicsWorkspace& ws, const
   return b.frames[frame.frame] * p + b.origin[frame.frame];
 }
 
-Eigen::Matrix3Xd PointJacobian(const Model& model, KinematicsWorkspace& ws, const Eigen::VectorXd& q,
-                               const std::string& link, const Eigen::Vector3d& p_link) {
+Eigen::Matrix3Xd PointJacobian(const Model& model, KinematicsWorkspace& ws,
+                               const Eigen::VectorXd& q, const std::string& link,
+                               const Eigen::Vector3d& p_link) {
   const LinkFrame& frame = LinkOf(model, link);
   const FastWorkspace::Impl& b = RunKinematics(model, ws, q, -1, 1.0, true);
   Eigen::Matrix3Xd J = Eigen::Matrix3Xd::Zero(3, model.dof_count());
@@ -105,8 +114,8 @@ Eigen::Matrix3Xd PointJacobian(const Model& model, KinematicsWorkspace& ws, cons
   return J;
 }
 
-MuscleTorque ComputeMuscleTorque(const Model& model, KinematicsWorkspace& ws, const Eigen::VectorXd& q,
-                                 int muscle_index, double activation) {
+MuscleTorque ComputeMuscleTorque(const Model& model, KinematicsWorkspace& ws,
+                                 const Eigen::VectorXd& q, int muscle_index, double activation) {
   if (muscle_index < 0 || muscle_index >= model.muscle_count()) {
     throw Error("muscle index " + std::to_string(muscle_index) + " is out of range for model '" +
                 model.name() + "'");

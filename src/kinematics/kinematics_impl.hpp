@@ -14,7 +14,8 @@ struct KinematicsWorkspace::Impl {
 /// Validate q and run the kernel with frames on `ws` (see ComputeKinematicsWithFrames); returns
 /// the buffers holding the results. @throws Error for a bad posture, muscle index or
 /// activation, or coincident path points of the muscle (naming the muscle and the points).
-FastWorkspace::Impl& RunKinematics(const Model& model, KinematicsWorkspace& ws, const Eigen::VectorXd& q,
-                                   int muscle, double activation, bool world_axes);
+FastWorkspace::Impl& RunKinematics(const Model& model, KinematicsWorkspace& ws,
+                                   const Eigen::VectorXd& q, int muscle, double activation,
+                                   bool world_axes);
 
 }  // namespace isowrench

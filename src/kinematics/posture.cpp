@@ -33,28 +33,33 @@ double JointValueToUserUnits(JointType type, double model_value) {
   return type == JointType::kPrismatic ? model_value * 1e3 : model_value * 180.0 / M_PI;
 }
 
-void SetJointFromUserUnits(const Model& model, Eigen::VectorXd& q, const std::string& joint, double value) {
+void SetJointFromUserUnits(const Model& model, Eigen::VectorXd& q, const std::string& joint,
+                           double value) {
   const CoordinateSpec& coordinate = FindCoordinate(model.description(), joint);
   if (!std::isfinite(value)) throw Error("posture of coordinate '" + joint + "' is not finite");
   q[model.JointIndex(coordinate.name)] = JointValueFromUserUnits(coordinate.type, value);
 }
 
-Eigen::VectorXd ApplyPostureAssignments(const Model& model, Eigen::VectorXd q, const std::string& assignments) {
+Eigen::VectorXd ApplyPostureAssignments(const Model& model, Eigen::VectorXd q,
+                                        const std::string& assignments) {
   ValidatePosture(model, q);
   for (const std::string& item : util::Split(assignments, ",; ")) {
     size_t eq = item.find('=');
     if (eq == std::string::npos || eq == 0) {
-      throw Error("posture item '" + item + "' is not of the form joint=value (degrees, mm for prismatic)");
+      throw Error("posture item '" + item +
+                  "' is not of the form joint=value (degrees, mm for prismatic)");
     }
     std::string joint = util::Trim(item.substr(0, eq));
-    double value = util::ParseDoubleOrThrow(item.substr(eq + 1), "posture of joint '" + joint + "'");
+    double value =
+        util::ParseDoubleOrThrow(item.substr(eq + 1), "posture of joint '" + joint + "'");
     SetJointFromUserUnits(model, q, joint, value);
   }
   return q;
 }
 
 std::vector<Eigen::VectorXd> ParsePostureCsv(const Model& model, const std::string& text,
-                                             const std::string& source, const Eigen::VectorXd& base) {
+                                             const std::string& source,
+                                             const Eigen::VectorXd& base) {
   ValidatePosture(model, base);
   std::istringstream in(text);
   std::string line;
@@ -89,15 +94,17 @@ std::vector<Eigen::VectorXd> ParsePostureCsv(const Model& model, const std::stri
       continue;
     }
     if (fields.size() != columns.size()) {
-      throw Error(where() + "row has " + std::to_string(fields.size()) + " fields but the header has " +
-                  std::to_string(columns.size()) + " (" + util::Join(names, ", ") + ")");
+      throw Error(where() + "row has " + std::to_string(fields.size()) +
+                  " fields but the header has " + std::to_string(columns.size()) + " (" +
+                  util::Join(names, ", ") + ")");
     }
     Eigen::VectorXd q = base;
     for (size_t c = 0; c < columns.size(); ++c) {
       if (fields[c].empty()) continue;
       double value = 0.0;
       if (!util::ParseDouble(fields[c], &value) || !std::isfinite(value)) {
-        throw Error(where() + "column '" + names[c] + "': '" + fields[c] + "' is not a finite number (" +
+        throw Error(where() + "column '" + names[c] + "': '" + fields[c] +
+                    "' is not a finite number (" +
                     (columns[c]->type == JointType::kPrismatic ? "mm" : "degrees") + ")");
       }
       q[model.JointIndex(columns[c]->name)] = JointValueFromUserUnits(columns[c]->type, value);
@@ -105,7 +112,9 @@ std::vector<Eigen::VectorXd> ParsePostureCsv(const Model& model, const std::stri
     postures.push_back(q);
   }
   if (postures.empty()) {
-    throw Error(source + ": no posture rows (expected a header naming coordinates, then one row per posture)");
+    throw Error(
+        source +
+        ": no posture rows (expected a header naming coordinates, then one row per posture)");
   }
   return postures;
 }
@@ -125,7 +134,8 @@ std::string FormatPosture(const Model& model, const Eigen::VectorXd& q, bool all
     if (!all && q[i] == 0.0) continue;
     bool prismatic = model.joint(i).type == JointType::kPrismatic;
     double value = JointValueToUserUnits(model.joint(i).type, q[i]);
-    items.push_back(model.joint_names()[i] + "=" + util::FormatNumber(value, 6) + (prismatic ? " mm" : "°"));
+    items.push_back(model.joint_names()[i] + "=" + util::FormatNumber(value, 6) +
+                    (prismatic ? " mm" : "°"));
   }
   return items.empty() ? "all joints at 0" : util::Join(items, ", ");
 }

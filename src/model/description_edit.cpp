@@ -20,14 +20,13 @@ JointSpec& FindMovable(LimbDescription& d, const std::string& name) {
     if (j.name == name) return j;
     known.push_back(j.name);
   }
-  throw Error("unknown joint '" + name + "' in model '" + d.name + "' (movable joints: " +
-              util::Join(known, ", ") + ")");
+  throw Error("unknown joint '" + name + "' in model '" + d.name +
+              "' (movable joints: " + util::Join(known, ", ") + ")");
 }
 
 void CheckStiffness(double stiffness, const std::string& what) {
   if (!std::isfinite(stiffness) || stiffness < 0) {
-    throw Error(what + ": stiffness " + util::FormatNumber(stiffness) +
-                " must be finite and >= 0");
+    throw Error(what + ": stiffness " + util::FormatNumber(stiffness) + " must be finite and >= 0");
   }
   CheckStiffnessValue(stiffness, what);  // <= kMaxStiffness
 }
@@ -50,8 +49,8 @@ void CheckFreeCoordinate(const CoordinateSpec& c, const std::string& model) {
     throw Error(what + ": default value " + util::FormatNumber(c.default_value) + " is not finite");
   }
   if (std::isnan(c.lower) || std::isnan(c.upper) || c.lower > c.upper) {
-    throw Error(what + ": range [" + util::FormatNumber(c.lower) + ", " + util::FormatNumber(c.upper) +
-                "] needs lower <= upper");
+    throw Error(what + ": range [" + util::FormatNumber(c.lower) + ", " +
+                util::FormatNumber(c.upper) + "] needs lower <= upper");
   }
 }
 
@@ -61,20 +60,23 @@ LimbDescription NormalizeCoordinates(LimbDescription d) {
   const std::string model = "model '" + d.name + "'";
   std::map<std::string, CoordinateSpec> declared;
   for (const CoordinateSpec& c : d.coordinates) {
-    if (!declared.emplace(c.name, c).second) throw Error(model + ": coordinate '" + c.name + "' is defined twice");
+    if (!declared.emplace(c.name, c).second)
+      throw Error(model + ": coordinate '" + c.name + "' is defined twice");
   }
   std::set<std::string> carried;  // coordinates a joint carries with the identity
   for (JointSpec& j : d.joints) {
     if (j.type == JointType::kFixed) continue;
     if (j.coordinate.empty()) {
       if (!j.coupling.is_identity()) {
-        throw Error(model + ", joint '" + j.name + "': a coupling needs the coordinate that drives it");
+        throw Error(model + ", joint '" + j.name +
+                    "': a coupling needs the coordinate that drives it");
       }
       j.coordinate = j.name;
     }
     if (CarriesOwnCoordinate(j)) {
       if (!j.coupling.is_identity()) {
-        throw Error(model + ", joint '" + j.name + "' is coupled to itself; name another coordinate");
+        throw Error(model + ", joint '" + j.name +
+                    "' is coupled to itself; name another coordinate");
       }
       carried.insert(j.name);
     }
@@ -92,7 +94,8 @@ LimbDescription NormalizeCoordinates(LimbDescription d) {
         c.name = j.coordinate;
         ordered.push_back(c);
       } else {
-        throw Error(model + ", joint '" + j.name + "' is driven by unknown coordinate '" + j.coordinate + "'");
+        throw Error(model + ", joint '" + j.name + "' is driven by unknown coordinate '" +
+                    j.coordinate + "'");
       }
       position[j.coordinate] = ordered.size() - 1;
     }
@@ -104,8 +107,10 @@ LimbDescription NormalizeCoordinates(LimbDescription d) {
       c.joint = j.name;
     } else if (j.stiffness != 0.0) {
       throw Error(model + ", joint '" + j.name + "': stiffness " + util::FormatNumber(j.stiffness) +
-                  " on a joint driven by coordinate '" + j.coordinate + "'; a driven joint has no dof of its "
-                  "own: give the stiffness to '" + j.coordinate + "'");
+                  " on a joint driven by coordinate '" + j.coordinate +
+                  "'; a driven joint has no dof of its "
+                  "own: give the stiffness to '" +
+                  j.coordinate + "'");
     }
   }
   for (const CoordinateSpec& c : d.coordinates) {
@@ -134,19 +139,22 @@ const CoordinateSpec& FindCoordinate(const LimbDescription& d, const std::string
   for (const JointSpec& j : d.joints) {
     if (j.name != name) continue;
     if (j.type == JointType::kFixed) {
-      throw Error("joint '" + name + "' of model '" + d.name + "' is fixed; it has no coordinate (coordinates: " +
-                  util::Join(known, ", ") + ")");
+      throw Error("joint '" + name + "' of model '" + d.name +
+                  "' is fixed; it has no coordinate (coordinates: " + util::Join(known, ", ") +
+                  ")");
     }
     if (!j.coordinate.empty() && j.coordinate != j.name) {
       auto driver = std::find_if(d.coordinates.begin(), d.coordinates.end(),
                                  [&](const CoordinateSpec& c) { return c.name == j.coordinate; });
-      const bool mimic = j.coupling.is_linear() && driver != d.coordinates.end() && !driver->joint.empty();
+      const bool mimic =
+          j.coupling.is_linear() && driver != d.coordinates.end() && !driver->joint.empty();
       throw Error("joint '" + name + "' is driven by coordinate '" + j.coordinate + "' (" +
-                  (mimic ? "mimic" : "isowrench:coupling") + "); set '" + j.coordinate + "' instead");
+                  (mimic ? "mimic" : "isowrench:coupling") + "); set '" + j.coordinate +
+                  "' instead");
     }
   }
-  throw Error("unknown coordinate '" + name + "' in model '" + d.name + "'" + DidYouMean(name, known) +
-              " (coordinates: " + util::Join(known, ", ") + ")");
+  throw Error("unknown coordinate '" + name + "' in model '" + d.name + "'" +
+              DidYouMean(name, known) + " (coordinates: " + util::Join(known, ", ") + ")");
 }
 
 const char* RoleName(JointRole role) {
@@ -203,7 +211,8 @@ LimbDescription WithBaseStiffness(LimbDescription d, double stiffness) {
     j.axis = Eigen::Vector3d::Unit(i);
     j.parent_link = parent;
     j.child_link = std::string(names[i]) + "_link";
-    if (HasLink(d, j.child_link)) throw Error("cannot add base dofs: link '" + j.child_link + "' exists");
+    if (HasLink(d, j.child_link))
+      throw Error("cannot add base dofs: link '" + j.child_link + "' exists");
     parent = j.child_link;
     base.push_back(j);
   }
@@ -245,7 +254,8 @@ LimbDescription WithExtraJoint(LimbDescription d, const std::string& after_joint
   extra.axis = axis.normalized();
   extra.parent_link = it->child_link;
   extra.child_link = new_joint + "_link";
-  if (HasLink(d, extra.child_link)) throw Error("extra joint: link '" + extra.child_link + "' exists");
+  if (HasLink(d, extra.child_link))
+    throw Error("extra joint: link '" + extra.child_link + "' exists");
   // Everything that hung on after_joint's child now hangs on the new joint's child.
   auto next = it + 1;
   if (next != d.joints.end()) next->parent_link = extra.child_link;
@@ -287,7 +297,8 @@ LimbDescription WithTransducerStiffness(LimbDescription d, const Vector6d& stiff
       throw Error(std::string("transducer stiffness ") + DofName(i) + " = " +
                   util::FormatNumber(stiffness[i]) + " must be finite and >= 0");
     }
-    CheckStiffnessValue(stiffness[i], std::string("WithTransducerStiffness: transducer ") + DofName(i));
+    CheckStiffnessValue(stiffness[i],
+                        std::string("WithTransducerStiffness: transducer ") + DofName(i));
   }
   d.transducer.stiffness = stiffness;
   return d;

@@ -21,12 +21,12 @@ namespace isowrench {
 
 struct Function::Impl {
   FunctionKind kind = FunctionKind::kConstant;
-  double slope = 0.0;      // Linear
-  double intercept = 0.0;  // Linear; the value of a Constant
-  double scale = 1.0;      // Multiplier
-  std::vector<Function> inner;  // Multiplier: exactly one
-  std::vector<double> x, y;     // knots
-  std::vector<double> b, c, d;  // per-knot polynomial coefficients (see the file comment)
+  double slope = 0.0;                // Linear
+  double intercept = 0.0;            // Linear; the value of a Constant
+  double scale = 1.0;                // Multiplier
+  std::vector<Function> inner;       // Multiplier: exactly one
+  std::vector<double> x, y;          // knots
+  std::vector<double> b, c, d;       // per-knot polynomial coefficients (see the file comment)
   std::vector<double> coefficients;  // Polynomial, highest order first
 };
 
@@ -52,22 +52,19 @@ void CheckKnots(const std::vector<double>& x, const std::vector<double>& y,
                 std::to_string(y.size()) + " y values; they must be equal in number");
   }
   if (x.size() < 2) {
-    throw Error(kind + " has " + std::to_string(x.size()) +
-                " knot(s); it needs at least 2");
+    throw Error(kind + " has " + std::to_string(x.size()) + " knot(s); it needs at least 2");
   }
   for (size_t i = 0; i < x.size(); ++i) {
     if (!std::isfinite(x[i])) {
-      throw Error(kind + " knot x[" + std::to_string(i) + "] = " + Num(x[i]) +
-                  " is not finite");
+      throw Error(kind + " knot x[" + std::to_string(i) + "] = " + Num(x[i]) + " is not finite");
     }
     if (!std::isfinite(y[i])) {
-      throw Error(kind + " knot y[" + std::to_string(i) + "] = " + Num(y[i]) +
-                  " is not finite");
+      throw Error(kind + " knot y[" + std::to_string(i) + "] = " + Num(y[i]) + " is not finite");
     }
     if (i > 0 && !(x[i] > x[i - 1])) {
       throw Error(kind + " knots must be strictly increasing: x[" + std::to_string(i) +
-                  "] = " + Num(x[i]) + (x[i] == x[i - 1] ? " duplicates" : " is below") +
-                  " x[" + std::to_string(i - 1) + "] = " + Num(x[i - 1]));
+                  "] = " + Num(x[i]) + (x[i] == x[i - 1] ? " duplicates" : " is below") + " x[" +
+                  std::to_string(i - 1) + "] = " + Num(x[i - 1]));
     }
   }
 }
@@ -251,16 +248,13 @@ double EvaluatePolynomial(const std::vector<double>& coefficients, double a, int
 
 double Evaluate(const Function::Impl& s, double a, int order) {
   switch (s.kind) {
-    case FunctionKind::kConstant:
-      return order == 0 ? s.intercept : 0.0;
+    case FunctionKind::kConstant: return order == 0 ? s.intercept : 0.0;
     case FunctionKind::kLinear:
       return order == 0 ? s.slope * a + s.intercept : order == 1 ? s.slope : 0.0;
     case FunctionKind::kSimmSpline:
     case FunctionKind::kNaturalCubicSpline:
-    case FunctionKind::kPiecewiseLinear:
-      return EvaluateKnots(s, a, order);
-    case FunctionKind::kPolynomial:
-      return EvaluatePolynomial(s.coefficients, a, order);
+    case FunctionKind::kPiecewiseLinear: return EvaluateKnots(s, a, order);
+    case FunctionKind::kPolynomial: return EvaluatePolynomial(s.coefficients, a, order);
     case FunctionKind::kMultiplier: {
       const Function& f = s.inner.front();
       double inner = order == 0 ? f.Value(a) : order == 1 ? f.Derivative(a) : f.SecondDerivative(a);
@@ -336,8 +330,8 @@ Function Function::SimmSpline(std::vector<double> x, std::vector<double> y) {
 }
 
 Function Function::NaturalCubicSpline(std::vector<double> x, std::vector<double> y) {
-  return Function(KnotImpl(FunctionKind::kNaturalCubicSpline, "natural cubic spline",
-                           std::move(x), std::move(y), NaturalCoefficients));
+  return Function(KnotImpl(FunctionKind::kNaturalCubicSpline, "natural cubic spline", std::move(x),
+                           std::move(y), NaturalCoefficients));
 }
 
 Function Function::PiecewiseLinear(std::vector<double> x, std::vector<double> y) {
@@ -351,8 +345,8 @@ Function Function::Polynomial(std::vector<double> coefficients) {
   }
   for (size_t i = 0; i < coefficients.size(); ++i) {
     if (!std::isfinite(coefficients[i])) {
-      throw Error("polynomial coefficient " + std::to_string(i) + " = " +
-                  Num(coefficients[i]) + " is not finite");
+      throw Error("polynomial coefficient " + std::to_string(i) + " = " + Num(coefficients[i]) +
+                  " is not finite");
     }
   }
   auto s = std::make_shared<Impl>();
@@ -379,18 +373,13 @@ FunctionKind Function::kind() const { return impl_->kind; }
 bool Function::is_linear() const {
   switch (impl_->kind) {
     case FunctionKind::kConstant:
-    case FunctionKind::kLinear:
-      return true;
-    case FunctionKind::kMultiplier:
-      return impl_->inner.front().is_linear();
-    default:
-      return false;
+    case FunctionKind::kLinear: return true;
+    case FunctionKind::kMultiplier: return impl_->inner.front().is_linear();
+    default: return false;
   }
 }
 
-bool Function::is_identity() const {
-  return is_linear() && slope() == 1.0 && intercept() == 0.0;
-}
+bool Function::is_identity() const { return is_linear() && slope() == 1.0 && intercept() == 0.0; }
 
 double Function::slope() const {
   assert(is_linear());
@@ -420,6 +409,8 @@ const Function& Function::inner() const {
   return impl_->inner.empty() ? zero : impl_->inner.front();
 }
 
-double Function::scale() const { return impl_->kind == FunctionKind::kMultiplier ? impl_->scale : 1.0; }
+double Function::scale() const {
+  return impl_->kind == FunctionKind::kMultiplier ? impl_->scale : 1.0;
+}
 
 }  // namespace isowrench

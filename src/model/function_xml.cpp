@@ -14,7 +14,7 @@ namespace {
 
 constexpr const char* kPrefix = "isowrench:";
 constexpr FunctionKind kKinds[] = {
-    FunctionKind::kConstant,        FunctionKind::kLinear,     FunctionKind::kSimmSpline,
+    FunctionKind::kConstant,           FunctionKind::kLinear,          FunctionKind::kSimmSpline,
     FunctionKind::kNaturalCubicSpline, FunctionKind::kPiecewiseLinear, FunctionKind::kPolynomial,
     FunctionKind::kMultiplier};
 
@@ -89,18 +89,14 @@ Function ParseFunctionXml(const tinyxml2::XMLElement& e, const std::string& sour
   }
   try {
     switch (kind) {
-      case FunctionKind::kConstant:
-        return Function::Constant(p.Number("value"));
-      case FunctionKind::kLinear:
-        return Function::Linear(p.Number("slope"), p.Number("intercept"));
-      case FunctionKind::kSimmSpline:
-        return Function::SimmSpline(p.Numbers("x"), p.Numbers("y"));
+      case FunctionKind::kConstant: return Function::Constant(p.Number("value"));
+      case FunctionKind::kLinear: return Function::Linear(p.Number("slope"), p.Number("intercept"));
+      case FunctionKind::kSimmSpline: return Function::SimmSpline(p.Numbers("x"), p.Numbers("y"));
       case FunctionKind::kNaturalCubicSpline:
         return Function::NaturalCubicSpline(p.Numbers("x"), p.Numbers("y"));
       case FunctionKind::kPiecewiseLinear:
         return Function::PiecewiseLinear(p.Numbers("x"), p.Numbers("y"));
-      case FunctionKind::kPolynomial:
-        return Function::Polynomial(p.Numbers("coefficients"));
+      case FunctionKind::kPolynomial: return Function::Polynomial(p.Numbers("coefficients"));
       case FunctionKind::kMultiplier: {
         double scale = p.Number("scale");
         Function inner = ParseFunctionChild(e, source);
@@ -119,8 +115,8 @@ Function ParseFunctionXml(const tinyxml2::XMLElement& e, const std::string& sour
 Function ParseFunctionChild(const tinyxml2::XMLElement& parent, const std::string& source) {
   const tinyxml2::XMLElement* found = nullptr;
   for (const tinyxml2::XMLElement* c = parent.FirstChildElement(); c; c = c->NextSiblingElement()) {
-    const bool is_function = IsFunctionElement(*c) ||
-                             std::strncmp(c->Name(), kPrefix, std::strlen(kPrefix)) == 0;
+    const bool is_function =
+        IsFunctionElement(*c) || std::strncmp(c->Name(), kPrefix, std::strlen(kPrefix)) == 0;
     if (!is_function) continue;
     if (!IsFunctionElement(*c)) {
       throw Error(source + ":" + std::to_string(c->GetLineNum()) + ": <" + c->Name() +
@@ -151,9 +147,7 @@ std::string FunctionXmlText(const Function& f, const std::string& indent) {
   std::ostringstream o;
   o << indent << "<" << kPrefix << FunctionKindName(f.kind());
   switch (f.kind()) {
-    case FunctionKind::kConstant:
-      o << " value=\"" << n(f.intercept()) << "\"/>\n";
-      break;
+    case FunctionKind::kConstant: o << " value=\"" << n(f.intercept()) << "\"/>\n"; break;
     case FunctionKind::kLinear:
       o << " slope=\"" << n(f.slope()) << "\" intercept=\"" << n(f.intercept()) << "\"/>\n";
       break;

@@ -86,11 +86,12 @@ void CheckStiffnessValue(double stiffness, const std::string& where) {
     throw Error(where + ": stiffness " + util::FormatNumber(stiffness) + " is not a finite number");
   }
   if (stiffness < 0) {
-    throw Error(where + ": stiffness " + util::FormatNumber(stiffness) + " is negative; it must be >= 0");
+    throw Error(where + ": stiffness " + util::FormatNumber(stiffness) +
+                " is negative; it must be >= 0");
   }
   if (stiffness > kMaxStiffness) {
-    throw Error(where + ": stiffness " + util::FormatNumber(stiffness) + " exceeds the physical maximum " +
-                util::FormatNumber(kMaxStiffness) +
+    throw Error(where + ": stiffness " + util::FormatNumber(stiffness) +
+                " exceeds the physical maximum " + util::FormatNumber(kMaxStiffness) +
                 " (N/m or N·m/rad; a 1 mm long 10 cm steel bar is 2e12 N/m, see docs/model.md)");
   }
 }

@@ -1,6 +1,8 @@
 // Model: validation of a LimbDescription, its compiled flat chain, and the KDL chain built from
 // it for the tests' independent cross-check.
 
+#include "isowrench/model.hpp"
+
 #include <algorithm>
 #include <cmath>
 #include <map>
@@ -9,7 +11,6 @@
 #include "isowrench/error.hpp"
 #include "isowrench/fast.hpp"
 #include "isowrench/input_checks.hpp"
-#include "isowrench/model.hpp"
 #include "model/model_impl.hpp"
 #include "util/text.hpp"
 
@@ -27,7 +28,8 @@ KDL::Frame ToKdl(const Eigen::Isometry3d& t) {
 
 void Validate(const LimbDescription& d) {
   const std::string model = "model '" + d.name + "'";
-  if (d.joints.empty()) throw Error(model + " has no joints between '" + d.root_link + "' and the endpoint");
+  if (d.joints.empty())
+    throw Error(model + " has no joints between '" + d.root_link + "' and the endpoint");
   std::set<std::string> names;
   std::set<std::string> links(d.links.begin(), d.links.end());
   if (links.size() != d.links.size()) throw Error(model + ": a link name appears twice");
@@ -38,10 +40,11 @@ void Validate(const LimbDescription& d) {
     if (j.name.empty()) throw Error(model + ": a joint has no name");
     if (!names.insert(j.name).second) throw Error(what + " is defined twice");
     if (j.parent_link != parent) {
-      throw Error(what + ": parent link '" + j.parent_link + "' does not continue the chain (expected '" +
-                  parent + "')");
+      throw Error(what + ": parent link '" + j.parent_link +
+                  "' does not continue the chain (expected '" + parent + "')");
     }
-    if (!links.count(j.child_link)) throw Error(what + ": child link '" + j.child_link + "' is not listed");
+    if (!links.count(j.child_link))
+      throw Error(what + ": child link '" + j.child_link + "' is not listed");
     parent = j.child_link;
     if (!j.origin.matrix().allFinite()) throw Error(what + ": origin is not finite");
     if (j.type == JointType::kFixed) continue;
@@ -50,14 +53,16 @@ void Validate(const LimbDescription& d) {
       throw Error(what + ": axis must be a finite unit vector");
     }
     if (!std::isfinite(j.stiffness) || j.stiffness < 0) {
-      throw Error(what + ": stiffness " + util::FormatNumber(j.stiffness) + " must be finite and >= 0");
+      throw Error(what + ": stiffness " + util::FormatNumber(j.stiffness) +
+                  " must be finite and >= 0");
     }
     CheckStiffnessValue(j.stiffness, what);
   }
   if (movable == 0) throw Error(model + " has no movable joint");
   const TransducerSpec& t = d.transducer;
   if (t.link != parent) {
-    throw Error(model + ": transducer link '" + t.link + "' is not the chain's last link '" + parent + "'");
+    throw Error(model + ": transducer link '" + t.link + "' is not the chain's last link '" +
+                parent + "'");
   }
   if (!t.endpoint.allFinite()) throw Error(model + ": transducer endpoint position is not finite");
   if (!t.rotation.allFinite() ||
@@ -76,7 +81,8 @@ void Validate(const LimbDescription& d) {
     const std::string what = model + ", muscle '" + m.name + "'";
     if (!muscles.insert(m.name).second) throw Error(what + " is defined twice");
     if (!std::isfinite(m.max_force) || m.max_force <= 0) {
-      throw Error(what + ": max_force " + util::FormatNumber(m.max_force) + " N must be finite and > 0");
+      throw Error(what + ": max_force " + util::FormatNumber(m.max_force) +
+                  " N must be finite and > 0");
     }
     if (m.path.size() < 2) throw Error(what + " needs at least two path points");
     for (const PathPoint& p : m.path) {
@@ -87,8 +93,9 @@ void Validate(const LimbDescription& d) {
     }
   }
   for (const auto& [joint, value] : d.nominal_posture) {
-    const bool coordinate = std::any_of(d.coordinates.begin(), d.coordinates.end(),
-                                        [&name = joint](const CoordinateSpec& c) { return c.name == name; });
+    const bool coordinate =
+        std::any_of(d.coordinates.begin(), d.coordinates.end(),
+                    [&name = joint](const CoordinateSpec& c) { return c.name == name; });
     if (!coordinate) {
       try {
         FindCoordinate(d, joint);  // names a driven joint's driver, or suggests the closest name
@@ -97,7 +104,8 @@ void Validate(const LimbDescription& d) {
       }
       throw Error(model + ": nominal posture names '" + joint + "', which is not a coordinate");
     }
-    if (!std::isfinite(value)) throw Error(model + ": nominal posture of '" + joint + "' is not finite");
+    if (!std::isfinite(value))
+      throw Error(model + ": nominal posture of '" + joint + "' is not finite");
   }
 }
 
@@ -117,8 +125,8 @@ KDL::Chain BuildKdlChain(const LimbDescription& d) {
     chain.addSegment(KDL::Segment(j.child_link, joint, origin));
   }
   KDL::Frame endpoint(ToKdl(d.transducer.endpoint));
-  chain.addSegment(KDL::Segment("isowrench_endpoint", KDL::Joint("isowrench_endpoint", KDL::Joint::Fixed),
-                                endpoint));
+  chain.addSegment(KDL::Segment("isowrench_endpoint",
+                                KDL::Joint("isowrench_endpoint", KDL::Joint::Fixed), endpoint));
   return chain;
 }
 
@@ -167,8 +175,9 @@ FlatChain Compile(const LimbDescription& d) {
   flat.m = frame + 1;
   flat.n = static_cast<int>(d.coordinates.size());
   if (flat.m > kFastMaxDofs || flat.n > kFastMaxDofs) {
-    throw Error(model + " has " + std::to_string(flat.m) + " movable joints and " + std::to_string(flat.n) +
-                " coordinates; isowrench handles at most " + std::to_string(kFastMaxDofs) + " of each");
+    throw Error(model + " has " + std::to_string(flat.m) + " movable joints and " +
+                std::to_string(flat.n) + " coordinates; isowrench handles at most " +
+                std::to_string(kFastMaxDofs) + " of each");
   }
   std::map<std::string, int> column;
   for (int c = 0; c < flat.n; ++c) {
@@ -190,7 +199,8 @@ FlatChain Compile(const LimbDescription& d) {
   flat.endpoint = since_last * t.endpoint;
   flat.endpoint_rotation = since_last.linear();
   flat.transducer_in_world = t.axes_in_world;
-  flat.transducer_rotation = t.axes_in_world ? t.rotation : Eigen::Matrix3d(since_last.linear() * t.rotation);
+  flat.transducer_rotation =
+      t.axes_in_world ? t.rotation : Eigen::Matrix3d(since_last.linear() * t.rotation);
   flat.transducer_identity = t.axes_in_world && t.rotation == Eigen::Matrix3d::Identity();
   for (const MuscleSpec& spec : d.muscles) {
     if (static_cast<int>(spec.path.size()) > kFastMaxPathPoints) {
@@ -226,9 +236,9 @@ Model::Model(LimbDescription description) {
     impl->joint_names.push_back(c.name);
     impl->revolute.push_back(c.type == JointType::kRevolute);
     JointSpec column;
-    auto carrier = std::find_if(description.joints.begin(), description.joints.end(), [&c](const JointSpec& j) {
-      return !c.joint.empty() && j.name == c.joint;
-    });
+    auto carrier =
+        std::find_if(description.joints.begin(), description.joints.end(),
+                     [&c](const JointSpec& j) { return !c.joint.empty() && j.name == c.joint; });
     if (carrier != description.joints.end()) {
       column = *carrier;
     } else {
@@ -257,7 +267,9 @@ const LimbDescription& Model::description() const { return impl_->description; }
 int Model::dof_count() const { return static_cast<int>(impl_->columns.size()); }
 const std::vector<std::string>& Model::joint_names() const { return impl_->joint_names; }
 const JointSpec& Model::joint(int i) const { return impl_->columns.at(i); }
-const CoordinateSpec& Model::coordinate(int i) const { return impl_->description.coordinates.at(i); }
+const CoordinateSpec& Model::coordinate(int i) const {
+  return impl_->description.coordinates.at(i);
+}
 
 int Model::JointIndex(const std::string& name) const {
   for (int i = 0; i < dof_count(); ++i) {
@@ -268,8 +280,8 @@ int Model::JointIndex(const std::string& name) const {
   for (int i = 0; i < dof_count(); ++i) {
     if (impl_->joint_names[i] == c.name) return i;
   }
-  throw Error("unknown coordinate '" + name + "' in model '" + this->name() + "' (coordinates: " +
-              util::Join(impl_->joint_names, ", ") + ")");
+  throw Error("unknown coordinate '" + name + "' in model '" + this->name() +
+              "' (coordinates: " + util::Join(impl_->joint_names, ", ") + ")");
 }
 
 Eigen::VectorXd Model::joint_stiffness() const {

@@ -54,9 +54,10 @@ void CheckJointTree(const tinyxml2::XMLElement& robot, const std::string& source
     auto [it, inserted] = parent_joint.emplace(j.child, i);
     if (!inserted) {
       const JointInfo& first = joints[it->second];
-      throw Error(Line(source, *j.element) + ": link '" + j.child + "' has two parents: it is the child of joint '" +
-                  first.name + "' (line " + std::to_string(first.element->GetLineNum()) + ") and of joint '" +
-                  j.name + "'; URDF joints must form a tree");
+      throw Error(Line(source, *j.element) + ": link '" + j.child +
+                  "' has two parents: it is the child of joint '" + first.name + "' (line " +
+                  std::to_string(first.element->GetLineNum()) + ") and of joint '" + j.name +
+                  "'; URDF joints must form a tree");
     }
   }
   // Each link has at most one parent joint, so following parents from any link either ends at
@@ -127,7 +128,8 @@ void CheckExtensionAttributes(const tinyxml2::XMLElement& robot, const std::stri
     for (auto* c = e->FirstChildElement(); c; c = c->NextSiblingElement()) stack.push_back(c);
     std::string tag = e->Name();
     if (tag.rfind(kPrefix, 0) != 0) continue;
-    const std::vector<std::string>& allowed = AllowedAttributes(tag.substr(std::string(kPrefix).size()));
+    const std::vector<std::string>& allowed =
+        AllowedAttributes(tag.substr(std::string(kPrefix).size()));
     if (allowed.empty()) continue;
     for (const tinyxml2::XMLAttribute* a = e->FirstAttribute(); a; a = a->Next()) {
       std::string name = a->Name();
@@ -154,7 +156,8 @@ void WarnImplausibleDimensions(const LimbDescription& d,
     double length = j.origin.translation().norm();
     if (implausible(length, kMinSegmentLength, kMaxSegmentLength)) {
       Warn(where(j.name) + ": joint '" + j.name + "' sits " + util::FormatNumber(length) +
-           " m from the origin of link '" + j.parent_link + "', outside the plausible segment length of a limb (" +
+           " m from the origin of link '" + j.parent_link +
+           "', outside the plausible segment length of a limb (" +
            range(kMinSegmentLength, kMaxSegmentLength) + "); URDF lengths are in metres");
     }
     double q = 0;
@@ -162,15 +165,17 @@ void WarnImplausibleDimensions(const LimbDescription& d,
       if (name == j.name) q = value;
     }
     Eigen::Isometry3d motion = Eigen::Isometry3d::Identity();
-    if (j.type == JointType::kRevolute) motion.linear() = Eigen::AngleAxisd(q, j.axis).toRotationMatrix();
+    if (j.type == JointType::kRevolute)
+      motion.linear() = Eigen::AngleAxisd(q, j.axis).toRotationMatrix();
     if (j.type == JointType::kPrismatic) motion.translation() = q * j.axis;
     auto parent = frame.find(j.parent_link);
     if (parent != frame.end()) frame[j.child_link] = parent->second * j.origin * motion;
   }
   double endpoint = d.transducer.endpoint.norm();
   if (implausible(endpoint, kMinSegmentLength, kMaxSegmentLength)) {
-    Warn(where("") + ": the endpoint sits " + util::FormatNumber(endpoint) + " m from the origin of link '" +
-         d.transducer.link + "', outside the plausible segment length of a limb (" +
+    Warn(where("") + ": the endpoint sits " + util::FormatNumber(endpoint) +
+         " m from the origin of link '" + d.transducer.link +
+         "', outside the plausible segment length of a limb (" +
          range(kMinSegmentLength, kMaxSegmentLength) + "); URDF lengths are in metres");
   }
   for (const MuscleSpec& m : d.muscles) {
@@ -187,8 +192,10 @@ void WarnImplausibleDimensions(const LimbDescription& d,
       if (i > 0) length += (p - previous).norm();
       previous = p;
     }
-    if (known && std::isfinite(length) && (length < kMinMuscleLength || length > kMaxMuscleLength)) {
-      Warn(where("muscle:" + m.name) + ": muscle '" + m.name + "' is " + util::FormatNumber(length) +
+    if (known && std::isfinite(length) &&
+        (length < kMinMuscleLength || length > kMaxMuscleLength)) {
+      Warn(where("muscle:" + m.name) + ": muscle '" + m.name + "' is " +
+           util::FormatNumber(length) +
            " m long at the nominal posture, outside the plausible muscle length of a limb (" +
            range(kMinMuscleLength, kMaxMuscleLength) + "); URDF lengths are in metres");
     }

@@ -20,35 +20,43 @@ std::string Line(const std::string& source, const tinyxml2::XMLElement& e) {
   return source + ":" + std::to_string(e.GetLineNum());
 }
 
-[[noreturn]] void Fail(const std::string& source, const tinyxml2::XMLElement& e, const std::string& what) {
+[[noreturn]] void Fail(const std::string& source, const tinyxml2::XMLElement& e,
+                       const std::string& what) {
   throw Error(Line(source, e) + ": " + what);
 }
 
 /// A finite number from attribute `name`, or `fallback` when the attribute is absent.
-double Number(const std::string& source, const tinyxml2::XMLElement& e, const char* name, double fallback) {
+double Number(const std::string& source, const tinyxml2::XMLElement& e, const char* name,
+              double fallback) {
   const char* text = e.Attribute(name);
   if (!text) return fallback;
   double value = 0.0;
   if (!util::ParseDouble(text, &value) || !std::isfinite(value)) {
-    Fail(source, e, std::string("<") + e.Name() + "> attribute " + name + "='" + text + "' is not a finite number");
+    Fail(source, e,
+         std::string("<") + e.Name() + "> attribute " + name + "='" + text +
+             "' is not a finite number");
   }
   return value;
 }
 
 std::string Required(const std::string& source, const tinyxml2::XMLElement& e, const char* name) {
   const char* text = e.Attribute(name);
-  if (!text || !*text) Fail(source, e, std::string("<") + e.Name() + "> needs the attribute '" + name + "'");
+  if (!text || !*text)
+    Fail(source, e, std::string("<") + e.Name() + "> needs the attribute '" + name + "'");
   return text;
 }
 
 /// locked="true|false|1|0"; `fallback` when absent.
-bool Flag(const std::string& source, const tinyxml2::XMLElement& e, const char* name, bool fallback) {
+bool Flag(const std::string& source, const tinyxml2::XMLElement& e, const char* name,
+          bool fallback) {
   const char* text = e.Attribute(name);
   if (!text) return fallback;
   const std::string value = text;
   if (value == "true" || value == "1") return true;
   if (value == "false" || value == "0") return false;
-  Fail(source, e, std::string("<") + e.Name() + "> attribute " + name + "='" + value + "' must be true or false");
+  Fail(source, e,
+       std::string("<") + e.Name() + "> attribute " + name + "='" + value +
+           "' must be true or false");
 }
 
 /// What drives a movable joint of the chain, as written in the file.
@@ -102,8 +110,10 @@ class CouplingReader {
       CoordinateSpec c;
       c.name = Required(source_, *e, "name");
       if (elements_.count(c.name)) {
-        Fail(source_, *e, "coordinate '" + c.name + "' has the name of a joint; a joint is its own coordinate "
-                          "already, so give the free-standing coordinate another name");
+        Fail(source_, *e,
+             "coordinate '" + c.name +
+                 "' has the name of a joint; a joint is its own coordinate "
+                 "already, so give the free-standing coordinate another name");
       }
       for (const CoordinateSpec& other : d_.coordinates) {
         if (other.name == c.name) Fail(source_, *e, "coordinate '" + c.name + "' is defined twice");
@@ -115,14 +125,16 @@ class CouplingReader {
       } else if (t == "prismatic") {
         c.type = JointType::kPrismatic;
       } else {
-        Fail(source_, *e, "coordinate '" + c.name + "': type '" + t + "' must be revolute or prismatic");
+        Fail(source_, *e,
+             "coordinate '" + c.name + "': type '" + t + "' must be revolute or prismatic");
       }
       c.default_value = Number(source_, *e, "default", 0.0);
       c.lower = Number(source_, *e, "lower", -std::numeric_limits<double>::infinity());
       c.upper = Number(source_, *e, "upper", std::numeric_limits<double>::infinity());
       if (c.lower > c.upper) {
-        Fail(source_, *e, "coordinate '" + c.name + "': lower " + util::FormatNumber(c.lower) + " > upper " +
-                              util::FormatNumber(c.upper));
+        Fail(source_, *e,
+             "coordinate '" + c.name + "': lower " + util::FormatNumber(c.lower) + " > upper " +
+                 util::FormatNumber(c.upper));
       }
       c.locked = Flag(source_, *e, "locked", false);
       d_.coordinates.push_back(c);
@@ -134,30 +146,38 @@ class CouplingReader {
     auto it = chain_.find(name);
     if (it == chain_.end()) {
       if (elements_.count(name)) {
-        Fail(source_, e, std::string(how) + " joint '" + name + "', which is not on the chain from '" + d_.root_link +
-                             "' to the endpoint link '" + d_.transducer.link + "'");
+        Fail(source_, e,
+             std::string(how) + " joint '" + name + "', which is not on the chain from '" +
+                 d_.root_link + "' to the endpoint link '" + d_.transducer.link + "'");
       }
-      Fail(source_, e, std::string(how) + " unknown joint '" + name + "'" + DidYouMean(name, movable_));
+      Fail(source_, e,
+           std::string(how) + " unknown joint '" + name + "'" + DidYouMean(name, movable_));
     }
     if (it->second->type == JointType::kFixed) {
-      Fail(source_, e, std::string(how) + " joint '" + name + "', which is fixed: it has no dof to couple");
+      Fail(source_, e,
+           std::string(how) + " joint '" + name + "', which is fixed: it has no dof to couple");
     }
     return *it->second;
   }
 
   void ReadMimics() {
     for (const JointSpec& j : d_.joints) {
-      const tinyxml2::XMLElement* joint_element = elements_.count(j.name) ? elements_.at(j.name) : nullptr;
-      const tinyxml2::XMLElement* mimic = joint_element ? joint_element->FirstChildElement("mimic") : nullptr;
+      const tinyxml2::XMLElement* joint_element =
+          elements_.count(j.name) ? elements_.at(j.name) : nullptr;
+      const tinyxml2::XMLElement* mimic =
+          joint_element ? joint_element->FirstChildElement("mimic") : nullptr;
       if (!mimic) continue;
       if (j.type == JointType::kFixed) {
-        Fail(source_, *mimic, "joint '" + j.name + "' is fixed and has a <mimic>: a fixed joint has no dof to couple");
+        Fail(source_, *mimic,
+             "joint '" + j.name +
+                 "' is fixed and has a <mimic>: a fixed joint has no dof to couple");
       }
       Driver driver;
       driver.element = mimic;
       driver.mimic = true;
       driver.target = Required(source_, *mimic, "joint");
-      driver.f = Function::Linear(Number(source_, *mimic, "multiplier", 1.0), Number(source_, *mimic, "offset", 0.0));
+      driver.f = Function::Linear(Number(source_, *mimic, "multiplier", 1.0),
+                                  Number(source_, *mimic, "offset", 0.0));
       drivers_[j.name] = driver;
     }
   }
@@ -168,9 +188,10 @@ class CouplingReader {
       JointSpec& j = CoupledJoint(*e, Required(source_, *e, "joint"), "<isowrench:coupling> of");
       auto previous = drivers_.find(j.name);
       if (previous != drivers_.end()) {
-        Fail(source_, *e, "joint '" + j.name + "' is coupled twice: it already has a " +
-                              (previous->second.mimic ? "<mimic>" : "<isowrench:coupling>") + " at line " +
-                              std::to_string(previous->second.element->GetLineNum()));
+        Fail(source_, *e,
+             "joint '" + j.name + "' is coupled twice: it already has a " +
+                 (previous->second.mimic ? "<mimic>" : "<isowrench:coupling>") + " at line " +
+                 std::to_string(previous->second.element->GetLineNum()));
       }
       Driver driver;
       driver.element = e;
@@ -199,16 +220,19 @@ class CouplingReader {
     if (it == drivers_.end()) return {name, Function::Linear(1.0, 0.0)};
     const Driver& driver = it->second;
     if (std::find(visiting_.begin(), visiting_.end(), name) != visiting_.end()) {
-      std::vector<std::string> cycle(std::find(visiting_.begin(), visiting_.end(), name), visiting_.end());
+      std::vector<std::string> cycle(std::find(visiting_.begin(), visiting_.end(), name),
+                                     visiting_.end());
       cycle.push_back(name);
-      Fail(source_, *driver.element, "joint '" + name + "' " + (driver.mimic ? "mimics" : "is coupled to") + " '" +
-                                         driver.target + "', which in turn depends on '" + name +
-                                         "': a coupling cycle (" + util::Join(cycle, " -> ") + ")");
+      Fail(source_, *driver.element,
+           "joint '" + name + "' " + (driver.mimic ? "mimics" : "is coupled to") + " '" +
+               driver.target + "', which in turn depends on '" + name + "': a coupling cycle (" +
+               util::Join(cycle, " -> ") + ")");
     }
     visiting_.push_back(name);
     Resolved result;
     if (driver.mimic) {
-      if (driver.target == name) Fail(source_, *driver.element, "joint '" + name + "' mimics itself");
+      if (driver.target == name)
+        Fail(source_, *driver.element, "joint '" + name + "' mimics itself");
       CoupledJoint(*driver.element, driver.target, ("joint '" + name + "' mimics").c_str());
       Resolved inner = Resolve(driver.target);
       result = {inner.coordinate, ComposeLinear(driver.f.slope(), driver.f.intercept(), inner.f)};
@@ -222,18 +246,22 @@ class CouplingReader {
         for (const std::string& j : movable_) {
           if (!drivers_.count(j)) known.push_back(j);
         }
-        Fail(source_, *driver.element, "coupling of joint '" + name + "' names coordinate '" + driver.target + "'" +
-                                           (target == chain_.end() ? ", which is unknown" : ", a fixed joint") +
-                                           DidYouMean(driver.target, known) + " (coordinates: " +
-                                           util::Join(known, ", ") + ")");
+        Fail(source_, *driver.element,
+             "coupling of joint '" + name + "' names coordinate '" + driver.target + "'" +
+                 (target == chain_.end() ? ", which is unknown" : ", a fixed joint") +
+                 DidYouMean(driver.target, known) + " (coordinates: " + util::Join(known, ", ") +
+                 ")");
       }
-      if (driver.target == name) Fail(source_, *driver.element, "joint '" + name + "' is coupled to itself");
+      if (driver.target == name)
+        Fail(source_, *driver.element, "joint '" + name + "' is coupled to itself");
       Resolved inner = Resolve(driver.target);
       if (inner.coordinate != driver.target) {
-        Fail(source_, *driver.element, "coupling of joint '" + name + "' names joint '" + driver.target +
-                                           "', which is driven by coordinate '" + inner.coordinate +
-                                           "'; a coupling must name an independent coordinate: write it in terms "
-                                           "of '" + inner.coordinate + "'");
+        Fail(source_, *driver.element,
+             "coupling of joint '" + name + "' names joint '" + driver.target +
+                 "', which is driven by coordinate '" + inner.coordinate +
+                 "'; a coupling must name an independent coordinate: write it in terms "
+                 "of '" +
+                 inner.coordinate + "'");
       }
       result = {driver.target, driver.f};
     }
@@ -267,13 +295,14 @@ class CouplingReader {
   std::vector<std::string> visiting_;
 };
 
-JointRole RoleFromName(const std::string& source, const tinyxml2::XMLElement& e, const std::string& role,
-                       const std::string& name) {
+JointRole RoleFromName(const std::string& source, const tinyxml2::XMLElement& e,
+                       const std::string& role, const std::string& name) {
   if (role.empty() || role == "limb") return JointRole::kLimb;
   if (role == "base") return JointRole::kBase;
   if (role == "extra") return JointRole::kExtra;
   if (role == "release") return JointRole::kRelease;
-  Fail(source, e, "coordinate '" + name + "': role '" + role + "' is not one of limb, base, extra, release");
+  Fail(source, e,
+       "coordinate '" + name + "': role '" + role + "' is not one of limb, base, extra, release");
 }
 
 CoordinateSpec* FindMutable(LimbDescription& d, const std::string& name) {
@@ -286,34 +315,32 @@ CoordinateSpec* FindMutable(LimbDescription& d, const std::string& name) {
 }  // namespace
 
 Function ComposeLinear(double multiplier, double offset, const Function& f) {
-  if (f.kind() == FunctionKind::kConstant) return Function::Constant(multiplier * f.intercept() + offset);
-  if (f.is_linear()) return Function::Linear(multiplier * f.slope(), multiplier * f.intercept() + offset);
+  if (f.kind() == FunctionKind::kConstant)
+    return Function::Constant(multiplier * f.intercept() + offset);
+  if (f.is_linear())
+    return Function::Linear(multiplier * f.slope(), multiplier * f.intercept() + offset);
   if (offset == 0.0) return multiplier == 1.0 ? f : Function::Multiplier(f, multiplier);
   std::vector<double> y = f.y();
   for (double& v : y) v = multiplier * v + offset;
   switch (f.kind()) {
-    case FunctionKind::kSimmSpline:
-      return Function::SimmSpline(f.x(), y);
-    case FunctionKind::kNaturalCubicSpline:
-      return Function::NaturalCubicSpline(f.x(), y);
-    case FunctionKind::kPiecewiseLinear:
-      return Function::PiecewiseLinear(f.x(), y);
+    case FunctionKind::kSimmSpline: return Function::SimmSpline(f.x(), y);
+    case FunctionKind::kNaturalCubicSpline: return Function::NaturalCubicSpline(f.x(), y);
+    case FunctionKind::kPiecewiseLinear: return Function::PiecewiseLinear(f.x(), y);
     case FunctionKind::kPolynomial: {
       std::vector<double> c = f.coefficients();
       for (double& v : c) v *= multiplier;
       c.back() += offset;
       return Function::Polynomial(c);
     }
-    case FunctionKind::kMultiplier:
-      return ComposeLinear(multiplier * f.scale(), offset, f.inner());
+    case FunctionKind::kMultiplier: return ComposeLinear(multiplier * f.scale(), offset, f.inner());
     case FunctionKind::kConstant:
-    case FunctionKind::kLinear:
-      break;
+    case FunctionKind::kLinear: break;
   }
   return Function::Linear(multiplier * f.slope(), multiplier * f.intercept() + offset);
 }
 
-void ReadCoordinates(const tinyxml2::XMLElement& robot, const std::string& source, LimbDescription& d) {
+void ReadCoordinates(const tinyxml2::XMLElement& robot, const std::string& source,
+                     LimbDescription& d) {
   CouplingReader(robot, source, d).Read();
 }
 
@@ -326,8 +353,10 @@ bool NamesFreeCoordinate(const tinyxml2::XMLElement& joint_tag, const LimbDescri
   return false;
 }
 
-void ApplyJointTags(const tinyxml2::XMLElement& robot, const std::string& source, LimbDescription& d) {
-  for (auto* e = robot.FirstChildElement("isowrench:joint"); e; e = e->NextSiblingElement("isowrench:joint")) {
+void ApplyJointTags(const tinyxml2::XMLElement& robot, const std::string& source,
+                    LimbDescription& d) {
+  for (auto* e = robot.FirstChildElement("isowrench:joint"); e;
+       e = e->NextSiblingElement("isowrench:joint")) {
     const std::string name = Required(source, *e, "name");
     CoordinateSpec* c = FindMutable(d, name);
     if (!c) {
@@ -355,8 +384,8 @@ void ApplyJointTags(const tinyxml2::XMLElement& robot, const std::string& source
   }
 }
 
-const CoordinateSpec& PostureCoordinate(const tinyxml2::XMLElement& posture, const std::string& source,
-                                        const LimbDescription& d) {
+const CoordinateSpec& PostureCoordinate(const tinyxml2::XMLElement& posture,
+                                        const std::string& source, const LimbDescription& d) {
   const std::string name = Required(source, posture, "joint");
   try {
     return FindCoordinate(d, name);

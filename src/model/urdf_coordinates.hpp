@@ -29,12 +29,13 @@ bool NamesFreeCoordinate(const tinyxml2::XMLElement& joint_tag, const LimbDescri
 /// coordinate; refuses any of them on a driven joint ("set 'knee_rz' instead"). Then
 /// normalizes the coordinates again (joint stiffness and roles onto their coordinates).
 /// @throws Error "<source>:<line>: ...".
-void ApplyJointTags(const tinyxml2::XMLElement& robot, const std::string& source, LimbDescription& d);
+void ApplyJointTags(const tinyxml2::XMLElement& robot, const std::string& source,
+                    LimbDescription& d);
 
 /// The coordinate an <isowrench:posture joint=...> sets. @throws Error "<source>:<line>: ..."
 /// (FindCoordinate's message: unknown name with a suggestion, or a driven joint's driver).
-const CoordinateSpec& PostureCoordinate(const tinyxml2::XMLElement& posture, const std::string& source,
-                                        const LimbDescription& d);
+const CoordinateSpec& PostureCoordinate(const tinyxml2::XMLElement& posture,
+                                        const std::string& source, const LimbDescription& d);
 
 /// m * f(x) + o as one Function of the same family (exact: splines are linear in their knot
 /// values). Used to resolve a mimic of a coupled joint.

@@ -91,10 +91,10 @@ Eigen::Matrix3d RotationFromRpy(const Eigen::Vector3d& rpy) {
 Eigen::Isometry3d ToIsometry(const urdf::Pose& pose) {
   Eigen::Isometry3d t = Eigen::Isometry3d::Identity();
   t.translation() = Eigen::Vector3d(pose.position.x, pose.position.y, pose.position.z);
-  t.linear() = Eigen::Quaterniond(pose.rotation.w, pose.rotation.x, pose.rotation.y,
-                                  pose.rotation.z)
-                   .normalized()
-                   .toRotationMatrix();
+  t.linear() =
+      Eigen::Quaterniond(pose.rotation.w, pose.rotation.x, pose.rotation.y, pose.rotation.z)
+          .normalized()
+          .toRotationMatrix();
   return t;
 }
 
@@ -153,9 +153,10 @@ LimbDescription ReadUrdfString(const std::string& xml, const std::string& source
   // Pass 2 (urdfdom): the standard robot model.
   urdf::ModelInterfaceSharedPtr urdf_model = urdf::parseURDF(xml);
   if (!urdf_model) {
-    throw Error(r.source + ": urdfdom rejected the robot description (a joint without "
-                           "<limit>, a link with two parents, or a missing link; see the "
-                           "message printed above)");
+    throw Error(r.source +
+                ": urdfdom rejected the robot description (a joint without "
+                "<limit>, a link with two parents, or a missing link; see the "
+                "message printed above)");
   }
   urdf::LinkConstSharedPtr root = urdf_model->getRoot();
   if (!root) throw Error(r.source + ": the URDF has no root link");
@@ -174,22 +175,24 @@ LimbDescription ReadUrdfString(const std::string& xml, const std::string& source
     if (local == "transducer") {
       if (transducer) r.Fail(e, "a second <isowrench:transducer>; a limb has one");
       transducer = e;
-    } else if (local != "joint" && local != "muscle" && local != "posture" && local != "coordinate" &&
-               local != "coupling") {
+    } else if (local != "joint" && local != "muscle" && local != "posture" &&
+               local != "coordinate" && local != "coupling") {
       r.Fail(e, "unknown extension element <" + tag +
                     ">; known: isowrench:joint, isowrench:transducer, isowrench:muscle, "
                     "isowrench:posture, isowrench:coordinate, isowrench:coupling");
     }
   }
   if (!transducer) {
-    throw Error(r.source + ": no <isowrench:transducer link=\"...\" xyz=\"...\"/> element: "
-                           "isowrench needs to know where the endpoint is");
+    throw Error(r.source +
+                ": no <isowrench:transducer link=\"...\" xyz=\"...\"/> element: "
+                "isowrench needs to know where the endpoint is");
   }
 
   // Chain from the root to the endpoint link.
   std::string endpoint_link = r.Attribute(transducer, "link", true);
   urdf::LinkConstSharedPtr link = urdf_model->getLink(endpoint_link);
-  if (!link) r.Fail(transducer, "transducer link '" + endpoint_link + "' is not a link of the URDF");
+  if (!link)
+    r.Fail(transducer, "transducer link '" + endpoint_link + "' is not a link of the URDF");
   std::vector<urdf::JointConstSharedPtr> chain;
   while (link && link->parent_joint) {
     chain.push_back(link->parent_joint);
@@ -206,15 +209,9 @@ LimbDescription ReadUrdfString(const std::string& xml, const std::string& source
     Eigen::Vector3d axis(j->axis.x, j->axis.y, j->axis.z);
     switch (j->type) {
       case urdf::Joint::REVOLUTE:
-      case urdf::Joint::CONTINUOUS:
-        spec.type = JointType::kRevolute;
-        break;
-      case urdf::Joint::PRISMATIC:
-        spec.type = JointType::kPrismatic;
-        break;
-      case urdf::Joint::FIXED:
-        spec.type = JointType::kFixed;
-        break;
+      case urdf::Joint::CONTINUOUS: spec.type = JointType::kRevolute; break;
+      case urdf::Joint::PRISMATIC: spec.type = JointType::kPrismatic; break;
+      case urdf::Joint::FIXED: spec.type = JointType::kFixed; break;
       default:
         r.Fail(joint_elements.at(j->name), "joint '" + j->name + "' has an unsupported type");
     }
@@ -236,15 +233,17 @@ LimbDescription ReadUrdfString(const std::string& xml, const std::string& source
       }
     }
     if (joint_elements.count(name)) {
-      r.Fail(e, "joint '" + name + "' is not on the chain from '" + d.root_link + "' to the "
-                    "endpoint link '" + endpoint_link + "'");
+      r.Fail(e, "joint '" + name + "' is not on the chain from '" + d.root_link +
+                    "' to the "
+                    "endpoint link '" +
+                    endpoint_link + "'");
     }
     std::vector<std::string> movable;
     for (const JointSpec& j : d.joints) {
       if (j.type != JointType::kFixed) movable.push_back(j.name);
     }
-    r.Fail(e, "unknown joint '" + name + "'" + DidYouMean(name, movable) + "; the movable joints are " +
-                  util::Join(movable, ", "));
+    r.Fail(e, "unknown joint '" + name + "'" + DidYouMean(name, movable) +
+                  "; the movable joints are " + util::Join(movable, ", "));
   };
   auto check_link = [&](const tinyxml2::XMLElement* e, const std::string& name) {
     if (std::find(d.links.begin(), d.links.end(), name) != d.links.end()) return;
@@ -285,8 +284,9 @@ LimbDescription ReadUrdfString(const std::string& xml, const std::string& source
         r.Fail(transducer, "transducer stiffness " + std::string(DofName(i)) + " = " +
                                util::FormatNumber(stiffness[i]) + " is negative");
       }
-      CheckStiffnessValue(stiffness[i], r.Where(transducer) + ": <isowrench:transducer> attribute stiffness, " +
-                                            DofName(i));
+      CheckStiffnessValue(
+          stiffness[i],
+          r.Where(transducer) + ": <isowrench:transducer> attribute stiffness, " + DofName(i));
       t.stiffness[i] = stiffness[i];
     }
   }
@@ -323,7 +323,8 @@ LimbDescription ReadUrdfString(const std::string& xml, const std::string& source
         if (j.stiffness < 0) {
           r.Fail(e, "joint '" + j.name + "': stiffness " + s + " is negative");
         }
-        CheckStiffnessValue(j.stiffness, r.Where(e) + ": <isowrench:joint name=\"" + j.name + "\"> attribute stiffness");
+        CheckStiffnessValue(j.stiffness, r.Where(e) + ": <isowrench:joint name=\"" + j.name +
+                                             "\"> attribute stiffness");
       }
     } else if (tag == "isowrench:muscle") {
       MuscleSpec m;
@@ -359,7 +360,8 @@ LimbDescription ReadUrdfString(const std::string& xml, const std::string& source
       }
       double q = 0;
       if (!deg.empty()) {
-        if (j.type != JointType::kRevolute) r.Fail(e, "joint '" + name + "' is prismatic; use value= (m)");
+        if (j.type != JointType::kRevolute)
+          r.Fail(e, "joint '" + name + "' is prismatic; use value= (m)");
         q = r.Number(e, "degrees", deg) * M_PI / 180.0;
       } else {
         q = r.Number(e, "value", value);
@@ -371,7 +373,8 @@ LimbDescription ReadUrdfString(const std::string& xml, const std::string& source
   urdf_checks::WarnImplausibleDimensions(d, [&](const std::string& joint) {
     if (joint.rfind("muscle:", 0) == 0) {
       std::string muscle = joint.substr(7);
-      for (auto* e = robot->FirstChildElement("isowrench:muscle"); e; e = e->NextSiblingElement("isowrench:muscle")) {
+      for (auto* e = robot->FirstChildElement("isowrench:muscle"); e;
+           e = e->NextSiblingElement("isowrench:muscle")) {
         const char* n = e->Attribute("name");
         if (n && muscle == n) return r.Where(e);
       }

@@ -46,14 +46,15 @@ bool IsMimic(const LimbDescription& d, const JointSpec& j) {
 }
 
 bool IsCoupled(const LimbDescription& d, const JointSpec& j) {
-  return j.type != JointType::kFixed && !j.coordinate.empty() && j.coordinate != j.name && !IsMimic(d, j);
+  return j.type != JointType::kFixed && !j.coordinate.empty() && j.coordinate != j.name &&
+         !IsMimic(d, j);
 }
 
 /// The <isowrench:joint> element for a coordinate, or "" when everything is at its default.
 std::string CoordinateTag(const std::string& name, JointRole role, double stiffness, bool locked) {
   if (role == JointRole::kLimb && stiffness == 0.0 && !locked) return "";
-  std::string tag = "  <isowrench:joint name=\"" + name + "\" role=\"" + RoleName(role) + "\" stiffness=\"" +
-                    N(stiffness) + "\"";
+  std::string tag = "  <isowrench:joint name=\"" + name + "\" role=\"" + RoleName(role) +
+                    "\" stiffness=\"" + N(stiffness) + "\"";
   if (locked) tag += " locked=\"true\"";
   return tag + "/>\n";
 }
@@ -96,8 +97,8 @@ std::string WriteUrdfString(const LimbDescription& description) {
   for (const CoordinateSpec& c : d.coordinates) {
     if (!c.joint.empty()) continue;
     o << "  <isowrench:coordinate name=\"" << c.name << "\" type=\""
-      << (c.type == JointType::kPrismatic ? "prismatic" : "revolute") << "\" default=\"" << N(c.default_value)
-      << "\"";
+      << (c.type == JointType::kPrismatic ? "prismatic" : "revolute") << "\" default=\""
+      << N(c.default_value) << "\"";
     if (std::isfinite(c.lower)) o << " lower=\"" << N(c.lower) << "\"";
     if (std::isfinite(c.upper)) o << " upper=\"" << N(c.upper) << "\"";
     o << " locked=\"" << (c.locked ? "true" : "false") << "\"/>\n";
@@ -118,9 +119,9 @@ std::string WriteUrdfString(const LimbDescription& description) {
   for (int i = 0; i < 6; ++i) {
     if (t.released[i]) released += std::string(released.empty() ? "" : " ") + DofName(i);
   }
-  o << "  <isowrench:transducer link=\"" << t.link << "\" xyz=\"" << Vec(t.endpoint)
-    << "\" rpy=\"" << Vec(Rpy(t.rotation)) << "\" axes=\""
-    << (t.axes_in_world ? "world" : "link") << "\"\n      stiffness=\"";
+  o << "  <isowrench:transducer link=\"" << t.link << "\" xyz=\"" << Vec(t.endpoint) << "\" rpy=\""
+    << Vec(Rpy(t.rotation)) << "\" axes=\"" << (t.axes_in_world ? "world" : "link")
+    << "\"\n      stiffness=\"";
   for (int i = 0; i < 6; ++i) o << (i ? " " : "") << N(t.stiffness[i]);
   o << "\" released=\"" << released << "\"/>\n";
   for (const MuscleSpec& m : d.muscles) {

@@ -42,9 +42,9 @@ struct Builder {
   const OpenSimImportOptions& options;
   OpenSimImport out;
 
-  std::vector<const osim::Joint*> baked;  // ground -> clamp
-  std::vector<const osim::Joint*> chain;  // clamp -> endpoint
-  std::set<std::string> chain_bodies;     // clamp and the bodies after it on the path
+  std::vector<const osim::Joint*> baked;               // ground -> clamp
+  std::vector<const osim::Joint*> chain;               // clamp -> endpoint
+  std::set<std::string> chain_bodies;                  // clamp and the bodies after it on the path
   std::map<std::string, Eigen::Isometry3d> X_G_baked;  // ground and bodies up to the clamp
   std::map<std::string, double> defaults;
   std::map<std::string, std::string> coupled;  // dependent coordinate -> report text
@@ -144,8 +144,10 @@ struct Builder {
     std::map<std::string, const Axis*> carrier;
     auto emission = [](const osim::Joint& j) {
       std::vector<const Axis*> order;
-      for (const Axis& a : j.axes) if (!a.rotation) order.push_back(&a);
-      for (const Axis& a : j.axes) if (a.rotation) order.push_back(&a);
+      for (const Axis& a : j.axes)
+        if (!a.rotation) order.push_back(&a);
+      for (const Axis& a : j.axes)
+        if (a.rotation) order.push_back(&a);
       return order;
     };
     // Coordinates of the chain joints (a coupler may make an axis follow another joint's).
@@ -171,8 +173,8 @@ struct Builder {
         }
       }
     }
-    OpenSimReportTable joints{"Joints (OpenSim -> URDF)",
-                              {"joint", "type", "parent -> child", "URDF joints"}, {}};
+    OpenSimReportTable joints{
+        "Joints (OpenSim -> URDF)", {"joint", "type", "parent -> child", "URDF joints"}, {}};
     for (const osim::Joint* j : chain) {
       std::vector<std::string> expansion;
       Eigen::Isometry3d pending = j->X_Pb_P;
@@ -195,8 +197,8 @@ struct Builder {
         s.coupling = carries ? Function::Linear(1, 0) : a->function;
         pending = Eigen::Isometry3d::Identity();
         link = s.child_link;
-        std::string text = s.name + " (" + (a->rotation ? "revolute" : "prismatic") + ", " +
-                           a->name;
+        std::string text =
+            s.name + " (" + (a->rotation ? "revolute" : "prismatic") + ", " + a->name;
         if (!carries) {
           text += std::string(", ") + (a->function.is_linear() ? "mimic" : "coupling") + " " +
                   FunctionKindName(a->function.kind()) + " of " + a->coordinate;
@@ -223,19 +225,20 @@ struct Builder {
         d.links.push_back(j->child_body);
         expansion.push_back(f.name + " (fixed)");
       }
-      joints.rows.push_back({j->name, j->type, j->parent_body + " -> " + j->child_body,
-                             util::Join(expansion, "; ")});
+      joints.rows.push_back(
+          {j->name, j->type, j->parent_body + " -> " + j->child_body, util::Join(expansion, "; ")});
     }
     // Coordinates of the chain joints: the columns.
     OpenSimReportTable coordinates{
         "Coordinates (independent: one column each)",
-        {"coordinate", "unit", "default", "range", "locked", "carried by / drives"}, {}};
+        {"coordinate", "unit", "default", "range", "locked", "carried by / drives"},
+        {}};
     for (const osim::Joint* j : chain) {
       for (const std::string& name : j->coordinates) {
         const osim::Coordinate& c = m.coordinates.at(name);
         if (coupled.count(name)) {
-          coordinates.rows.push_back({name, c.rotational ? "deg" : "mm", "-", "-", "coupled",
-                                      coupled.at(name)});
+          coordinates.rows.push_back(
+              {name, c.rotational ? "deg" : "mm", "-", "-", "coupled", coupled.at(name)});
           continue;
         }
         CoordinateSpec spec;
@@ -278,7 +281,8 @@ struct Builder {
     d.transducer.axes_in_world = true;
     d = NormalizeCoordinates(d);
     // The .osim default values are the nominal posture (written as isowrench:posture).
-    for (const CoordinateSpec& c : d.coordinates) d.nominal_posture.emplace_back(c.name, c.default_value);
+    for (const CoordinateSpec& c : d.coordinates)
+      d.nominal_posture.emplace_back(c.name, c.default_value);
     out.tables.push_back(joints);
     out.tables.push_back(coordinates);
     Muscles();
@@ -292,19 +296,25 @@ struct Builder {
     OpenSimReportTable bodies{"Bodies", {"body", "role"}, {}};
     for (const std::string& b : m.bodies) {
       std::string role;
-      if (b == options.clamp_body) role = "clamped (fixed to the world)";
-      else if (b == options.endpoint_body) role = "endpoint (transducer)";
-      else if (chain_bodies.count(b)) role = "chain";
-      else if (X_G_baked.count(b)) role = b == m.ground ? "ground (world frame)" : "above the clamp: baked at default coordinates";
-      else role = "dropped (off the clamp -> endpoint path)";
+      if (b == options.clamp_body)
+        role = "clamped (fixed to the world)";
+      else if (b == options.endpoint_body)
+        role = "endpoint (transducer)";
+      else if (chain_bodies.count(b))
+        role = "chain";
+      else if (X_G_baked.count(b))
+        role = b == m.ground ? "ground (world frame)"
+                             : "above the clamp: baked at default coordinates";
+      else
+        role = "dropped (off the clamp -> endpoint path)";
       bodies.rows.push_back({b, role});
     }
     out.tables.insert(out.tables.begin(), bodies);
   }
 
   void Muscles() {
-    OpenSimReportTable muscles{"Muscles", {"muscle", "type", "max force (N)", "points", "status"},
-                               {}};
+    OpenSimReportTable muscles{
+        "Muscles", {"muscle", "type", "max force (N)", "points", "status"}, {}};
     for (const osim::Muscle& muscle : m.muscles) {
       std::string problem;
       MuscleSpec spec;
@@ -320,8 +330,8 @@ struct Builder {
           point.link = m.ground;
           point.position = X_G_baked.at(p.body) * (p.X_body_frame * p.location);
         } else {
-          problem = "point '" + p.name + "' is on body '" + p.body +
-                    "', which is off the imported chain";
+          problem =
+              "point '" + p.name + "' is on body '" + p.body + "', which is off the imported chain";
           break;
         }
         if (p.moving || p.conditional) {
@@ -402,16 +412,20 @@ struct Builder {
     }
     std::string units = m.length_units;
     std::transform(units.begin(), units.end(), units.begin(), ::tolower);
-    const bool says_mm = units.find("mm") != std::string::npos || units.find("milli") != std::string::npos;
-    const bool says_cm = units.find("cm") != std::string::npos || units.find("centi") != std::string::npos;
+    const bool says_mm =
+        units.find("mm") != std::string::npos || units.find("milli") != std::string::npos;
+    const bool says_cm =
+        units.find("cm") != std::string::npos || units.find("centi") != std::string::npos;
     // Limb offsets in metres are below a metre; the same limb in mm has offsets of 10s of mm.
     if ((says_mm || says_cm) && largest < 1.0) {
-      out.warnings.push_back("<length_units> says '" + m.length_units + "' but the largest offset is " +
-                             Num(largest) + ": the values look like metres; read as metres, nothing "
+      out.warnings.push_back("<length_units> says '" + m.length_units +
+                             "' but the largest offset is " + Num(largest) +
+                             ": the values look like metres; read as metres, nothing "
                              "rescaled");
     } else if (!says_mm && !says_cm && largest > 5.0) {
       out.warnings.push_back("the largest offset is " + Num(largest) + " m (<length_units> '" +
-                             m.length_units + "'): the values look like millimetres; read as "
+                             m.length_units +
+                             "'): the values look like millimetres; read as "
                              "metres, nothing rescaled");
     }
   }
@@ -438,10 +452,10 @@ std::map<std::string, std::string> ApplyCouplers(osim::Model& model) {
       }
     }
     if (!problem.empty() || coupled.count(c.independent)) {
-      model.warnings.push_back(what + " is not imported (" +
-                               (problem.empty() ? "its independent coordinate is itself coupled"
-                                                : problem) +
-                               "): '" + c.dependent + "' stays independent");
+      model.warnings.push_back(
+          what + " is not imported (" +
+          (problem.empty() ? "its independent coordinate is itself coupled" : problem) + "): '" +
+          c.dependent + "' stays independent");
       continue;
     }
     for (osim::Joint& j : model.joints) {

@@ -17,12 +17,12 @@ namespace isowrench::osim {
 
 /// One of the six TransformAxis entries (or the fixed axes of a PinJoint, ...).
 struct Axis {
-  std::string name;        // rotation1..3, translation1..3
+  std::string name;  // rotation1..3, translation1..3
   bool rotation = true;
   Eigen::Vector3d axis = Eigen::Vector3d::UnitZ();  // unit, in the parent frame P (rotations:
                                                     // body-fixed sequence)
-  std::string coordinate;  // "" for an axis that depends on no coordinate
-  Function function;       // value of the axis (rad or m) as a function of the coordinate
+  std::string coordinate;                           // "" for an axis that depends on no coordinate
+  Function function;  // value of the axis (rad or m) as a function of the coordinate
   int line = 0;
 };
 
@@ -54,7 +54,7 @@ struct Point {
   int line = 0;
   std::string body;
   Eigen::Isometry3d X_body_frame = Eigen::Isometry3d::Identity();  // socket frame in its body
-  Eigen::Vector3d location = Eigen::Vector3d::Zero();                // m, in the socket frame
+  Eigen::Vector3d location = Eigen::Vector3d::Zero();              // m, in the socket frame
   // MovingPathPoint: component i = functions[i](clamp(q_coordinates[i], coordinate range)),
   // or the function at 0 when no coordinate is named (OpenSim MovingPathPoint::getLocation).
   bool moving = false;

@@ -30,7 +30,9 @@ struct Reader {
     throw Error(Where(e) + ": " + what);
   }
 
-  static std::string Text(const Xml* e) { return e && e->GetText() ? util::Trim(e->GetText()) : ""; }
+  static std::string Text(const Xml* e) {
+    return e && e->GetText() ? util::Trim(e->GetText()) : "";
+  }
   static std::string ChildText(const Xml* e, const char* name) {
     return Text(e->FirstChildElement(name));
   }
@@ -84,9 +86,10 @@ struct Reader {
   // ---- functions ------------------------------------------------------------------------
 
   static bool IsFunctionTag(const char* tag) {
-    static const char* const kKnown[] = {"Constant", "LinearFunction", "SimmSpline",
-                                         "NaturalCubicSpline", "PiecewiseLinearFunction",
-                                         "PolynomialFunction", "MultiplierFunction"};
+    static const char* const kKnown[] = {
+        "Constant",           "LinearFunction",          "SimmSpline",
+        "NaturalCubicSpline", "PiecewiseLinearFunction", "PolynomialFunction",
+        "MultiplierFunction"};
     for (const char* k : kKnown) {
       if (std::strcmp(tag, k) == 0) return true;
     }
@@ -95,9 +98,14 @@ struct Reader {
 
   // Tags of OpenSim functions we refuse (so they are recognised as functions in messages).
   static bool IsOtherFunctionTag(const char* tag) {
-    static const char* const kOther[] = {"GCVSpline", "StepFunction", "SineFunction",
-                                         "PiecewiseConstantFunction", "MultivariatePolynomialFunction",
-                                         "FunctionSet", "ExpressionBasedFunction", "XYFunction"};
+    static const char* const kOther[] = {"GCVSpline",
+                                         "StepFunction",
+                                         "SineFunction",
+                                         "PiecewiseConstantFunction",
+                                         "MultivariatePolynomialFunction",
+                                         "FunctionSet",
+                                         "ExpressionBasedFunction",
+                                         "XYFunction"};
     for (const char* k : kOther) {
       if (std::strcmp(tag, k) == 0) return true;
     }
@@ -204,12 +212,11 @@ struct Reader {
                                     context, depth + 1);
       return {body, X * frame->second.X};
     }
-    if (parts.size() <= 2 && IsBody(last) &&
-        (parts.size() == 1 || parts.front() == "bodyset")) {
+    if (parts.size() <= 2 && IsBody(last) && (parts.size() == 1 || parts.front() == "bodyset")) {
       return {last, Eigen::Isometry3d::Identity()};
     }
-    Fail(where, context + ": '" + path + "' names no body of the model and no frame of " +
-                    "this joint");
+    Fail(where,
+         context + ": '" + path + "' names no body of the model and no frame of " + "this joint");
   }
 
   // ---- bodies, joints, coordinates ------------------------------------------------------
@@ -249,22 +256,29 @@ struct Reader {
   };
 
   static bool FixedAxes(const std::string& type, std::vector<FixedAxis>* axes) {
-    if (type == "PinJoint") *axes = {{true, 2}};
-    else if (type == "SliderJoint") *axes = {{false, 0}};
-    else if (type == "UniversalJoint") *axes = {{true, 0}, {true, 1}};
-    else if (type == "GimbalJoint" || type == "BallJoint") *axes = {{true, 0}, {true, 1}, {true, 2}};
-    else if (type == "PlanarJoint") *axes = {{true, 2}, {false, 0}, {false, 1}};
+    if (type == "PinJoint")
+      *axes = {{true, 2}};
+    else if (type == "SliderJoint")
+      *axes = {{false, 0}};
+    else if (type == "UniversalJoint")
+      *axes = {{true, 0}, {true, 1}};
+    else if (type == "GimbalJoint" || type == "BallJoint")
+      *axes = {{true, 0}, {true, 1}, {true, 2}};
+    else if (type == "PlanarJoint")
+      *axes = {{true, 2}, {false, 0}, {false, 1}};
     else if (type == "FreeJoint")
       *axes = {{true, 0}, {true, 1}, {true, 2}, {false, 0}, {false, 1}, {false, 2}};
-    else if (type == "WeldJoint") *axes = {};
-    else return false;
+    else if (type == "WeldJoint")
+      *axes = {};
+    else
+      return false;
     return true;
   }
 
   void ReadSpatialTransform(const Xml* j, Joint& joint) {
     const Xml* st = j->FirstChildElement("SpatialTransform");
     if (!st) Fail(j, "CustomJoint '" + joint.name + "' has no <SpatialTransform>");
-    static const char* const kNames[] = {"rotation1", "rotation2", "rotation3",
+    static const char* const kNames[] = {"rotation1",    "rotation2",    "rotation3",
                                          "translation1", "translation2", "translation3"};
     std::vector<const Xml*> found(6, nullptr);
     int next = 0;
@@ -327,7 +341,8 @@ struct Reader {
       }
       joint.axes.push_back(axis);
     }
-    // Collinear axes within a group are an error in OpenSim (CustomJoint::extendFinalizeFromProperties).
+    // Collinear axes within a group are an error in OpenSim
+    // (CustomJoint::extendFinalizeFromProperties).
     for (int group = 0; group < 2; ++group) {
       for (int a = 0; a < 3; ++a) {
         for (int b = a + 1; b < 3; ++b) {
@@ -365,8 +380,9 @@ struct Reader {
     }
     if (ChildBool(j, "reverse", "joint '" + joint.name + "'")) {
       Fail(j->FirstChildElement("reverse"),
-           "joint '" + joint.name + "' is reversed (<reverse>true</reverse>); reversed joints "
-           "are not supported");
+           "joint '" + joint.name +
+               "' is reversed (<reverse>true</reverse>); reversed joints "
+               "are not supported");
     }
     const std::string context = "joint '" + joint.name + "'";
     // Coordinates: 4.x <coordinates>, 3.x <CoordinateSet><objects>.
@@ -447,7 +463,8 @@ struct Reader {
         rotation |= a.rotation;
       }
       Coordinate& coordinate = model.coordinates[c];
-      if (any && coordinate.line && !j->FirstChildElement("motion_type")) coordinate.rotational = rotation;
+      if (any && coordinate.line && !j->FirstChildElement("motion_type"))
+        coordinate.rotational = rotation;
     }
     model.joints.push_back(joint);
   }
@@ -607,10 +624,9 @@ struct Reader {
                      std::to_string(kFirstVersion) + "); open and save it in OpenSim 4 first");
     }
     if (model.version > kLastVersion) {
-      model.warnings.push_back("document version " + std::string(version) +
-                               " is newer than the versions checked (" +
-                               std::to_string(kFirstVersion) + "-" +
-                               std::to_string(kLastVersion) + "); read as 4.6");
+      model.warnings.push_back(
+          "document version " + std::string(version) + " is newer than the versions checked (" +
+          std::to_string(kFirstVersion) + "-" + std::to_string(kLastVersion) + "); read as 4.6");
     }
     const Xml* m = root->FirstChildElement("Model");
     if (!m) Fail(root, "<OpenSimDocument> has no <Model>");
@@ -669,17 +685,20 @@ struct Reader {
             ReadCoupler(c, what);
             continue;
           }
-          model.warnings.push_back(what + " is not imported: coordinates it would tie are "
+          model.warnings.push_back(what +
+                                   " is not imported: coordinates it would tie are "
                                    "independent");
         }
       }
     }
     // Muscles: in the ForceSet, or (4.x) among the model's own <components>.
     std::vector<const Xml*> holders;
-    if (const Xml* fs = m->FirstChildElement("ForceSet")) holders.push_back(fs->FirstChildElement("objects"));
+    if (const Xml* fs = m->FirstChildElement("ForceSet"))
+      holders.push_back(fs->FirstChildElement("objects"));
     holders.push_back(m->FirstChildElement("components"));
     for (const Xml* holder : holders) {
-      for (const Xml* f = holder ? holder->FirstChildElement() : nullptr; f; f = f->NextSiblingElement()) {
+      for (const Xml* f = holder ? holder->FirstChildElement() : nullptr; f;
+           f = f->NextSiblingElement()) {
         if (f->FirstChildElement("GeometryPath") && f->FirstChildElement("max_isometric_force")) {
           ReadMuscle(f);
         }

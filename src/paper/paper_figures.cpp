@@ -47,9 +47,10 @@ struct Case {
   bool release_rz;
 };
 
-LimbDescription Configure(const Model& base, bool release_rz, const Vector6d& s_t, double base_stiffness) {
-  LimbDescription d = WithReleasedDofs(base.description(), release_rz ? std::vector<std::string>{"rz"}
-                                                                       : std::vector<std::string>{});
+LimbDescription Configure(const Model& base, bool release_rz, const Vector6d& s_t,
+                          double base_stiffness) {
+  LimbDescription d = WithReleasedDofs(
+      base.description(), release_rz ? std::vector<std::string>{"rz"} : std::vector<std::string>{});
   d = WithTransducerStiffness(std::move(d), s_t);
   if (base_stiffness > 0) d = WithBaseStiffness(std::move(d), base_stiffness);
   return d;
@@ -66,12 +67,14 @@ PaperPanel Eq10Panel(int figure, const std::string& row, const Model& base, bool
   p.method = "Eq. 10";
   p.s_t = e.s_t;
   p.base_stiffness = base_stiffness;
-  p.condition = condition + "; " + Stiffness(s_t) +
-                (base_stiffness > 0 ? "; base " + util::FormatNumber(base_stiffness, 3) + " N/m" : "") +
-                (base.description().name == "rat_hindlimb_6dof"
-                     ? "; knee ab/adduction " + util::FormatNumber(model.joint(model.JointIndex("knee_ry")).stiffness, 3) +
-                           " N·m/rad"
-                     : "");
+  p.condition =
+      condition + "; " + Stiffness(s_t) +
+      (base_stiffness > 0 ? "; base " + util::FormatNumber(base_stiffness, 3) + " N/m" : "") +
+      (base.description().name == "rat_hindlimb_6dof"
+           ? "; knee ab/adduction " +
+                 util::FormatNumber(model.joint(model.JointIndex("knee_ry")).stiffness, 3) +
+                 " N·m/rad"
+           : "");
   p.wrench = e.statics.wrench;
   p.valid = e.statics.ok() && e.statics.small_motion_valid;
   if (!e.statics.ok()) {
@@ -90,7 +93,8 @@ PaperPanel ClassicPanel(int figure, const Model& base, bool release_rz) {
   p.row = "A";
   p.column = release_rz ? kReleased : kOverConstrained;
   p.method = e.classic.square_inverse ? "J^-T tau (Eq. 11)" : "pinv(J^T) tau (Eq. 15)";
-  p.condition = e.classic.square_inverse ? "simple inverse, no compliance" : "pseudoinverse, no compliance";
+  p.condition =
+      e.classic.square_inverse ? "simple inverse, no compliance" : "pseudoinverse, no compliance";
   p.wrench = e.classic.wrench;
   return p;
 }
@@ -111,7 +115,8 @@ std::string DefaultUrdfDirectory() {
   if (n > 0) {
     std::string path(exe, static_cast<size_t>(n));
     size_t slash = path.rfind('/');
-    if (slash != std::string::npos) candidates.push_back(path.substr(0, slash) + "/../share/isowrench/urdf");
+    if (slash != std::string::npos)
+      candidates.push_back(path.substr(0, slash) + "/../share/isowrench/urdf");
   }
   candidates.push_back(ISOWRENCH_INSTALL_URDF_DIR);
   for (const std::string& dir : candidates) {
@@ -121,8 +126,8 @@ std::string DefaultUrdfDirectory() {
   return "urdf";
 }
 
-Vector6d FemurRemovedWrench(const Model& model, const Eigen::VectorXd& q, const std::string& muscle_name,
-                            double activation) {
+Vector6d FemurRemovedWrench(const Model& model, const Eigen::VectorXd& q,
+                            const std::string& muscle_name, double activation) {
   const MuscleSpec& muscle = model.muscle(model.MuscleIndex(muscle_name));
   KinematicsWorkspace ws(model);
   const std::string& tibia = model.transducer().link;
@@ -180,7 +185,7 @@ std::vector<PaperPanel> ComputePaperFigure(int figure, const std::string& urdf_d
       for (const auto& [row, k] : rows) {
         for (bool release : {true, false}) {
           panels.push_back(Eq10Panel(3, row, rat, release, Vector6d::Constant(kBalanced), k,
-                                     std::string(row) == "B" ? "high base stiffness"
+                                     std::string(row) == "B"   ? "high base stiffness"
                                      : std::string(row) == "C" ? "moderate base stiffness"
                                                                : "low base stiffness"));
         }
@@ -205,7 +210,8 @@ std::vector<PaperPanel> ComputePaperFigure(int figure, const std::string& urdf_d
     panels.push_back(Eq10Panel(4, "C", rat6, false, Vector6d::Constant(kBalanced), kBaseModerate,
                                "knee ball joint, moderate base stiffness"));
   } else {
-    throw Error("the paper has wrench figures 2, 3 and 4; there is no figure " + std::to_string(figure));
+    throw Error("the paper has wrench figures 2, 3 and 4; there is no figure " +
+                std::to_string(figure));
   }
   return panels;
 }

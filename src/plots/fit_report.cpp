@@ -40,7 +40,8 @@ std::string Percent(double before, double after) {
   return util::FormatNumber(100.0 * (before - after) / before, 3) + " %";
 }
 
-std::string ParameterText(const Effect& effect, const std::vector<double>& values, const std::vector<double>& se) {
+std::string ParameterText(const Effect& effect, const std::vector<double>& values,
+                          const std::vector<double>& se) {
   std::vector<std::string> items;
   for (size_t i = 0; i < effect.parameters.size() && i < values.size(); ++i) {
     const EffectParameter& p = effect.parameters[i];
@@ -82,8 +83,9 @@ double NiceStep(double range, int target) {
   return 10 * mag;
 }
 
-std::string XYPlotSvg(const std::string& title, const std::string& xlabel, const std::string& ylabel,
-                      const std::vector<Series>& series, bool diagonal, bool zero_line) {
+std::string XYPlotSvg(const std::string& title, const std::string& xlabel,
+                      const std::string& ylabel, const std::vector<Series>& series, bool diagonal,
+                      bool zero_line) {
   constexpr double kW = 280, kH = 240, kL = 58, kR = 12, kT = 34, kB = 40;
   double xmin = 1e300, xmax = -1e300, ymin = 1e300, ymax = -1e300;
   for (const Series& s : series) {
@@ -116,7 +118,11 @@ std::string XYPlotSvg(const std::string& title, const std::string& xlabel, const
   auto sy = [&](double y) { return kT + (ymax - y) / (ymax - ymin) * ph; };
   plots::SvgWriter svg(kW, kH, title);
   svg.Text(kL, 15, title, 11, "start", {{"font-weight", "bold"}});
-  svg.Element("rect", {{"x", Num(kL)}, {"y", Num(kT)}, {"width", Num(pw)}, {"height", Num(ph)}, {"fill", "none"},
+  svg.Element("rect", {{"x", Num(kL)},
+                       {"y", Num(kT)},
+                       {"width", Num(pw)},
+                       {"height", Num(ph)},
+                       {"fill", "none"},
                        {"stroke", "#999999"}});
   const double xs = NiceStep(xmax - xmin, 4), ys = NiceStep(ymax - ymin, 4);
   // Ticks by integer index (t = k * step), at most kMaxTicks, so a step below the spacing of
@@ -126,7 +132,8 @@ std::string XYPlotSvg(const std::string& title, const std::string& xlabel, const
   for (int k = 0; k < kMaxTicks && std::isfinite(kx0) && (kx0 + k) * xs <= xmax; ++k) {
     const double t = (kx0 + k) * xs;
     svg.Line(sx(t), kT + ph, sx(t), kT + ph + 4, "#666666", 1);
-    svg.Text(sx(t), kT + ph + 14, util::FormatNumber(std::abs(t) < 1e-9 * xs ? 0.0 : t, 3), 9, "middle");
+    svg.Text(sx(t), kT + ph + 14, util::FormatNumber(std::abs(t) < 1e-9 * xs ? 0.0 : t, 3), 9,
+             "middle");
   }
   for (int k = 0; k < kMaxTicks && std::isfinite(ky0) && (ky0 + k) * ys <= ymax; ++k) {
     const double t = (ky0 + k) * ys;
@@ -137,20 +144,29 @@ std::string XYPlotSvg(const std::string& title, const std::string& xlabel, const
   svg.Text(12, kT + ph / 2, ylabel, 10, "middle",
            {{"class", "ylabel"}, {"transform", "rotate(-90 12 " + Num(kT + ph / 2, 1) + ")"}});
   if (diagonal) {
-    svg.Line(sx(xmin), sy(xmin), sx(xmax), sy(xmax), "#aaaaaa", 1, {{"class", "identity"}, {"stroke-dasharray", "4,3"}});
+    svg.Line(sx(xmin), sy(xmin), sx(xmax), sy(xmax), "#aaaaaa", 1,
+             {{"class", "identity"}, {"stroke-dasharray", "4,3"}});
   }
-  if (zero_line) svg.Line(kL, sy(0), kL + pw, sy(0), "#aaaaaa", 1, {{"class", "zero"}, {"stroke-dasharray", "4,3"}});
+  if (zero_line)
+    svg.Line(kL, sy(0), kL + pw, sy(0), "#aaaaaa", 1,
+             {{"class", "zero"}, {"stroke-dasharray", "4,3"}});
   double legend_x = kL + 6;
   for (const Series& s : series) {
     svg.Open("g", {{"class", "series " + s.cls}, {"data-series", s.name}});
     for (const Eigen::Vector2d& p : s.points) {
-      svg.Element("circle", {{"class", "point"}, {"cx", Num(sx(p.x()), 2)}, {"cy", Num(sy(p.y()), 2)}, {"r", "2.2"},
-                             {"fill", s.color}, {"fill-opacity", "0.7"},
-                             {"data-x", plots::Exact(p.x())}, {"data-y", plots::Exact(p.y())}});
+      svg.Element("circle", {{"class", "point"},
+                             {"cx", Num(sx(p.x()), 2)},
+                             {"cy", Num(sy(p.y()), 2)},
+                             {"r", "2.2"},
+                             {"fill", s.color},
+                             {"fill-opacity", "0.7"},
+                             {"data-x", plots::Exact(p.x())},
+                             {"data-y", plots::Exact(p.y())}});
     }
     svg.Close();
     // Legend in the top margin, between the title and the plot area.
-    svg.Element("circle", {{"cx", Num(legend_x + 3)}, {"cy", Num(kT - 9)}, {"r", "3"}, {"fill", s.color}});
+    svg.Element("circle",
+                {{"cx", Num(legend_x + 3)}, {"cy", Num(kT - 9)}, {"r", "3"}, {"fill", s.color}});
     svg.Text(legend_x + 9, kT - 6, s.name, 9);
     legend_x += 12 + 5.5 * static_cast<double>(s.name.size()) + 10;
   }
@@ -167,18 +183,29 @@ struct Table {
 
 Table ErrorTable(const FitReport& r) {
   Table t;
-  t.header = {"component", "RMS before", "RMS after", "reduction", "R² before", "R² after",
-              "noise multiples before", "noise multiples after", "mean before", "mean after"};
+  t.header = {"component",
+              "RMS before",
+              "RMS after",
+              "reduction",
+              "R² before",
+              "R² after",
+              "noise multiples before",
+              "noise multiples after",
+              "mean before",
+              "mean after"};
   for (int i = 0; i < 6; ++i) {
     const std::string u = std::string(" ") + kUnit[i];
-    t.rows.push_back({std::string(kComponent[i]) + " (" + kUnit[i] + ")", N4(r.before.rms[i]) + u, N4(r.after.rms[i]) + u,
-                      Percent(r.before.rms[i], r.after.rms[i]), N4(r.before.r2[i]), N4(r.after.r2[i]),
-                      N4(r.before.normalized[i]), N4(r.after.normalized[i]), N4(r.before.mean[i]) + u,
+    t.rows.push_back({std::string(kComponent[i]) + " (" + kUnit[i] + ")", N4(r.before.rms[i]) + u,
+                      N4(r.after.rms[i]) + u, Percent(r.before.rms[i], r.after.rms[i]),
+                      N4(r.before.r2[i]), N4(r.after.r2[i]), N4(r.before.normalized[i]),
+                      N4(r.after.normalized[i]), N4(r.before.mean[i]) + u,
                       N4(r.after.mean[i]) + u});
     t.row_class.push_back("");
   }
-  t.rows.push_back({"χ² (all)", N4(r.before.chi2), N4(r.after.chi2), Percent(r.before.chi2, r.after.chi2),
-                    "", "", "reduced χ² " + N4(r.before.reduced_chi2), "reduced χ² " + N4(r.after.reduced_chi2), "", ""});
+  t.rows.push_back({"χ² (all)", N4(r.before.chi2), N4(r.after.chi2),
+                    Percent(r.before.chi2, r.after.chi2), "", "",
+                    "reduced χ² " + N4(r.before.reduced_chi2),
+                    "reduced χ² " + N4(r.after.reduced_chi2), "", ""});
   t.row_class.push_back("total");
   return t;
 }
@@ -188,8 +215,10 @@ Table ChosenTable(const FitReport& r) {
   t.header = {"#", "effect", "description", "parameters (± standard error)"};
   for (size_t i = 0; i < r.chosen.size(); ++i) {
     const AppliedEffect& a = r.chosen[i];
-    std::vector<double> se = i < r.chosen_fits.size() ? r.chosen_fits[i].standard_errors : std::vector<double>{};
-    t.rows.push_back({std::to_string(i + 1), a.effect.id, a.effect.description, ParameterText(a.effect, a.values, se)});
+    std::vector<double> se =
+        i < r.chosen_fits.size() ? r.chosen_fits[i].standard_errors : std::vector<double>{};
+    t.rows.push_back({std::to_string(i + 1), a.effect.id, a.effect.description,
+                      ParameterText(a.effect, a.values, se)});
     t.row_class.push_back("");
   }
   return t;
@@ -211,8 +240,10 @@ Table DiagnosticsTable(const FitReport& r) {
   if (!r.trial_factors.empty()) {
     std::vector<std::string> far;
     for (long l : r.trial_force_outliers) far.push_back(std::to_string(l));
-    t.rows.push_back({"per-trial force factors", "spread (sd of ln factor) " + N4(r.trial_force_spread) +
-                                                     (far.empty() ? "" : "; far from the rest: lines " + util::Join(far, ", "))});
+    t.rows.push_back(
+        {"per-trial force factors",
+         "spread (sd of ln factor) " + N4(r.trial_force_spread) +
+             (far.empty() ? "" : "; far from the rest: lines " + util::Join(far, ", "))});
     t.row_class.push_back("trial-force");
   }
   if (!r.closest_rejected.empty()) {
@@ -233,8 +264,10 @@ std::string TraceSvg(const FitReport& r) {
     const double share = std::min(1.0, std::max(0.0, r.trace[i].share));
     svg.Text(label_w - 6, y + 12, r.trace[i].variable, 11, "end");
     svg.Open("g", {{"class", "trace-bar"}, {"data-variable", r.trace[i].variable}});
-    svg.Element("rect", {{"x", plots::Num(label_w)}, {"y", plots::Num(y + 2)},
-                         {"width", plots::Num(std::max(1.0, bar_w * share))}, {"height", plots::Num(row_h - 4)},
+    svg.Element("rect", {{"x", plots::Num(label_w)},
+                         {"y", plots::Num(y + 2)},
+                         {"width", plots::Num(std::max(1.0, bar_w * share))},
+                         {"height", plots::Num(row_h - 4)},
                          {"fill", kAfterColor}});
     svg.Close();
     svg.Text(label_w + bar_w * share + 6, y + 12, N4(100 * share) + " %", 11, "start");
@@ -244,18 +277,24 @@ std::string TraceSvg(const FitReport& r) {
 
 Table CandidateTable(const FitRound& round) {
   Table t;
-  t.header = {"rank", "effect", "ΔBIC", "BIC", "AICc", "held-out χ²/residual", "identifiable", "converged",
-              "parameters (± standard error)", "verdict"};
+  t.header = {"rank",         "effect",    "ΔBIC",
+              "BIC",          "AICc",      "held-out χ²/residual",
+              "identifiable", "converged", "parameters (± standard error)",
+              "verdict"};
   for (size_t i = 0; i < round.candidates.size(); ++i) {
     const CandidateFit& c = round.candidates[i];
-    std::string ident = c.identifiable ? "yes" : "no" + (c.identifiability.empty() ? "" : ": " + c.identifiability);
+    std::string ident =
+        c.identifiable ? "yes" : "no" + (c.identifiability.empty() ? "" : ": " + c.identifiability);
     std::string params = ParameterText(c.effect, c.values, c.standard_errors);
     for (size_t k = 0; k < c.at_bound.size(); ++k) {
-      if (c.at_bound[k] && k < c.effect.parameters.size()) params += " [" + c.effect.parameters[k].name + " at bound]";
+      if (c.at_bound[k] && k < c.effect.parameters.size())
+        params += " [" + c.effect.parameters[k].name + " at bound]";
     }
-    t.rows.push_back({std::to_string(i + 1), c.effect.id, N4(c.delta_bic), N4(c.bic), N4(c.aic), CvText(c.cv_error),
-                      ident, c.converged ? "yes" : "no" + (c.solver_message.empty() ? "" : ": " + c.solver_message),
-                      params, c.verdict});
+    t.rows.push_back(
+        {std::to_string(i + 1), c.effect.id, N4(c.delta_bic), N4(c.bic), N4(c.aic),
+         CvText(c.cv_error), ident,
+         c.converged ? "yes" : "no" + (c.solver_message.empty() ? "" : ": " + c.solver_message),
+         params, c.verdict});
     t.row_class.push_back(static_cast<int>(i) == round.chosen ? "chosen" : "");
   }
   return t;
@@ -305,33 +344,42 @@ std::vector<std::string> SummaryLines(const FitReport& r) {
   std::vector<std::string> lines;
   lines.push_back("Verdict: " + std::string(VerdictText(r.verdict)) +
                   (r.verdict_message.empty() ? "" : " — " + r.verdict_message));
-  lines.push_back("Data: " + std::to_string(r.trial_count) + " trials" + (r.source.empty() ? "" : " from " + r.source) +
-                  (r.sd_stated ? ", standard deviations stated per trial" : ", no standard deviations stated (default weights)") +
+  lines.push_back("Data: " + std::to_string(r.trial_count) + " trials" +
+                  (r.source.empty() ? "" : " from " + r.source) +
+                  (r.sd_stated ? ", standard deviations stated per trial"
+                               : ", no standard deviations stated (default weights)") +
                   "; fit took " + util::FormatNumber(r.seconds, 3) + " s.");
   std::vector<std::string> ids;
   for (const AppliedEffect& a : r.chosen) ids.push_back(a.effect.id);
   if (ids.empty() || r.effects_claimed) {
-    lines.push_back("Effects added: " + (ids.empty() ? std::string("none") : util::Join(ids, ", ")) + ".");
+    lines.push_back(
+        "Effects added: " + (ids.empty() ? std::string("none") : util::Join(ids, ", ")) + ".");
   } else {
-    lines.push_back("Effects tried (tentative: they reduce the residual but do not bring it to the noise, so "
-                    "they are not claimed as found): " + util::Join(ids, ", ") + ".");
+    lines.push_back(
+        "Effects tried (tentative: they reduce the residual but do not bring it to the noise, so "
+        "they are not claimed as found): " +
+        util::Join(ids, ", ") + ".");
   }
-  lines.push_back("Residual = measured - predicted, in transducer axes (N, N·m; moment about the endpoint).");
+  lines.push_back(
+      "Residual = measured - predicted, in transducer axes (N, N·m; moment about the endpoint).");
   return lines;
 }
 
 std::string RoundLine(const FitRound& round) {
-  return "Current model: χ² " + N4(round.before.chi2) + ", BIC " + N4(round.bic_before) + ", held-out χ²/residual " +
-         CvText(round.cv_before) + (round.bic_threshold > 0 ? "; an effect needs ΔBIC ≥ " + N4(round.bic_threshold) : "") +
+  return "Current model: χ² " + N4(round.before.chi2) + ", BIC " + N4(round.bic_before) +
+         ", held-out χ²/residual " + CvText(round.cv_before) +
+         (round.bic_threshold > 0 ? "; an effect needs ΔBIC ≥ " + N4(round.bic_threshold) : "") +
          ". " + round.summary;
 }
 
 void CheckOptions(const FitReport& r, const FitReportOptions& o) {
-  if (o.glyph_trials < 0 || o.markdown_trials < 0) throw Error("fit report: glyph_trials and markdown_trials must be >= 0");
+  if (o.glyph_trials < 0 || o.markdown_trials < 0)
+    throw Error("fit report: glyph_trials and markdown_trials must be >= 0");
   if (!o.trials) return;
   if (o.trials->size() != r.trials.size()) {
-    throw Error("fit report: " + std::to_string(o.trials->size()) + " trials given for a report of " +
-                std::to_string(r.trials.size()) + " trials; pass the trials the fit used");
+    throw Error("fit report: " + std::to_string(o.trials->size()) +
+                " trials given for a report of " + std::to_string(r.trials.size()) +
+                " trials; pass the trials the fit used");
   }
   for (size_t k = 0; k < r.trials.size(); ++k) {
     if ((*o.trials)[k].line != r.trials[k].line) {
@@ -359,8 +407,9 @@ std::string PosturePlots(const FitReport& r, const std::vector<Trial>& trials, c
     if (!(hi - lo > kMinSpread)) continue;
     const auto& model_names = model.joint_names();
     const auto it = std::find(model_names.begin(), model_names.end(), names[j]);
-    const bool prismatic = it != model_names.end() &&
-                           model.joint(static_cast<int>(it - model_names.begin())).type == JointType::kPrismatic;
+    const bool prismatic =
+        it != model_names.end() &&
+        model.joint(static_cast<int>(it - model_names.begin())).type == JointType::kPrismatic;
     const double to_user = prismatic ? 1e3 : 180.0 / 3.14159265358979323846;
     Series before{"before", kBeforeColor, "before", {}}, after{"after", kAfterColor, "after", {}};
     for (size_t k = 0; k < trials.size(); ++k) {
@@ -382,29 +431,36 @@ std::string FitReportHtml(const FitReport& r, const FitReportOptions& o) {
   CheckOptions(r, o);
   const std::string title = Title(r, o);
   std::string h;
-  h += "<!DOCTYPE html>\n<html lang=\"en\">\n<head>\n<meta charset=\"utf-8\">\n<title>" + XmlEscape(title) + "</title>\n";
-  h += "<style>\nbody{font-family:Helvetica,Arial,sans-serif;margin:24px;color:#222;max-width:1400px}\n"
-       "table{border-collapse:collapse;margin:8px 0 16px}td,th{border:1px solid #ccc;padding:3px 7px;font-size:13px;"
+  h += "<!DOCTYPE html>\n<html lang=\"en\">\n<head>\n<meta charset=\"utf-8\">\n<title>" +
+       XmlEscape(title) + "</title>\n";
+  h += "<style>\nbody{font-family:Helvetica,Arial,sans-serif;margin:24px;color:#222;max-width:"
+       "1400px}\n"
+       "table{border-collapse:collapse;margin:8px 0 16px}td,th{border:1px solid #ccc;padding:3px "
+       "7px;font-size:13px;"
        "text-align:right}th{background:#f2f2f2}td:nth-child(2),td:first-child{text-align:left}\n"
        "tr.chosen{background:#e6f0ff;font-weight:bold}tr.total{background:#fafafa}\n"
        ".plots{display:flex;flex-wrap:wrap;gap:6px}.verdict{font-size:17px;font-weight:bold}\n"
        ".before{color:#e07b00}.after{color:#1f5fbf}\n</style>\n</head>\n<body>\n";
   h += "<h1>" + XmlEscape(title) + "</h1>\n";
   std::vector<std::string> summary = SummaryLines(r);
-  h += "<p class=\"verdict\" data-verdict=\"" + std::string(VerdictText(r.verdict)) + "\">" + XmlEscape(summary[0]) + "</p>\n";
+  h += "<p class=\"verdict\" data-verdict=\"" + std::string(VerdictText(r.verdict)) + "\">" +
+       XmlEscape(summary[0]) + "</p>\n";
   for (size_t i = 1; i < summary.size(); ++i) h += "<p>" + XmlEscape(summary[i]) + "</p>\n";
-  for (const std::string& s : r.indistinguishable) h += "<p class=\"indistinguishable\">Cannot be told apart: " + XmlEscape(s) + "</p>\n";
+  for (const std::string& s : r.indistinguishable)
+    h += "<p class=\"indistinguishable\">Cannot be told apart: " + XmlEscape(s) + "</p>\n";
 
   h += "<h2>Residual before and after, per component</h2>\n";
-  h += "<p><span class=\"before\">●</span> before (nominal model) &#160; <span class=\"after\">●</span> after (fitted model)</p>\n";
+  h += "<p><span class=\"before\">●</span> before (nominal model) &#160; <span "
+       "class=\"after\">●</span> after (fitted model)</p>\n";
   h += HtmlTable(ErrorTable(r), "errors");
 
   h += r.effects_claimed ? "<h2>Effects added</h2>\n" : "<h2>Effects tried (tentative)</h2>\n";
-  h += r.chosen.empty() ? "<p>None: no candidate earned its parameters.</p>\n" : HtmlTable(ChosenTable(r), "chosen");
+  h += r.chosen.empty() ? "<p>None: no candidate earned its parameters.</p>\n"
+                        : HtmlTable(ChosenTable(r), "chosen");
   h += "<h2>Outliers, confounding, trace</h2>\n" + HtmlTable(DiagnosticsTable(r), "diagnostics");
   if (!r.trace.empty()) {
-    h += "<h2>Where the unexplained residual lives</h2>\n<p>" + XmlEscape(r.trace_summary) + "</p>\n<div class=\"plot trace\">" +
-         TraceSvg(r) + "</div>\n";
+    h += "<h2>Where the unexplained residual lives</h2>\n<p>" + XmlEscape(r.trace_summary) +
+         "</p>\n<div class=\"plot trace\">" + TraceSvg(r) + "</div>\n";
   }
 
   // Plots.
@@ -418,8 +474,8 @@ std::string FitReportHtml(const FitReport& r, const FitReportOptions& o) {
       }
       const std::string u = std::string(" (") + kUnit[c] + ")";
       h += "<div class=\"plot scatter\" data-component=\"" + std::string(kComponent[c]) + "\">" +
-           XYPlotSvg(std::string(kComponent[c]) + ": predicted vs measured", "measured" + u, "predicted" + u,
-                     {before, after}, true, false) +
+           XYPlotSvg(std::string(kComponent[c]) + ": predicted vs measured", "measured" + u,
+                     "predicted" + u, {before, after}, true, false) +
            "</div>\n";
     }
     h += "</div>\n<h2>Residual vs trial</h2>\n<div class=\"plots\">\n";
@@ -431,14 +487,17 @@ std::string FitReportHtml(const FitReport& r, const FitReportOptions& o) {
       }
       h += "<div class=\"plot residual\" data-component=\"" + std::string(kComponent[c]) + "\">" +
            XYPlotSvg(std::string(kComponent[c]) + ": residual", "trial (file order)",
-                     std::string("measured - predicted (") + kUnit[c] + ")", {before, after}, false, true) +
+                     std::string("measured - predicted (") + kUnit[c] + ")", {before, after}, false,
+                     true) +
            "</div>\n";
     }
     h += "</div>\n";
     if (o.trials && o.model && !o.trials->empty()) {
-      h += "<h2>Residual vs posture</h2>\n<p>Size of the weighted residual of each trial (noise multiples; "
+      h += "<h2>Residual vs posture</h2>\n<p>Size of the weighted residual of each trial (noise "
+           "multiples; "
            "|weighted residual| / √6) against each joint that varies across the trials.</p>\n"
-           "<div class=\"plots\">\n" + PosturePlots(r, *o.trials, *o.model) + "</div>\n";
+           "<div class=\"plots\">\n" +
+           PosturePlots(r, *o.trials, *o.model) + "</div>\n";
     }
   }
 
@@ -447,7 +506,8 @@ std::string FitReportHtml(const FitReport& r, const FitReportOptions& o) {
     h += "<h2>Round " + std::to_string(round.index) + ": candidates ranked by BIC</h2>\n";
     h += "<p>" + XmlEscape(RoundLine(round)) + "</p>\n";
     if (!round.indistinguishable.empty()) {
-      h += "<p>Indistinguishable from the winner: " + XmlEscape(util::Join(round.indistinguishable, ", ")) + "</p>\n";
+      h += "<p>Indistinguishable from the winner: " +
+           XmlEscape(util::Join(round.indistinguishable, ", ")) + "</p>\n";
     }
     h += HtmlTable(CandidateTable(round), "candidates");
   }
@@ -456,8 +516,10 @@ std::string FitReportHtml(const FitReport& r, const FitReportOptions& o) {
   const std::vector<size_t> worst = WorstTrials(r, static_cast<size_t>(o.glyph_trials));
   if (!worst.empty()) {
     h += "<h2>Wrench glyphs of the trials with the largest residual before the fit</h2>\n"
-         "<p>Force and moment as in the paper's Figure 1C (x, y, z projections in green, blue, red); measured, "
-         "predicted by the nominal model (before) and by the fitted model (after), one scale for all.</p>\n";
+         "<p>Force and moment as in the paper's Figure 1C (x, y, z projections in green, blue, "
+         "red); measured, "
+         "predicted by the nominal model (before) and by the fitted model (after), one scale for "
+         "all.</p>\n";
     std::vector<Vector6d> all;
     for (size_t i : worst) {
       const TrialResidual& t = r.trials[i];
@@ -472,16 +534,21 @@ std::string FitReportHtml(const FitReport& r, const FitReportOptions& o) {
     const double pair_w = fb.width() + plots::kGlyphGap + mb.width(), gap = 30;
     for (size_t i : worst) {
       const TrialResidual& t = r.trials[i];
-      const std::string label = "trial " + std::to_string(i + 1) + (t.line > 0 ? " (line " + std::to_string(t.line) + ")" : "") +
+      const std::string label = "trial " + std::to_string(i + 1) +
+                                (t.line > 0 ? " (line " + std::to_string(t.line) + ")" : "") +
                                 ", " + t.muscle + " at activation " + N4(t.activation);
-      plots::SvgWriter svg(3 * pair_w + 2 * gap + 20, std::max(fb.height(), mb.height()) + 50, label);
+      plots::SvgWriter svg(3 * pair_w + 2 * gap + 20, std::max(fb.height(), mb.height()) + 50,
+                           label);
       svg.Text(10, 16, label, 12, "start", {{"font-weight", "bold"}});
       const char* names[3] = {"measured", "predicted before", "predicted after"};
       const Vector6d w[3] = {t.measured, t.measured - t.before, t.measured - t.after};
       for (int k = 0; k < 3; ++k) {
         const double x = 10 + k * (pair_w + gap);
         svg.Open("g", {{"class", "trial-glyph"}, {"data-which", names[k]}});
-        svg.Text(x, 34, names[k], 11, "start", {{"fill", k == 1 ? kBeforeColor : k == 2 ? kAfterColor : "#222222"}});
+        svg.Text(x, 34, names[k], 11, "start",
+                 {{"fill", k == 1   ? kBeforeColor
+                           : k == 2 ? kAfterColor
+                                    : "#222222"}});
         plots::DrawWrenchGlyphs(svg, x, 40, w[k], fb, mb, scales, go);
         svg.Close();
       }
@@ -501,22 +568,28 @@ std::string FitReportMarkdown(const FitReport& r, const FitReportOptions& o) {
   for (const std::string& s : r.indistinguishable) m += "\nCannot be told apart: " + s + "\n";
   m += "\n## Residual before and after, per component\n\n" + MarkdownTable(ErrorTable(r));
   m += r.effects_claimed ? "\n## Effects added\n\n" : "\n## Effects tried (tentative)\n\n";
-  m += r.chosen.empty() ? "None: no candidate earned its parameters.\n" : MarkdownTable(ChosenTable(r));
+  m += r.chosen.empty() ? "None: no candidate earned its parameters.\n"
+                        : MarkdownTable(ChosenTable(r));
   m += "\n## Outliers, confounding, trace\n\n" + MarkdownTable(DiagnosticsTable(r));
-  for (const FitReport::TraceItem& i : r.trace) m += "- " + i.variable + ": " + N4(100 * i.share) + " % of the residual\n";
+  for (const FitReport::TraceItem& i : r.trace)
+    m += "- " + i.variable + ": " + N4(100 * i.share) + " % of the residual\n";
   for (const FitRound& round : r.rounds) {
     m += "\n## Round " + std::to_string(round.index) + ": candidates ranked by BIC\n\n";
     m += RoundLine(round) + "\n\n";
-    if (!round.indistinguishable.empty()) m += "Indistinguishable from the winner: " + util::Join(round.indistinguishable, ", ") + "\n\n";
+    if (!round.indistinguishable.empty())
+      m += "Indistinguishable from the winner: " + util::Join(round.indistinguishable, ", ") +
+           "\n\n";
     m += MarkdownTable(CandidateTable(round));
   }
   const std::vector<size_t> worst = WorstTrials(r, static_cast<size_t>(o.markdown_trials));
   if (!worst.empty()) {
-    m += "\n## Trials with the largest residual before the fit\n\n"
-         "Wrenches [fx fy fz] N, [mx my mz] N·m; residual size = |weighted residual| / sqrt(6).\n\n";
+    m +=
+        "\n## Trials with the largest residual before the fit\n\n"
+        "Wrenches [fx fy fz] N, [mx my mz] N·m; residual size = |weighted residual| / sqrt(6).\n\n";
     Table t;
-    t.header = {"trial", "line", "muscle", "activation", "measured", "predicted before", "predicted after",
-                "size before", "size after"};
+    t.header = {"trial",           "line",        "muscle",
+                "activation",      "measured",    "predicted before",
+                "predicted after", "size before", "size after"};
     auto vec = [](const Vector6d& w) {
       std::vector<std::string> items;
       for (int i = 0; i < 6; ++i) items.push_back(util::FormatNumber(w[i], 3));
@@ -524,22 +597,26 @@ std::string FitReportMarkdown(const FitReport& r, const FitReportOptions& o) {
     };
     for (size_t i : worst) {
       const TrialResidual& tr = r.trials[i];
-      t.rows.push_back({std::to_string(i + 1), std::to_string(tr.line), tr.muscle, N4(tr.activation), vec(tr.measured),
-                        vec(tr.measured - tr.before), vec(tr.measured - tr.after), N4(tr.normalized_before),
+      t.rows.push_back({std::to_string(i + 1), std::to_string(tr.line), tr.muscle,
+                        N4(tr.activation), vec(tr.measured), vec(tr.measured - tr.before),
+                        vec(tr.measured - tr.after), N4(tr.normalized_before),
                         N4(tr.normalized_after)});
       t.row_class.push_back("");
     }
     m += MarkdownTable(t);
-    m += "\nPlots (measured vs predicted, residual vs trial) and wrench glyphs are in the HTML report.\n";
+    m += "\nPlots (measured vs predicted, residual vs trial) and wrench glyphs are in the HTML "
+         "report.\n";
   }
   return m;
 }
 
-void WriteFitReportHtml(const FitReport& report, const std::string& path, const FitReportOptions& options) {
+void WriteFitReportHtml(const FitReport& report, const std::string& path,
+                        const FitReportOptions& options) {
   util::WriteFileAtomically(path, FitReportHtml(report, options));
 }
 
-void WriteFitReportMarkdown(const FitReport& report, const std::string& path, const FitReportOptions& options) {
+void WriteFitReportMarkdown(const FitReport& report, const std::string& path,
+                            const FitReportOptions& options) {
   util::WriteFileAtomically(path, FitReportMarkdown(report, options));
 }
 

@@ -20,10 +20,10 @@ using plots::Num;
 constexpr double kSameCentre = 1e-9;
 // Fraction of the chain length used for axis segments when none is given.
 constexpr double kAxisFraction = 0.12;
-constexpr double kPad = 36;        // px around each view
+constexpr double kPad = 36;  // px around each view
 constexpr double kTitleHeight = 44;
 constexpr double kViewTitle = 18;
-constexpr double kFooter = 34;     // scale bar and legend
+constexpr double kFooter = 34;  // scale bar and legend
 
 struct Segment3 {
   Eigen::Vector3d a, b;
@@ -64,8 +64,9 @@ Geometry Collect(const Model& model, const Eigen::VectorXd& q, double axis_lengt
     Eigen::Vector3d p = PointPosition(model, ws, q, j.child_link, Eigen::Vector3d::Zero());
     if ((p - g.bones.back()).norm() > kSameCentre) g.bones.push_back(p);
     if (j.type == JointType::kFixed) continue;
-    auto it = std::find_if(g.centres.begin(), g.centres.end(),
-                           [&](const Geometry::Centre& c) { return (c.p - p).norm() <= kSameCentre; });
+    auto it = std::find_if(g.centres.begin(), g.centres.end(), [&](const Geometry::Centre& c) {
+      return (c.p - p).norm() <= kSameCentre;
+    });
     if (it == g.centres.end()) {
       g.centres.push_back({p, {j.name}});
     } else {
@@ -74,11 +75,13 @@ Geometry Collect(const Model& model, const Eigen::VectorXd& q, double axis_lengt
     // The axis is fixed in the joint frame, which is the child frame (URDF): map it to world.
     Eigen::Vector3d axis = PointPosition(model, ws, q, j.child_link, j.axis) - p;
     axis.normalize();
-    g.axes.push_back({j.name, j.type == JointType::kPrismatic,
+    g.axes.push_back({j.name,
+                      j.type == JointType::kPrismatic,
                       {p - 0.5 * axis_length * axis, p + 0.5 * axis_length * axis}});
   }
   g.endpoint = EndpointPose(model, ws, q);
-  if ((g.endpoint.translation() - g.bones.back()).norm() > kSameCentre) g.bones.push_back(g.endpoint.translation());
+  if ((g.endpoint.translation() - g.bones.back()).norm() > kSameCentre)
+    g.bones.push_back(g.endpoint.translation());
   g.transducer = TransducerRotation(model, ws, q);
   for (int m = 0; m < model.muscle_count(); ++m) {
     const MuscleSpec& spec = model.muscle(m);
@@ -93,11 +96,11 @@ Geometry Collect(const Model& model, const Eigen::VectorXd& q, double axis_lengt
 
 // A view maps world to screen: two world axes (right, up) and a scale.
 struct View {
-  std::string name;   // "top" / "side"
-  int right, up;      // world axis indices
-  double x0, y0;      // screen position of the view's top-left corner (inside padding)
+  std::string name;          // "top" / "side"
+  int right, up;             // world axis indices
+  double x0, y0;             // screen position of the view's top-left corner (inside padding)
   Eigen::Vector2d min, max;  // world bounds along (right, up)
-  double scale;       // px per m
+  double scale;              // px per m
   Eigen::Vector2d Screen(const Eigen::Vector3d& p) const {
     return {x0 + (p[right] - min.x()) * scale, y0 + (max.y() - p[up]) * scale};
   }
@@ -115,11 +118,14 @@ const char* kAxisName[3] = {"x", "y", "z"};
 
 }  // namespace
 
-std::string LimbStickFigureSvg(const Model& model, const Eigen::VectorXd& q, const LimbDrawingOptions& options) {
+std::string LimbStickFigureSvg(const Model& model, const Eigen::VectorXd& q,
+                               const LimbDrawingOptions& options) {
   ValidatePosture(model, q);
-  if (!(options.view_px > 0)) throw Error("draw: view width must be > 0 px, got " + util::FormatNumber(options.view_px));
+  if (!(options.view_px > 0))
+    throw Error("draw: view width must be > 0 px, got " + util::FormatNumber(options.view_px));
   if (!std::isfinite(options.axis_length)) throw Error("draw: axis length must be finite");
-  const double axis_length = options.axis_length > 0 ? options.axis_length : kAxisFraction * model.chain_length();
+  const double axis_length =
+      options.axis_length > 0 ? options.axis_length : kAxisFraction * model.chain_length();
   const Geometry g = Collect(model, q, axis_length);
 
   // Everything that must fit in the views.
@@ -159,7 +165,8 @@ std::string LimbStickFigureSvg(const Model& model, const Eigen::VectorXd& q, con
   plots::SvgWriter svg(width, height, title);
   svg.Text(12, 20, title, 14, "start", {{"class", "title"}, {"font-weight", "bold"}});
   svg.Text(12, 36,
-           "Joint centres (circles) and axes (orange segments, dashed = prismatic), bones (grey), muscle paths (red), "
+           "Joint centres (circles) and axes (orange segments, dashed = prismatic), bones (grey), "
+           "muscle paths (red), "
            "endpoint frame x y z (green, blue, red).",
            10, "start", {{"class", "subtitle"}});
   for (int i = 0; i < 2; ++i) {
@@ -173,20 +180,29 @@ std::string LimbStickFigureSvg(const Model& model, const Eigen::VectorXd& q, con
                    {"data-px-per-m", plots::Exact(scale)},
                    {"data-origin-x", Num(v.Screen(Eigen::Vector3d::Zero()).x())},
                    {"data-origin-y", Num(v.Screen(Eigen::Vector3d::Zero()).y())}});
-    svg.Element("rect", {{"x", Num(options.view_px * i + 4)}, {"y", Num(kTitleHeight)},
-                         {"width", Num(options.view_px - 8)}, {"height", Num(height - kTitleHeight - 4)},
-                         {"fill", "none"}, {"stroke", "#dddddd"}});
+    svg.Element("rect", {{"x", Num(options.view_px * i + 4)},
+                         {"y", Num(kTitleHeight)},
+                         {"width", Num(options.view_px - 8)},
+                         {"height", Num(height - kTitleHeight - 4)},
+                         {"fill", "none"},
+                         {"stroke", "#dddddd"}});
     svg.Text(options.view_px * i + 12, kTitleHeight + 14,
-             i == 0 ? "Top view (x right, y up; looking down -z)" : "Side view (x right, z up; looking along +y)", 12,
-             "start", {{"class", "view-title"}, {"font-weight", "bold"}});
+             i == 0 ? "Top view (x right, y up; looking down -z)"
+                    : "Side view (x right, z up; looking along +y)",
+             12, "start", {{"class", "view-title"}, {"font-weight", "bold"}});
     // Bones.
     std::string points;
     for (const Eigen::Vector3d& p : g.bones) {
       Eigen::Vector2d s = v.Screen(p);
       points += Num(s.x()) + "," + Num(s.y()) + " ";
     }
-    svg.Element("polyline", {{"class", "bones"}, {"points", points}, {"fill", "none"}, {"stroke", "#707070"},
-                             {"stroke-width", "4"}, {"stroke-linejoin", "round"}, {"stroke-linecap", "round"}});
+    svg.Element("polyline", {{"class", "bones"},
+                             {"points", points},
+                             {"fill", "none"},
+                             {"stroke", "#707070"},
+                             {"stroke-width", "4"},
+                             {"stroke-linejoin", "round"},
+                             {"stroke-linecap", "round"}});
     // Joint axes.
     for (const auto& a : g.axes) {
       Eigen::Vector2d s0 = v.Screen(a.s.a), s1 = v.Screen(a.s.b);
@@ -200,21 +216,35 @@ std::string LimbStickFigureSvg(const Model& model, const Eigen::VectorXd& q, con
       for (const Eigen::Vector3d& p : m.points) {
         Eigen::Vector2d s = v.Screen(p);
         mp += Num(s.x()) + "," + Num(s.y()) + " ";
-        svg.Element("circle", {{"class", "muscle-point"}, {"cx", Num(s.x())}, {"cy", Num(s.y())}, {"r", "2.5"},
+        svg.Element("circle", {{"class", "muscle-point"},
+                               {"cx", Num(s.x())},
+                               {"cy", Num(s.y())},
+                               {"r", "2.5"},
                                {"fill", "#c0102a"}});
       }
-      svg.Element("polyline", {{"class", "muscle"}, {"data-muscle", m.name}, {"points", mp}, {"fill", "none"},
-                               {"stroke", "#c0102a"}, {"stroke-width", "1.8"}});
+      svg.Element("polyline", {{"class", "muscle"},
+                               {"data-muscle", m.name},
+                               {"points", mp},
+                               {"fill", "none"},
+                               {"stroke", "#c0102a"},
+                               {"stroke-width", "1.8"}});
       Eigen::Vector2d mid = 0.5 * (v.Screen(m.points.front()) + v.Screen(m.points.back()));
-      svg.Text(mid.x() + 4, mid.y() - 4, m.name, 10, "start", {{"class", "muscle-label"}, {"fill", "#c0102a"}});
+      svg.Text(mid.x() + 4, mid.y() - 4, m.name, 10, "start",
+               {{"class", "muscle-label"}, {"fill", "#c0102a"}});
     }
     // Joint centres.
     for (const auto& c : g.centres) {
       Eigen::Vector2d s = v.Screen(c.p);
-      svg.Element("circle", {{"class", "joint-centre"}, {"data-joints", util::Join(c.joints, " ")},
-                             {"cx", Num(s.x())}, {"cy", Num(s.y())}, {"r", "4"}, {"fill", "white"},
-                             {"stroke", "black"}, {"stroke-width", "1.2"}});
-      svg.Text(s.x() + 7, s.y() + 12, util::Join(c.joints, ", "), 9, "start", {{"class", "joint-label"}});
+      svg.Element("circle", {{"class", "joint-centre"},
+                             {"data-joints", util::Join(c.joints, " ")},
+                             {"cx", Num(s.x())},
+                             {"cy", Num(s.y())},
+                             {"r", "4"},
+                             {"fill", "white"},
+                             {"stroke", "black"},
+                             {"stroke-width", "1.2"}});
+      svg.Text(s.x() + 7, s.y() + 12, util::Join(c.joints, ", "), 9, "start",
+               {{"class", "joint-label"}});
     }
     // Endpoint frame, and the transducer axes when they differ.
     const Eigen::Vector3d e = g.endpoint.translation();
@@ -227,8 +257,11 @@ std::string LimbStickFigureSvg(const Model& model, const Eigen::VectorXd& q, con
       if (transducer_differs) {
         Eigen::Vector2d t1 = v.Screen(e + axis_length * g.transducer.col(k));
         svg.Line(s0.x(), s0.y(), t1.x(), t1.y(), kAxisColors[k], 1.2,
-                 {{"class", "transducer-axis"}, {"data-axis", kAxisName[k]}, {"stroke-dasharray", "3,2"}});
-        svg.Text(t1.x() + 3, t1.y() + 9, std::string("T") + kAxisName[k], 9, "start", {{"fill", kAxisColors[k]}});
+                 {{"class", "transducer-axis"},
+                  {"data-axis", kAxisName[k]},
+                  {"stroke-dasharray", "3,2"}});
+        svg.Text(t1.x() + 3, t1.y() + 9, std::string("T") + kAxisName[k], 9, "start",
+                 {{"fill", kAxisColors[k]}});
       }
     }
     Eigen::Vector2d se = v.Screen(e);
@@ -237,9 +270,10 @@ std::string LimbStickFigureSvg(const Model& model, const Eigen::VectorXd& q, con
     const double bar_m = NiceScaleBar(0.3 * inner / scale);
     const double bar_y = height - 18;
     const double bx = options.view_px * i + 14;
-    svg.Line(bx, bar_y, bx + bar_m * scale, bar_y, "black", 2, {{"class", "scale-bar"}, {"data-value-m", plots::Exact(bar_m)}});
-    svg.Text(bx + bar_m * scale + 6, bar_y + 4, util::FormatNumber(bar_m * 1e3, 3) + " mm", 10, "start",
-             {{"class", "scale-label"}});
+    svg.Line(bx, bar_y, bx + bar_m * scale, bar_y, "black", 2,
+             {{"class", "scale-bar"}, {"data-value-m", plots::Exact(bar_m)}});
+    svg.Text(bx + bar_m * scale + 6, bar_y + 4, util::FormatNumber(bar_m * 1e3, 3) + " mm", 10,
+             "start", {{"class", "scale-label"}});
     svg.Close();
   }
   return svg.Finish();

@@ -21,25 +21,32 @@ using plots::SvgWriter;
 
 const char* FigureTitle(int figure) {
   switch (figure) {
-    case 2: return "Figure 2: transducer compliance alters the measured wrench when over-constrained (rigid base, S_p = 0)";
-    case 3: return "Figure 3: base compliance alters the measured wrench when over-constrained (balanced S_t = 1e7)";
-    case 4: return "Figure 4: knee ab/adduction as a joint dof with 1 N·m/rad stiffness (6-dof limb, all 6 transducer dofs restrained)";
+    case 2:
+      return "Figure 2: transducer compliance alters the measured wrench when over-constrained "
+             "(rigid base, S_p = 0)";
+    case 3:
+      return "Figure 3: base compliance alters the measured wrench when over-constrained (balanced "
+             "S_t = 1e7)";
+    case 4:
+      return "Figure 4: knee ab/adduction as a joint dof with 1 N·m/rad stiffness (6-dof limb, all "
+             "6 transducer dofs restrained)";
     default: return "Paper figure";
   }
 }
 
 // Layout constants (px).
 constexpr double kMargin = 16;
-constexpr double kTitleHeight = 58;      // title + two subtitle lines
+constexpr double kTitleHeight = 58;  // title + two subtitle lines
 constexpr double kColumnHeader = 24;
 constexpr double kRowLabelWidth = 150;
 constexpr double kPanelPad = 10;
 constexpr double kMethodLine = 18;
 constexpr double kTextLine = 13;
-constexpr double kCharWidth = 5.6;       // average glyph width of 10 px Helvetica, for wrapping
-constexpr size_t kRowLabelChars = 26;    // kRowLabelWidth / kCharWidth, less a margin
+constexpr double kCharWidth = 5.6;     // average glyph width of 10 px Helvetica, for wrapping
+constexpr size_t kRowLabelChars = 26;  // kRowLabelWidth / kCharWidth, less a margin
 
-std::vector<std::string> Unique(const std::vector<PaperPanel>& panels, std::string PaperPanel::*field) {
+std::vector<std::string> Unique(const std::vector<PaperPanel>& panels,
+                                std::string PaperPanel::*field) {
   std::vector<std::string> out;
   for (const PaperPanel& p : panels) {
     if (std::find(out.begin(), out.end(), p.*field) == out.end()) out.push_back(p.*field);
@@ -54,7 +61,8 @@ std::vector<std::string> WrapCondition(const std::string& condition, size_t max_
   size_t start = 0;
   while (start <= condition.size()) {
     size_t end = condition.find("; ", start);
-    std::string piece = condition.substr(start, end == std::string::npos ? std::string::npos : end - start);
+    std::string piece =
+        condition.substr(start, end == std::string::npos ? std::string::npos : end - start);
     if (!current.empty() && current.size() + 2 + piece.size() > max_chars) {
       lines.push_back(current);
       current.clear();
@@ -96,15 +104,16 @@ std::string RowLabel(const std::vector<PaperPanel>& panels, const std::string& r
   }
   if (!chosen) return "";
   if (chosen->method != "Eq. 10") {
-    return chosen->method == "femur removed" ? "femur removed" : "inverse / pseudoinverse, no compliance";
+    return chosen->method == "femur removed" ? "femur removed"
+                                             : "inverse / pseudoinverse, no compliance";
   }
   std::string label = chosen->condition.substr(0, chosen->condition.find("; "));
   const Vector6d& s = chosen->s_t;
   if (s.head<3>().isConstant(s[0]) && s.tail<3>().isConstant(s[3])) {
     label += ": S_t = " + Fmt(s[0]) + " N/m, " + Fmt(s[3]) + " N·m/rad";
   } else {
-    label += ": S_t = [" + Fmt(s[0]) + " " + Fmt(s[1]) + " " + Fmt(s[2]) + "] N/m, [" + Fmt(s[3]) + " " +
-             Fmt(s[4]) + " " + Fmt(s[5]) + "] N·m/rad";
+    label += ": S_t = [" + Fmt(s[0]) + " " + Fmt(s[1]) + " " + Fmt(s[2]) + "] N/m, [" + Fmt(s[3]) +
+             " " + Fmt(s[4]) + " " + Fmt(s[5]) + "] N·m/rad";
   }
   if (chosen->base_stiffness > 0) label += "; base " + Fmt(chosen->base_stiffness) + " N/m";
   return label;
@@ -129,7 +138,8 @@ bool IsDirectory(const std::string& path) {
 
 }  // namespace
 
-std::string PaperFigureSvg(int figure, const std::vector<PaperPanel>& panels, const GlyphOptions& options) {
+std::string PaperFigureSvg(int figure, const std::vector<PaperPanel>& panels,
+                           const GlyphOptions& options) {
   if (panels.empty()) throw Error("figure " + std::to_string(figure) + ": no panels to draw");
   std::vector<Vector6d> wrenches;
   for (const PaperPanel& p : panels) wrenches.push_back(p.wrench);
@@ -147,38 +157,45 @@ std::string PaperFigureSvg(int figure, const std::vector<PaperPanel>& panels, co
     condition_lines = std::max(condition_lines, WrapCondition(p.condition, wrap_chars).size());
   }
   const double glyph_height = std::max(force_box.height(), moment_box.height());
-  const double panel_height =
-      kMethodLine + glyph_height + kTextLine * static_cast<double>(condition_lines + 1) + 2 * kPanelPad;
-  const double width = 2 * kMargin + kRowLabelWidth + panel_width * static_cast<double>(columns.size());
-  const double height = 2 * kMargin + kTitleHeight + kColumnHeader + panel_height * static_cast<double>(rows.size());
+  const double panel_height = kMethodLine + glyph_height +
+                              kTextLine * static_cast<double>(condition_lines + 1) + 2 * kPanelPad;
+  const double width =
+      2 * kMargin + kRowLabelWidth + panel_width * static_cast<double>(columns.size());
+  const double height =
+      2 * kMargin + kTitleHeight + kColumnHeader + panel_height * static_cast<double>(rows.size());
 
   SvgWriter svg(width, height, FigureTitle(figure));
   svg.Open("g", {{"class", "figure"}, {"data-figure", std::to_string(figure)}});
-  svg.Text(kMargin, kMargin + 14, FigureTitle(figure), 15, "start", {{"class", "title"}, {"font-weight", "bold"}});
+  svg.Text(kMargin, kMargin + 14, FigureTitle(figure), 15, "start",
+           {{"class", "title"}, {"font-weight", "bold"}});
   svg.Text(kMargin, kMargin + 32,
-           "GP muscle, 2.3 N, posture hip_rz = -110°, knee_rz = 105°. W = wrench the limb applies to the "
+           "GP muscle, 2.3 N, posture hip_rz = -110°, knee_rz = 105°. W = wrench the limb applies "
+           "to the "
            "transducer, world axes, moment about the ankle.",
            11, "start", {{"class", "subtitle"}});
   svg.Text(kMargin, kMargin + 47,
-           "Each panel: force (left) and moment (right), the 3-D vector in black and its projections on x, y, z "
+           "Each panel: force (left) and moment (right), the 3-D vector in black and its "
+           "projections on x, y, z "
            "in green, blue, red. Scale: " +
-               plots::Short(options.force_scale_bar) + " N = " + Num(options.force_scale_bar * scales[0], 1) +
-               " px, " + plots::Short(options.moment_scale_bar) + " N·m = " +
-               Num(options.moment_scale_bar * scales[1], 1) + " px in every panel.",
+               plots::Short(options.force_scale_bar) +
+               " N = " + Num(options.force_scale_bar * scales[0], 1) + " px, " +
+               plots::Short(options.moment_scale_bar) +
+               " N·m = " + Num(options.moment_scale_bar * scales[1], 1) + " px in every panel.",
            11, "start", {{"class", "subtitle"}});
 
   const double grid_top = kMargin + kTitleHeight;
   for (size_t c = 0; c < columns.size(); ++c) {
     const double x = kMargin + kRowLabelWidth + panel_width * static_cast<double>(c);
     svg.Text(x + panel_width / 2, grid_top + 15,
-             "Column " + std::to_string(c + 1) + (columns[c].empty() ? "" : ": " + columns[c]), 13, "middle",
-             {{"class", "column-title"}, {"font-weight", "bold"}});
+             "Column " + std::to_string(c + 1) + (columns[c].empty() ? "" : ": " + columns[c]), 13,
+             "middle", {{"class", "column-title"}, {"font-weight", "bold"}});
   }
   for (size_t r = 0; r < rows.size(); ++r) {
     const double y = grid_top + kColumnHeader + panel_height * static_cast<double>(r);
     svg.Line(kMargin, y, width - kMargin, y, "#cccccc", 0.8);
     svg.Open("g", {{"class", "row-header"}, {"data-row", rows[r]}});
-    svg.Text(kMargin, y + 30, rows[r], 22, "start", {{"class", "row-title"}, {"font-weight", "bold"}});
+    svg.Text(kMargin, y + 30, rows[r], 22, "start",
+             {{"class", "row-title"}, {"font-weight", "bold"}});
     double line_y = y + 48;
     for (const std::string& line : WrapWords(RowLabel(panels, rows[r]), kRowLabelChars)) {
       svg.Text(kMargin, line_y, line, 10, "start", {{"class", "row-label"}});
@@ -188,27 +205,31 @@ std::string PaperFigureSvg(int figure, const std::vector<PaperPanel>& panels, co
   }
   for (const PaperPanel& p : panels) {
     const size_t r = static_cast<size_t>(std::find(rows.begin(), rows.end(), p.row) - rows.begin());
-    const size_t c = static_cast<size_t>(std::find(columns.begin(), columns.end(), p.column) - columns.begin());
+    const size_t c =
+        static_cast<size_t>(std::find(columns.begin(), columns.end(), p.column) - columns.begin());
     const double x = kMargin + kRowLabelWidth + panel_width * static_cast<double>(c) + kPanelPad;
     const double y = grid_top + kColumnHeader + panel_height * static_cast<double>(r) + kPanelPad;
-    svg.Open("g", {{"class", "panel"},
-                   {"id", "fig" + std::to_string(figure) + "-" + p.row + "-col" + std::to_string(c + 1)},
-                   {"data-row", p.row},
-                   {"data-column", p.column},
-                   {"data-method", p.method},
-                   {"data-condition", p.condition},
-                   {"data-valid", p.valid ? "true" : "false"}});
+    svg.Open("g",
+             {{"class", "panel"},
+              {"id", "fig" + std::to_string(figure) + "-" + p.row + "-col" + std::to_string(c + 1)},
+              {"data-row", p.row},
+              {"data-column", p.column},
+              {"data-method", p.method},
+              {"data-condition", p.condition},
+              {"data-valid", p.valid ? "true" : "false"}});
     svg.Text(x, y + 12, p.row + std::to_string(c + 1) + "   " + p.method, 12, "start",
              {{"class", "method"}, {"font-weight", "bold"}});
-    plots::DrawWrenchGlyphs(svg, x, y + kMethodLine, p.wrench, force_box, moment_box, scales, options);
+    plots::DrawWrenchGlyphs(svg, x, y + kMethodLine, p.wrench, force_box, moment_box, scales,
+                            options);
     double line_y = y + kMethodLine + glyph_height + 10;
     for (const std::string& line : WrapCondition(p.condition, wrap_chars)) {
       svg.Text(x, line_y, line, 10, "start", {{"class", "condition"}});
       line_y += kTextLine;
     }
     if (!p.note.empty()) {
-      svg.Text(x, line_y, ShortNote(p.note), 10, "start",
-               {{"class", "note"}, {"fill", p.valid ? "#555555" : "#c00000"}, {"data-note", p.note}});
+      svg.Text(
+          x, line_y, ShortNote(p.note), 10, "start",
+          {{"class", "note"}, {"fill", p.valid ? "#555555" : "#c00000"}, {"data-note", p.note}});
     }
     svg.Close();
   }
@@ -217,14 +238,17 @@ std::string PaperFigureSvg(int figure, const std::vector<PaperPanel>& panels, co
 
 std::string PaperFigureCsv(const std::vector<PaperPanel>& panels) {
   std::string out =
-      "figure,row,column,method,condition,fx_N,fy_N,fz_N,mx_Nm,my_Nm,mz_Nm,st_x_N_per_m,st_y_N_per_m,"
-      "st_z_N_per_m,st_rx_Nm_per_rad,st_ry_Nm_per_rad,st_rz_Nm_per_rad,base_stiffness_N_per_m,valid,note\n";
+      "figure,row,column,method,condition,fx_N,fy_N,fz_N,mx_Nm,my_Nm,mz_Nm,st_x_N_per_m,st_y_N_per_"
+      "m,"
+      "st_z_N_per_m,st_rx_Nm_per_rad,st_ry_Nm_per_rad,st_rz_Nm_per_rad,base_stiffness_N_per_m,"
+      "valid,note\n";
   for (const PaperPanel& p : panels) {
-    out += std::to_string(p.figure) + "," + CsvField(p.row) + "," + CsvField(p.column) + "," + CsvField(p.method) +
-           "," + CsvField(p.condition);
+    out += std::to_string(p.figure) + "," + CsvField(p.row) + "," + CsvField(p.column) + "," +
+           CsvField(p.method) + "," + CsvField(p.condition);
     for (int i = 0; i < 6; ++i) out += "," + plots::Exact(p.wrench[i]);
     for (int i = 0; i < 6; ++i) out += "," + plots::Exact(p.s_t[i]);
-    out += "," + plots::Exact(p.base_stiffness) + "," + (p.valid ? "true" : "false") + "," + CsvField(p.note) + "\n";
+    out += "," + plots::Exact(p.base_stiffness) + "," + (p.valid ? "true" : "false") + "," +
+           CsvField(p.note) + "\n";
   }
   return out;
 }
@@ -233,9 +257,12 @@ std::string PaperFigureJson(int figure, const std::vector<PaperPanel>& panels) {
   nlohmann::json out;
   out["figure"] = figure;
   out["title"] = FigureTitle(figure);
-  out["units"] = {{"force", "N"}, {"moment", "N·m"}, {"s_t", "N/m for x y z, N·m/rad for rx ry rz"},
+  out["units"] = {{"force", "N"},
+                  {"moment", "N·m"},
+                  {"s_t", "N/m for x y z, N·m/rad for rx ry rz"},
                   {"base_stiffness", "N/m"}};
-  out["wrench_sign"] = "wrench the limb applies to the transducer; world axes; moment about the endpoint";
+  out["wrench_sign"] =
+      "wrench the limb applies to the transducer; world axes; moment about the endpoint";
   out["panels"] = nlohmann::json::array();
   for (const PaperPanel& p : panels) {
     nlohmann::json w = nlohmann::json::object();
@@ -257,8 +284,8 @@ void WriteTextFile(const std::string& path, const std::string& content) {
   util::WriteFileAtomically(path, content);
 }
 
-FigureFiles WritePaperFigure(int figure, const std::vector<PaperPanel>& panels, const std::string& out_dir,
-                             const FigureWriteOptions& options) {
+FigureFiles WritePaperFigure(int figure, const std::vector<PaperPanel>& panels,
+                             const std::string& out_dir, const FigureWriteOptions& options) {
   if (!IsDirectory(out_dir)) throw Error("output directory '" + out_dir + "' does not exist");
   // Everything is rendered before the first file is written, so a rendering error writes nothing.
   const std::string base = out_dir + "/figure" + std::to_string(figure);

@@ -25,7 +25,8 @@ std::string FindOnPath(const std::string& name) {
   for (const std::string& dir : util::Split(path, ":")) {
     std::string candidate = dir + "/" + name;
     struct stat st {};
-    if (::stat(candidate.c_str(), &st) == 0 && S_ISREG(st.st_mode) && ::access(candidate.c_str(), X_OK) == 0) {
+    if (::stat(candidate.c_str(), &st) == 0 && S_ISREG(st.st_mode) &&
+        ::access(candidate.c_str(), X_OK) == 0) {
       return candidate;
     }
   }
@@ -41,7 +42,8 @@ int Run(const std::vector<std::string>& args, const std::string& output_file = "
   posix_spawn_file_actions_t actions;
   posix_spawn_file_actions_init(&actions);
   posix_spawn_file_actions_addopen(&actions, STDIN_FILENO, "/dev/null", O_RDONLY, 0);
-  posix_spawn_file_actions_addopen(&actions, STDOUT_FILENO, output_file.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+  posix_spawn_file_actions_addopen(&actions, STDOUT_FILENO, output_file.c_str(),
+                                   O_WRONLY | O_CREAT | O_TRUNC, 0644);
   posix_spawn_file_actions_adddup2(&actions, STDOUT_FILENO, STDERR_FILENO);
   pid_t pid = 0;
   int rc = posix_spawn(&pid, argv[0], &actions, nullptr, argv.data(), environ);
@@ -84,10 +86,14 @@ std::string FindSvgRasterizer() {
   return "";
 }
 
-bool RasterizeSvgToPng(const std::string& svg_path, const std::string& png_path, std::string* message) {
+bool RasterizeSvgToPng(const std::string& svg_path, const std::string& png_path,
+                       std::string* message) {
   std::string tool = FindSvgRasterizer();
   if (tool.empty()) {
-    if (message) *message = "PNG skipped: no SVG rasterizer found (install rsvg-convert or ImageMagick); the SVG is complete";
+    if (message)
+      *message =
+          "PNG skipped: no SVG rasterizer found (install rsvg-convert or ImageMagick); the SVG is "
+          "complete";
     return false;
   }
   const std::string temp = png_path + ".tmp." + std::to_string(::getpid()) + ".png";
@@ -96,7 +102,9 @@ bool RasterizeSvgToPng(const std::string& svg_path, const std::string& png_path,
                       : Run({tool, "-density", "96", svg_path, "png:" + temp});
   if (rc != 0 || !HasPngSignature(temp) || std::rename(temp.c_str(), png_path.c_str()) != 0) {
     std::remove(temp.c_str());
-    if (message) *message = "PNG skipped: " + tool + " failed on '" + svg_path + "' (exit " + std::to_string(rc) + ")";
+    if (message)
+      *message = "PNG skipped: " + tool + " failed on '" + svg_path + "' (exit " +
+                 std::to_string(rc) + ")";
     return false;
   }
   if (message) message->clear();

@@ -64,7 +64,8 @@ GlyphBox MakeGlyphBox(const std::vector<Eigen::Vector3d>& values, double px_per_
   return box;
 }
 
-std::pair<GlyphBox, GlyphBox> MakeWrenchBoxes(const std::vector<Vector6d>& wrenches, const Eigen::Vector2d& scales,
+std::pair<GlyphBox, GlyphBox> MakeWrenchBoxes(const std::vector<Vector6d>& wrenches,
+                                              const Eigen::Vector2d& scales,
                                               const GlyphOptions& options) {
   std::vector<Eigen::Vector3d> forces, moments;
   for (const Vector6d& w : wrenches) {
@@ -101,12 +102,15 @@ void DrawGlyph(SvgWriter& svg, double x, double y, const GlyphBox& box, const Gl
     p[axis] = ObliqueProjection(component, spec.px_per_unit, options);
   }
   const Eigen::Vector2d tip = p[0] + p[1] + p[2];
-  svg.Element("polyline", {{"class", "guide"},
-                           {"points", Num(ox + p[0].x()) + "," + Num(oy + p[0].y()) + " " +
-                                          Num(ox + p[0].x() + p[1].x()) + "," + Num(oy + p[0].y() + p[1].y()) +
-                                          " " + Num(ox + tip.x()) + "," + Num(oy + tip.y())},
-                           {"fill", "none"}, {"stroke", "#909090"}, {"stroke-width", "0.7"},
-                           {"stroke-dasharray", "2,2"}});
+  svg.Element("polyline",
+              {{"class", "guide"},
+               {"points", Num(ox + p[0].x()) + "," + Num(oy + p[0].y()) + " " +
+                              Num(ox + p[0].x() + p[1].x()) + "," + Num(oy + p[0].y() + p[1].y()) +
+                              " " + Num(ox + tip.x()) + "," + Num(oy + tip.y())},
+               {"fill", "none"},
+               {"stroke", "#909090"},
+               {"stroke-width", "0.7"},
+               {"stroke-dasharray", "2,2"}});
   // Projections on x, y, z in green, blue, red.
   for (int axis = 0; axis < 3; ++axis) {
     svg.Line(ox, oy, ox + p[axis].x(), oy + p[axis].y(), kAxisColors[axis], 3.0,
@@ -129,30 +133,33 @@ void DrawGlyph(SvgWriter& svg, double x, double y, const GlyphBox& box, const Gl
     Eigen::Vector2d a = tip - head * u + 0.45 * head * n;
     Eigen::Vector2d b = tip - head * u - 0.45 * head * n;
     svg.Element("polygon", {{"class", "arrowhead"},
-                            {"points", Num(ox + tip.x()) + "," + Num(oy + tip.y()) + " " + Num(ox + a.x()) +
-                                           "," + Num(oy + a.y()) + " " + Num(ox + b.x()) + "," + Num(oy + b.y())},
+                            {"points", Num(ox + tip.x()) + "," + Num(oy + tip.y()) + " " +
+                                           Num(ox + a.x()) + "," + Num(oy + a.y()) + " " +
+                                           Num(ox + b.x()) + "," + Num(oy + b.y())},
                             {"fill", "black"}});
   }
   // Scale bar and numbers under the box.
   const double bar_y = y + box.up + box.down + 10;
   const double bar_px = spec.scale_bar * spec.px_per_unit;
-  svg.Line(x + 4, bar_y, x + 4 + bar_px, bar_y, "black", 2.0,
-           {{"class", "scale-bar"}, {"data-value", Exact(spec.scale_bar)}, {"data-unit", spec.unit}});
+  svg.Line(
+      x + 4, bar_y, x + 4 + bar_px, bar_y, "black", 2.0,
+      {{"class", "scale-bar"}, {"data-value", Exact(spec.scale_bar)}, {"data-unit", spec.unit}});
   svg.Line(x + 4, bar_y - 3, x + 4, bar_y + 3, "black", 1.0);
   svg.Line(x + 4 + bar_px, bar_y - 3, x + 4 + bar_px, bar_y + 3, "black", 1.0);
   svg.Text(x + 10 + bar_px, bar_y + 4, Short(spec.scale_bar) + " " + spec.unit, 10, "start",
            {{"class", "scale-label"}});
   svg.Text(x + 4, bar_y + 20,
-           "(" + Short(spec.value.x()) + ", " + Short(spec.value.y()) + ", " + Short(spec.value.z()) + ") " +
-               spec.unit,
+           "(" + Short(spec.value.x()) + ", " + Short(spec.value.y()) + ", " +
+               Short(spec.value.z()) + ") " + spec.unit,
            9, "start", {{"class", "numbers"}});
-  svg.Text(x + 2, y + 10, spec.quantity, 10, "start", {{"class", "glyph-label"}, {"fill", "#555555"}});
+  svg.Text(x + 2, y + 10, spec.quantity, 10, "start",
+           {{"class", "glyph-label"}, {"fill", "#555555"}});
   svg.Close();
 }
 
-double DrawWrenchGlyphs(SvgWriter& svg, double x, double y, const Vector6d& wrench, const GlyphBox& force_box,
-                        const GlyphBox& moment_box, const Eigen::Vector2d& scales,
-                        const GlyphOptions& options) {
+double DrawWrenchGlyphs(SvgWriter& svg, double x, double y, const Vector6d& wrench,
+                        const GlyphBox& force_box, const GlyphBox& moment_box,
+                        const Eigen::Vector2d& scales, const GlyphOptions& options) {
   GlyphSpec force{wrench.head<3>(), "force", "F", "N", scales[0], options.force_scale_bar};
   GlyphSpec moment{wrench.tail<3>(), "moment", "M", "N·m", scales[1], options.moment_scale_bar};
   DrawGlyph(svg, x, y, force_box, force, options);
@@ -164,17 +171,20 @@ double DrawWrenchGlyphs(SvgWriter& svg, double x, double y, const Vector6d& wren
 
 namespace isowrench {
 
-Eigen::Vector2d ObliqueProjection(const Eigen::Vector3d& v, double px_per_unit, const GlyphOptions& options) {
+Eigen::Vector2d ObliqueProjection(const Eigen::Vector3d& v, double px_per_unit,
+                                  const GlyphOptions& options) {
   const double a = options.oblique_angle_deg * plots::kPi / 180.0;
   const double r = options.oblique_ratio;
-  return px_per_unit * Eigen::Vector2d(v.x() + r * v.z() * std::cos(a), -v.y() - r * v.z() * std::sin(a));
+  return px_per_unit *
+         Eigen::Vector2d(v.x() + r * v.z() * std::cos(a), -v.y() - r * v.z() * std::sin(a));
 }
 
 Eigen::Vector2d GlyphScales(const std::vector<Vector6d>& wrenches, const GlyphOptions& options) {
-  if (!(options.force_scale_bar > 0) || !(options.moment_scale_bar > 0) || !(options.scale_bar_px > 0) ||
-      !(options.max_component_px > 0) || !(options.oblique_ratio > 0) ||
-      !std::isfinite(options.oblique_angle_deg)) {
-    throw Error("glyph options: scale bars, scale_bar_px, max_component_px and oblique_ratio must be > 0");
+  if (!(options.force_scale_bar > 0) || !(options.moment_scale_bar > 0) ||
+      !(options.scale_bar_px > 0) || !(options.max_component_px > 0) ||
+      !(options.oblique_ratio > 0) || !std::isfinite(options.oblique_angle_deg)) {
+    throw Error(
+        "glyph options: scale bars, scale_bar_px, max_component_px and oblique_ratio must be > 0");
   }
   double max_force = 0, max_moment = 0;
   for (const Vector6d& w : wrenches) {
@@ -185,12 +195,13 @@ Eigen::Vector2d GlyphScales(const std::vector<Vector6d>& wrenches, const GlyphOp
   double force = options.scale_bar_px / options.force_scale_bar;
   double moment = options.scale_bar_px / options.moment_scale_bar;
   if (max_force * force > options.max_component_px) force = options.max_component_px / max_force;
-  if (max_moment * moment > options.max_component_px) moment = options.max_component_px / max_moment;
+  if (max_moment * moment > options.max_component_px)
+    moment = options.max_component_px / max_moment;
   return {force, moment};
 }
 
-std::string WrenchGlyphSvg(const Vector6d& wrench, const std::string& title, const GlyphOptions& options,
-                           const Eigen::Vector2d& scales_in) {
+std::string WrenchGlyphSvg(const Vector6d& wrench, const std::string& title,
+                           const GlyphOptions& options, const Eigen::Vector2d& scales_in) {
   Eigen::Vector2d scales = scales_in;
   if (!(scales[0] > 0) || !(scales[1] > 0)) scales = GlyphScales({wrench}, options);
   plots::GlyphBox force_box = plots::MakeGlyphBox({wrench.head<3>()}, scales[0], options);
@@ -200,7 +211,8 @@ std::string WrenchGlyphSvg(const Vector6d& wrench, const std::string& title, con
   const double height = 2 * margin + title_h + std::max(force_box.height(), moment_box.height());
   plots::SvgWriter svg(width, height, title);
   svg.Text(margin, margin + 13, title, 13, "start", {{"class", "title"}, {"font-weight", "bold"}});
-  plots::DrawWrenchGlyphs(svg, margin, margin + title_h, wrench, force_box, moment_box, scales, options);
+  plots::DrawWrenchGlyphs(svg, margin, margin + title_h, wrench, force_box, moment_box, scales,
+                          options);
   return svg.Finish();
 }
 

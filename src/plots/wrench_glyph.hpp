@@ -14,7 +14,7 @@ namespace isowrench::plots {
 /// Extents of a glyph around its origin (px), shared by every glyph of one quantity in a figure
 /// so that panels line up.
 struct GlyphBox {
-  double axis_px = 0;   ///< half-length of the drawn axes
+  double axis_px = 0;                            ///< half-length of the drawn axes
   double left = 0, right = 0, up = 0, down = 0;  ///< box around the origin (all >= 0)
   double width() const { return left + right; }
   double height() const { return up + down + kFooter; }

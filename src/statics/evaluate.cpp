@@ -12,15 +12,17 @@
 
 namespace isowrench {
 
-WrenchEvaluation EvaluateWrench(const Model& model, const Eigen::VectorXd& q, const std::string& muscle,
-                                double activation, const StaticsOptions& options) {
+WrenchEvaluation EvaluateWrench(const Model& model, const Eigen::VectorXd& q,
+                                const std::string& muscle, double activation,
+                                const StaticsOptions& options) {
   int muscle_index = model.MuscleIndex(muscle);
   KinematicsWorkspace ws(model);
   return EvaluateWrench(model, ws, q, muscle_index, activation, options);
 }
 
-WrenchEvaluation EvaluateWrench(const Model& model, KinematicsWorkspace& ws, const Eigen::VectorXd& q,
-                                int muscle_index, double activation, const StaticsOptions& options) {
+WrenchEvaluation EvaluateWrench(const Model& model, KinematicsWorkspace& ws,
+                                const Eigen::VectorXd& q, int muscle_index, double activation,
+                                const StaticsOptions& options) {
   if (muscle_index < 0 || muscle_index >= model.muscle_count()) {
     throw Error("muscle index " + std::to_string(muscle_index) + " is out of range for model '" +
                 model.name() + "'");
@@ -86,7 +88,8 @@ WrenchEvaluation EvaluateWrench(const Model& model, KinematicsWorkspace& ws, con
   return e;
 }
 
-std::string DescribeJointMotion(const Model& model, const Eigen::VectorXd& direction, double cutoff) {
+std::string DescribeJointMotion(const Model& model, const Eigen::VectorXd& direction,
+                                double cutoff) {
   if (direction.size() != model.dof_count() || !direction.allFinite()) return "(invalid direction)";
   double largest = direction.cwiseAbs().maxCoeff();
   if (largest == 0.0) return "(zero)";

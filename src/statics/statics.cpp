@@ -52,12 +52,14 @@ StaticsResult SolveStatics(const Matrix6Xd& J, const Vector6d& s_t, const Eigen:
   if (!tau.allFinite()) return invalid("tau has a non-finite entry");
   for (int i = 0; i < 6; ++i) {
     if (!std::isfinite(s_t[i]) || s_t[i] < 0) {
-      return invalid(std::string("S_t ") + DofName(i) + " = " + N(s_t[i]) + " must be finite and >= 0");
+      return invalid(std::string("S_t ") + DofName(i) + " = " + N(s_t[i]) +
+                     " must be finite and >= 0");
     }
   }
   for (Eigen::Index i = 0; i < m; ++i) {
     if (!std::isfinite(s_p[i]) || s_p[i] < 0) {
-      return invalid("S_p entry " + std::to_string(i) + " = " + N(s_p[i]) + " must be finite and >= 0");
+      return invalid("S_p entry " + std::to_string(i) + " = " + N(s_p[i]) +
+                     " must be finite and >= 0");
     }
   }
 
@@ -100,7 +102,8 @@ StaticsResult SolveStatics(const Matrix6Xd& J, const Vector6d& s_t, const Eigen:
   if (excited) {
     r.status = StaticsStatus::kSelfMotion;
     r.message = "K = J^T S_t J + S_p is singular (rank " + std::to_string(r.k_rank) + " of " +
-                std::to_string(m) + ") and the muscle torque drives the self-motion: no stiffness "
+                std::to_string(m) +
+                ") and the muscle torque drives the self-motion: no stiffness "
                 "holds it, so there is no equilibrium and no wrench";
     r.wrench.setZero();
   } else {
@@ -108,15 +111,16 @@ StaticsResult SolveStatics(const Matrix6Xd& J, const Vector6d& s_t, const Eigen:
     r.status = null_columns.empty() ? StaticsStatus::kOk : StaticsStatus::kSelfMotionHeld;
     r.message = null_columns.empty()
                     ? "K positive definite (condition " + N(r.k_condition) + ")"
-                    : "K is singular (rank " + std::to_string(r.k_rank) + " of " + std::to_string(m) +
+                    : "K is singular (rank " + std::to_string(r.k_rank) + " of " +
+                          std::to_string(m) +
                           ") but the muscle torque does not drive the self-motion: W is unique";
   }
-  r.equilibrium_residual =
-      (J.transpose() * r.wrench + s_p.cwiseProduct(r.dtheta) - tau).norm();
+  r.equilibrium_residual = (J.transpose() * r.wrench + s_p.cwiseProduct(r.dtheta) - tau).norm();
 
   // Small-motion rule (MODEL.md "Validity of the linear model").
   r.endpoint_translation = r.endpoint_displacement.head<3>().norm();
-  r.endpoint_translation_limit = options.leg_length > 0 ? options.max_endpoint_fraction * options.leg_length : 0.0;
+  r.endpoint_translation_limit =
+      options.leg_length > 0 ? options.max_endpoint_fraction * options.leg_length : 0.0;
   r.max_joint_rotation_limit = options.max_joint_rotation;
   double max_prismatic = 0.0;
   for (Eigen::Index i = 0; i < m; ++i) {
@@ -130,8 +134,8 @@ StaticsResult SolveStatics(const Matrix6Xd& J, const Vector6d& s_t, const Eigen:
   std::vector<std::string> problems;
   if (options.leg_length > 0 && r.endpoint_translation > r.endpoint_translation_limit) {
     problems.push_back("endpoint moves " + N(r.endpoint_translation) + " m > " +
-                       N(r.endpoint_translation_limit) + " m (" + N(options.max_endpoint_fraction * 100) +
-                       "% of leg length)");
+                       N(r.endpoint_translation_limit) + " m (" +
+                       N(options.max_endpoint_fraction * 100) + "% of leg length)");
   }
   if (options.leg_length > 0 && max_prismatic > r.endpoint_translation_limit) {
     problems.push_back("a prismatic joint moves " + N(max_prismatic) + " m > " +
@@ -143,8 +147,9 @@ StaticsResult SolveStatics(const Matrix6Xd& J, const Vector6d& s_t, const Eigen:
   }
   r.small_motion_valid = problems.empty() && r.status != StaticsStatus::kSelfMotion;
   if (!problems.empty()) {
-    r.validity_message = "small-motion assumption violated: " + util::Join(problems, "; ") +
-                         ". J and tau are not constant over this motion; the linear answer is not valid";
+    r.validity_message =
+        "small-motion assumption violated: " + util::Join(problems, "; ") +
+        ". J and tau are not constant over this motion; the linear answer is not valid";
   }
   return r;
 }
@@ -166,7 +171,8 @@ ClassicResult ClassicWrench(const Matrix6Xd& J, const std::array<bool, 6>& restr
   if (n == 0) return invalid("every transducer dof is released (no restrained row)");
   if (m == 0) return invalid("the Jacobian has no columns");
   if (tau.size() != m) {
-    return invalid("tau has " + std::to_string(tau.size()) + " entries for " + std::to_string(m) + " columns");
+    return invalid("tau has " + std::to_string(tau.size()) + " entries for " + std::to_string(m) +
+                   " columns");
   }
   if (!J.allFinite()) return invalid("the Jacobian has a non-finite entry");
   if (!tau.allFinite()) return invalid("tau has a non-finite entry");
@@ -187,14 +193,17 @@ ClassicResult ClassicWrench(const Matrix6Xd& J, const std::array<bool, 6>& restr
   out.residual = (Jr.transpose() * Wr - tau).norm();
   for (Eigen::Index k = 0; k < n; ++k) out.wrench[rows[k]] = Wr[k];
   const std::string what = out.square_inverse ? "J_r^-T tau" : "pinv(J_r^T) tau";
-  const std::string rank = "rank " + std::to_string(out.rank) + " of " + std::to_string(std::min(n, m));
+  const std::string rank =
+      "rank " + std::to_string(out.rank) + " of " + std::to_string(std::min(n, m));
   if (out.residual > 1e-9 * tau.norm()) {
     out.status = StaticsStatus::kSelfMotion;
-    out.message = what + " (" + rank + "): the " + std::to_string(n) + " restrained rows cannot balance tau (|J_r^T W - tau| = " +
-                  N(out.residual) + "); without compliance the limb moves; W is the least-squares answer";
+    out.message = what + " (" + rank + "): the " + std::to_string(n) +
+                  " restrained rows cannot balance tau (|J_r^T W - tau| = " + N(out.residual) +
+                  "); without compliance the limb moves; W is the least-squares answer";
   } else if (out.rank < std::min(n, m)) {
     out.status = StaticsStatus::kSelfMotionHeld;
-    out.message = what + " (" + rank + "): J_r is rank deficient but tau is reachable; minimum-norm W";
+    out.message =
+        what + " (" + rank + "): J_r is rank deficient but tau is reachable; minimum-norm W";
   } else {
     out.status = StaticsStatus::kOk;
     out.message = what + " (" + rank + ")";

@@ -28,15 +28,16 @@ auto Load(const std::string& fixture) {
 TEST(BadUrdf, MalformedXmlNamesFileAndLine) {
   // tests/data/malformed_xml.urdf: the start tag of <link name="femur" on line 6 never closes.
   EXPECT_THAT(Load("malformed_xml.urdf"),
-              ThrowsMessage<Error>(AllOf(HasSubstr("malformed_xml.urdf"),
-                                         ContainsRegex("[^0-9]6([^0-9]|$)"))));
+              ThrowsMessage<Error>(
+                  AllOf(HasSubstr("malformed_xml.urdf"), ContainsRegex("[^0-9]6([^0-9]|$)"))));
   EXPECT_THAT([] { isowrench::ReadUrdfFile(DataPath("malformed_xml.urdf")); },
               ThrowsMessage<Error>(HasSubstr("malformed_xml.urdf")));
 }
 
 TEST(BadUrdf, MalformedStringNamesItsSourceName) {
-  EXPECT_THAT([] { isowrench::ReadUrdfString("<robot name=\"r\">\n<link name=\"a\">\n", "inline-text"); },
-              ThrowsMessage<Error>(HasSubstr("inline-text")));
+  EXPECT_THAT(
+      [] { isowrench::ReadUrdfString("<robot name=\"r\">\n<link name=\"a\">\n", "inline-text"); },
+      ThrowsMessage<Error>(HasSubstr("inline-text")));
 }
 
 TEST(BadUrdf, MissingFileIsNamed) {
@@ -92,16 +93,16 @@ TEST(BadEdits, BaseTransducerAndReleaseValues) {
   EXPECT_THROW(isowrench::WithTransducerStiffness(d, s), Error);
   EXPECT_THAT([&] { isowrench::WithReleasedDofs(d, {"rw"}); },
               ThrowsMessage<Error>(HasSubstr("rw")));
-  EXPECT_THAT([&] {
-                isowrench::WithExtraJoint(d, "knee_qq", "extra", Eigen::Vector3d::UnitY(), 1.0);
-              },
-              ThrowsMessage<Error>(HasSubstr("knee_qq")));
+  EXPECT_THAT(
+      [&] { isowrench::WithExtraJoint(d, "knee_qq", "extra", Eigen::Vector3d::UnitY(), 1.0); },
+      ThrowsMessage<Error>(HasSubstr("knee_qq")));
 }
 
 TEST(BadPosture, UnknownJointIsNamed) {
   const isowrench::Model rat = LoadModel("rat_hindlimb_5dof.urdf");
-  EXPECT_THAT([&] { isowrench::ApplyPostureAssignments(rat, rat.nominal_posture(), "ankle_rz=10"); },
-              ThrowsMessage<Error>(HasSubstr("ankle_rz")));
+  EXPECT_THAT(
+      [&] { isowrench::ApplyPostureAssignments(rat, rat.nominal_posture(), "ankle_rz=10"); },
+      ThrowsMessage<Error>(HasSubstr("ankle_rz")));
 }
 
 TEST(BadPosture, MalformedAndNonFiniteValuesNameTheJoint) {
@@ -111,11 +112,12 @@ TEST(BadPosture, MalformedAndNonFiniteValuesNameTheJoint) {
                 ThrowsMessage<Error>(HasSubstr("hip_rz")))
         << text;
   }
-  EXPECT_THAT([&] {
-                Eigen::VectorXd q = rat.nominal_posture();
-                isowrench::SetJointFromUserUnits(rat, q, "knee_rz", kNaN);
-              },
-              ThrowsMessage<Error>(HasSubstr("knee_rz")));
+  EXPECT_THAT(
+      [&] {
+        Eigen::VectorXd q = rat.nominal_posture();
+        isowrench::SetJointFromUserUnits(rat, q, "knee_rz", kNaN);
+      },
+      ThrowsMessage<Error>(HasSubstr("knee_rz")));
 }
 
 TEST(BadEvaluation, UnknownMuscleAndWrongPosture) {
@@ -125,11 +127,11 @@ TEST(BadEvaluation, UnknownMuscleAndWrongPosture) {
   EXPECT_THROW(isowrench::EvaluateWrench(rat, Eigen::VectorXd::Zero(3), "GP"), Error);
   isowrench::KinematicsWorkspace ws(rat);
   EXPECT_THROW(isowrench::ComputeMuscleTorque(rat, ws, rat.nominal_posture(), 0, kNaN), Error);
-  EXPECT_THAT([&] {
-                isowrench::PointPosition(rat, ws, rat.nominal_posture(), "pelvis",
-                                         Eigen::Vector3d::Zero());
-              },
-              ThrowsMessage<Error>(HasSubstr("pelvis")));
+  EXPECT_THAT(
+      [&] {
+        isowrench::PointPosition(rat, ws, rat.nominal_posture(), "pelvis", Eigen::Vector3d::Zero());
+      },
+      ThrowsMessage<Error>(HasSubstr("pelvis")));
 }
 
 TEST(BadEvaluation, ZeroLengthMuscleSegmentThrows) {

@@ -35,7 +35,8 @@ constexpr const char* kSource = "leg.urdf";
 /// A leg hip (rz) - knee_tx (prismatic x) - knee_ty (prismatic y) - knee (rz) - weld (fixed)
 /// with the endpoint on "foot". `joint_extra` maps a joint name to XML placed inside it;
 /// `extensions` goes before </robot>.
-std::string Leg(const std::string& tx_extra, const std::string& ty_extra, const std::string& extensions) {
+std::string Leg(const std::string& tx_extra, const std::string& ty_extra,
+                const std::string& extensions) {
   return std::string(R"(<?xml version="1.0"?>
 <robot name="leg" xmlns:isowrench="urn:isowrench:urdf:1">
   <link name="ground"/> <link name="thigh"/> <link name="slide_x"/> <link name="slide_y"/>
@@ -46,12 +47,14 @@ std::string Leg(const std::string& tx_extra, const std::string& ty_extra, const 
   <joint name="knee_tx" type="prismatic">
     <parent link="thigh"/> <child link="slide_x"/> <origin xyz="0.03 0 0"/> <axis xyz="1 0 0"/>
     <limit lower="-0.01" upper="0.01" effort="1" velocity="1"/>
-)") + tx_extra + R"(
+)") + tx_extra +
+         R"(
   </joint>
   <joint name="knee_ty" type="prismatic">
     <parent link="slide_x"/> <child link="slide_y"/> <origin xyz="0 0 0"/> <axis xyz="0 1 0"/>
     <limit lower="-0.01" upper="0.01" effort="1" velocity="1"/>
-)" + ty_extra + R"(
+)" + ty_extra +
+         R"(
   </joint>
   <joint name="knee" type="revolute">
     <parent link="slide_y"/> <child link="shank"/> <origin xyz="0 0 0"/> <axis xyz="0 0 1"/>
@@ -65,7 +68,8 @@ std::string Leg(const std::string& tx_extra, const std::string& ty_extra, const 
     <isowrench:point link="ground" xyz="0.01 0.012 0.003"/>
     <isowrench:point link="shank" xyz="0.012 -0.004 0.002"/>
   </isowrench:muscle>
-)" + extensions + R"(
+)" + extensions +
+         R"(
 </robot>
 )";
 }
@@ -89,14 +93,16 @@ std::vector<std::string> CoordinateNames(const LimbDescription& d) {
 std::string At(const std::string& xml, const std::string& needle) {
   const size_t pos = xml.find(needle);
   if (pos == std::string::npos) throw std::runtime_error("needle not found: " + needle);
-  return std::string(kSource) + ":" + std::to_string(1 + std::count(xml.begin(), xml.begin() + pos, '\n'));
+  return std::string(kSource) + ":" +
+         std::to_string(1 + std::count(xml.begin(), xml.begin() + pos, '\n'));
 }
 
 /// "leg.urdf:<line of the last occurrence of needle>".
 std::string AtLast(const std::string& xml, const std::string& needle) {
   const size_t pos = xml.rfind(needle);
   if (pos == std::string::npos) throw std::runtime_error("needle not found: " + needle);
-  return std::string(kSource) + ":" + std::to_string(1 + std::count(xml.begin(), xml.begin() + pos, '\n'));
+  return std::string(kSource) + ":" +
+         std::to_string(1 + std::count(xml.begin(), xml.begin() + pos, '\n'));
 }
 
 // ---- ordinary URDFs: one identity coordinate per movable joint ------------------------------
@@ -140,7 +146,8 @@ TEST(Coordinates, UrdfLimitsBecomeTheCoordinateRange) {
 // ---- <mimic> ---------------------------------------------------------------------------------
 
 TEST(Mimic, PrismaticJointFollowsARevoluteOne) {
-  const LimbDescription d = Read(Leg(R"(<mimic joint="knee" multiplier="0.01" offset="0.002"/>)", "", ""));
+  const LimbDescription d =
+      Read(Leg(R"(<mimic joint="knee" multiplier="0.01" offset="0.002"/>)", "", ""));
   EXPECT_EQ(CoordinateNames(d), (std::vector<std::string>{"hip", "knee", "knee_ty"}));
   const JointSpec& tx = Joint(d, "knee_tx");
   EXPECT_EQ(tx.coordinate, "knee");
@@ -161,8 +168,9 @@ TEST(Mimic, DefaultsAreMultiplierOneOffsetZero) {
 TEST(Mimic, MimicOfAMimicResolvesToTheIndependentCoordinate) {
   // knee_ty = 2 knee_tx + 0.001 and knee_tx = 0.01 knee + 0.002
   //   => knee_ty = 0.02 knee + (2 * 0.002 + 0.001) = 0.02 knee + 0.005.
-  const LimbDescription d = Read(Leg(R"(<mimic joint="knee" multiplier="0.01" offset="0.002"/>)",
-                                     R"(<mimic joint="knee_tx" multiplier="2" offset="0.001"/>)", ""));
+  const LimbDescription d =
+      Read(Leg(R"(<mimic joint="knee" multiplier="0.01" offset="0.002"/>)",
+               R"(<mimic joint="knee_tx" multiplier="2" offset="0.001"/>)", ""));
   EXPECT_EQ(CoordinateNames(d), (std::vector<std::string>{"hip", "knee"}));
   const JointSpec& ty = Joint(d, "knee_ty");
   EXPECT_EQ(ty.coordinate, "knee");
@@ -177,10 +185,12 @@ TEST(Mimic, MimicOfASplineCoupledJointScalesAndShiftsTheSpline) {
   auto c = [](double x) { return 1e-3 * (x * x * x - 2 * x * x + 0.5 * x); };
   auto dc = [](double x) { return 1e-3 * (3 * x * x - 4 * x + 0.5); };
   const std::string spline = R"(<isowrench:coupling joint="knee_tx" coordinate="knee">
-    <isowrench:simm_spline x="-1 0 1 2 3" y=")" + std::to_string(c(-1)) + " " + std::to_string(c(0)) + " " +
-                             std::to_string(c(1)) + " " + std::to_string(c(2)) + " " + std::to_string(c(3)) +
-                             R"("/></isowrench:coupling>)";
-  const LimbDescription d = Read(Leg("", R"(<mimic joint="knee_tx" multiplier="-0.5" offset="0.001"/>)", spline));
+    <isowrench:simm_spline x="-1 0 1 2 3" y=")" +
+                             std::to_string(c(-1)) + " " + std::to_string(c(0)) + " " +
+                             std::to_string(c(1)) + " " + std::to_string(c(2)) + " " +
+                             std::to_string(c(3)) + R"("/></isowrench:coupling>)";
+  const LimbDescription d =
+      Read(Leg("", R"(<mimic joint="knee_tx" multiplier="-0.5" offset="0.001"/>)", spline));
   const JointSpec& tx = Joint(d, "knee_tx");
   const JointSpec& ty = Joint(d, "knee_ty");
   EXPECT_EQ(tx.coordinate, "knee");
@@ -202,8 +212,9 @@ TEST(Mimic, MimicOfASplineCoupledJointScalesAndShiftsTheSpline) {
 // ---- <isowrench:coupling> function kinds, values hand-computed --------------------------------
 
 double CouplingValue(const std::string& function, double x) {
-  const LimbDescription d = Read(Leg("", "", R"(<isowrench:coupling joint="knee_tx" coordinate="knee">)" +
-                                                 function + "</isowrench:coupling>"));
+  const LimbDescription d = Read(Leg("", "",
+                                     R"(<isowrench:coupling joint="knee_tx" coordinate="knee">)" +
+                                         function + "</isowrench:coupling>"));
   EXPECT_EQ(Joint(d, "knee_tx").coordinate, "knee");
   return Joint(d, "knee_tx").coupling.Value(x);
 }
@@ -224,7 +235,7 @@ TEST(Coupling, SimmSplineReproducesACubicAndExtrapolatesLinearlyOnBothSides) {
   const std::string f = R"(<isowrench:simm_spline x="0 1 2 3" y="0 1 8 27"/>)";
   EXPECT_NEAR(CouplingValue(f, 0.5), 0.125, 1e-14);
   EXPECT_NEAR(CouplingValue(f, 2.5), 15.625, 1e-13);
-  EXPECT_NEAR(CouplingValue(f, -1.0), 0.0, 1e-14);        // slope 3 x^2 = 0 at x = 0
+  EXPECT_NEAR(CouplingValue(f, -1.0), 0.0, 1e-14);         // slope 3 x^2 = 0 at x = 0
   EXPECT_NEAR(CouplingValue(f, 4.0), 27.0 + 27.0, 1e-12);  // slope 27 at x = 3
 }
 
@@ -232,12 +243,16 @@ TEST(Coupling, OtherFunctionKinds) {
   EXPECT_EQ(CouplingValue(R"(<isowrench:constant value="0.001"/>)", 7.0), 0.001);
   EXPECT_EQ(CouplingValue(R"(<isowrench:linear slope="2" intercept="0.5"/>)", 3.0), 6.5);
   EXPECT_DOUBLE_EQ(CouplingValue(R"(<isowrench:piecewise_linear x="0 1 3" y="0 2 3"/>)", 2.0), 2.5);
-  EXPECT_DOUBLE_EQ(CouplingValue(R"(<isowrench:piecewise_linear x="0 1 3" y="0 2 3"/>)", -1.0), -2.0);
+  EXPECT_DOUBLE_EQ(CouplingValue(R"(<isowrench:piecewise_linear x="0 1 3" y="0 2 3"/>)", -1.0),
+                   -2.0);
   EXPECT_DOUBLE_EQ(CouplingValue(R"(<isowrench:piecewise_linear x="0 1 3" y="0 2 3"/>)", 5.0), 4.0);
   // 2 x^2 - 3 x + 1 at x = 2: 8 - 6 + 1 = 3.
   EXPECT_DOUBLE_EQ(CouplingValue(R"(<isowrench:polynomial coefficients="2 -3 1"/>)", 2.0), 3.0);
-  EXPECT_DOUBLE_EQ(CouplingValue(R"(<isowrench:multiplier scale="-2"><isowrench:linear slope="1" intercept="1"/></isowrench:multiplier>)", 2.0),
-                   -6.0);
+  EXPECT_DOUBLE_EQ(
+      CouplingValue(
+          R"(<isowrench:multiplier scale="-2"><isowrench:linear slope="1" intercept="1"/></isowrench:multiplier>)",
+          2.0),
+      -6.0);
 }
 
 // ---- free-standing coordinates, locked coordinates ---------------------------------------------
@@ -319,7 +334,8 @@ TEST(CouplingErrors, CouplingOfAnUnknownJoint) {
 }
 
 TEST(CouplingErrors, JointBothMimicAndCoupled) {
-  const std::string xml = Leg(R"(<mimic joint="knee"/>)", "", R"(<isowrench:coupling joint="knee_tx" coordinate="knee">
+  const std::string xml =
+      Leg(R"(<mimic joint="knee"/>)", "", R"(<isowrench:coupling joint="knee_tx" coordinate="knee">
     <isowrench:constant value="0"/></isowrench:coupling>)");
   ExpectError(xml, {At(xml, "<isowrench:coupling"), "knee_tx", "coupled twice", "<mimic>",
                     "line " + At(xml, "<mimic").substr(std::string(kSource).size() + 1)});
@@ -328,11 +344,13 @@ TEST(CouplingErrors, JointBothMimicAndCoupled) {
 TEST(CouplingErrors, CouplingNamesAnUnknownCoordinate) {
   const std::string xml = Leg("", "", R"(<isowrench:coupling joint="knee_tx" coordinate="knee_">
     <isowrench:constant value="0"/></isowrench:coupling>)");
-  ExpectError(xml, {At(xml, "<isowrench:coupling"), "knee_tx", "'knee_'", "unknown", "did you mean 'knee'"});
+  ExpectError(xml, {At(xml, "<isowrench:coupling"), "knee_tx", "'knee_'", "unknown",
+                    "did you mean 'knee'"});
 }
 
 TEST(CouplingErrors, CouplingNamesADrivenJoint) {
-  const std::string xml = Leg(R"(<mimic joint="knee"/>)", "", R"(<isowrench:coupling joint="knee_ty" coordinate="knee_tx">
+  const std::string xml = Leg(R"(<mimic joint="knee"/>)", "",
+                              R"(<isowrench:coupling joint="knee_ty" coordinate="knee_tx">
     <isowrench:constant value="0"/></isowrench:coupling>)");
   ExpectError(xml, {At(xml, "<isowrench:coupling"), "knee_ty", "driven by coordinate 'knee'"});
 }
@@ -350,8 +368,9 @@ TEST(CouplingErrors, SplineWithUnsortedDuplicateOrTooFewKnotsOrNaN) {
       R"(<isowrench:polynomial coefficients="1 nan 0"/>)",         // NaN coefficient
   };
   for (const std::string& f : bad) {
-    const std::string xml =
-        Leg("", "", "<isowrench:coupling joint=\"knee_tx\" coordinate=\"knee\">\n    " + f + "</isowrench:coupling>");
+    const std::string xml = Leg("", "",
+                                "<isowrench:coupling joint=\"knee_tx\" coordinate=\"knee\">\n    " +
+                                    f + "</isowrench:coupling>");
     ExpectError(xml, {At(xml, f.substr(0, 20)), "knee_tx"});
   }
 }
@@ -359,8 +378,9 @@ TEST(CouplingErrors, SplineWithUnsortedDuplicateOrTooFewKnotsOrNaN) {
 TEST(CouplingErrors, PostureNamingADrivenJointNamesItsDriver) {
   const std::string xml = Leg(R"(<mimic joint="knee" multiplier="0.01"/>)", "",
                               R"(<isowrench:posture joint="knee_tx" value="0.001"/>)");
-  ExpectError(xml, {At(xml, "<isowrench:posture"), "joint 'knee_tx' is driven by coordinate 'knee' (mimic)",
-                    "set 'knee' instead"});
+  ExpectError(
+      xml, {At(xml, "<isowrench:posture"), "joint 'knee_tx' is driven by coordinate 'knee' (mimic)",
+            "set 'knee' instead"});
 }
 
 TEST(CouplingErrors, StiffnessOnADrivenJoint) {
@@ -381,22 +401,28 @@ TEST(CouplingErrors, FreeCoordinateWithAJointsNameOrDefinedTwice) {
   ExpectError(xml, {At(xml, "<isowrench:coordinate"), "'a'", "revolute or prismatic"});
 }
 
-// ---- FindCoordinate ------------------------------------------------------------------------------
+// ---- FindCoordinate
+// ------------------------------------------------------------------------------
 
 TEST(FindCoordinate, NamesTheDriverOfADrivenJointAndRefusesFixedAndUnknownNames) {
   const LimbDescription d = Read(Leg(R"(<mimic joint="knee" multiplier="0.01"/>)", "", ""));
   EXPECT_EQ(isowrench::FindCoordinate(d, "knee").name, "knee");
   EXPECT_THAT([&] { isowrench::FindCoordinate(d, "knee_tx"); },
-              ThrowsMessage<Error>(HasSubstr("joint 'knee_tx' is driven by coordinate 'knee' (mimic); set 'knee' instead")));
-  EXPECT_THAT([&] { isowrench::FindCoordinate(d, "weld"); }, ThrowsMessage<Error>(HasSubstr("'weld'")));
+              ThrowsMessage<Error>(HasSubstr(
+                  "joint 'knee_tx' is driven by coordinate 'knee' (mimic); set 'knee' instead")));
+  EXPECT_THAT([&] { isowrench::FindCoordinate(d, "weld"); },
+              ThrowsMessage<Error>(HasSubstr("'weld'")));
   EXPECT_THAT([&] { isowrench::FindCoordinate(d, "hipp"); },
-              ThrowsMessage<Error>(AllOf(HasSubstr("unknown coordinate 'hipp'"), HasSubstr("did you mean 'hip'"))));
+              ThrowsMessage<Error>(
+                  AllOf(HasSubstr("unknown coordinate 'hipp'"), HasSubstr("did you mean 'hip'"))));
   const LimbDescription free = Read(Leg("", "", kFreeCoordinate));
-  EXPECT_THAT([&] { isowrench::FindCoordinate(free, "knee"); },
-              ThrowsMessage<Error>(HasSubstr("driven by coordinate 'flexion' (isowrench:coupling)")));
+  EXPECT_THAT(
+      [&] { isowrench::FindCoordinate(free, "knee"); },
+      ThrowsMessage<Error>(HasSubstr("driven by coordinate 'flexion' (isowrench:coupling)")));
 }
 
-// ---- writer round trip ---------------------------------------------------------------------------
+// ---- writer round trip
+// ---------------------------------------------------------------------------
 
 void ExpectSameCoordinates(const LimbDescription& a, const LimbDescription& b) {
   ASSERT_EQ(CoordinateNames(a), CoordinateNames(b));
@@ -426,19 +452,21 @@ void ExpectSameCoordinates(const LimbDescription& a, const LimbDescription& b) {
 }
 
 TEST(CouplingRoundTrip, WriteThenReadKeepsCoordinatesAndCouplings) {
-  for (const std::string& xml :
-       {Leg("", "", kFreeCoordinate),
-        Leg(R"(<mimic joint="knee" multiplier="0.01" offset="0.002"/>)",
-            R"(<mimic joint="knee_tx" multiplier="2" offset="0.001"/>)", ""),
-        Leg("", R"(<mimic joint="knee_tx" multiplier="-0.5" offset="0.001"/>)",
-            R"(<isowrench:coupling joint="knee_tx" coordinate="knee"><isowrench:multiplier scale="3">
+  for (
+      const std::string& xml :
+      {Leg("", "", kFreeCoordinate),
+       Leg(R"(<mimic joint="knee" multiplier="0.01" offset="0.002"/>)",
+           R"(<mimic joint="knee_tx" multiplier="2" offset="0.001"/>)", ""),
+       Leg("", R"(<mimic joint="knee_tx" multiplier="-0.5" offset="0.001"/>)",
+           R"(<isowrench:coupling joint="knee_tx" coordinate="knee"><isowrench:multiplier scale="3">
                <isowrench:polynomial coefficients="1e-3 2e-4 0"/></isowrench:multiplier></isowrench:coupling>)")}) {
     const LimbDescription d = Read(xml);
     const std::string written = isowrench::WriteUrdfString(d);
     ExpectSameCoordinates(d, isowrench::ReadUrdfString(written, "written.urdf"));
   }
   const LimbDescription knee = LoadDescription("rat_hindlimb_coupled_knee.urdf");
-  ExpectSameCoordinates(knee, isowrench::ReadUrdfString(isowrench::WriteUrdfString(knee), "written.urdf"));
+  ExpectSameCoordinates(
+      knee, isowrench::ReadUrdfString(isowrench::WriteUrdfString(knee), "written.urdf"));
 }
 
 // ---- description edits keep coordinates consistent ----------------------------------------------
@@ -457,17 +485,22 @@ TEST(CouplingEdits, BaseStiffnessAddsBaseCoordinatesFirst) {
 
 TEST(CouplingEdits, JointStiffnessGoesToTheCoordinate) {
   const LimbDescription d = Read(Leg(R"(<mimic joint="knee" multiplier="0.01"/>)", "", ""));
-  EXPECT_EQ(isowrench::FindCoordinate(isowrench::WithJointStiffness(d, "knee", 3.0), "knee").stiffness, 3.0);
+  EXPECT_EQ(
+      isowrench::FindCoordinate(isowrench::WithJointStiffness(d, "knee", 3.0), "knee").stiffness,
+      3.0);
   EXPECT_EQ(Joint(isowrench::WithJointStiffness(d, "knee", 3.0), "knee").stiffness, 3.0);
   EXPECT_THAT([&] { isowrench::WithJointStiffness(d, "knee_tx", 1.0); },
               ThrowsMessage<Error>(HasSubstr("set 'knee' instead")));
   const LimbDescription free = Read(Leg("", "", kFreeCoordinate));
-  EXPECT_EQ(isowrench::FindCoordinate(isowrench::WithJointStiffness(free, "flexion", 4.0), "flexion").stiffness, 4.0);
+  EXPECT_EQ(
+      isowrench::FindCoordinate(isowrench::WithJointStiffness(free, "flexion", 4.0), "flexion")
+          .stiffness,
+      4.0);
 }
 
 TEST(CouplingEdits, ExtraJointGetsItsOwnCoordinateInChainOrder) {
-  const LimbDescription d = isowrench::WithExtraJoint(Read(Leg("", "", kFreeCoordinate)), "knee", "knee_ry",
-                                                      Eigen::Vector3d::UnitY(), 1.5);
+  const LimbDescription d = isowrench::WithExtraJoint(Read(Leg("", "", kFreeCoordinate)), "knee",
+                                                      "knee_ry", Eigen::Vector3d::UnitY(), 1.5);
   EXPECT_EQ(CoordinateNames(d), (std::vector<std::string>{"hip", "flexion", "knee_ty", "knee_ry"}));
   EXPECT_EQ(isowrench::FindCoordinate(d, "knee_ry").stiffness, 1.5);
   EXPECT_EQ(isowrench::FindCoordinate(d, "knee_ry").role, isowrench::JointRole::kExtra);
@@ -488,18 +521,22 @@ TEST(CouplingEdits, DescriptionBuiltInCodeGetsItsCoordinatesFromNormalize) {
             (std::vector<std::string>{"hip_rz", "hip_ry", "knee_rz", "knee_rx"}));
 }
 
-// ---- postures name coordinates -------------------------------------------------------------------
+// ---- postures name coordinates
+// -------------------------------------------------------------------
 
 TEST(CouplingPostures, AssignmentToADrivenJointNamesItsDriver) {
   const isowrench::Model model(Read(Leg(R"(<mimic joint="knee" multiplier="0.01"/>)", "", "")));
-  EXPECT_THAT([&] { isowrench::ApplyPostureAssignments(model, model.nominal_posture(), "knee_tx=1"); },
-              ThrowsMessage<Error>(HasSubstr("joint 'knee_tx' is driven by coordinate 'knee' (mimic); set 'knee' instead")));
+  EXPECT_THAT(
+      [&] { isowrench::ApplyPostureAssignments(model, model.nominal_posture(), "knee_tx=1"); },
+      ThrowsMessage<Error>(
+          HasSubstr("joint 'knee_tx' is driven by coordinate 'knee' (mimic); set 'knee' instead")));
 }
 
 TEST(PostureCsv, ColumnsNameCoordinatesInDegreesAndMillimetres) {
   const isowrench::Model rat = LoadModel("rat_hindlimb_5dof_base.urdf");
   const Eigen::VectorXd base = rat.nominal_posture();
-  const auto q = isowrench::ParsePostureCsv(rat, "hip_rz, knee_rz,base_x\n# comment\n-100,90,2\n\n30,,-1\n", "p.csv", base);
+  const auto q = isowrench::ParsePostureCsv(
+      rat, "hip_rz, knee_rz,base_x\n# comment\n-100,90,2\n\n30,,-1\n", "p.csv", base);
   ASSERT_EQ(q.size(), 2u);
   EXPECT_NEAR(q[0][rat.JointIndex("hip_rz")], Deg(-100), 1e-15);
   EXPECT_NEAR(q[0][rat.JointIndex("knee_rz")], Deg(90), 1e-15);
@@ -512,20 +549,24 @@ TEST(PostureCsv, ColumnsNameCoordinatesInDegreesAndMillimetres) {
 TEST(PostureCsv, BadFilesAreNamedErrors) {
   const isowrench::Model rat = LoadModel("rat_hindlimb_5dof.urdf");
   const Eigen::VectorXd base = rat.nominal_posture();
-  auto parse = [&](const std::string& text) { isowrench::ParsePostureCsv(rat, text, "p.csv", base); };
+  auto parse = [&](const std::string& text) {
+    isowrench::ParsePostureCsv(rat, text, "p.csv", base);
+  };
   EXPECT_THAT([&] { parse("hip_rz,kne_rz\n1,2\n"); },
-              ThrowsMessage<Error>(AllOf(HasSubstr("p.csv:1"), HasSubstr("'kne_rz'"), HasSubstr("did you mean 'knee_rz'"))));
+              ThrowsMessage<Error>(AllOf(HasSubstr("p.csv:1"), HasSubstr("'kne_rz'"),
+                                         HasSubstr("did you mean 'knee_rz'"))));
   EXPECT_THAT([&] { parse("hip_rz,hip_rz\n1,2\n"); }, ThrowsMessage<Error>(HasSubstr("twice")));
   EXPECT_THAT([&] { parse("hip_rz,knee_rz\n1,2\n1\n"); },
               ThrowsMessage<Error>(AllOf(HasSubstr("p.csv:3"), HasSubstr("1 fields"))));
   EXPECT_THAT([&] { parse("hip_rz,knee_rz\n1,abc\n"); },
-              ThrowsMessage<Error>(AllOf(HasSubstr("p.csv:2"), HasSubstr("'knee_rz'"), HasSubstr("'abc'"))));
+              ThrowsMessage<Error>(
+                  AllOf(HasSubstr("p.csv:2"), HasSubstr("'knee_rz'"), HasSubstr("'abc'"))));
   EXPECT_THAT([&] { parse("hip_rz\n"); }, ThrowsMessage<Error>(HasSubstr("no posture rows")));
   const isowrench::Model leg(Read(Leg(R"(<mimic joint="knee" multiplier="0.01"/>)", "", "")));
-  EXPECT_THAT([&] { isowrench::ParsePostureCsv(leg, "knee_tx\n1\n", "p.csv", leg.nominal_posture()); },
-              ThrowsMessage<Error>(AllOf(HasSubstr("p.csv:1"), HasSubstr("set 'knee' instead"))));
+  EXPECT_THAT(
+      [&] { isowrench::ParsePostureCsv(leg, "knee_tx\n1\n", "p.csv", leg.nominal_posture()); },
+      ThrowsMessage<Error>(AllOf(HasSubstr("p.csv:1"), HasSubstr("set 'knee' instead"))));
 }
-
 
 // ---- coupled kinematics against an independent forward kinematics -----------------------------
 // These need the engine to map couplings (Model columns = coordinates, J = J_joints C); until it
@@ -539,9 +580,15 @@ bool EngineMapsCouplings(const Model& model) {
   return model.dof_count() == static_cast<int>(model.description().coordinates.size());
 }
 
-Eigen::Matrix3d Rz(double a) { return Eigen::AngleAxisd(a, Eigen::Vector3d::UnitZ()).toRotationMatrix(); }
-Eigen::Matrix3d Ry(double a) { return Eigen::AngleAxisd(a, Eigen::Vector3d::UnitY()).toRotationMatrix(); }
-Eigen::Matrix3d Rx(double a) { return Eigen::AngleAxisd(a, Eigen::Vector3d::UnitX()).toRotationMatrix(); }
+Eigen::Matrix3d Rz(double a) {
+  return Eigen::AngleAxisd(a, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+}
+Eigen::Matrix3d Ry(double a) {
+  return Eigen::AngleAxisd(a, Eigen::Vector3d::UnitY()).toRotationMatrix();
+}
+Eigen::Matrix3d Rx(double a) {
+  return Eigen::AngleAxisd(a, Eigen::Vector3d::UnitX()).toRotationMatrix();
+}
 
 /// urdf/rat_hindlimb_coupled_knee.urdf written out by hand, coordinates q = [hip_rz hip_ry
 /// hip_rx knee_rz knee_rx]: the femur turns by Rz Ry Rx about the hip; the knee centre sits at
@@ -549,16 +596,21 @@ Eigen::Matrix3d Rx(double a) { return Eigen::AngleAxisd(a, Eigen::Vector3d::Unit
 /// Rx(knee_rx) about it. tx is the file's SimmSpline (built here from the same knots), ty the
 /// mimic 0.0004 knee_rz + 0.0001.
 struct CoupledKnee {
-  isowrench::Function tx = isowrench::Function::SimmSpline({0, 0.5, 1, 1.5, 2, 2.5},
-                                                           {0, -0.0002, -0.0005, -0.0009, -0.0012, -0.0014});
-  Eigen::Matrix3d Tibia(const Eigen::VectorXd& q) const { return Rz(q[0]) * Ry(q[1]) * Rx(q[2]) * Rz(q[3]) * Rx(q[4]); }
+  isowrench::Function tx = isowrench::Function::SimmSpline(
+      {0, 0.5, 1, 1.5, 2, 2.5}, {0, -0.0002, -0.0005, -0.0009, -0.0012, -0.0014});
+  Eigen::Matrix3d Tibia(const Eigen::VectorXd& q) const {
+    return Rz(q[0]) * Ry(q[1]) * Rx(q[2]) * Rz(q[3]) * Rx(q[4]);
+  }
   Eigen::Vector3d OnTibia(const Eigen::VectorXd& q, const Eigen::Vector3d& p) const {
     const Eigen::Vector3d knee(0.031 + tx.Value(q[3]), 0.0004 * q[3] + 0.0001, 0.0);
     return Rz(q[0]) * Ry(q[1]) * Rx(q[2]) * (knee + Rz(q[3]) * Rx(q[4]) * p);
   }
-  Eigen::Vector3d Endpoint(const Eigen::VectorXd& q) const { return OnTibia(q, Eigen::Vector3d(0.041, 0, 0)); }
+  Eigen::Vector3d Endpoint(const Eigen::VectorXd& q) const {
+    return OnTibia(q, Eigen::Vector3d(0.041, 0, 0));
+  }
   double GpLength(const Eigen::VectorXd& q) const {
-    return (OnTibia(q, Eigen::Vector3d(0.0156, -0.00452, -0.00378)) - Eigen::Vector3d(0.01267, -0.010403, -0.00478))
+    return (OnTibia(q, Eigen::Vector3d(0.0156, -0.00452, -0.00378)) -
+            Eigen::Vector3d(0.01267, -0.010403, -0.00478))
         .norm();
   }
 };
@@ -574,7 +626,8 @@ isowrench::Matrix6Xd JacobianByDifferences(const CoupledKnee& k, const Eigen::Ve
     plus[i] += kStep;
     minus[i] -= kStep;
     J.block<3, 1>(0, i) = (k.Endpoint(plus) - k.Endpoint(minus)) / (2 * kStep);
-    J.block<3, 1>(3, i) = Vee((k.Tibia(plus) - k.Tibia(minus)) / (2 * kStep) * k.Tibia(q).transpose());
+    J.block<3, 1>(3, i) =
+        Vee((k.Tibia(plus) - k.Tibia(minus)) / (2 * kStep) * k.Tibia(q).transpose());
   }
   return J;
 }
@@ -609,13 +662,15 @@ TEST(CoupledKinematics, EngineMatchesDifferencesOfAnIndependentForwardKinematics
   const kin::CoupledKnee knee;
   isowrench::KinematicsWorkspace ws(model);
   for (const Eigen::VectorXd& q : kin::Postures()) {
-    EXPECT_TRUE(MatricesNear(isowrench::EndpointPose(model, ws, q).translation(), knee.Endpoint(q), 1e-15));
-    EXPECT_TRUE(MatricesNear(isowrench::EndpointJacobianWorld(model, ws, q), kin::JacobianByDifferences(knee, q),
-                             kin::kFdTolerance));
-    const isowrench::MuscleTorque t = isowrench::ComputeMuscleTorque(model, ws, q, model.MuscleIndex("GP"));
+    EXPECT_TRUE(
+        MatricesNear(isowrench::EndpointPose(model, ws, q).translation(), knee.Endpoint(q), 1e-15));
+    EXPECT_TRUE(MatricesNear(isowrench::EndpointJacobianWorld(model, ws, q),
+                             kin::JacobianByDifferences(knee, q), kin::kFdTolerance));
+    const isowrench::MuscleTorque t =
+        isowrench::ComputeMuscleTorque(model, ws, q, model.MuscleIndex("GP"));
     EXPECT_NEAR(t.length, knee.GpLength(q), 1e-15);
-    EXPECT_TRUE(MatricesNear(Eigen::VectorXd(-t.dL_dq.transpose()), kin::MomentArmsByDifferences(knee, q),
-                             kin::kFdTolerance));
+    EXPECT_TRUE(MatricesNear(Eigen::VectorXd(-t.dL_dq.transpose()),
+                             kin::MomentArmsByDifferences(knee, q), kin::kFdTolerance));
   }
 }
 
@@ -632,8 +687,9 @@ TEST(CoupledKinematics, KinematicsCommandJsonMatchesDifferencesOfAnIndependentFo
       out << "\n";
     }
   }
-  const std::string command = std::string(ISOWRENCH_CLI) + " kinematics " + UrdfPath("rat_hindlimb_coupled_knee.urdf") +
-                              " --postures " + csv + " --json";
+  const std::string command = std::string(ISOWRENCH_CLI) + " kinematics " +
+                              UrdfPath("rat_hindlimb_coupled_knee.urdf") + " --postures " + csv +
+                              " --json";
   FILE* pipe = popen(command.c_str(), "r");
   ASSERT_NE(pipe, nullptr);
   std::string text;
@@ -642,14 +698,16 @@ TEST(CoupledKinematics, KinematicsCommandJsonMatchesDifferencesOfAnIndependentFo
   ASSERT_EQ(pclose(pipe), 0) << text;
   std::remove(csv.c_str());
   const nlohmann::json json = nlohmann::json::parse(text);
-  EXPECT_EQ(json["coordinates"], (std::vector<std::string>{"hip_rz", "hip_ry", "hip_rx", "knee_rz", "knee_rx"}));
+  EXPECT_EQ(json["coordinates"],
+            (std::vector<std::string>{"hip_rz", "hip_ry", "hip_rx", "knee_rz", "knee_rx"}));
   const kin::CoupledKnee knee;
   const std::vector<Eigen::VectorXd> postures = kin::Postures();
   ASSERT_EQ(json["postures"].size(), postures.size());
   for (size_t p = 0; p < postures.size(); ++p) {
     const nlohmann::json& out = json["postures"][p];
     // The CSV carries degrees with 17 digits: the posture is q to ~1e-16 rad.
-    const Eigen::Vector3d endpoint(out["endpoint_m"][0], out["endpoint_m"][1], out["endpoint_m"][2]);
+    const Eigen::Vector3d endpoint(out["endpoint_m"][0], out["endpoint_m"][1],
+                                   out["endpoint_m"][2]);
     EXPECT_TRUE(MatricesNear(endpoint, knee.Endpoint(postures[p]), 1e-15));
     isowrench::Matrix6Xd J(6, 5);
     for (int r = 0; r < 6; ++r) {
@@ -659,7 +717,8 @@ TEST(CoupledKinematics, KinematicsCommandJsonMatchesDifferencesOfAnIndependentFo
     EXPECT_NEAR(out["muscles"]["GP"]["length_m"].get<double>(), knee.GpLength(postures[p]), 1e-15);
     Eigen::VectorXd r(5);
     for (int c = 0; c < 5; ++c) r[c] = out["muscles"]["GP"]["moment_arm_m"][c];
-    EXPECT_TRUE(MatricesNear(r, kin::MomentArmsByDifferences(knee, postures[p]), kin::kFdTolerance));
+    EXPECT_TRUE(
+        MatricesNear(r, kin::MomentArmsByDifferences(knee, postures[p]), kin::kFdTolerance));
   }
 }
 
@@ -672,16 +731,19 @@ TEST(CoupledKinematics, MimicLegEqualsTheSameLegWrittenAsOneJoint) {
   <joint name="hip" type="continuous"><parent link="ground"/><child link="thigh"/><axis xyz="0 0 1"/></joint>
   <joint name="knee" type="continuous"><parent link="thigh"/><child link="mid"/>
     <origin xyz="0.03 0.004 0" rpy="0.1 0 0"/><axis xyz="0 0.6 0.8"/></joint>
-  <joint name="knee2" type=)") + knee2 + R"(
+  <joint name="knee2" type=)") +
+           knee2 + R"(
   <isowrench:transducer link="shank" xyz="0.04 0.002 -0.001"/>
   <isowrench:muscle name="M" max_force="1">
     <isowrench:point link="ground" xyz="0.01 0.012 0.003"/> <isowrench:point link="shank" xyz="0.012 -0.004 0.002"/>
   </isowrench:muscle>
 </robot>)";
   };
-  const isowrench::Model mimic(Read(leg(R"("continuous"><parent link="mid"/><child link="shank"/><axis xyz="0 0.6 0.8"/>
+  const isowrench::Model mimic(
+      Read(leg(R"("continuous"><parent link="mid"/><child link="shank"/><axis xyz="0 0.6 0.8"/>
     <mimic joint="knee" multiplier="1" offset="0.2"/></joint>)")));
-  const isowrench::Model single(Read(leg(R"("fixed"><parent link="mid"/><child link="shank"/></joint>)")));
+  const isowrench::Model single(
+      Read(leg(R"("fixed"><parent link="mid"/><child link="shank"/></joint>)")));
   ASSERT_TRUE(kin::EngineMapsCouplings(mimic)) << "the engine must map couplings to coordinates";
   ASSERT_EQ(mimic.dof_count(), 2);
   isowrench::KinematicsWorkspace ws_m(mimic), ws_s(single);

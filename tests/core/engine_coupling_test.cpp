@@ -19,9 +19,10 @@ namespace {
 
 using isowrench::Model;
 
-constexpr double kTol = 1e-12;   // the same formula two ways: rounding only (lengths <= 0.1 m)
+constexpr double kTol = 1e-12;  // the same formula two ways: rounding only (lengths <= 0.1 m)
 constexpr double kFdStep = 1e-6;
-// Central differences: truncation h^2/6 |f'''| ~ 1e-13, rounding eps |f| / h ~ 2e-11 (|f| <= 0.1 m).
+// Central differences: truncation h^2/6 |f'''| ~ 1e-13, rounding eps |f| / h ~ 2e-11 (|f| <= 0.1
+// m).
 constexpr double kFdTol = 1e-9;
 
 // hip (rz) - knee_tx (prismatic x, mimic of knee: tx = 0.004 knee + 0.001) - knee_ty (prismatic
@@ -66,20 +67,23 @@ const char* kPolynomial = R"(<isowrench:polynomial coefficients="0.003 -0.002 0.
 double PolynomialTy(double k) { return 0.003 * k * k - 0.002 * k + 0.0015; }
 // A SimmSpline through knots of the cubic ty = 0.001 k^3 - 0.002 k + 0.0015 reproduces the
 // cubic between its end knots (FMM end conditions, shared/OPENSIM.md).
-const char* kSpline =
-    R"(<isowrench:simm_spline x="-1 -0.5 0 0.5 1 1.5 2 2.5" )"
-    R"(y="0.0025 0.002375 0.0015 0.000625 0.0005 0.0018750 0.0055 0.0121250"/>)";
+const char* kSpline = R"(<isowrench:simm_spline x="-1 -0.5 0 0.5 1 1.5 2 2.5" )"
+                      R"(y="0.0025 0.002375 0.0015 0.000625 0.0005 0.0018750 0.0055 0.0121250"/>)";
 double SplineTy(double k) { return 0.001 * k * k * k - 0.002 * k + 0.0015; }
 
-Eigen::Matrix3d Rz(double a) { return Eigen::AngleAxisd(a, Eigen::Vector3d::UnitZ()).toRotationMatrix(); }
+Eigen::Matrix3d Rz(double a) {
+  return Eigen::AngleAxisd(a, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+}
 
 // The leg's forward kinematics by hand: a point `p` on the shank at posture (hip, knee).
-Eigen::Vector3d ShankPoint(double (*ty)(double), double hip, double knee, const Eigen::Vector3d& p) {
+Eigen::Vector3d ShankPoint(double (*ty)(double), double hip, double knee,
+                           const Eigen::Vector3d& p) {
   const Eigen::Vector3d slide(0.03 + 0.004 * knee + 0.001, ty(knee), 0.0);
   return Rz(hip) * (slide + Rz(knee) * p);
 }
 double MuscleLength(double (*ty)(double), double hip, double knee) {
-  return (ShankPoint(ty, hip, knee, Eigen::Vector3d(0.012, -0.004, 0.002)) - Eigen::Vector3d(0.01, 0.012, 0.003))
+  return (ShankPoint(ty, hip, knee, Eigen::Vector3d(0.012, -0.004, 0.002)) -
+          Eigen::Vector3d(0.01, 0.012, 0.003))
       .norm();
 }
 
@@ -90,7 +94,9 @@ struct Law {
 
 class CoupledLeg : public ::testing::TestWithParam<int> {
  protected:
-  Law law() const { return GetParam() == 0 ? Law{kPolynomial, PolynomialTy} : Law{kSpline, SplineTy}; }
+  Law law() const {
+    return GetParam() == 0 ? Law{kPolynomial, PolynomialTy} : Law{kSpline, SplineTy};
+  }
 };
 
 TEST_P(CoupledLeg, ColumnsAreTheIndependentCoordinates) {
@@ -125,12 +131,14 @@ TEST_P(CoupledLeg, PoseJacobianAndMomentArmsEqualHandKinematicsAndItsDifferences
       EXPECT_LE((J.col(c).head<3>() - v).norm(), kFdTol) << "column " << c;
       // Both coordinates turn the foot about z at unit rate (the slides do not rotate it).
       EXPECT_LE((J.col(c).tail<3>() - Eigen::Vector3d::UnitZ()).norm(), kTol);
-      const double dL = (MuscleLength(ty, qp[0], qp[1]) - MuscleLength(ty, qm[0], qm[1])) / (2 * kFdStep);
+      const double dL =
+          (MuscleLength(ty, qp[0], qp[1]) - MuscleLength(ty, qm[0], qm[1])) / (2 * kFdStep);
       EXPECT_NEAR(mt.dL_dq[c], dL, kFdTol) << "column " << c;
       EXPECT_NEAR(mt.tau[c], -2.0 * mt.dL_dq[c], kTol);
       // A shank point's Jacobian: the same differences.
       const Eigen::Vector3d a(0.02, 0.005, -0.001);
-      const Eigen::Vector3d va = (ShankPoint(ty, qp[0], qp[1], a) - ShankPoint(ty, qm[0], qm[1], a)) / (2 * kFdStep);
+      const Eigen::Vector3d va =
+          (ShankPoint(ty, qp[0], qp[1], a) - ShankPoint(ty, qm[0], qm[1], a)) / (2 * kFdStep);
       EXPECT_LE((isowrench::PointJacobian(model, ws, q, "shank", a).col(c) - va).norm(), kFdTol);
     }
   }
@@ -159,7 +167,8 @@ TEST_P(CoupledLeg, FastSingleBatchAndReferenceAgree) {
     const Eigen::VectorXd q = Q.col(p);
     const isowrench::WrenchEvaluation ref = isowrench::EvaluateWrench(model, q, "M", 0.7);
     for (size_t s = 0; s < sets.size(); ++s) {
-      const isowrench::FastWrench single = isowrench::EvaluateFast(compiled, ws, q, 0, sets[s], 0.7);
+      const isowrench::FastWrench single =
+          isowrench::EvaluateFast(compiled, ws, q, 0, sets[s], 0.7);
       const isowrench::FastWrench& b = batch[p * sets.size() + s];
       ASSERT_EQ(single.status, b.status);
       const double scale = std::max(1.0, single.wrench.norm());
@@ -203,7 +212,8 @@ std::string TwoOrOne(bool mimic) {
          (mimic ? R"( <link name="mid"/>)" : "") + R"( <link name="shank"/>
   <joint name="hip" type="continuous">
     <parent link="ground"/> <child link="thigh"/> <origin xyz="0 0 0"/> <axis xyz="0 0 1"/>
-  </joint>)" + knee + R"(
+  </joint>)" +
+         knee + R"(
   <isowrench:transducer link="shank" xyz="0.04 0.002 0"/>
   <isowrench:muscle name="M" max_force="2">
     <isowrench:point link="ground" xyz="0.01 0.012 0.003"/>
@@ -231,7 +241,8 @@ TEST(MimicPair, EqualsOneJointTurningTwiceAsFast) {
     EXPECT_NEAR(a.tau[0], b.tau[0], kTol);
     EXPECT_NEAR(a.tau[1], 2 * b.tau[1], kTol);
     ASSERT_EQ(a.statics.status, b.statics.status);
-    EXPECT_LE((a.statics.wrench - b.statics.wrench).norm(), 1e-9 * std::max(1.0, b.statics.wrench.norm()));
+    EXPECT_LE((a.statics.wrench - b.statics.wrench).norm(),
+              1e-9 * std::max(1.0, b.statics.wrench.norm()));
   }
 }
 
@@ -257,7 +268,7 @@ TEST(LockedCoordinate, StaticsEqualTheLegWithThatJointFixed) {
     fixed.coordinates.clear();
     fixed.nominal_posture.clear();
     for (isowrench::JointSpec& j : fixed.joints) {
-      const double value = j.name == "knee_tx" ? 0.004 * q[1] + 0.001
+      const double value = j.name == "knee_tx"   ? 0.004 * q[1] + 0.001
                            : j.name == "knee_ty" ? PolynomialTy(q[1])
                            : j.name == "knee"    ? q[1]
                                                  : 0.0;
@@ -280,14 +291,18 @@ TEST(LockedCoordinate, StaticsEqualTheLegWithThatJointFixed) {
     q_rigid[0] = q[0];
     const isowrench::WrenchEvaluation b = isowrench::EvaluateWrench(rigid, q_rigid, "M");
     ASSERT_EQ(a.statics.status, b.statics.status);
-    EXPECT_LE((a.statics.wrench - b.statics.wrench).norm(), 1e-9 * std::max(1.0, b.statics.wrench.norm()));
+    EXPECT_LE((a.statics.wrench - b.statics.wrench).norm(),
+              1e-9 * std::max(1.0, b.statics.wrench.norm()));
     EXPECT_EQ(a.statics.dtheta[1], 0.0);
-    EXPECT_NEAR(a.statics.dtheta[0], b.statics.dtheta[0], 1e-9 * std::abs(b.statics.dtheta[0]) + 1e-15);
+    EXPECT_NEAR(a.statics.dtheta[0], b.statics.dtheta[0],
+                1e-9 * std::abs(b.statics.dtheta[0]) + 1e-15);
     EXPECT_NE(a.tau[1], 0.0);  // the moment arm about the locked knee is still reported
     EXPECT_LE((a.jacobian.col(0) - b.jacobian.col(0)).cwiseAbs().maxCoeff(), kTol);
-    const isowrench::FastWrench fast = isowrench::EvaluateFast(compiled, ws, q, 0, compiled.model_stiffness());
+    const isowrench::FastWrench fast =
+        isowrench::EvaluateFast(compiled, ws, q, 0, compiled.model_stiffness());
     ASSERT_EQ(fast.status, a.statics.status);
-    EXPECT_LE((fast.wrench - a.statics.wrench).norm(), 1e-9 * std::max(1.0, a.statics.wrench.norm()));
+    EXPECT_LE((fast.wrench - a.statics.wrench).norm(),
+              1e-9 * std::max(1.0, a.statics.wrench.norm()));
     EXPECT_EQ(ws.dtheta()[1], 0.0);
   }
 }

@@ -39,7 +39,8 @@ class KdlReference {
         J_(chain_.getNrOfJoints()) {
     const isowrench::LimbDescription& d = model.description();
     segments_[d.root_link] = 0;
-    for (size_t i = 0; i < d.joints.size(); ++i) segments_[d.joints[i].child_link] = static_cast<int>(i) + 1;
+    for (size_t i = 0; i < d.joints.size(); ++i)
+      segments_[d.joints[i].child_link] = static_cast<int>(i) + 1;
   }
   void Set(const Eigen::VectorXd& q) {
     for (int i = 0; i < q.size(); ++i) q_(i) = q[i];
@@ -115,13 +116,15 @@ TEST_P(EngineVsKdl, EndpointPoseAndJacobianEqualKdlOnRandomPostures) {
     const Eigen::Isometry3d engine_pose = isowrench::EndpointPose(model, ws, q);
     worst = std::max(worst, (engine_pose.matrix() - pose.matrix()).cwiseAbs().maxCoeff());
     const Eigen::MatrixXd J = kdl.Jacobian(kdl.endpoint_segments());
-    worst = std::max(worst, (isowrench::EndpointJacobianWorld(model, ws, q) - J).cwiseAbs().maxCoeff());
+    worst =
+        std::max(worst, (isowrench::EndpointJacobianWorld(model, ws, q) - J).cwiseAbs().maxCoeff());
     // Transducer axes: J_T = blockdiag(R^T, R^T) J_W with R = R_W_T.
     const Eigen::Matrix3d R = isowrench::TransducerRotation(model, ws, q);
     Eigen::MatrixXd J_T(6, J.cols());
     J_T.topRows<3>() = R.transpose() * J.topRows<3>();
     J_T.bottomRows<3>() = R.transpose() * J.bottomRows<3>();
-    worst = std::max(worst, (isowrench::EndpointJacobian(model, ws, q) - J_T).cwiseAbs().maxCoeff());
+    worst =
+        std::max(worst, (isowrench::EndpointJacobian(model, ws, q) - J_T).cwiseAbs().maxCoeff());
   }
   EXPECT_LE(worst, kKdlTol) << GetParam();
 }
@@ -138,10 +141,12 @@ TEST_P(EngineVsKdl, PointPositionsAndJacobiansOnEveryLinkEqualKdl) {
     kdl.Set(q);
     for (const std::string& link : model.description().links) {
       const Eigen::Vector3d a(offset(rng), offset(rng), offset(rng));
-      worst = std::max(worst, (isowrench::PointPosition(model, ws, q, link, a) - kdl.Point(link, a)).norm());
-      worst = std::max(worst, (isowrench::PointJacobian(model, ws, q, link, a) - kdl.PointJacobian(link, a))
-                                  .cwiseAbs()
-                                  .maxCoeff());
+      worst = std::max(
+          worst, (isowrench::PointPosition(model, ws, q, link, a) - kdl.Point(link, a)).norm());
+      worst = std::max(
+          worst, (isowrench::PointJacobian(model, ws, q, link, a) - kdl.PointJacobian(link, a))
+                     .cwiseAbs()
+                     .maxCoeff());
     }
   }
   EXPECT_LE(worst, kKdlTol) << GetParam();

@@ -129,8 +129,8 @@ TEST_P(EveryShippedUrdf, TransducerAxesInWorldGiveTheWorldJacobian) {
   KinematicsWorkspace ws(model);
   std::mt19937 rng(23);
   const Eigen::VectorXd q = RandomPosture(model, rng);
-  EXPECT_TRUE(MatricesNear(isowrench::TransducerRotation(model, ws, q),
-                           Eigen::Matrix3d::Identity(), kClosedFormTol));
+  EXPECT_TRUE(MatricesNear(isowrench::TransducerRotation(model, ws, q), Eigen::Matrix3d::Identity(),
+                           kClosedFormTol));
   EXPECT_TRUE(MatricesNear(isowrench::EndpointJacobian(model, ws, q),
                            isowrench::EndpointJacobianWorld(model, ws, q), kClosedFormTol));
 }
@@ -149,8 +149,7 @@ TEST_P(EveryShippedUrdf, MuscleTorqueIsMinusForceTimesLengthGradient) {
       for (size_t s = 0; s + 1 < spec.path.size(); ++s) {
         length += (isowrench::PointPosition(model, ws, q, spec.path[s + 1].link,
                                             spec.path[s + 1].position) -
-                   isowrench::PointPosition(model, ws, q, spec.path[s].link,
-                                            spec.path[s].position))
+                   isowrench::PointPosition(model, ws, q, spec.path[s].link, spec.path[s].position))
                       .norm();
       }
       EXPECT_NEAR(mt.length, length, kClosedFormTol) << spec.name;
@@ -167,8 +166,8 @@ TEST_P(EveryShippedUrdf, MuscleTorqueIsMinusForceTimesLengthGradient) {
       }
       EXPECT_TRUE(MatricesNear(mt.dL_dq, dL, kFdTol)) << spec.name;
       // tau = -F dL/dq^T; the FD error scales with F.
-      EXPECT_TRUE(MatricesNear(mt.tau, (-spec.max_force * dL).transpose().eval(),
-                               kFdTol * spec.max_force))
+      EXPECT_TRUE(
+          MatricesNear(mt.tau, (-spec.max_force * dL).transpose().eval(), kFdTol * spec.max_force))
           << spec.name;
     }
   }
@@ -188,8 +187,8 @@ TEST(RatKinematics, NominalEndpointMatchesHandComputedPose) {
   KinematicsWorkspace ws(model);
   const Eigen::VectorXd q = model.nominal_posture();
   const Eigen::Vector3d knee(0.031 * std::cos(Deg(-110)), 0.031 * std::sin(Deg(-110)), 0.0);
-  const Eigen::Vector3d ankle = knee + Eigen::Vector3d(0.041 * std::cos(Deg(-5)),
-                                                       0.041 * std::sin(Deg(-5)), 0.0);
+  const Eigen::Vector3d ankle =
+      knee + Eigen::Vector3d(0.041 * std::cos(Deg(-5)), 0.041 * std::sin(Deg(-5)), 0.0);
   const Eigen::Isometry3d X = isowrench::EndpointPose(model, ws, q);
   EXPECT_TRUE(MatricesNear(X.translation(), ankle, kClosedFormTol));
   EXPECT_TRUE(MatricesNear(X.linear(),
@@ -231,8 +230,8 @@ TEST(Planar2rKinematics, JacobianMatchesClosedForm) {
     expected(1, 1) = l2 * c12;
     expected(5, 0) = 1.0;
     expected(5, 1) = 1.0;
-    EXPECT_TRUE(MatricesNear(isowrench::EndpointJacobianWorld(model, ws, q), expected,
-                             kClosedFormTol))
+    EXPECT_TRUE(
+        MatricesNear(isowrench::EndpointJacobianWorld(model, ws, q), expected, kClosedFormTol))
         << "q = " << q.transpose();
     EXPECT_TRUE(MatricesNear(isowrench::EndpointPose(model, ws, q).translation(),
                              Eigen::Vector3d(l1 * c1 + l2 * c12, l1 * s1 + l2 * s12, 0.0),
@@ -253,9 +252,8 @@ TEST(Planar2rKinematics, BiarticularMuscleTorqueMatchesMomentOfThePull) {
     const Eigen::VectorXd q = RandomPosture(model, rng);
     const Eigen::Vector3d o(0.05, 0.06, 0.0);
     const Eigen::Vector3d elbow(0.30 * std::cos(q[0]), 0.30 * std::sin(q[0]), 0.0);
-    const Eigen::Vector3d p =
-        elbow + Eigen::AngleAxisd(q[0] + q[1], Eigen::Vector3d::UnitZ()) *
-                    Eigen::Vector3d(0.05, 0.02, 0.0);
+    const Eigen::Vector3d p = elbow + Eigen::AngleAxisd(q[0] + q[1], Eigen::Vector3d::UnitZ()) *
+                                          Eigen::Vector3d(0.05, 0.02, 0.0);
     const Eigen::Vector3d u = (o - p).normalized();
     const Eigen::Vector3d z = Eigen::Vector3d::UnitZ();
     Eigen::Vector2d tau(F * u.dot(z.cross(p)), F * u.dot(z.cross(p - elbow)));

@@ -84,7 +84,8 @@ TEST(ShippedModels, GracilisPosticusIsThePaperMuscle) {
   EXPECT_DOUBLE_EQ(gp.max_force, 2.3);
   ASSERT_EQ(gp.path.size(), 2u);
   EXPECT_EQ(gp.path[0].link, "ground");
-  EXPECT_TRUE(MatricesNear(gp.path[0].position, Eigen::Vector3d(0.01267, -0.010403, -0.00478), 0.0));
+  EXPECT_TRUE(
+      MatricesNear(gp.path[0].position, Eigen::Vector3d(0.01267, -0.010403, -0.00478), 0.0));
   EXPECT_EQ(gp.path[1].link, "tibia");
   EXPECT_TRUE(MatricesNear(gp.path[1].position, Eigen::Vector3d(0.0156, -0.00452, -0.00378), 0.0));
 }
@@ -129,8 +130,8 @@ TEST(TransducerPresets, MatchModelMd) {
   EXPECT_TRUE(MatricesNear(isowrench::TransducerPreset("ati-mini40"), ati, 0.0));
   EXPECT_TRUE(MatricesNear(isowrench::TransducerPreset("jr3"), jr3, 0.0));
   EXPECT_THAT([] { isowrench::TransducerPreset("kistler"); },
-              ThrowsMessage<isowrench::Error>(AllOf(HasSubstr("kistler"), HasSubstr("balanced"),
-                                                    HasSubstr("jr3"))));
+              ThrowsMessage<isowrench::Error>(
+                  AllOf(HasSubstr("kistler"), HasSubstr("balanced"), HasSubstr("jr3"))));
 }
 
 TEST(DescriptionEdits, WithBaseStiffnessReproducesTheBaseUrdf) {
@@ -216,7 +217,8 @@ class RoundTrip : public ::testing::TestWithParam<std::string> {};
 
 TEST_P(RoundTrip, WriteThenReadGivesAnEqualDescription) {
   const LimbDescription d = LoadDescription(GetParam());
-  const LimbDescription back = isowrench::ReadUrdfString(isowrench::WriteUrdfString(d), "round-trip");
+  const LimbDescription back =
+      isowrench::ReadUrdfString(isowrench::WriteUrdfString(d), "round-trip");
   ExpectSameDescription(d, back);
   EXPECT_TRUE(SameKinematics(Model(d), Model(back), 13));
 }

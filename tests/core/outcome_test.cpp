@@ -17,15 +17,17 @@ using isowrench::StaticsStatus;
 TEST(ClassicOutcome, BadInputIsNamedNotSilentZeros) {
   const isowrench::Matrix6Xd J = isowrench::Matrix6Xd::Identity(6, 2);
   const Eigen::Vector2d tau(1.0, 2.0);
-  const isowrench::ClassicResult none = isowrench::ClassicWrench(J, {{false, false, false, false, false, false}}, tau);
+  const isowrench::ClassicResult none =
+      isowrench::ClassicWrench(J, {{false, false, false, false, false, false}}, tau);
   EXPECT_EQ(none.status, StaticsStatus::kInvalidInput);
   EXPECT_NE(none.message.find("released"), std::string::npos) << none.message;
   EXPECT_EQ(none.wrench, isowrench::Vector6d::Zero());
-  const isowrench::ClassicResult nan =
-      isowrench::ClassicWrench(J, {{true, true, true, true, true, true}}, Eigen::Vector2d(1.0, std::nan("")));
+  const isowrench::ClassicResult nan = isowrench::ClassicWrench(
+      J, {{true, true, true, true, true, true}}, Eigen::Vector2d(1.0, std::nan("")));
   EXPECT_EQ(nan.status, StaticsStatus::kInvalidInput);
   EXPECT_NE(nan.message.find("tau"), std::string::npos) << nan.message;
-  const isowrench::ClassicResult sizes = isowrench::ClassicWrench(J, {{true, true, true, true, true, true}}, Eigen::Vector3d(1, 2, 3));
+  const isowrench::ClassicResult sizes =
+      isowrench::ClassicWrench(J, {{true, true, true, true, true, true}}, Eigen::Vector3d(1, 2, 3));
   EXPECT_EQ(sizes.status, StaticsStatus::kInvalidInput);
   EXPECT_NE(sizes.message.find("3 entries for 2 columns"), std::string::npos) << sizes.message;
 }
@@ -40,7 +42,8 @@ TEST(ClassicOutcome, SquareRestrainedRowsAreOk) {
   J(1, 1) = std::cos(q12);
   J(5, 0) = J(5, 1) = 1.0;
   const Eigen::Vector2d tau(0.2, -0.1);
-  const isowrench::ClassicResult r = isowrench::ClassicWrench(J, {{true, true, false, false, false, false}}, tau);
+  const isowrench::ClassicResult r =
+      isowrench::ClassicWrench(J, {{true, true, false, false, false, false}}, tau);
   EXPECT_EQ(r.status, StaticsStatus::kOk) << r.message;
   EXPECT_TRUE(r.square_inverse);
   // Cramer's rule on J_r^T W = tau.
@@ -53,8 +56,10 @@ TEST(ClassicOutcome, SquareRestrainedRowsAreOk) {
 // status says so and the residual is the part of tau outside range(J_r^T).
 TEST(ClassicOutcome, UnreachableTorqueIsSelfMotionWithTheResidual) {
   const isowrench::Model model = LoadModel("planar_4r.urdf");
-  const isowrench::WrenchEvaluation e = isowrench::EvaluateWrench(model, model.nominal_posture(), model.muscle(0).name);
-  const isowrench::ClassicResult r = isowrench::ClassicWrench(e.jacobian, {{true, true, false, false, false, false}}, e.tau);
+  const isowrench::WrenchEvaluation e =
+      isowrench::EvaluateWrench(model, model.nominal_posture(), model.muscle(0).name);
+  const isowrench::ClassicResult r =
+      isowrench::ClassicWrench(e.jacobian, {{true, true, false, false, false, false}}, e.tau);
   Eigen::MatrixXd JrT(e.jacobian.cols(), 2);
   JrT << e.jacobian.row(0).transpose(), e.jacobian.row(1).transpose();
   const Eigen::HouseholderQR<Eigen::MatrixXd> qr(JrT);

@@ -21,7 +21,7 @@ using isowrench::Vector6d;
 using ::testing::HasSubstr;
 using ::testing::ThrowsMessage;
 
-const char* kReleased = "released rz (5 forces)";         // column 1 (paper.hpp)
+const char* kReleased = "released rz (5 forces)";              // column 1 (paper.hpp)
 const char* kOverConstrained = "over-constrained (6 forces)";  // column 2
 
 // Identities between panels solved with balanced stiffness: rounding only, cond(K) <= ~1e4 at
@@ -38,8 +38,7 @@ const PaperPanel& Find(const std::vector<PaperPanel>& panels, int figure, const 
   for (const PaperPanel& p : panels) {
     if (p.figure == figure && p.row == row && p.column == column) return p;
   }
-  ADD_FAILURE() << "no panel: figure " << figure << " row " << row << " column '" << column
-                << "'";
+  ADD_FAILURE() << "no panel: figure " << figure << " row " << row << " column '" << column << "'";
   static const PaperPanel kNone;
   return kNone;
 }
@@ -132,8 +131,8 @@ TEST(PaperFigure3, LowBaseStiffnessGivesTheFemurRemovedWrench) {
   const isowrench::Model rat = LoadModel("rat_hindlimb_5dof.urdf");
   isowrench::KinematicsWorkspace ws(rat);
   const Eigen::VectorXd q = rat.nominal_posture();
-  const Eigen::Vector3d p = isowrench::PointPosition(rat, ws, q, "tibia",
-                                                     Eigen::Vector3d(0.0156, -0.00452, -0.00378));
+  const Eigen::Vector3d p =
+      isowrench::PointPosition(rat, ws, q, "tibia", Eigen::Vector3d(0.0156, -0.00452, -0.00378));
   const Eigen::Vector3d f = 2.3 * (Eigen::Vector3d(0.01267, -0.010403, -0.00478) - p).normalized();
   Vector6d w;
   w << f, (p - isowrench::EndpointPose(rat, ws, q).translation()).cross(f);

@@ -64,7 +64,8 @@ TEST(Posture, FormatThenApplyRoundTrips) {
     }
     if (text[i] != ' ') cleaned += text[i];
   }
-  const Eigen::VectorXd q = isowrench::ApplyPostureAssignments(rat, Eigen::VectorXd::Zero(5), cleaned);
+  const Eigen::VectorXd q =
+      isowrench::ApplyPostureAssignments(rat, Eigen::VectorXd::Zero(5), cleaned);
   // FormatPosture prints at least one decimal: 0.05 deg = 8.7e-4 rad is the rounding bound.
   EXPECT_TRUE(MatricesNear(q, rat.nominal_posture(), 8.8e-4)) << cleaned;
 }

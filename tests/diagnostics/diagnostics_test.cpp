@@ -4,6 +4,8 @@
 // differences of the library's own Eq. 10 for the analytic sensitivities, forward kinematics for
 // self-motions, and the potential for the nonlinear gradient.
 
+#include "isowrench/diagnostics.hpp"
+
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
@@ -13,7 +15,6 @@
 #include <random>
 #include <string>
 
-#include "isowrench/diagnostics.hpp"
 #include "isowrench/error.hpp"
 #include "isowrench/kinematics.hpp"
 #include "isowrench/model.hpp"
@@ -32,14 +33,19 @@ using ::testing::ThrowsMessage;
 constexpr double kPi = 3.14159265358979323846;
 double Deg(double d) { return d * kPi / 180.0; }
 
-std::string Urdf(const std::string& file) { return std::string(ISOWRENCH_TEST_URDF_DIR) + "/" + file; }
+std::string Urdf(const std::string& file) {
+  return std::string(ISOWRENCH_TEST_URDF_DIR) + "/" + file;
+}
 Model Load(const std::string& file) { return Model::FromUrdfFile(Urdf(file)); }
 
 // The rat's nominal geometry by hand (MODEL.md): hip at the origin, femur 31 mm and tibia 41 mm
 // along +x of their frames; hip rz -110°, knee rz 105°: the leg lies in the world xy plane.
-Eigen::Vector3d RatKnee() { return Eigen::AngleAxisd(Deg(-110), Eigen::Vector3d::UnitZ()) * Eigen::Vector3d(0.031, 0, 0); }
+Eigen::Vector3d RatKnee() {
+  return Eigen::AngleAxisd(Deg(-110), Eigen::Vector3d::UnitZ()) * Eigen::Vector3d(0.031, 0, 0);
+}
 Eigen::Vector3d RatAnkle() {
-  return RatKnee() + Eigen::AngleAxisd(Deg(-5), Eigen::Vector3d::UnitZ()) * Eigen::Vector3d(0.041, 0, 0);
+  return RatKnee() +
+         Eigen::AngleAxisd(Deg(-5), Eigen::Vector3d::UnitZ()) * Eigen::Vector3d(0.041, 0, 0);
 }
 
 // A release assessment with a one-point stiffness range (the range is not under test here).
@@ -77,9 +83,9 @@ TEST(Releases, RotationAboutAnkleKneeLineIsSelfMotion) {
   Model model = Load("rat_hindlimb_5dof.urdf");
   const Eigen::VectorXd q = model.nominal_posture();
   const Eigen::Vector3d axis = (RatKnee() - RatAnkle()).normalized();
-  auto a = isowrench::AssessRelease(model, q, "GP",
-                                    isowrench::MakeReleaseCandidate("ankle-knee", ReleaseKind::kRotation, axis),
-                                    QuickOptions());
+  auto a = isowrench::AssessRelease(
+      model, q, "GP", isowrench::MakeReleaseCandidate("ankle-knee", ReleaseKind::kRotation, axis),
+      QuickOptions());
   EXPECT_TRUE(a.self_motion);
   EXPECT_FALSE(a.torques_recoverable);
   EXPECT_FALSE(a.statics.ok());
@@ -94,9 +100,9 @@ TEST(Releases, RotationAboutAnkleKneeLineIsSelfMotion) {
 TEST(Releases, RotationAboutAnkleHipLineIsSelfMotion) {
   Model model = Load("rat_hindlimb_5dof.urdf");
   const Eigen::Vector3d axis = (Eigen::Vector3d::Zero() - RatAnkle()).normalized();
-  auto a = isowrench::AssessRelease(model, model.nominal_posture(), "GP",
-                                    isowrench::MakeReleaseCandidate("ankle-hip", ReleaseKind::kRotation, axis),
-                                    QuickOptions());
+  auto a = isowrench::AssessRelease(
+      model, model.nominal_posture(), "GP",
+      isowrench::MakeReleaseCandidate("ankle-hip", ReleaseKind::kRotation, axis), QuickOptions());
   EXPECT_TRUE(a.self_motion);
   // The whole leg turning rigidly about the hip-ankle line (a hip ball rotation) leaves the
   // ankle in place: check by forward kinematics that such a hip motion exists. The hip's
@@ -116,8 +122,9 @@ TEST(Releases, RotationAboutAnkleHipLineIsSelfMotion) {
 
 TEST(Releases, RotationAboutWorldZIsSafeAndMatched) {
   Model model = Load("rat_hindlimb_5dof.urdf");
-  auto a = isowrench::AssessRelease(model, model.nominal_posture(), "GP",
-                                    isowrench::MakeReleaseCandidate("z", ReleaseKind::kRotation, Eigen::Vector3d::UnitZ()));
+  auto a = isowrench::AssessRelease(
+      model, model.nominal_posture(), "GP",
+      isowrench::MakeReleaseCandidate("z", ReleaseKind::kRotation, Eigen::Vector3d::UnitZ()));
   EXPECT_FALSE(a.self_motion);
   EXPECT_FALSE(a.near_self_motion);
   EXPECT_FALSE(a.internal_wrench);
@@ -134,9 +141,10 @@ TEST(Releases, ColumnReleaseEqualsRowRelease) {
   // with column [0; e_z].
   Model model = Load("rat_hindlimb_5dof.urdf");
   const Eigen::VectorXd q = model.nominal_posture();
-  auto a = isowrench::AssessRelease(model, q, "GP",
-                                    isowrench::MakeReleaseCandidate("rz", ReleaseKind::kRotation, Eigen::Vector3d::UnitZ()),
-                                    QuickOptions());
+  auto a = isowrench::AssessRelease(
+      model, q, "GP",
+      isowrench::MakeReleaseCandidate("rz", ReleaseKind::kRotation, Eigen::Vector3d::UnitZ()),
+      QuickOptions());
   Model released(isowrench::WithReleasedDofs(model.description(), {"rz"}));
   auto e = isowrench::EvaluateWrench(released, q, "GP");
   ASSERT_TRUE(a.statics.ok());
@@ -166,8 +174,9 @@ TEST(Releases, SampledAxesAreFlaggedExactlyWhenInTheLegPlane) {
     // (a Gaussian sample within 1e-6 of the plane has probability ~1e-6).
     const bool lies_in_plane = std::abs(a.dot(normal)) < 1e-12;
     (lies_in_plane ? in_plane : off_plane)++;
-    auto r = isowrench::AssessRelease(model, q, "GP",
-                                      isowrench::MakeReleaseCandidate("sample", ReleaseKind::kRotation, a), options);
+    auto r = isowrench::AssessRelease(
+        model, q, "GP", isowrench::MakeReleaseCandidate("sample", ReleaseKind::kRotation, a),
+        options);
     EXPECT_EQ(r.self_motion, lies_in_plane) << "axis " << a.transpose() << ", margin " << r.margin;
   }
   EXPECT_EQ(in_plane, 20);
@@ -218,20 +227,29 @@ TEST(Releases, SpringHeldJointsDoNotCountAsSelfMotion) {
   // Base dofs carry springs: releasing rz on the 5-dof limb with a base is still matched on the
   // spring-free joints, so W does not depend on the base stiffness (identity 2 of MODEL.md).
   Model model = Load("rat_hindlimb_5dof_base.urdf");
-  auto a = isowrench::AssessRelease(model, model.nominal_posture(), "GP",
-                                    isowrench::MakeReleaseCandidate("rz", ReleaseKind::kRotation, Eigen::Vector3d::UnitZ()));
+  auto a = isowrench::AssessRelease(
+      model, model.nominal_posture(), "GP",
+      isowrench::MakeReleaseCandidate("rz", ReleaseKind::kRotation, Eigen::Vector3d::UnitZ()));
   EXPECT_FALSE(a.self_motion);
   EXPECT_FALSE(a.internal_wrench);
   EXPECT_LT(a.spread, 1e-6);
 }
 
 TEST(Releases, BadAxesAreRejectedWithClearMessages) {
-  EXPECT_THAT([] { isowrench::MakeReleaseCandidate("u", ReleaseKind::kRotation, Eigen::Vector3d::Zero()); },
-              ThrowsMessage<Error>(HasSubstr("'u' (0, 0, 0) has zero length")));
-  EXPECT_THAT([] { isowrench::MakeReleaseCandidate("v", ReleaseKind::kRotation, Eigen::Vector3d(NAN, 0, 1)); },
-              ThrowsMessage<Error>(HasSubstr("'v' (nan, 0, 1) has a non-finite component")));
-  EXPECT_THAT([] { isowrench::MakeReleaseCandidate("w", ReleaseKind::kTranslation, Eigen::Vector3d(INFINITY, 0, 0)); },
-              ThrowsMessage<Error>(HasSubstr("non-finite")));
+  EXPECT_THAT(
+      [] { isowrench::MakeReleaseCandidate("u", ReleaseKind::kRotation, Eigen::Vector3d::Zero()); },
+      ThrowsMessage<Error>(HasSubstr("'u' (0, 0, 0) has zero length")));
+  EXPECT_THAT(
+      [] {
+        isowrench::MakeReleaseCandidate("v", ReleaseKind::kRotation, Eigen::Vector3d(NAN, 0, 1));
+      },
+      ThrowsMessage<Error>(HasSubstr("'v' (nan, 0, 1) has a non-finite component")));
+  EXPECT_THAT(
+      [] {
+        isowrench::MakeReleaseCandidate("w", ReleaseKind::kTranslation,
+                                        Eigen::Vector3d(INFINITY, 0, 0));
+      },
+      ThrowsMessage<Error>(HasSubstr("non-finite")));
   // A valid axis is normalized.
   auto c = isowrench::MakeReleaseCandidate("ok", ReleaseKind::kRotation, Eigen::Vector3d(0, 0, 3));
   EXPECT_NEAR(c.axis_world.norm(), 1.0, 1e-15);
@@ -247,16 +265,17 @@ TEST(Releases, AlreadyReleasedAxesAreNotCandidatesAndDegenerateModelsDoNotCrash)
     EXPECT_NE(c.name, "ry");
     EXPECT_NE(c.name, "z");
   }
-  auto a = isowrench::AssessRelease(planar, planar.nominal_posture(), planar.muscle(0).name,
-                                    isowrench::MakeReleaseCandidate("in-plane", ReleaseKind::kRotation,
-                                                                    Eigen::Vector3d(1, 1, 0)),
-                                    QuickOptions());
+  auto a = isowrench::AssessRelease(
+      planar, planar.nominal_posture(), planar.muscle(0).name,
+      isowrench::MakeReleaseCandidate("in-plane", ReleaseKind::kRotation, Eigen::Vector3d(1, 1, 0)),
+      QuickOptions());
   EXPECT_THAT(a.verdict, HasSubstr("already free"));
   auto sweep = isowrench::SweepReleaseAxes(planar, planar.nominal_posture(), 20, 3);
   EXPECT_EQ(sweep.already_free + sweep.safe + sweep.near + sweep.self_motion, 20);
   // Every transducer dof released: no restrained rows; everything is self-motion, no crash.
   Model rat = Load("rat_hindlimb_5dof.urdf");
-  Model free_limb(isowrench::WithReleasedDofs(rat.description(), {"x", "y", "z", "rx", "ry", "rz"}));
+  Model free_limb(
+      isowrench::WithReleasedDofs(rat.description(), {"x", "y", "z", "rx", "ry", "rz"}));
   auto c = isowrench::AnalyzeConstraints(free_limb, free_limb.nominal_posture());
   EXPECT_EQ(c.rank, 0);
   EXPECT_EQ(c.self_motion.size(), 5u);
@@ -295,7 +314,8 @@ TEST(Constraints, FemurAxialRotationIsTheSelfMotionOfThe6DofLimb) {
   auto a = isowrench::AnalyzeConstraints(model, q);
   ASSERT_EQ(a.self_motion.size(), 1u);
   const Eigen::VectorXd d = a.self_motion[0].direction;
-  EXPECT_THAT(a.self_motion[0].interpretation, HasSubstr("femur axial rotation (about the hip-knee line)"));
+  EXPECT_THAT(a.self_motion[0].interpretation,
+              HasSubstr("femur axial rotation (about the hip-knee line)"));
   // By forward kinematics, independent of J: moving along d by eps keeps the knee centre and the
   // whole tibia pose fixed to first order (changes are O(eps^2) ~ 1e-12 m or rad), while the
   // femur turns by ~eps about its own long axis.
@@ -333,8 +353,8 @@ TEST(Constraints, InternalWrenchIsOrthogonalToTheRangeOfJ) {
   // The planar leg (xy plane): the internal wrench lives in fx, fy, mz.
   EXPECT_EQ(a.internal_wrench[0].components, (std::vector<int>{0, 1, 5}));
   // MODEL.md identity 6: two compliances give wrenches that differ only inside null(J^T).
-  Model soft_rot(isowrench::WithTransducerStiffness(rat.description(),
-                                                    (Vector6d() << 1e7, 1e7, 1e7, 1e3, 1e3, 1e3).finished()));
+  Model soft_rot(isowrench::WithTransducerStiffness(
+      rat.description(), (Vector6d() << 1e7, 1e7, 1e7, 1e3, 1e3, 1e3).finished()));
   Vector6d dW = isowrench::EvaluateWrench(soft_rot, rat.nominal_posture(), "GP").statics.wrench -
                 isowrench::EvaluateWrench(rat, rat.nominal_posture(), "GP").statics.wrench;
   const Vector6d n = a.internal_wrench[0].direction;
@@ -346,7 +366,8 @@ TEST(Constraints, InternalWrenchIsOrthogonalToTheRangeOfJ) {
 // ---- sensitivity --------------------------------------------------------------------------
 
 // dW/dlog k by central differences of EvaluateWrench on edited models: (W(k e^h) - W(k e^-h)) / 2h.
-Vector6d FiniteDifference(const Model& model, const std::function<isowrench::LimbDescription(double)>& edit, double k) {
+Vector6d FiniteDifference(const Model& model,
+                          const std::function<isowrench::LimbDescription(double)>& edit, double k) {
   const double h = 1e-4;
   const Eigen::VectorXd q = model.nominal_posture();
   Vector6d plus = isowrench::EvaluateWrench(Model(edit(k * std::exp(h))), q, "GP").statics.wrench;
@@ -355,7 +376,8 @@ Vector6d FiniteDifference(const Model& model, const std::function<isowrench::Lim
 }
 
 TEST(Sensitivity, AnalyticMatchesFiniteDifferences) {
-  for (const char* file : {"rat_hindlimb_5dof.urdf", "rat_hindlimb_5dof_base.urdf", "rat_hindlimb_6dof.urdf"}) {
+  for (const char* file :
+       {"rat_hindlimb_5dof.urdf", "rat_hindlimb_5dof_base.urdf", "rat_hindlimb_6dof.urdf"}) {
     Model model = Load(file);
     auto e = isowrench::EvaluateWrench(model, model.nominal_posture(), "GP");
     auto s = isowrench::ComputeStiffnessSensitivity(model, e);
@@ -374,7 +396,9 @@ TEST(Sensitivity, AnalyticMatchesFiniteDifferences) {
           return isowrench::WithTransducerStiffness(model.description(), st);
         };
       } else {
-        edit = [&](double k) { return isowrench::WithJointStiffness(model.description(), entry.parameter, k); };
+        edit = [&](double k) {
+          return isowrench::WithJointStiffness(model.description(), entry.parameter, k);
+        };
       }
       Vector6d fd = FiniteDifference(model, edit, entry.stiffness);
       // Truncation h^2/6 |W'''| ~ 1e-9 |W| plus rounding eps cond(K) / h ~ 1e-12 cond(K) |W|;
@@ -425,8 +449,9 @@ TEST(Sensitivity, MatchedLimbIsInsensitiveAndOverConstrainedIsNot) {
 // ---- large deflection ------------------------------------------------------------------
 
 TEST(LargeDeflection, GradientIsTheDerivativeOfThePotential) {
-  Model model(isowrench::WithTransducerStiffness(Load("rat_hindlimb_6dof.urdf").description(),
-                                                 (Vector6d() << 1e3, 2e3, 3e3, 1, 2, 0.5).finished()));
+  Model model(
+      isowrench::WithTransducerStiffness(Load("rat_hindlimb_6dof.urdf").description(),
+                                         (Vector6d() << 1e3, 2e3, 3e3, 1, 2, 0.5).finished()));
   const Eigen::VectorXd q0 = model.nominal_posture();
   std::mt19937_64 rng(7);
   std::uniform_real_distribution<double> u(-0.05, 0.05);
@@ -472,12 +497,14 @@ TEST(LargeDeflection, ConvergesToLinearWithErrorQuadraticInDisplacement) {
 
 TEST(LargeDeflection, PaperLiteralJr3StiffnessDepartsFromLinear) {
   Model base = Load("rat_hindlimb_5dof.urdf");
-  Model model(isowrench::WithTransducerStiffness(base.description(), isowrench::TransducerPreset("jr3")));
+  Model model(
+      isowrench::WithTransducerStiffness(base.description(), isowrench::TransducerPreset("jr3")));
   auto lin = isowrench::EvaluateWrench(model, model.nominal_posture(), "GP");
   EXPECT_FALSE(lin.statics.small_motion_valid);
   auto r = isowrench::SolveLargeDeflection(model, model.nominal_posture(), "GP");
   // Either no equilibrium near the posture, or one far from the linear answer.
-  const bool departs = r.status != isowrench::LargeDeflectionStatus::kConverged || r.wrench_relative_difference > 0.5;
+  const bool departs = r.status != isowrench::LargeDeflectionStatus::kConverged ||
+                       r.wrench_relative_difference > 0.5;
   EXPECT_TRUE(departs) << r.message << " relative difference " << r.wrench_relative_difference;
   EXPECT_GT(r.dtheta_difference, 0.1);
   EXPECT_FALSE(r.message.empty());
@@ -504,8 +531,9 @@ TEST(Diagnosis, PutsEverythingTogether) {
 
 TEST(PostureTable, ParsesDegreesAndKeepsUnlistedJoints) {
   Model model = Load("rat_hindlimb_5dof.urdf");
-  auto rows = isowrench::ParsePostureTable(model, "# comment\nlabel, hip_rz, knee_rx\nA, -100, 5\n\n, -90, 0\n",
-                                           "mem.csv", model.nominal_posture());
+  auto rows = isowrench::ParsePostureTable(
+      model, "# comment\nlabel, hip_rz, knee_rx\nA, -100, 5\n\n, -90, 0\n", "mem.csv",
+      model.nominal_posture());
   ASSERT_EQ(rows.size(), 2u);
   EXPECT_EQ(rows[0].label, "A");
   EXPECT_EQ(rows[1].label, "row 2");
@@ -519,8 +547,9 @@ TEST(PostureTable, ErrorsNameFileLineAndColumn) {
   const Eigen::VectorXd q = model.nominal_posture();
   EXPECT_THAT([&] { isowrench::ParsePostureTable(model, "hip_rz,elbow\n1,2\n", "p.csv", q); },
               ThrowsMessage<Error>(HasSubstr("p.csv:1: column 2 header 'elbow'")));
-  EXPECT_THAT([&] { isowrench::ParsePostureTable(model, "hip_rz,knee_rz\n1,abc\n", "p.csv", q); },
-              ThrowsMessage<Error>(HasSubstr("p.csv:2: column 2 (knee_rz): 'abc' is not a finite number")));
+  EXPECT_THAT(
+      [&] { isowrench::ParsePostureTable(model, "hip_rz,knee_rz\n1,abc\n", "p.csv", q); },
+      ThrowsMessage<Error>(HasSubstr("p.csv:2: column 2 (knee_rz): 'abc' is not a finite number")));
   EXPECT_THAT([&] { isowrench::ParsePostureTable(model, "hip_rz,knee_rz\n1,nan\n", "p.csv", q); },
               ThrowsMessage<Error>(HasSubstr("'nan' is not a finite number")));
   EXPECT_THAT([&] { isowrench::ParsePostureTable(model, "hip_rz,knee_rz\n1\n", "p.csv", q); },

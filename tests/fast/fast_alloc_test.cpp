@@ -27,7 +27,9 @@ void* operator new(std::size_t size, std::align_val_t alignment) {
   if (void* p = std::aligned_alloc(a, (size + a - 1) / a * a)) return p;
   throw std::bad_alloc();
 }
-void* operator new[](std::size_t size, std::align_val_t alignment) { return operator new(size, alignment); }
+void* operator new[](std::size_t size, std::align_val_t alignment) {
+  return operator new(size, alignment);
+}
 void operator delete(void* p) noexcept { std::free(p); }
 void operator delete[](void* p) noexcept { std::free(p); }
 void operator delete(void* p, std::size_t) noexcept { std::free(p); }
@@ -51,18 +53,22 @@ TEST(FastAllocation, CounterSeesAllocations) {
 
 TEST(FastAllocation, EvaluationsAllocateNothingAfterWarmUp) {
   using namespace isowrench;
-  const Model model = Model::FromUrdfFile(std::string(ISOWRENCH_TEST_URDF_DIR) + "/rat_hindlimb_5dof_base.urdf");
-  const Model rat6 = Model::FromUrdfFile(std::string(ISOWRENCH_TEST_URDF_DIR) + "/rat_hindlimb_6dof.urdf");
+  const Model model =
+      Model::FromUrdfFile(std::string(ISOWRENCH_TEST_URDF_DIR) + "/rat_hindlimb_5dof_base.urdf");
+  const Model rat6 =
+      Model::FromUrdfFile(std::string(ISOWRENCH_TEST_URDF_DIR) + "/rat_hindlimb_6dof.urdf");
   const CompiledModel compiled(model), compiled6(rat6);
   FastWorkspace ws(compiled), ws6(compiled6), raw(3);
-  const StiffnessSet stiffness = compiled.model_stiffness(), stiffness6 = compiled6.model_stiffness();
+  const StiffnessSet stiffness = compiled.model_stiffness(),
+                     stiffness6 = compiled6.model_stiffness();
   constexpr int kN = 2000;
   Eigen::MatrixXd postures(model.dof_count(), kN);
   std::mt19937 rng(11);
   std::uniform_real_distribution<double> angle(-kPi, kPi);
   for (int p = 0; p < kN; ++p) {
     for (int i = 0; i < model.dof_count(); ++i) {
-      postures(i, p) = model.joint(i).type == JointType::kPrismatic ? 0.001 * angle(rng) : angle(rng);
+      postures(i, p) =
+          model.joint(i).type == JointType::kPrismatic ? 0.001 * angle(rng) : angle(rng);
     }
   }
   Eigen::VectorXd straight = rat6.nominal_posture();
@@ -85,7 +91,8 @@ TEST(FastAllocation, EvaluationsAllocateNothingAfterWarmUp) {
   int held = 0;
   for (int p = 0; p < kN; ++p) {
     checksum += EvaluateFast(compiled, ws, postures.col(p), 0, stiffness).wrench.sum();
-    held += EvaluateFast(compiled6, ws6, straight, 0, stiffness6).status == StaticsStatus::kSelfMotionHeld;
+    held += EvaluateFast(compiled6, ws6, straight, 0, stiffness6).status ==
+            StaticsStatus::kSelfMotionHeld;
     checksum += SolveStaticsFast(raw, J, s_t, s_p, tau).wrench.sum();
   }
   const long allocations = g_allocations.load() - before;

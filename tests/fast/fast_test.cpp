@@ -48,9 +48,10 @@ constexpr double kKinematicsRelTol = 1e-12;
   const double diff = (a - b).cwiseAbs().maxCoeff();
   if (!(diff <= rel_tol * scale)) {
     Eigen::IOFormat fmt(Eigen::FullPrecision, 0, ", ", "\n", "  [", "]");
-    return ::testing::AssertionFailure()
-           << what << ": largest difference " << diff << " > " << rel_tol << " x " << scale
-           << "\nfast:\n" << a.format(fmt) << "\nreference:\n" << b.format(fmt);
+    return ::testing::AssertionFailure() << what << ": largest difference " << diff << " > "
+                                         << rel_tol << " x " << scale << "\nfast:\n"
+                                         << a.format(fmt) << "\nreference:\n"
+                                         << b.format(fmt);
   }
   return ::testing::AssertionSuccess();
 }
@@ -108,14 +109,18 @@ Model OddChain() {
   using isowrench::JointType;
   joint("fix0", JointType::kFixed, "ground", "mount", pose(0.01, -0.02, 0.03, 0.3, -0.2, 0.5),
         Eigen::Vector3d::UnitZ(), 0);
-  joint("j1", JointType::kRevolute, "mount", "a", pose(0, 0, 0.02, 0, 0, 0), -Eigen::Vector3d::UnitX(), 2.0);
+  joint("j1", JointType::kRevolute, "mount", "a", pose(0, 0, 0.02, 0, 0, 0),
+        -Eigen::Vector3d::UnitX(), 2.0);
   joint("j2", JointType::kRevolute, "a", "b", pose(0.05, 0.01, 0, 0.1, 0.2, -0.3),
         Eigen::Vector3d(1, 2, -0.5), 1.0);
-  joint("fix1", JointType::kFixed, "b", "b2", pose(0.02, 0, 0, 0, 0.4, 0), Eigen::Vector3d::UnitZ(), 0);
-  joint("j3", JointType::kPrismatic, "b2", "c", pose(0.0, 0.01, 0, 0, 0, 0.2), Eigen::Vector3d(0.3, -1, 0.2),
-        3e3);
-  joint("j4", JointType::kRevolute, "c", "d", pose(0.04, 0, 0, 0, 0, 0), -Eigen::Vector3d::UnitY(), 0.5);
-  joint("fix2", JointType::kFixed, "d", "tip", pose(0.03, 0.005, 0, -0.4, 0, 0.1), Eigen::Vector3d::UnitZ(), 0);
+  joint("fix1", JointType::kFixed, "b", "b2", pose(0.02, 0, 0, 0, 0.4, 0), Eigen::Vector3d::UnitZ(),
+        0);
+  joint("j3", JointType::kPrismatic, "b2", "c", pose(0.0, 0.01, 0, 0, 0, 0.2),
+        Eigen::Vector3d(0.3, -1, 0.2), 3e3);
+  joint("j4", JointType::kRevolute, "c", "d", pose(0.04, 0, 0, 0, 0, 0), -Eigen::Vector3d::UnitY(),
+        0.5);
+  joint("fix2", JointType::kFixed, "d", "tip", pose(0.03, 0.005, 0, -0.4, 0, 0.1),
+        Eigen::Vector3d::UnitZ(), 0);
   d.transducer.link = "tip";
   d.transducer.endpoint = Eigen::Vector3d(0.01, 0.002, -0.003);
   d.transducer.axes_in_world = false;
@@ -169,13 +174,16 @@ TEST(FastPath, JacobianTorqueAndWrenchEqualKdlOnRandomPostures) {
         ASSERT_TRUE(isowrench::ComputeFastKinematics(compiled, ws, q, mu, activation));
         const isowrench::Matrix6Xd J_ref = isowrench::EndpointJacobian(model, kdl, q);
         EXPECT_TRUE(Near(ws.jacobian(), J_ref, kKinematicsRelTol, "J_T_E"));
-        EXPECT_TRUE(Near(ws.endpoint_position(), isowrench::EndpointPose(model, kdl, q).translation(),
-                         kKinematicsRelTol, "endpoint"));
+        EXPECT_TRUE(Near(ws.endpoint_position(),
+                         isowrench::EndpointPose(model, kdl, q).translation(), kKinematicsRelTol,
+                         "endpoint"));
         EXPECT_TRUE(Near(ws.transducer_rotation(), isowrench::TransducerRotation(model, kdl, q),
                          kKinematicsRelTol, "R_W_T"));
-        const isowrench::MuscleTorque mt = isowrench::ComputeMuscleTorque(model, kdl, q, mu, activation);
+        const isowrench::MuscleTorque mt =
+            isowrench::ComputeMuscleTorque(model, kdl, q, mu, activation);
         EXPECT_TRUE(Near(ws.tau(), mt.tau, kKinematicsRelTol, "tau"));
-        EXPECT_TRUE(Near(ws.muscle_length_gradient().transpose(), mt.dL_dq, kKinematicsRelTol, "dL/dq"));
+        EXPECT_TRUE(
+            Near(ws.muscle_length_gradient().transpose(), mt.dL_dq, kKinematicsRelTol, "dL/dq"));
         EXPECT_NEAR(ws.muscle_length(), mt.length, 1e-15);
 
         const FastWrench w = isowrench::SolveFastStatics(compiled, ws, stiffness);
@@ -205,7 +213,8 @@ TEST(FastPath, ReportsSelfMotionLikeTheReferenceForPlanar4rWithoutJointStiffness
       isowrench::WithJointStiffness(
           isowrench::WithJointStiffness(
               isowrench::WithJointStiffness(
-                  isowrench::ReadUrdfFile(std::string(ISOWRENCH_TEST_URDF_DIR) + "/planar_4r.urdf"), "j1", 0),
+                  isowrench::ReadUrdfFile(std::string(ISOWRENCH_TEST_URDF_DIR) + "/planar_4r.urdf"),
+                  "j1", 0),
               "j2", 0),
           "j3", 0),
       "j4", 0));
@@ -222,8 +231,8 @@ TEST(FastPath, ReportsSelfMotionLikeTheReferenceForPlanar4rWithoutJointStiffness
   // Bases of a repeated (zero) eigenvalue are not unique: compare the projectors N N^T, and
   // check K N = 0 on the fast basis directly.
   const Eigen::MatrixXd N = ws.self_motion();
-  EXPECT_TRUE(Near(N * N.transpose(), ref.statics.self_motion * ref.statics.self_motion.transpose(), 1e-9,
-                   "null-space projector"));
+  EXPECT_TRUE(Near(N * N.transpose(), ref.statics.self_motion * ref.statics.self_motion.transpose(),
+                   1e-9, "null-space projector"));
   const Eigen::VectorXd s_t = compiled.model_stiffness().s_t;
   const Eigen::MatrixXd K = ws.jacobian().transpose() * s_t.asDiagonal() * ws.jacobian();
   EXPECT_LT((K * N).norm(), 1e-9 * K.norm());
@@ -234,7 +243,8 @@ TEST(FastPath, StraightKneeSingularKNotExcitedGivesTheUniqueWrench) {
   // (the femur-tibia axis) and neither has a spring, so K is singular with self-motion
   // n = (hip_rx - knee_rx)/sqrt(2). Both joints see the same muscle moment about that line, so
   // n . tau = 0: the self-motion is not excited and W is unique.
-  Model model = Model::FromUrdfFile(std::string(ISOWRENCH_TEST_URDF_DIR) + "/rat_hindlimb_6dof.urdf");
+  Model model =
+      Model::FromUrdfFile(std::string(ISOWRENCH_TEST_URDF_DIR) + "/rat_hindlimb_6dof.urdf");
   Eigen::VectorXd q = model.nominal_posture();
   q[model.JointIndex("knee_rz")] = 0.0;
   q[model.JointIndex("hip_ry")] = 0.3;
@@ -276,12 +286,7 @@ TEST(FastPath, StraightKneeSingularKNotExcitedGivesTheUniqueWrench) {
 TEST(FastPath, RawMatrixSolveSeparatesHeldAndExcitedSelfMotion) {
   // Two identical Jacobian columns without springs: null(K) = (e0 - e1)/sqrt(2).
   isowrench::Matrix6Xd J(6, 3);
-  J << 1, 1, 0,
-       0, 0, 1,
-       2, 2, 0,
-       0, 0, 3,
-       1, 1, 1,
-       0, 0, 0;
+  J << 1, 1, 0, 0, 0, 1, 2, 2, 0, 0, 0, 3, 1, 1, 1, 0, 0, 0;
   const isowrench::Vector6d s_t = isowrench::Vector6d::Constant(10.0);
   const Eigen::VectorXd s_p = Eigen::VectorXd::Zero(3);
   FastWorkspace ws(3);
@@ -308,7 +313,8 @@ TEST(FastPath, RawMatrixSolveSeparatesHeldAndExcitedSelfMotion) {
   // Bad input is a status, not an exception.
   Eigen::VectorXd bad_s_p = s_p;
   bad_s_p[1] = -1.0;
-  EXPECT_EQ(isowrench::SolveStaticsFast(ws, J, s_t, bad_s_p, tau).status, StaticsStatus::kInvalidInput);
+  EXPECT_EQ(isowrench::SolveStaticsFast(ws, J, s_t, bad_s_p, tau).status,
+            StaticsStatus::kInvalidInput);
   tau[0] = std::numeric_limits<double>::quiet_NaN();
   EXPECT_EQ(isowrench::SolveStaticsFast(ws, J, s_t, s_p, tau).status, StaticsStatus::kInvalidInput);
   EXPECT_EQ(isowrench::SolveStaticsFast(ws, J.leftCols(2), s_t, s_p, tau).status,
@@ -321,30 +327,35 @@ TEST(FastPath, RawMatrixSolveSeparatesHeldAndExcitedSelfMotion) {
 // promises, 16 m eps cond(K) relative to the largest entry (at least 1e-12): the stiffness sets
 // here reach cond(K) ~ 1e10, where a one-ulp change in K moves W by ~1e-6. A wrong index, lane
 // or sign gives O(1) differences.
-::testing::AssertionResult BatchMatchesSingle(const CompiledModel& compiled, const Eigen::MatrixXd& postures,
+::testing::AssertionResult BatchMatchesSingle(const CompiledModel& compiled,
+                                              const Eigen::MatrixXd& postures,
                                               const std::vector<StiffnessSet>& sets,
-                                              const std::vector<FastWrench>& batch, double activation,
-                                              const std::string& label) {
+                                              const std::vector<FastWrench>& batch,
+                                              double activation, const std::string& label) {
   FastWorkspace ws(compiled);
   if (batch.size() != static_cast<size_t>(postures.cols()) * sets.size()) {
     return ::testing::AssertionFailure() << label << ": " << batch.size() << " results";
   }
   for (int p = 0; p < postures.cols(); ++p) {
     for (size_t s = 0; s < sets.size(); ++s) {
-      const FastWrench single = isowrench::EvaluateFast(compiled, ws, postures.col(p), 0, sets[s], activation);
+      const FastWrench single =
+          isowrench::EvaluateFast(compiled, ws, postures.col(p), 0, sets[s], activation);
       const FastWrench& b = batch[static_cast<size_t>(p) * sets.size() + s];
-      const std::string where = label + ", posture " + std::to_string(p) + ", set " + std::to_string(s);
+      const std::string where =
+          label + ", posture " + std::to_string(p) + ", set " + std::to_string(s);
       if (b.status != single.status || b.self_motion_count != single.self_motion_count) {
-        return ::testing::AssertionFailure() << where << ": status " << static_cast<int>(b.status) << " vs "
-                                             << static_cast<int>(single.status);
+        return ::testing::AssertionFailure() << where << ": status " << static_cast<int>(b.status)
+                                             << " vs " << static_cast<int>(single.status);
       }
-      if (!b.wrench.allFinite()) return ::testing::AssertionFailure() << where << ": non-finite wrench";
+      if (!b.wrench.allFinite())
+        return ::testing::AssertionFailure() << where << ": non-finite wrench";
       double tolerance = kKinematicsRelTol;
       if (single.status == StaticsStatus::kOk) {
         const Eigen::MatrixXd J = ws.jacobian();
         const Eigen::MatrixXd K = J.transpose() * sets[s].s_t.asDiagonal() * J +
                                   Eigen::MatrixXd(sets[s].s_p.asDiagonal());
-        const Eigen::VectorXd lambda = Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd>(K).eigenvalues();
+        const Eigen::VectorXd lambda =
+            Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd>(K).eigenvalues();
         const double cond = lambda.maxCoeff() / lambda.minCoeff();
         tolerance = std::max(tolerance, 16.0 * static_cast<double>(K.rows()) * kEps * cond);
       }
@@ -356,7 +367,8 @@ TEST(FastPath, RawMatrixSolveSeparatesHeldAndExcitedSelfMotion) {
 }
 
 TEST(FastPath, BatchEqualsSingleEvaluationsOnBothThreads) {
-  Model model = Model::FromUrdfFile(std::string(ISOWRENCH_TEST_URDF_DIR) + "/rat_hindlimb_5dof_base.urdf");
+  Model model =
+      Model::FromUrdfFile(std::string(ISOWRENCH_TEST_URDF_DIR) + "/rat_hindlimb_5dof_base.urdf");
   CompiledModel compiled(model);
   std::mt19937 rng(7);
   constexpr int kPostures = 701;  // many units for both threads, and a tail of one posture
@@ -418,7 +430,8 @@ TEST(FastPath, BatchLanesEqualSingleOnEveryModelIncludingUndecidedLanes) {
       isowrench::EvaluateBatch(compiled, postures, 0, sets, batch, 0.7, options);
       EXPECT_TRUE(BatchMatchesSingle(compiled, postures, sets, batch, 0.7, "postures x sets"));
       for (const FastWrench& w : batch) {
-        saw_self_motion |= w.status == StaticsStatus::kSelfMotion || w.status == StaticsStatus::kSelfMotionHeld;
+        saw_self_motion |=
+            w.status == StaticsStatus::kSelfMotion || w.status == StaticsStatus::kSelfMotionHeld;
         saw_invalid |= w.status == StaticsStatus::kInvalidInput;
       }
     }
@@ -432,7 +445,8 @@ TEST(FastPath, BatchLanesEqualSingleOnEveryModelIncludingUndecidedLanes) {
     many[7] = negative;
     std::vector<FastWrench> batch;
     isowrench::EvaluateBatch(compiled, postures.leftCols(1), 0, many, batch, 1.0);
-    EXPECT_TRUE(BatchMatchesSingle(compiled, postures.leftCols(1), many, batch, 1.0, "one posture x sets"));
+    EXPECT_TRUE(
+        BatchMatchesSingle(compiled, postures.leftCols(1), many, batch, 1.0, "one posture x sets"));
   }
   EXPECT_TRUE(saw_self_motion);  // the scalar fallback ran
   EXPECT_TRUE(saw_invalid);
@@ -443,9 +457,9 @@ TEST(FastPath, BatchLanesEqualSingleOnEveryModelIncludingUndecidedLanes) {
 TEST(FastPath, BatchLaneAnglesAcrossQuadrantsAndHugeAnglesEqualSingle) {
   Model model = Model::FromUrdfFile(std::string(ISOWRENCH_TEST_URDF_DIR) + "/planar_2r.urdf");
   CompiledModel compiled(model);
-  const std::vector<double> angles = {0.0,          kPi / 4,      kPi / 2,    -kPi / 2,    kPi - 1e-9,
-                                      -kPi,         3 * kPi / 2,  7.0,        -123.456,    99999.5,
-                                      1e5 + 0.25,   -2.5e6,       1e12,       kPi / 4 - 1e-15};
+  const std::vector<double> angles = {0.0,        kPi / 4,     kPi / 2, -kPi / 2,       kPi - 1e-9,
+                                      -kPi,       3 * kPi / 2, 7.0,     -123.456,       99999.5,
+                                      1e5 + 0.25, -2.5e6,      1e12,    kPi / 4 - 1e-15};
   Eigen::MatrixXd postures(2, static_cast<int>(angles.size()));
   for (size_t i = 0; i < angles.size(); ++i) {
     postures(0, static_cast<int>(i)) = angles[i];
@@ -463,15 +477,18 @@ TEST(FastPath, BatchRejectsBadInputNamingIt) {
   std::vector<FastWrench> out;
   std::vector<StiffnessSet> sets = {compiled.model_stiffness()};
   using ::testing::HasSubstr;
-  EXPECT_THAT([&] { isowrench::EvaluateBatch(compiled, Eigen::MatrixXd::Zero(3, 4), 0, sets, out); },
-              ::testing::ThrowsMessage<isowrench::Error>(HasSubstr("3 rows")));
-  EXPECT_THAT([&] { isowrench::EvaluateBatch(compiled, Eigen::MatrixXd::Zero(2, 4), 5, sets, out); },
-              ::testing::ThrowsMessage<isowrench::Error>(HasSubstr("muscle index 5")));
+  EXPECT_THAT(
+      [&] { isowrench::EvaluateBatch(compiled, Eigen::MatrixXd::Zero(3, 4), 0, sets, out); },
+      ::testing::ThrowsMessage<isowrench::Error>(HasSubstr("3 rows")));
+  EXPECT_THAT(
+      [&] { isowrench::EvaluateBatch(compiled, Eigen::MatrixXd::Zero(2, 4), 5, sets, out); },
+      ::testing::ThrowsMessage<isowrench::Error>(HasSubstr("muscle index 5")));
   Eigen::MatrixXd nan_postures = Eigen::MatrixXd::Zero(2, 4);
   nan_postures(1, 2) = std::numeric_limits<double>::quiet_NaN();
   EXPECT_THAT([&] { isowrench::EvaluateBatch(compiled, nan_postures, 0, sets, out); },
               ::testing::ThrowsMessage<isowrench::Error>(HasSubstr("non-finite")));
-  EXPECT_THAT([] { FastWorkspace ws(0); }, ::testing::ThrowsMessage<isowrench::Error>(HasSubstr("dof count 0")));
+  EXPECT_THAT([] { FastWorkspace ws(0); },
+              ::testing::ThrowsMessage<isowrench::Error>(HasSubstr("dof count 0")));
 }
 
 TEST(FastPath, CoincidentPathPointsGiveInvalidInputNotNaN) {
@@ -483,15 +500,16 @@ TEST(FastPath, CoincidentPathPointsGiveInvalidInputNotNaN) {
   Model model(d);
   CompiledModel compiled(model);
   FastWorkspace ws(compiled);
-  const FastWrench w = isowrench::EvaluateFast(compiled, ws, model.nominal_posture(), 1,
-                                               compiled.model_stiffness());
+  const FastWrench w =
+      isowrench::EvaluateFast(compiled, ws, model.nominal_posture(), 1, compiled.model_stiffness());
   EXPECT_EQ(w.status, StaticsStatus::kInvalidInput);
   EXPECT_TRUE(w.wrench.allFinite());
   // The lane kernel flags the same lanes (here all five postures, set by set).
   Eigen::MatrixXd postures(2, 5);
   for (int p = 0; p < 5; ++p) postures.col(p) = model.nominal_posture() * (1.0 + 0.1 * p);
   std::vector<FastWrench> batch;
-  isowrench::EvaluateBatch(compiled, postures, 1, {compiled.model_stiffness(), compiled.model_stiffness()}, batch);
+  isowrench::EvaluateBatch(compiled, postures, 1,
+                           {compiled.model_stiffness(), compiled.model_stiffness()}, batch);
   ASSERT_EQ(batch.size(), 10u);
   for (const FastWrench& b : batch) {
     EXPECT_EQ(b.status, StaticsStatus::kInvalidInput);

@@ -26,7 +26,8 @@ struct CliRun {
 
 CliRun RunCli(const std::string& args, const std::filesystem::path& dir) {
   const std::filesystem::path log = dir / "cli.log";
-  const std::string command = std::string(ISOWRENCH_CLI) + " " + args + " > " + log.string() + " 2>&1";
+  const std::string command =
+      std::string(ISOWRENCH_CLI) + " " + args + " > " + log.string() + " 2>&1";
   const int status = std::system(command.c_str());
   CliRun run;
   run.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
@@ -56,8 +57,11 @@ TEST(SweepCli, CsvRowsEqualEvaluateWrenchWithUnitsInHeader) {
   const auto dir = TempDir("rows");
   const std::string urdf = std::string(ISOWRENCH_TEST_URDF_DIR) + "/planar_2r.urdf";
   const std::string csv = (dir / "out.csv").string();
-  const CliRun run = RunCli("sweep " + urdf + " --grid shoulder=10:50:20 --grid elbow=0:90:45 "
-                         "--stiffness-ratio 1,0.01 --muscle biarticular -o " + csv, dir);
+  const CliRun run = RunCli("sweep " + urdf +
+                                " --grid shoulder=10:50:20 --grid elbow=0:90:45 "
+                                "--stiffness-ratio 1,0.01 --muscle biarticular -o " +
+                                csv,
+                            dir);
   ASSERT_EQ(run.exit_code, 0) << run.output;
   EXPECT_THAT(run.output, ::testing::HasSubstr("9 postures x 2 stiffness ratios = 18 evaluations"));
 
@@ -91,7 +95,8 @@ TEST(SweepCli, CsvRowsEqualEvaluateWrenchWithUnitsInHeader) {
         // The CSV has 10 significant digits: 1e-9 of the largest component covers rounding.
         const double scale = e.statics.wrench.cwiseAbs().maxCoeff();
         for (int k = 0; k < 6; ++k) {
-          EXPECT_NEAR(std::stod(cells[static_cast<size_t>(4 + k)]), e.statics.wrench[k], 1e-9 * scale)
+          EXPECT_NEAR(std::stod(cells[static_cast<size_t>(4 + k)]), e.statics.wrench[k],
+                      1e-9 * scale)
               << "row " << row << ", component " << k;
         }
       }
@@ -103,7 +108,8 @@ TEST(SweepCli, UnknownGridJointExitsOneNamingItAndWritesNothing) {
   const auto dir = TempDir("bad_joint");
   const std::string csv = (dir / "out.csv").string();
   const CliRun run = RunCli("sweep " + std::string(ISOWRENCH_TEST_URDF_DIR) +
-                         "/planar_2r.urdf --grid wrist=0:10:1 -o " + csv, dir);
+                                "/planar_2r.urdf --grid wrist=0:10:1 -o " + csv,
+                            dir);
   EXPECT_EQ(run.exit_code, 1);
   EXPECT_THAT(run.output, ::testing::HasSubstr("isowrench: error: unknown coordinate 'wrist'"));
   EXPECT_FALSE(std::filesystem::exists(csv));

@@ -92,8 +92,8 @@ TEST(SimmSpline, EndThirdDerivativesAreThoseOfTheEndCubics) {
   auto third = [&](double a, double b) {
     return (f.SecondDerivative(b) - f.SecondDerivative(a)) / (b - a);
   };
-  const double first = third(kKnots[0] + 0.1 * (kKnots[1] - kKnots[0]),
-                             kKnots[0] + 0.9 * (kKnots[1] - kKnots[0]));
+  const double first =
+      third(kKnots[0] + 0.1 * (kKnots[1] - kKnots[0]), kKnots[0] + 0.9 * (kKnots[1] - kKnots[0]));
   const double last = third(kKnots[n - 2] + 0.1 * (kKnots[n - 1] - kKnots[n - 2]),
                             kKnots[n - 2] + 0.9 * (kKnots[n - 1] - kKnots[n - 2]));
   EXPECT_NEAR(first, 6 * ThirdDividedDifference(kKnots, y, 0), 1e-9);
@@ -173,8 +173,8 @@ TEST(PiecewiseLinear, SegmentsSlopesAndExtrapolation) {
   EXPECT_NEAR(f.Value(2.0), 2.5, kExact);
   EXPECT_NEAR(f.Derivative(0.5), 2.0, kExact);
   EXPECT_NEAR(f.Derivative(2.5), -0.5, kExact);
-  EXPECT_NEAR(f.Value(-1), -1.0, kExact);     // first slope 2 continued
-  EXPECT_NEAR(f.Value(5), 1.0, kExact);       // last slope -0.5 continued
+  EXPECT_NEAR(f.Value(-1), -1.0, kExact);  // first slope 2 continued
+  EXPECT_NEAR(f.Value(5), 1.0, kExact);    // last slope -0.5 continued
   EXPECT_EQ(f.SecondDerivative(0.5), 0.0);
   // OpenSim's binary search stops at k = 1 for x = x[1] = 1 (3 knots: k = (0+3)/2 = 1, and
   // x[1] <= 1 <= x[2]): the slope of the segment to the right.
@@ -247,18 +247,33 @@ TEST(AllKinds, DerivativesMatchFiniteDifferences) {
 
 TEST(BadKnots, ErrorsNameTheRule) {
   const double nan = std::numeric_limits<double>::quiet_NaN();
-  EXPECT_THAT([] { Function::SimmSpline({0, 2, 1}, {0, 1, 2}); },
-              ThrowsMessage<Error>(HasSubstr("strictly increasing: x[2] = 1 is below x[1] = 2")));
-  EXPECT_THAT([] { Function::PiecewiseLinear({0, 1, 1}, {0, 1, 2}); },
-              ThrowsMessage<Error>(HasSubstr("x[2] = 1 duplicates x[1] = 1")));
+  EXPECT_THAT(
+      [] {
+        Function::SimmSpline({0, 2, 1}, {0, 1, 2});
+      },
+      ThrowsMessage<Error>(HasSubstr("strictly increasing: x[2] = 1 is below x[1] = 2")));
+  EXPECT_THAT(
+      [] {
+        Function::PiecewiseLinear({0, 1, 1}, {0, 1, 2});
+      },
+      ThrowsMessage<Error>(HasSubstr("x[2] = 1 duplicates x[1] = 1")));
   EXPECT_THAT([] { Function::NaturalCubicSpline({0}, {0}); },
               ThrowsMessage<Error>(HasSubstr("1 knot(s); it needs at least 2")));
-  EXPECT_THAT([nan] { Function::SimmSpline({0, nan, 2}, {0, 1, 2}); },
-              ThrowsMessage<Error>(HasSubstr("x[1] = nan is not finite")));
-  EXPECT_THAT([nan] { Function::SimmSpline({0, 1, 2}, {0, 1, nan}); },
-              ThrowsMessage<Error>(HasSubstr("y[2] = nan is not finite")));
-  EXPECT_THAT([] { Function::SimmSpline({0, 1, 2}, {0, 1}); },
-              ThrowsMessage<Error>(HasSubstr("3 x values but 2 y values")));
+  EXPECT_THAT(
+      [nan] {
+        Function::SimmSpline({0, nan, 2}, {0, 1, 2});
+      },
+      ThrowsMessage<Error>(HasSubstr("x[1] = nan is not finite")));
+  EXPECT_THAT(
+      [nan] {
+        Function::SimmSpline({0, 1, 2}, {0, 1, nan});
+      },
+      ThrowsMessage<Error>(HasSubstr("y[2] = nan is not finite")));
+  EXPECT_THAT(
+      [] {
+        Function::SimmSpline({0, 1, 2}, {0, 1});
+      },
+      ThrowsMessage<Error>(HasSubstr("3 x values but 2 y values")));
   EXPECT_THAT([] { Function::Polynomial({}); },
               ThrowsMessage<Error>(HasSubstr("needs at least 1")));
   EXPECT_THAT([nan] { Function::Constant(nan); }, ThrowsMessage<Error>(HasSubstr("not finite")));

@@ -46,10 +46,12 @@ TEST(FunctionXml, ParsesEveryKind) {
 
 TEST(FunctionXml, WriteThenParseEvaluatesBitForBit) {
   const std::vector<Function> functions = {
-      Function::Constant(0.1), Function::Linear(1.0 / 3.0, -0.2),
+      Function::Constant(0.1),
+      Function::Linear(1.0 / 3.0, -0.2),
       Function::SimmSpline({-2.0944, -1.3, -0.7, 0.1745329}, {0.0011, 0.0031, -0.0007, 0.002}),
       Function::NaturalCubicSpline({0, 0.3, 1}, {1.0 / 7.0, 2, 3}),
-      Function::PiecewiseLinear({0, 1}, {0.1, 0.7}), Function::Polynomial({M_PI, 0, 1e-300}),
+      Function::PiecewiseLinear({0, 1}, {0.1, 0.7}),
+      Function::Polynomial({M_PI, 0, 1e-300}),
       Function::Multiplier(Function::Multiplier(Function::SimmSpline({0, 1}, {0, 1}), 0.5), -3)};
   for (const Function& f : functions) {
     const std::string xml = FunctionXmlText(f, "  ");
@@ -82,8 +84,9 @@ TEST(FunctionXml, ErrorsNameFileLineElementAndRule) {
                                              "function element; expected one of")));
   EXPECT_THAT(
       [] {
-        ParseFirst("<isowrench:multiplier scale=\"2\">\n<isowrench:constant value=\"1\"/>\n"
-                   "<isowrench:constant value=\"2\"/>\n</isowrench:multiplier>");
+        ParseFirst(
+            "<isowrench:multiplier scale=\"2\">\n<isowrench:constant value=\"1\"/>\n"
+            "<isowrench:constant value=\"2\"/>\n</isowrench:multiplier>");
       },
       ThrowsMessage<Error>(HasSubstr("knee.urdf:4: <isowrench:multiplier> holds a second "
                                      "function element <isowrench:constant> (line 3")));
@@ -92,8 +95,9 @@ TEST(FunctionXml, ErrorsNameFileLineElementAndRule) {
                                              "function element")));
   EXPECT_THAT(
       [] {
-        ParseFirst("<isowrench:multiplier scale=\"2\">\n<isowrench:simm_spline x=\"1 0\" "
-                   "y=\"0 1\"/>\n</isowrench:multiplier>");
+        ParseFirst(
+            "<isowrench:multiplier scale=\"2\">\n<isowrench:simm_spline x=\"1 0\" "
+            "y=\"0 1\"/>\n</isowrench:multiplier>");
       },
       ThrowsMessage<Error>(HasSubstr("knee.urdf:3: <isowrench:simm_spline>: SimmSpline knots")));
 }

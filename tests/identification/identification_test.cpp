@@ -2,6 +2,8 @@
 // and the fit loop on data with undeclared effects (detection, parameter recovery, false
 // alarms, two effects, an effect outside the library, unidentifiable effects).
 
+#include "isowrench/identification.hpp"
+
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
@@ -14,7 +16,6 @@
 #include <sstream>
 
 #include "isowrench/error.hpp"
-#include "isowrench/identification.hpp"
 #include "isowrench/statics.hpp"
 
 namespace isowrench {
@@ -53,8 +54,8 @@ Model RatWithoutHipRx() {
   return Model(d);
 }
 
-std::vector<Trial> Simulate(const Model& model, const std::vector<std::string>& effects, unsigned long long seed,
-                            int postures = kTrials) {
+std::vector<Trial> Simulate(const Model& model, const std::vector<std::string>& effects,
+                            unsigned long long seed, int postures = kTrials) {
   std::vector<AppliedEffect> applied;
   for (const std::string& e : effects) applied.push_back(ParseEffectAssignment(model, e));
   SimulationOptions o;
@@ -82,7 +83,8 @@ TEST(TrialCsv, WriteThenReadReturnsTheSameTrials) {
     EXPECT_NEAR(read[k].activation, trials[k].activation, 1e-9);
     EXPECT_TRUE(read[k].has_sd);
     for (int c = 0; c < 6; ++c) {
-      EXPECT_NEAR(read[k].wrench[c], trials[k].wrench[c], 1e-9 * std::max(1.0, std::abs(trials[k].wrench[c])));
+      EXPECT_NEAR(read[k].wrench[c], trials[k].wrench[c],
+                  1e-9 * std::max(1.0, std::abs(trials[k].wrench[c])));
       EXPECT_NEAR(read[k].sd[c], trials[k].sd[c], 1e-12);
     }
     for (int j = 0; j < model.dof_count(); ++j) EXPECT_NEAR(read[k].q[j], trials[k].q[j], 1e-9);
@@ -99,7 +101,8 @@ TEST(TrialCsv, MissingJointColumnsTakeTheNominalPostureAndSdIsOptional) {
   EXPECT_FALSE(t.has_sd);
   EXPECT_DOUBLE_EQ(t.activation, 1.0);
   EXPECT_NEAR(t.q[model.JointIndex("knee_rz")], M_PI / 2, 1e-15);
-  EXPECT_NEAR(t.q[model.JointIndex("hip_rz")], model.nominal_posture()[model.JointIndex("hip_rz")], 1e-15);
+  EXPECT_NEAR(t.q[model.JointIndex("hip_rz")], model.nominal_posture()[model.JointIndex("hip_rz")],
+              1e-15);
   EXPECT_EQ(t.wrench, (Vector6d() << 1, 2, 3, 4, 5, 6).finished());
   EXPECT_FALSE(reader.Next(&t));
 }
@@ -120,9 +123,11 @@ std::string ReadError(const std::string& text) {
 
 TEST(TrialCsv, ErrorsNameTheLineAndColumn) {
   const std::string header = "hip_rz,muscle,activation,fx,fy,fz,mx,my,mz\n";
-  EXPECT_THAT(ReadError("hip_zz,muscle,fx,fy,fz,mx,my,mz\n"),
-              AllOf(HasSubstr("bad.csv:1"), HasSubstr("column 1 'hip_zz'"), HasSubstr("unknown column")));
-  EXPECT_THAT(ReadError("hip_rz,muscle,fx,fz,mx,my,mz\n"), AllOf(HasSubstr("bad.csv:1"), HasSubstr("fy")));
+  EXPECT_THAT(
+      ReadError("hip_zz,muscle,fx,fy,fz,mx,my,mz\n"),
+      AllOf(HasSubstr("bad.csv:1"), HasSubstr("column 1 'hip_zz'"), HasSubstr("unknown column")));
+  EXPECT_THAT(ReadError("hip_rz,muscle,fx,fz,mx,my,mz\n"),
+              AllOf(HasSubstr("bad.csv:1"), HasSubstr("fy")));
   EXPECT_THAT(ReadError(header + "-110,GP,1,0.1,0.2,nan,0,0,0\n"),
               AllOf(HasSubstr("bad.csv:2"), HasSubstr("column 6 'fz'"), HasSubstr("not finite")));
   EXPECT_THAT(ReadError(header + "-110,GP,1,0.1,0.2,abc,0,0,0\n"),
@@ -131,8 +136,9 @@ TEST(TrialCsv, ErrorsNameTheLineAndColumn) {
               AllOf(HasSubstr("bad.csv:2"), HasSubstr("expected 9 fields"), HasSubstr("found 8")));
   EXPECT_THAT(ReadError(header + "-110,TA,1,0.1,0.2,0.3,0,0,0\n"),
               AllOf(HasSubstr("bad.csv:2"), HasSubstr("'muscle'"), HasSubstr("TA")));
-  EXPECT_THAT(ReadError(header + "\n# note\n-110,GP,1,0.1,0.2,0.3,0,0,0\n-110,GP,-1,0.1,0.2,0.3,0,0,0\n"),
-              AllOf(HasSubstr("bad.csv:5"), HasSubstr("activation")));
+  EXPECT_THAT(
+      ReadError(header + "\n# note\n-110,GP,1,0.1,0.2,0.3,0,0,0\n-110,GP,-1,0.1,0.2,0.3,0,0,0\n"),
+      AllOf(HasSubstr("bad.csv:5"), HasSubstr("activation")));
   EXPECT_THAT(ReadError("muscle,fx,fy,fz,mx,my,mz,sd_fx\n"), HasSubstr("sd_fy"));
   EXPECT_THAT(ReadError(""), HasSubstr("no header"));
 }
@@ -145,7 +151,8 @@ TEST(Prediction, MatchesEvaluateWrenchTrialByTrial) {
   Prediction p = PredictTrials(model, trials);
   ASSERT_EQ(p.failed, 0);
   for (size_t k = 0; k < trials.size(); ++k) {
-    Vector6d w = EvaluateWrench(model, trials[k].q, trials[k].muscle, trials[k].activation).statics.wrench;
+    Vector6d w =
+        EvaluateWrench(model, trials[k].q, trials[k].muscle, trials[k].activation).statics.wrench;
     EXPECT_LE((p.wrench[k] - w).norm(), kIdentityTolerance * w.norm());
   }
 }
@@ -156,14 +163,17 @@ TEST(Effects, SensorOffsetAddsAndForceScaleMultiplies) {
   Prediction nominal = PredictTrials(model, trials);
   Vector6d offset;
   offset << 0.1, -0.2, 0.3, 0.01, -0.02, 0.03;
-  AugmentedModel shifted = ApplyEffects(
-      model.description(), {ParseEffectAssignment(model, "sensor_offset=0.1,-0.2,0.3,0.01,-0.02,0.03")});
-  AugmentedModel scaled = ApplyEffects(model.description(), {ParseEffectAssignment(model, "force_scale:GP=0.8")});
+  AugmentedModel shifted =
+      ApplyEffects(model.description(),
+                   {ParseEffectAssignment(model, "sensor_offset=0.1,-0.2,0.3,0.01,-0.02,0.03")});
+  AugmentedModel scaled =
+      ApplyEffects(model.description(), {ParseEffectAssignment(model, "force_scale:GP=0.8")});
   Prediction a = PredictTrials(Model(shifted.description), trials, shifted.sensor_offset);
   Prediction b = PredictTrials(Model(scaled.description), trials, scaled.sensor_offset);
   for (size_t k = 0; k < trials.size(); ++k) {
     EXPECT_LE((a.wrench[k] - nominal.wrench[k] - offset).norm(), kIdentityTolerance);
-    EXPECT_LE((b.wrench[k] - 0.8 * nominal.wrench[k]).norm(), kIdentityTolerance * nominal.wrench[k].norm());
+    EXPECT_LE((b.wrench[k] - 0.8 * nominal.wrench[k]).norm(),
+              kIdentityTolerance * nominal.wrench[k].norm());
   }
 }
 
@@ -173,14 +183,16 @@ TEST(Effects, MisalignmentRotatesTheReadingWithAnIsotropicTransducer) {
   Model model = Rat();
   std::vector<Trial> trials = Simulate(model, {}, 13, 4);
   Prediction nominal = PredictTrials(model, trials);
-  AugmentedModel turned = ApplyEffects(model.description(), {ParseEffectAssignment(model, "misalignment=3,-2,5")});
+  AugmentedModel turned =
+      ApplyEffects(model.description(), {ParseEffectAssignment(model, "misalignment=3,-2,5")});
   Prediction p = PredictTrials(Model(turned.description), trials);
   Eigen::Vector3d v(3, -2, 5);
   v *= M_PI / 180;
   Eigen::Matrix3d R = Eigen::AngleAxisd(v.norm(), v.normalized()).toRotationMatrix();
   for (size_t k = 0; k < trials.size(); ++k) {
     Vector6d expected;
-    expected << R.transpose() * nominal.wrench[k].head<3>(), R.transpose() * nominal.wrench[k].tail<3>();
+    expected << R.transpose() * nominal.wrench[k].head<3>(),
+        R.transpose() * nominal.wrench[k].tail<3>();
     EXPECT_LE((p.wrench[k] - expected).norm(), 1e-10 * expected.norm());
   }
 }
@@ -196,8 +208,9 @@ TEST(Effects, LibraryOfTheRatLimbHasEveryKind) {
   EXPECT_EQ(kinds, registered);
   EXPECT_THAT(ParseEffectAssignment(Rat(), "base_isotropic=1e6").effect.id, "base_isotropic");
   EXPECT_THROW(ParseEffectAssignment(Rat(), "misalignment=1"), Error);
-  EXPECT_THAT([] { ParseEffectAssignment(Rat(), "wobble=1"); },
-              ::testing::ThrowsMessage<Error>(AllOf(HasSubstr("wobble"), HasSubstr("base_isotropic"))));
+  EXPECT_THAT(
+      [] { ParseEffectAssignment(Rat(), "wobble=1"); },
+      ::testing::ThrowsMessage<Error>(AllOf(HasSubstr("wobble"), HasSubstr("base_isotropic"))));
 }
 
 TEST(Simulation, SameSeedSameDataAndNoiseHasTheStatedSd) {
@@ -238,14 +251,15 @@ double CheckParameter(const CandidateFit& f, size_t i, double truth) {
     se = f.standard_errors[i];
   }
   EXPECT_GT(se, 0) << f.effect.id << "." << p.name;
-  EXPECT_LE(std::abs(error), kSigmas * se) << f.effect.id << "." << p.name << " = " << f.values[i] << " vs " << truth;
+  EXPECT_LE(std::abs(error), kSigmas * se)
+      << f.effect.id << "." << p.name << " = " << f.values[i] << " vs " << truth;
   return se > 0 ? error / se : 0;
 }
 
 struct DetectionCase {
-  std::string effect;                  ///< simulate assignment
-  std::vector<std::string> equivalent; ///< ids accepted as the first choice (the effect first)
-  bool four_dof = false;               ///< use RatWithoutHipRx()
+  std::string effect;                   ///< simulate assignment
+  std::vector<std::string> equivalent;  ///< ids accepted as the first choice (the effect first)
+  bool four_dof = false;                ///< use RatWithoutHipRx()
 };
 
 const std::vector<DetectionCase>& AllCases() {
@@ -286,7 +300,8 @@ TEST(FitLoop, DetectionRatesAndParameterErrorsOverSeeds) {
         std::cout << "[detection] " << c.effect << ": " << r.BriefReport();
       }
       if (r.chosen.size() != 1 || r.verdict != FitVerdict::kExplained) continue;
-      if (std::find(c.equivalent.begin(), c.equivalent.end(), r.chosen[0].effect.id) == c.equivalent.end()) {
+      if (std::find(c.equivalent.begin(), c.equivalent.end(), r.chosen[0].effect.id) ==
+          c.equivalent.end()) {
         // Not named first: acceptable only when the report says the truth is indistinguishable.
         const std::vector<std::string>& same = r.rounds.at(0).indistinguishable;
         if (std::find(same.begin(), same.end(), truth.effect.id) != same.end()) ++flagged;
@@ -299,23 +314,26 @@ TEST(FitLoop, DetectionRatesAndParameterErrorsOverSeeds) {
       for (size_t i = 0; i < truth.values.size(); ++i) {
         const EffectParameter& p = f.effect.parameters[i];
         double z = p.scale == ParameterScale::kLog10
-                       ? (std::log10(f.values[i]) - std::log10(truth.values[i])) / f.log10_standard_errors[i]
+                       ? (std::log10(f.values[i]) - std::log10(truth.values[i])) /
+                             f.log10_standard_errors[i]
                        : (f.values[i] - truth.values[i]) / f.standard_errors[i];
         z2 += z * z;
         ++nz;
         worst = std::max(worst, std::abs(z));
-        EXPECT_LE(std::abs(z), kSigmas) << c.effect << " seed " << seed << ": " << p.name << " = " << f.values[i];
+        EXPECT_LE(std::abs(z), kSigmas)
+            << c.effect << " seed " << seed << ": " << p.name << " = " << f.values[i];
       }
     }
     detected_total += detected;
-    std::cout << "[rates] " << c.effect << ": named first " << detected << "/" << seeds << " (exact id " << exact << "/"
-              << seeds << "), otherwise reported indistinguishable from the winner " << flagged << "/" << seeds
-              << ", largest |error|/SE " << worst << "\n";
+    std::cout << "[rates] " << c.effect << ": named first " << detected << "/" << seeds
+              << " (exact id " << exact << "/" << seeds
+              << "), otherwise reported indistinguishable from the winner " << flagged << "/"
+              << seeds << ", largest |error|/SE " << worst << "\n";
     EXPECT_GE(detected, seeds - 1) << c.effect;
     EXPECT_EQ(detected + flagged, seeds) << c.effect;
   }
-  std::cout << "[rates] overall " << detected_total << "/" << runs << ", mean (error/SE)^2 = " << z2 / nz << " over "
-            << nz << " parameters\n";
+  std::cout << "[rates] overall " << detected_total << "/" << runs
+            << ", mean (error/SE)^2 = " << z2 / nz << " over " << nz << " parameters\n";
   EXPECT_GT(z2 / nz, 0.4);
   EXPECT_LT(z2 / nz, 2.5);
 }
@@ -334,13 +352,15 @@ TEST(FitLoop, DataWithoutAnEffectRarelyProduceAClaim) {
     if (!r.chosen.empty()) ++claims;
     EXPECT_NE(r.verdict, FitVerdict::kUnexplained);
   }
-  std::cout << "[false-alarm] " << claims << " claimed effect(s) in " << seeds << " data sets without an effect\n";
+  std::cout << "[false-alarm] " << claims << " claimed effect(s) in " << seeds
+            << " data sets without an effect\n";
   EXPECT_LE(claims, 1);
 }
 
 TEST(FitLoop, TwoEffectsAreTracedInTwoRounds) {
   Model model = Rat();
-  std::vector<Trial> trials = Simulate(model, {"base_isotropic=1e7", "sensor_offset=0.02,-0.01,0.01,0.001,0,-0.0005"}, 202);
+  std::vector<Trial> trials =
+      Simulate(model, {"base_isotropic=1e7", "sensor_offset=0.02,-0.01,0.01,0.001,0,-0.0005"}, 202);
   FitOptions o;
   o.max_rounds = 3;
   FitReport r = FitEffects(model, trials, o);
@@ -355,7 +375,8 @@ TEST(FitLoop, TwoEffectsAreTracedInTwoRounds) {
       const double truth[6] = {0.02, -0.01, 0.01, 0.001, 0, -0.0005};
       for (int i = 0; i < 6; ++i) CheckParameter(r.chosen_fits[e], i, truth[i]);
     } else {
-      for (size_t i = 0; i < r.chosen[e].values.size(); ++i) CheckParameter(r.chosen_fits[e], i, 1e7);
+      for (size_t i = 0; i < r.chosen[e].values.size(); ++i)
+        CheckParameter(r.chosen_fits[e], i, 1e7);
     }
   }
   std::cout << "[two-effects] " << r.BriefReport();
@@ -377,7 +398,8 @@ TEST(FitLoop, TwoEffectsWhoseFirstFitIsBiasedAreStillTraced) {
       CheckParameter(r.chosen_fits[e], 0, 0.9);
     } else {
       EXPECT_TRUE(id == "base_isotropic" || id == "base_per_axis") << id;
-      for (size_t i = 0; i < r.chosen[e].values.size(); ++i) CheckParameter(r.chosen_fits[e], i, 3e6);
+      for (size_t i = 0; i < r.chosen[e].values.size(); ++i)
+        CheckParameter(r.chosen_fits[e], i, 3e6);
     }
   }
   std::cout << "[two-effects-biased] " << r.BriefReport();
@@ -437,7 +459,8 @@ TEST(FitLoop, AugmentedUrdfReproducesTheFittedPrediction) {
   ResidualStats s = ComputeResidualStats(trials, p.wrench, 1);
   // URDF numbers are written with full precision: the chi2 agrees to rounding.
   EXPECT_NEAR(s.chi2, r.after.chi2, 1e-6 * r.after.chi2);
-  EXPECT_NEAR(augmented.transducer().stiffness[kRZ], r.chosen[0].values[0], 1e-6 * r.chosen[0].values[0]);
+  EXPECT_NEAR(augmented.transducer().stiffness[kRZ], r.chosen[0].values[0],
+              1e-6 * r.chosen[0].values[0]);
 }
 
 TEST(FitLoop, RejectsEmptyDataAndUnknownCandidates) {

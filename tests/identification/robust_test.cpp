@@ -35,8 +35,9 @@ constexpr bool kSanitizer = false;
 constexpr int kNullSeeds = 20;
 #endif
 
-std::vector<Trial> Simulate(const Model& model, const std::vector<std::string>& effects, unsigned long long seed,
-                            int postures, int noise_dof = 0, double outliers = 0.0) {
+std::vector<Trial> Simulate(const Model& model, const std::vector<std::string>& effects,
+                            unsigned long long seed, int postures, int noise_dof = 0,
+                            double outliers = 0.0) {
   std::vector<AppliedEffect> applied;
   for (const std::string& e : effects) applied.push_back(ParseEffectAssignment(model, e));
   SimulationOptions o;
@@ -47,7 +48,8 @@ std::vector<Trial> Simulate(const Model& model, const std::vector<std::string>& 
   return SimulateTrials(model, ApplyEffects(model.description(), applied), o);
 }
 
-std::vector<Trial> Noiseless(const Model& model, const std::vector<std::string>& effects, int postures) {
+std::vector<Trial> Noiseless(const Model& model, const std::vector<std::string>& effects,
+                             int postures) {
   std::vector<AppliedEffect> applied;
   for (const std::string& e : effects) applied.push_back(ParseEffectAssignment(model, e));
   SimulationOptions o;
@@ -58,14 +60,15 @@ std::vector<Trial> Noiseless(const Model& model, const std::vector<std::string>&
   return SimulateTrials(model, ApplyEffects(model.description(), applied), o);
 }
 
-Prediction Predict(const Model& model, const std::vector<std::string>& effects, const std::vector<Trial>& trials,
-                   std::vector<double>* factors = nullptr) {
+Prediction Predict(const Model& model, const std::vector<std::string>& effects,
+                   const std::vector<Trial>& trials, std::vector<double>* factors = nullptr) {
   std::vector<AppliedEffect> applied;
   for (const std::string& e : effects) applied.push_back(ParseEffectAssignment(model, e));
   return PredictTrials(ApplyEffects(model.description(), applied), trials, factors);
 }
 
-// ---- identities ----------------------------------------------------------------------------------
+// ---- identities
+// ----------------------------------------------------------------------------------
 
 TEST(NewEffects, GainScalesOneAxisAndSensorOriginShiftsTheMoment) {
   Model model = Model::FromUrdfFile(kRat);
@@ -101,8 +104,9 @@ TEST(NewEffects, CrosstalkIsSymmetricInNormalisedUnitsAndHasNoDiagonal) {
   for (int i = 0; i < 6; ++i) EXPECT_EQ(m.calibration(i, i), 1.0);
   // A moment-from-force term in normalised units: C(3,0) = L v, C(0,3) = v / L, so their
   // product is v^2 whatever L is.
-  AugmentedModel c = ApplyEffects(
-      model.description(), {ParseEffectAssignment(model, "crosstalk=0,0,0.05,0,0,0,0,0,0,0,0,0,0,0,0")});
+  AugmentedModel c =
+      ApplyEffects(model.description(),
+                   {ParseEffectAssignment(model, "crosstalk=0,0,0.05,0,0,0,0,0,0,0,0,0,0,0,0")});
   EXPECT_NEAR(c.calibration(3, 0) * c.calibration(0, 3), 0.05 * 0.05, 1e-15);
   EXPECT_GT(c.calibration(3, 0), 0.0);
 }
@@ -164,14 +168,16 @@ TEST(NewEffects, RegistryListsEveryKindOnceWithDocumentation) {
     EXPECT_FALSE(k.parameters.empty()) << k.kind;
     EXPECT_EQ(k.id_pattern.rfind(k.kind, 0), 0u) << k.id_pattern;
   }
-  for (const char* k : {"trial_force", "joint_offset", "gain", "crosstalk", "coactivation", "sensor_origin"}) {
+  for (const char* k :
+       {"trial_force", "joint_offset", "gain", "crosstalk", "coactivation", "sensor_origin"}) {
     EXPECT_TRUE(kinds.count(k)) << k;
   }
   EXPECT_EQ(ParseRobustLoss("cauchy"), RobustLoss::kCauchy);
   EXPECT_THAT([] { ParseRobustLoss("l1"); }, ::testing::ThrowsMessage<Error>(HasSubstr("huber")));
 }
 
-// ---- round trips ---------------------------------------------------------------------------------
+// ---- round trips
+// ---------------------------------------------------------------------------------
 
 struct RoundTrip {
   std::string model;
@@ -208,13 +214,16 @@ void CheckRoundTrip(const RoundTrip& c, int noise_dof, double outliers, unsigned
   o.max_rounds = static_cast<int>(c.expected.size()) + 1;
   FitReport r = FitEffects(model, trials, o);
   const std::string label = util_label(c, noise_dof, outliers);
-  std::cout << "[round-trip] " << label << ": " << r.BriefReport().substr(0, r.BriefReport().find('\n')) << "\n";
+  std::cout << "[round-trip] " << label << ": "
+            << r.BriefReport().substr(0, r.BriefReport().find('\n')) << "\n";
   std::set<std::string> ids;
   for (const AppliedEffect& a : r.chosen) ids.insert(a.effect.id);
-  EXPECT_EQ(ids, std::set<std::string>(c.expected.begin(), c.expected.end())) << label << "\n" << r.BriefReport();
+  EXPECT_EQ(ids, std::set<std::string>(c.expected.begin(), c.expected.end())) << label << "\n"
+                                                                              << r.BriefReport();
   EXPECT_EQ(r.verdict, FitVerdict::kExplained) << label << "\n" << r.BriefReport();
   if (outliers > 0) {
-    EXPECT_GE(r.outlier_rows.size(), static_cast<size_t>(std::lround(outliers * trials.size()))) << label;
+    EXPECT_GE(r.outlier_rows.size(), static_cast<size_t>(std::lround(outliers * trials.size())))
+        << label;
   } else if (noise_dof == 0) {
     EXPECT_TRUE(r.outlier_rows.empty()) << label;
   }
@@ -226,11 +235,13 @@ void CheckRoundTrip(const RoundTrip& c, int noise_dof, double outliers, unsigned
       const std::vector<double> truth = Values(assignment);
       for (size_t i = 0; i < truth.size(); ++i) {
         const bool log = f.effect.parameters[i].scale == ParameterScale::kLog10;
-        const double err = log ? std::log10(f.values[i]) - std::log10(truth[i]) : f.values[i] - truth[i];
+        const double err =
+            log ? std::log10(f.values[i]) - std::log10(truth[i]) : f.values[i] - truth[i];
         const double se = log ? f.log10_standard_errors[i] : f.standard_errors[i];
         EXPECT_GT(se, 0) << label << " " << f.effect.parameters[i].name;
-        EXPECT_LE(std::abs(err), kSigmas * se) << label << " " << f.effect.id << "." << f.effect.parameters[i].name
-                                                << " = " << f.values[i] << " vs " << truth[i];
+        EXPECT_LE(std::abs(err), kSigmas * se)
+            << label << " " << f.effect.id << "." << f.effect.parameters[i].name << " = "
+            << f.values[i] << " vs " << truth[i];
       }
     }
   }
@@ -253,26 +264,33 @@ TEST(RoundTrips, EachNewEffectAloneWithGaussianNoise) {
 }
 
 TEST(RoundTrips, EachNewEffectAloneWithStudentT3Noise) {
-  if (kSanitizer) GTEST_SKIP() << "statistical repeat of the Gaussian round trips; run without sanitizers";
+  if (kSanitizer)
+    GTEST_SKIP() << "statistical repeat of the Gaussian round trips; run without sanitizers";
   for (const RoundTrip& c : Singles()) CheckRoundTrip(c, 3, 0.0, 32);
 }
 
 TEST(RoundTrips, EachNewEffectAloneWithFivePercentOutliers) {
-  if (kSanitizer) GTEST_SKIP() << "statistical repeat of the Gaussian round trips; run without sanitizers";
+  if (kSanitizer)
+    GTEST_SKIP() << "statistical repeat of the Gaussian round trips; run without sanitizers";
   for (const RoundTrip& c : Singles()) CheckRoundTrip(c, 0, 0.05, 33);
 }
 
 TEST(RoundTrips, NewEffectsInPairsWithExistingOnes) {
   const std::vector<RoundTrip> pairs = {
       {kRat, {"trial_force=0.05", "base_isotropic=1e7"}, {"trial_force", "base_isotropic"}},
-      {kRat, {"gain:fy=1.1", "sensor_offset=0.02,-0.01,0.01,0.001,0,-0.0005"}, {"gain:fy", "sensor_offset"}},
-      {kRat, {"joint_offset:knee_rz=3", "misalignment=2,-1,1"}, {"joint_offset:knee_rz", "misalignment"}},
+      {kRat,
+       {"gain:fy=1.1", "sensor_offset=0.02,-0.01,0.01,0.001,0,-0.0005"},
+       {"gain:fy", "sensor_offset"}},
+      {kRat,
+       {"joint_offset:knee_rz=3", "misalignment=2,-1,1"},
+       {"joint_offset:knee_rz", "misalignment"}},
       {kRat, {"sensor_origin=3,0,-2", "force_scale:GP=0.9"}, {"sensor_origin", "force_scale:GP"}},
   };
   for (const RoundTrip& c : pairs) CheckRoundTrip(c, 0, kSanitizer ? 0.0 : 0.05, 34);
 }
 
-// ---- null data, unexplained residual -------------------------------------------------------------
+// ---- null data, unexplained residual
+// -------------------------------------------------------------
 
 TEST(RobustFit, NullDataWithHeavyTailsAndOutliersRarelyProduceAClaim) {
   // Data without an effect, Student-t(3) noise and 5 % gross outliers: with the robust loss no
@@ -316,7 +334,8 @@ TEST(Trace, ADriftOutsideTheLibraryEndsUnexplainedAndPointsAtTrialOrder) {
   // must be "unexplained" and the trace must name trial order first.
   Model model = Model::FromUrdfFile(kRat);
   std::vector<Trial> trials = Simulate(model, {}, 51, 60);
-  for (size_t k = 0; k < trials.size(); ++k) trials[k].wrench[1] += 0.02 * static_cast<double>(k) / trials.size();
+  for (size_t k = 0; k < trials.size(); ++k)
+    trials[k].wrench[1] += 0.02 * static_cast<double>(k) / trials.size();
   FitOptions o;
   o.max_rounds = 2;
   FitReport r = FitEffects(model, trials, o);
@@ -344,7 +363,8 @@ TEST(Trace, AStiffJointOutsideTheLibraryPointsAtACoordinate) {
 
 TEST(Correlations, ConfoundedPairsAreNamed) {
   Model model = Model::FromUrdfFile(kRat);
-  FitReport r = FitEffects(model, Simulate(model, {"base_isotropic=3e6", "force_scale:GP=0.9"}, 207, 40));
+  FitReport r =
+      FitEffects(model, Simulate(model, {"base_isotropic=3e6", "force_scale:GP=0.9"}, 207, 40));
   ASSERT_EQ(r.chosen.size(), 2u) << r.BriefReport();
   ASSERT_EQ(r.correlations.rows(), 2);
   EXPECT_EQ(r.correlation_labels.size(), 2u);
@@ -376,13 +396,16 @@ TEST(Design, ChosenPosturesBeatTheFirstNAndTheirExpectedErrorsMatchAFit) {
   std::mt19937_64 rng(5);
   std::normal_distribution<double> normal(0.0, 1.0);
   for (size_t k = 0; k < trials.size(); ++k) {
-    for (int c = 0; c < 6; ++c) trials[k].wrench[c] = p.wrench[k][c] + trials[k].sd[c] * 0.5 * normal(rng);
+    for (int c = 0; c < 6; ++c)
+      trials[k].wrench[c] = p.wrench[k][c] + trials[k].sd[c] * 0.5 * normal(rng);
   }
   FitOptions o;
   o.loss = RobustLoss::kNone;
-  CandidateFit f = FitCandidate(ApplyEffects(model.description(), {}), FindEffect(model, "sensor_origin"), trials, o);
+  CandidateFit f = FitCandidate(ApplyEffects(model.description(), {}),
+                                FindEffect(model, "sensor_origin"), trials, o);
   ASSERT_TRUE(f.converged);
-  for (int i = 0; i < 3; ++i) EXPECT_NEAR(f.standard_errors[i], r.standard_errors[i], 0.01 * r.standard_errors[i]);
+  for (int i = 0; i < 3; ++i)
+    EXPECT_NEAR(f.standard_errors[i], r.standard_errors[i], 0.01 * r.standard_errors[i]);
   EXPECT_THAT([&] { DesignExperiment(model, {"nonsense"}, nullptr, d); },
               ::testing::ThrowsMessage<Error>(HasSubstr("nonsense")));
 }

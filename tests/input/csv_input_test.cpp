@@ -24,8 +24,8 @@ using ::testing::ThrowsMessage;
 constexpr double kPi = 3.14159265358979323846;
 
 const isowrench::Model& Rat5() {
-  static const isowrench::Model model =
-      isowrench::Model::FromUrdfFile(std::string(ISOWRENCH_TEST_URDF_DIR) + "/rat_hindlimb_5dof.urdf");
+  static const isowrench::Model model = isowrench::Model::FromUrdfFile(
+      std::string(ISOWRENCH_TEST_URDF_DIR) + "/rat_hindlimb_5dof.urdf");
   return model;
 }
 
@@ -38,12 +38,15 @@ std::vector<Trial> Read(const std::string& text, const std::string& name = "t.cs
   return trials;
 }
 
-const std::string kHeader = "hip_rz,hip_ry,hip_rx,knee_rz,knee_rx,muscle,activation,fx,fy,fz,mx,my,mz\n";
+const std::string kHeader =
+    "hip_rz,hip_ry,hip_rx,knee_rz,knee_rx,muscle,activation,fx,fy,fz,mx,my,mz\n";
 
 TEST(TrialCsv, ByteOrderMarkAndQuotedHeadersAndFieldsArePandasAndSpreadsheetFiles) {
-  std::string text = "\xEF\xBB\xBF\"hip_rz\",\"hip_ry\",\"hip_rx\",\"knee_rz\",\"knee_rx\",\"muscle\",\"activation\","
-                     "\"fx\",\"fy\",\"fz\",\"mx\",\"my\",\"mz\"\r\n"
-                     "\"-110\",0,0,\"105\",0,\"GP\",\"0.5\",\"0.25\",-1e-3,0,0,0,\"2E-4\"\r\n";
+  std::string text =
+      "\xEF\xBB\xBF\"hip_rz\",\"hip_ry\",\"hip_rx\",\"knee_rz\",\"knee_rx\",\"muscle\","
+      "\"activation\","
+      "\"fx\",\"fy\",\"fz\",\"mx\",\"my\",\"mz\"\r\n"
+      "\"-110\",0,0,\"105\",0,\"GP\",\"0.5\",\"0.25\",-1e-3,0,0,0,\"2E-4\"\r\n";
   std::vector<Trial> trials = Read(text);
   ASSERT_EQ(trials.size(), 1u);
   EXPECT_DOUBLE_EQ(trials[0].q[0], -110 * kPi / 180);
@@ -58,13 +61,18 @@ TEST(TrialCsv, ByteOrderMarkAndQuotedHeadersAndFieldsArePandasAndSpreadsheetFile
 
 TEST(TrialCsv, QuotedFieldMayHoldLineBreaksAndLineNumbersFollow) {
   // A quoted comment-like field spanning two lines, then a row on line 4.
-  std::string text = "muscle,fx,fy,fz,mx,my,mz,hip_rz,hip_ry,hip_rx,knee_rz,knee_rx\n"
-                     "\"G\"\"P\",1,2,3,4,5,6,0,0,0,0,0\n";
-  EXPECT_THAT([&] { Read(text); }, ThrowsMessage<Error>(AllOf(HasSubstr("t.csv:2"), HasSubstr("G\"P"))));
+  std::string text =
+      "muscle,fx,fy,fz,mx,my,mz,hip_rz,hip_ry,hip_rx,knee_rz,knee_rx\n"
+      "\"G\"\"P\",1,2,3,4,5,6,0,0,0,0,0\n";
+  EXPECT_THAT([&] { Read(text); },
+              ThrowsMessage<Error>(AllOf(HasSubstr("t.csv:2"), HasSubstr("G\"P"))));
   std::string broken = kHeader + "0,0,0,0,0,\"GP,1,0,0,0,0,0,0\n";
-  EXPECT_THAT([&] { Read(broken); }, ThrowsMessage<Error>(AllOf(HasSubstr("t.csv:2"), HasSubstr("never closes"))));
-  std::string two_lines = kHeader + "0,0,0,0,0,GP,1,\"0.5\n\",0,0,0,0,0\n0,0,0,0,0,GP,1,x,0,0,0,0,0\n";
-  EXPECT_THAT([&] { Read(two_lines); }, ThrowsMessage<Error>(HasSubstr("t.csv:4, column 8 'fx': 'x'")));
+  EXPECT_THAT([&] { Read(broken); },
+              ThrowsMessage<Error>(AllOf(HasSubstr("t.csv:2"), HasSubstr("never closes"))));
+  std::string two_lines =
+      kHeader + "0,0,0,0,0,GP,1,\"0.5\n\",0,0,0,0,0\n0,0,0,0,0,GP,1,x,0,0,0,0,0\n";
+  EXPECT_THAT([&] { Read(two_lines); },
+              ThrowsMessage<Error>(HasSubstr("t.csv:4, column 8 'fx': 'x'")));
 }
 
 TEST(TrialCsv, SemicolonSeparatorsAreNamed) {
@@ -76,7 +84,8 @@ TEST(TrialCsv, SemicolonSeparatorsAreNamed) {
 
 TEST(TrialCsv, DecimalCommasAreNamed) {
   EXPECT_THAT([&] { Read(kHeader + "-110,0,0,105,0,GP,1,\"0,25\",0,0,0,0,0\n"); },
-              ThrowsMessage<Error>(AllOf(HasSubstr("t.csv:2, column 8 'fx'"), HasSubstr("'0,25' uses a decimal comma"))));
+              ThrowsMessage<Error>(AllOf(HasSubstr("t.csv:2, column 8 'fx'"),
+                                         HasSubstr("'0,25' uses a decimal comma"))));
   EXPECT_THAT([&] { Read(kHeader + "-110,0,0,105,0,GP,1,0,25,0,0,0,0,0\n"); },
               ThrowsMessage<Error>(AllOf(HasSubstr("found 14"), HasSubstr("decimal commas"))));
 }
@@ -88,16 +97,19 @@ TEST(TrialCsv, ValuesThatCannotBeMeasuredAreErrorsNamingRowAndColumn) {
   EXPECT_THAT([&] { Read(kHeader + "-110,0,0,105,0,GP,1,0,0,0,0,0,-2e6\n"); },
               ThrowsMessage<Error>(AllOf(HasSubstr("column 13 'mz'"), HasSubstr("moment"))));
   EXPECT_THAT([&] { Read(kHeader + "-110,0,0,105,0,GP,1.5,0,0,0,0,0,0\n"); },
-              ThrowsMessage<Error>(AllOf(HasSubstr("t.csv:2, column 7 'activation'"), HasSubstr("[0, 1]"))));
+              ThrowsMessage<Error>(
+                  AllOf(HasSubstr("t.csv:2, column 7 'activation'"), HasSubstr("[0, 1]"))));
   EXPECT_THAT([&] { Read(kHeader + "-110,0,0,1e300,0,GP,1,0,0,0,0,0,0\n"); },
-              ThrowsMessage<Error>(AllOf(HasSubstr("column 4 'knee_rz'"), HasSubstr("cannot be a joint position"))));
+              ThrowsMessage<Error>(
+                  AllOf(HasSubstr("column 4 'knee_rz'"), HasSubstr("cannot be a joint position"))));
   // The limit itself is a legal (if large) reading.
   EXPECT_EQ(Read(kHeader + "-110,0,0,105,0,GP,1,1e6,0,0,0,0,0\n").size(), 1u);
 }
 
 TEST(TrialCsv, MissingJointColumnWarnsNamingTheValueUsed) {
   isowrench::WarningCollector warnings;
-  std::vector<Trial> trials = Read("knee_rz,hip_ry,hip_rx,knee_rx,muscle,fx,fy,fz,mx,my,mz\n0,0,0,0,GP,0,0,0,0,0,0\n");
+  std::vector<Trial> trials =
+      Read("knee_rz,hip_ry,hip_rx,knee_rx,muscle,fx,fy,fz,mx,my,mz\n0,0,0,0,GP,0,0,0,0,0,0\n");
   ASSERT_EQ(trials.size(), 1u);
   EXPECT_DOUBLE_EQ(trials[0].q[0], -110 * kPi / 180);  // the URDF's nominal hip_rz
   EXPECT_THAT(warnings.text(), AllOf(HasSubstr("no column 'hip_rz'"), HasSubstr("-110 deg")));
@@ -107,7 +119,8 @@ TEST(TrialCsv, AnglesBeyondAFullTurnWarnOncePerColumn) {
   isowrench::WarningCollector warnings;
   Read(kHeader + "-110,0,0,400,0,GP,1,0,0,0,0,0,0\n-110,0,0,500,0,GP,1,0,0,0,0,0,0\n");
   ASSERT_EQ(warnings.warnings().size(), 1u);
-  EXPECT_THAT(warnings.text(), AllOf(HasSubstr("t.csv:2, column 4 'knee_rz'"), HasSubstr("400 deg")));
+  EXPECT_THAT(warnings.text(),
+              AllOf(HasSubstr("t.csv:2, column 4 'knee_rz'"), HasSubstr("400 deg")));
 }
 
 TEST(TrialCsv, WriterAndStreamingReaderRoundTrip) {

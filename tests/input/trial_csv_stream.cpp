@@ -19,7 +19,8 @@ int main(int argc, char** argv) {
     long rows = isowrench::ForEachTrial(
         model, argv[2], [&](const isowrench::Trial& t) { sum += t.wrench; },
         isowrench::TerminalProgress(argv[2]));
-    std::cout << rows << " trials, mean wrench [" << (sum / static_cast<double>(rows)).transpose() << "] N, N·m\n";
+    std::cout << rows << " trials, mean wrench [" << (sum / static_cast<double>(rows)).transpose()
+              << "] N, N·m\n";
   } catch (const isowrench::Error& e) {
     std::cerr << "trial_csv_stream: error: " << e.what() << "\n";
     return 1;

@@ -26,7 +26,9 @@ std::string ReadText(const std::string& path) {
   return s.str();
 }
 
-std::string Rat5() { return ReadText(std::string(ISOWRENCH_TEST_URDF_DIR) + "/rat_hindlimb_5dof.urdf"); }
+std::string Rat5() {
+  return ReadText(std::string(ISOWRENCH_TEST_URDF_DIR) + "/rat_hindlimb_5dof.urdf");
+}
 
 /// Replace the one occurrence of `from` (the test fails if it is absent).
 std::string Replace(std::string text, const std::string& from, const std::string& to) {
@@ -51,8 +53,8 @@ const char* kLoop = R"(<robot name="loop">
 
 TEST(UrdfTree, JointLoopIsAnErrorNamingTheJoints) {
   EXPECT_THAT([] { isowrench::ReadUrdfString(kLoop, "loop.urdf"); },
-              ThrowsMessage<Error>(AllOf(HasSubstr("loop.urdf:5"), HasSubstr("'j3'"), HasSubstr("'j4'"),
-                                         HasSubstr("loop"))));
+              ThrowsMessage<Error>(AllOf(HasSubstr("loop.urdf:5"), HasSubstr("'j3'"),
+                                         HasSubstr("'j4'"), HasSubstr("loop"))));
 }
 
 TEST(UrdfTree, LinkWithTwoParentsIsAnError) {
@@ -72,32 +74,38 @@ TEST(UrdfTree, JointWhoseParentIsItsChildIsAnError) {
 }
 
 TEST(UrdfAttributes, MisspeltTransducerStiffnessSuggestsTheName) {
-  std::string xml = Replace(Rat5(), R"(stiffness="1e7 1e7 1e7 1e7 1e7 1e7")",
-                            R"(stifness="1e3 1e3 1e3 1 1 1")");
-  EXPECT_THAT([&] { isowrench::ReadUrdfString(xml, "t.urdf"); },
-              ThrowsMessage<Error>(AllOf(HasSubstr("t.urdf:37"), HasSubstr("<isowrench:transducer>"),
-                                         HasSubstr("'stifness'"), HasSubstr("did you mean 'stiffness'?"))));
+  std::string xml =
+      Replace(Rat5(), R"(stiffness="1e7 1e7 1e7 1e7 1e7 1e7")", R"(stifness="1e3 1e3 1e3 1 1 1")");
+  EXPECT_THAT(
+      [&] { isowrench::ReadUrdfString(xml, "t.urdf"); },
+      ThrowsMessage<Error>(AllOf(HasSubstr("t.urdf:37"), HasSubstr("<isowrench:transducer>"),
+                                 HasSubstr("'stifness'"), HasSubstr("did you mean 'stiffness'?"))));
 }
 
 TEST(UrdfAttributes, MisspeltJointStiffnessSuggestsTheName) {
-  std::string xml = Replace(Rat5(), "<isowrench:posture joint=\"hip_rz\"",
-                            "<isowrench:joint name=\"knee_rx\" stiffnes=\"1\"/>\n  <isowrench:posture joint=\"hip_rz\"");
-  EXPECT_THAT([&] { isowrench::ReadUrdfString(xml, "j.urdf"); },
-              ThrowsMessage<Error>(AllOf(HasSubstr("j.urdf:47"), HasSubstr("<isowrench:joint>"),
-                                         HasSubstr("'stiffnes'"), HasSubstr("did you mean 'stiffness'?"))));
+  std::string xml = Replace(
+      Rat5(), "<isowrench:posture joint=\"hip_rz\"",
+      "<isowrench:joint name=\"knee_rx\" stiffnes=\"1\"/>\n  <isowrench:posture joint=\"hip_rz\"");
+  EXPECT_THAT(
+      [&] { isowrench::ReadUrdfString(xml, "j.urdf"); },
+      ThrowsMessage<Error>(AllOf(HasSubstr("j.urdf:47"), HasSubstr("<isowrench:joint>"),
+                                 HasSubstr("'stiffnes'"), HasSubstr("did you mean 'stiffness'?"))));
 }
 
 TEST(UrdfAttributes, UnknownAttributeOnNestedPointIsNamed) {
-  std::string xml = Replace(Rat5(), R"(<isowrench:point link="tibia" xyz=)", R"(<isowrench:point lnk="tibia" xyz=)");
+  std::string xml = Replace(Rat5(), R"(<isowrench:point link="tibia" xyz=)",
+                            R"(<isowrench:point lnk="tibia" xyz=)");
   EXPECT_THAT([&] { isowrench::ReadUrdfString(xml, "p.urdf"); },
               ThrowsMessage<Error>(AllOf(HasSubstr("<isowrench:point>"), HasSubstr("'lnk'"),
                                          HasSubstr("did you mean 'link'?"))));
 }
 
 TEST(UrdfAttributes, UnknownPostureJointSuggestsTheClosest) {
-  std::string xml = Replace(Rat5(), R"(<isowrench:posture joint="knee_rz")", R"(<isowrench:posture joint="knee_z")");
-  EXPECT_THAT([&] { isowrench::ReadUrdfString(xml, "q.urdf"); },
-              ThrowsMessage<Error>(AllOf(HasSubstr("'knee_z'"), HasSubstr("did you mean 'knee_rz'?"))));
+  std::string xml = Replace(Rat5(), R"(<isowrench:posture joint="knee_rz")",
+                            R"(<isowrench:posture joint="knee_z")");
+  EXPECT_THAT(
+      [&] { isowrench::ReadUrdfString(xml, "q.urdf"); },
+      ThrowsMessage<Error>(AllOf(HasSubstr("'knee_z'"), HasSubstr("did you mean 'knee_rz'?"))));
 }
 
 TEST(UrdfAttributes, ContractAttributesAreAccepted) {
@@ -119,16 +127,20 @@ TEST(Suggestions, ClosestNameByEditDistance) {
 
 TEST(StiffnessRange, HugeUrdfJointStiffnessIsAnErrorNamingTheElement) {
   std::string xml = Replace(Rat5(), "<isowrench:posture joint=\"hip_rz\"",
-                            "<isowrench:joint name=\"knee_rx\" stiffness=\"1e308\"/>\n  <isowrench:posture joint=\"hip_rz\"");
-  EXPECT_THAT([&] { isowrench::ReadUrdfString(xml, "k.urdf"); },
-              ThrowsMessage<Error>(AllOf(HasSubstr("k.urdf:47"), HasSubstr("knee_rx"), HasSubstr("1e+308"),
-                                         HasSubstr("exceeds the physical maximum 1e+15"))));
+                            "<isowrench:joint name=\"knee_rx\" stiffness=\"1e308\"/>\n  "
+                            "<isowrench:posture joint=\"hip_rz\"");
+  EXPECT_THAT(
+      [&] { isowrench::ReadUrdfString(xml, "k.urdf"); },
+      ThrowsMessage<Error>(AllOf(HasSubstr("k.urdf:47"), HasSubstr("knee_rx"), HasSubstr("1e+308"),
+                                 HasSubstr("exceeds the physical maximum 1e+15"))));
 }
 
 TEST(StiffnessRange, HugeTransducerStiffnessIsAnErrorNamingTheDof) {
-  std::string xml = Replace(Rat5(), R"(stiffness="1e7 1e7 1e7 1e7 1e7 1e7")", R"(stiffness="1e7 1e7 1e7 1e7 1e300 1e7")");
-  EXPECT_THAT([&] { isowrench::ReadUrdfString(xml, "t.urdf"); },
-              ThrowsMessage<Error>(AllOf(HasSubstr("t.urdf:37"), HasSubstr("ry"), HasSubstr("1e+300"))));
+  std::string xml = Replace(Rat5(), R"(stiffness="1e7 1e7 1e7 1e7 1e7 1e7")",
+                            R"(stiffness="1e7 1e7 1e7 1e7 1e300 1e7")");
+  EXPECT_THAT(
+      [&] { isowrench::ReadUrdfString(xml, "t.urdf"); },
+      ThrowsMessage<Error>(AllOf(HasSubstr("t.urdf:37"), HasSubstr("ry"), HasSubstr("1e+300"))));
 }
 
 TEST(StiffnessRange, ApiEditsNameTheFunction) {
@@ -150,7 +162,8 @@ TEST(StiffnessRange, ApiEditsNameTheFunction) {
 TEST(StiffnessRange, TheMaximumItselfSolvesWithoutOverflow) {
   // At kMaxStiffness the statics is finite: K = J^T S J stays far from DBL_MAX.
   isowrench::LimbDescription d = isowrench::ReadUrdfString(Rat5(), "rat5");
-  d = isowrench::WithTransducerStiffness(d, isowrench::Vector6d::Constant(isowrench::kMaxStiffness));
+  d = isowrench::WithTransducerStiffness(d,
+                                         isowrench::Vector6d::Constant(isowrench::kMaxStiffness));
   d = isowrench::WithBaseStiffness(d, isowrench::kMaxStiffness);
   isowrench::Model m(d);
   isowrench::WrenchEvaluation e = isowrench::EvaluateWrench(m, m.nominal_posture(), "GP");
@@ -162,8 +175,8 @@ TEST(StiffnessRange, TheMaximumItselfSolvesWithoutOverflow) {
 // ---- defect 6: implausible dimensions ----------------------------------------------------
 
 TEST(Dimensions, ShippedModelsDoNotWarn) {
-  for (const char* file : {"rat_hindlimb_5dof.urdf", "rat_hindlimb_6dof.urdf", "rat_hindlimb_5dof_base.urdf",
-                           "planar_2r.urdf", "planar_4r.urdf"}) {
+  for (const char* file : {"rat_hindlimb_5dof.urdf", "rat_hindlimb_6dof.urdf",
+                           "rat_hindlimb_5dof_base.urdf", "planar_2r.urdf", "planar_4r.urdf"}) {
     isowrench::WarningCollector warnings;
     isowrench::ReadUrdfFile(std::string(ISOWRENCH_TEST_URDF_DIR) + "/" + file);
     EXPECT_EQ(warnings.text(), "") << file;
@@ -175,13 +188,14 @@ TEST(Dimensions, FemurInMillimetresWarnsNamingTheJoint) {
   std::string xml = Replace(Rat5(), R"(<origin xyz="0.031 0 0")", R"(<origin xyz="31 0 0")");
   isowrench::WarningCollector warnings;
   isowrench::ReadUrdfString(xml, "mm.urdf");
-  EXPECT_THAT(warnings.text(), AllOf(HasSubstr("mm.urdf:27"), HasSubstr("knee_rz"), HasSubstr("31 m"),
-                                     HasSubstr("plausible segment length")));
+  EXPECT_THAT(warnings.text(), AllOf(HasSubstr("mm.urdf:27"), HasSubstr("knee_rz"),
+                                     HasSubstr("31 m"), HasSubstr("plausible segment length")));
   EXPECT_THAT(warnings.text(), HasSubstr("muscle 'GP'"));
 }
 
 TEST(Dimensions, TinyEndpointOffsetWarns) {
-  std::string xml = Replace(Rat5(), R"(link="tibia" xyz="0.041 0 0")", R"(link="tibia" xyz="0.000041 0 0")");
+  std::string xml =
+      Replace(Rat5(), R"(link="tibia" xyz="0.041 0 0")", R"(link="tibia" xyz="0.000041 0 0")");
   isowrench::WarningCollector warnings;
   isowrench::ReadUrdfString(xml, "um.urdf");
   EXPECT_THAT(warnings.text(), AllOf(HasSubstr("endpoint"), HasSubstr("4.1e-05 m")));

@@ -5,6 +5,8 @@
 // spline is the cubic inside the knots and its end tangent outside), FreeJoint translations in
 // the parent frame. Fixture: tests/opensim/data/hindlimb.osim.
 
+#include "isowrench/opensim.hpp"
+
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
@@ -15,17 +17,16 @@
 
 #include "isowrench/error.hpp"
 #include "isowrench/kinematics.hpp"
-#include "isowrench/opensim.hpp"
 
 namespace isowrench {
 namespace {
 
-using ::testing::AllOf;
-using ::testing::HasSubstr;
-using ::testing::ThrowsMessage;
 using Eigen::Isometry3d;
 using Eigen::Matrix3d;
 using Eigen::Vector3d;
+using ::testing::AllOf;
+using ::testing::HasSubstr;
+using ::testing::ThrowsMessage;
 
 const std::string kFixture = std::string(ISOWRENCH_TEST_OSIM_DIR) + "/hindlimb.osim";
 
@@ -98,8 +99,7 @@ Isometry3d Knee(const Posture& p) {
   const double k = p.knee;
   // translation2's axis is written (0 2 0): OpenSim normalises it.
   const Vector3d t(Spline(kKneeTx, k), Spline(kKneeTy, k), 0.5 * (0.002 * k + 0.001));
-  return Frame({0, -0.035, 0}, {0, 0, 0}) *
-         Pose(Rz(k) * Rx(Spline(kKneeAdd, k)) * Ry(0.05), t);
+  return Frame({0, -0.035, 0}, {0, 0, 0}) * Pose(Rz(k) * Rx(Spline(kKneeAdd, k)) * Ry(0.05), t);
 }
 Isometry3d Ankle(const Posture& p) {
   return Frame({0, -0.04, 0}, {0, 0, -0.3}) * Pose(Rz(p.ankle), Vector3d::Zero()) *
@@ -130,7 +130,8 @@ double GmLength(const Posture& p) {
 }
 double VasLength(const Posture& p) {
   World w = Bodies(p);
-  return Length({w.femur * Vector3d(0.002, -0.02, 0.003), w.tibia * Vector3d(0.004, -0.005, 0.001)});
+  return Length(
+      {w.femur * Vector3d(0.002, -0.02, 0.003), w.tibia * Vector3d(0.004, -0.005, 0.001)});
 }
 double SolLength(const Posture& p) {
   World w = Bodies(p);
@@ -240,8 +241,9 @@ TEST(OpenSimImport, CoordinatesCouplingsAndLockedFlags) {
   EXPECT_FALSE(joints.count("knee_rotation3"));
   EXPECT_FALSE(joints.count("hip_translation1"));
   // --unlock frees the locked coordinate.
-  EXPECT_FALSE(FindCoordinate(Import("pelvis", "foot", {"hip_rotation"}).description,
-                              "hip_rotation").locked);
+  EXPECT_FALSE(
+      FindCoordinate(Import("pelvis", "foot", {"hip_rotation"}).description, "hip_rotation")
+          .locked);
 }
 
 TEST(OpenSimImport, MusclesWrapsAndSkippedMusclesAreReported) {
@@ -396,8 +398,8 @@ TEST(OpenSimImport, Version30000LayoutGivesTheSameHip) {
     const Isometry3d femur = X_G_pelvis * Hip(p);
     EXPECT_LT((X.at("femur").translation() - femur.translation()).norm(), kPosition);
     EXPECT_LT((X.at("femur").linear() - femur.linear()).norm(), kPosition);
-    const double gm = Length({X_G_pelvis * Vector3d(0.01, 0.005, 0.002),
-                              femur * Vector3d(0.003, -0.01, 0.001)});
+    const double gm =
+        Length({X_G_pelvis * Vector3d(0.01, 0.005, 0.002), femur * Vector3d(0.003, -0.01, 0.001)});
     EXPECT_NEAR(ImportedLength(d, "GM", p), gm, kPosition);
   }
 }
@@ -423,8 +425,8 @@ TEST(OpenSimImport, CoordinateCouplerConstraintDrivesTheDependentAxes) {
   const LimbDescription d = ImportOpenSimString(text, "coupled.osim", options).description;
   std::vector<std::string> names;
   for (const CoordinateSpec& c : d.coordinates) names.push_back(c.name);
-  EXPECT_THAT(names, ::testing::ElementsAre("hip_flexion", "hip_adduction", "hip_rotation",
-                                            "knee_angle"));
+  EXPECT_THAT(names,
+              ::testing::ElementsAre("hip_flexion", "hip_adduction", "hip_rotation", "knee_angle"));
   for (Posture p : Postures()) {
     p.ankle = 12.3;  // ignored: the ankle follows the knee
     auto X = LinkPoses(d, p);
@@ -492,7 +494,8 @@ TEST(OpenSimImportErrors, NameFileLineJointAxisAndRule) {
   {
     std::string text = FixtureText();
     const std::string from = "<SimmSpline name=\"function\">";
-    const size_t at = text.find(from, text.find("<TransformAxis name=\"rotation2\">", text.find("name=\"knee\"")));
+    const size_t at = text.find(
+        from, text.find("<TransformAxis name=\"rotation2\">", text.find("name=\"knee\"")));
     const int line = 1 + static_cast<int>(std::count(text.begin(), text.begin() + at, '\n'));
     text.replace(at, from.size(), "<GCVSpline name=\"function\">");
     text.replace(text.find("</SimmSpline>", at), 13, "</GCVSpline>");
@@ -513,8 +516,9 @@ TEST(OpenSimImportErrors, NameFileLineJointAxisAndRule) {
   {
     const std::string hip_rotation3 =
         "<coordinates>hip_rotation</coordinates>\n              <axis>0 1 0</axis>";
-    auto [text, line] = Edited(hip_rotation3, "<coordinates>hip_rotation</coordinates>\n"
-                                              "              <axis>0 0 2</axis>");
+    auto [text, line] = Edited(hip_rotation3,
+                               "<coordinates>hip_rotation</coordinates>\n"
+                               "              <axis>0 0 2</axis>");
     ExpectError(text, "hindlimb.osim:" + std::to_string(line - 1) + ":",
                 "joint 'hip': axes 'rotation1' and 'rotation3' are collinear");
   }
@@ -523,12 +527,16 @@ TEST(OpenSimImportErrors, NameFileLineJointAxisAndRule) {
     ExpectError(text, "hindlimb.osim:", "joint 'ankle' has no <socket_child_frame>");
   }
   {
-    auto [text, line] = Edited("<socket_parent>/bodyset/tibia</socket_parent>\n              <translation>0 -0.04 0</translation>",
-                               "<socket_parent>/bodyset/shank</socket_parent>\n              <translation>0 -0.04 0</translation>");
+    auto [text, line] = Edited(
+        "<socket_parent>/bodyset/tibia</socket_parent>\n              <translation>0 -0.04 "
+        "0</translation>",
+        "<socket_parent>/bodyset/shank</socket_parent>\n              <translation>0 -0.04 "
+        "0</translation>");
     ExpectError(text, "hindlimb.osim:", "'/bodyset/shank' names no body of the model");
   }
   {
-    auto [text, line] = Edited("<PinJoint name=\"ankle\">", "<PinJoint name=\"ankle\"><reverse>true</reverse>");
+    auto [text, line] =
+        Edited("<PinJoint name=\"ankle\">", "<PinJoint name=\"ankle\"><reverse>true</reverse>");
     ExpectError(text, "hindlimb.osim:" + std::to_string(line) + ":", "joint 'ankle' is reversed");
   }
   const std::string text = FixtureText();
@@ -539,8 +547,9 @@ TEST(OpenSimImportErrors, NameFileLineJointAxisAndRule) {
   unlock.clamp_body = "pelvis";
   unlock.endpoint_body = "foot";
   unlock.unlock = {"hip_rot"};
-  EXPECT_THAT([&] { ImportOpenSimString(text, "hindlimb.osim", unlock); },
-              ThrowsMessage<Error>(HasSubstr("--unlock names coordinate 'hip_rot', which does not exist")));
+  EXPECT_THAT(
+      [&] { ImportOpenSimString(text, "hindlimb.osim", unlock); },
+      ThrowsMessage<Error>(HasSubstr("--unlock names coordinate 'hip_rot', which does not exist")));
 }
 
 }  // namespace

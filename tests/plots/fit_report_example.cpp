@@ -15,8 +15,8 @@ int main(int argc, char** argv) {
   }
   try {
     const std::string out = argv[1];
-    const isowrench::Model model =
-        isowrench::Model::FromUrdfFile(isowrench::DefaultUrdfDirectory() + "/rat_hindlimb_5dof.urdf");
+    const isowrench::Model model = isowrench::Model::FromUrdfFile(
+        isowrench::DefaultUrdfDirectory() + "/rat_hindlimb_5dof.urdf");
     isowrench::SimulationOptions sim;
     sim.postures = 30;
     sim.seed = 3;
@@ -24,8 +24,8 @@ int main(int argc, char** argv) {
         model.description(), {isowrench::ParseEffectAssignment(model, "base_isotropic=2e4")});
     std::vector<isowrench::Trial> trials = isowrench::SimulateTrials(model, truth, sim);
     isowrench::FitOptions options;
-    options.candidates = {"base_isotropic", "base_per_axis", "sensor_offset", "transducer_anisotropy",
-                          "force_scale:GP"};
+    options.candidates = {"base_isotropic", "base_per_axis", "sensor_offset",
+                          "transducer_anisotropy", "force_scale:GP"};
     options.max_rounds = 2;
     isowrench::FitReport report = isowrench::FitEffects(model, trials, options);
     report.source = "simulated: base_isotropic=2e4 N/m, 30 postures, seed 3";

@@ -148,8 +148,9 @@ TEST(FitReportHtml, ContainsTheBeforeAndAfterNumbersOfTheFit) {
   const isowrench::FitReport r = MakeReport();
   const std::string html = isowrench::FitReportHtml(r);
   // RMS before/after per component with units, and the reduction of fx: (0.1234-0.005012)/0.1234.
-  for (const char* s : {"0.1234 N", "0.2345 N", "0.03456 N", "0.001234 N·m", "0.002345 N·m", "0.003456 N·m",
-                        "0.005012 N", "0.004987 N", "0.0001011 N·m", "9.876e-05 N·m", "95.9 %"}) {
+  for (const char* s :
+       {"0.1234 N", "0.2345 N", "0.03456 N", "0.001234 N·m", "0.002345 N·m", "0.003456 N·m",
+        "0.005012 N", "0.004987 N", "0.0001011 N·m", "9.876e-05 N·m", "95.9 %"}) {
     EXPECT_THAT(html, HasSubstr(std::string("<td>") + s)) << s;
   }
   // R², noise multiples, chi².
@@ -160,7 +161,8 @@ TEST(FitReportHtml, ContainsTheBeforeAndAfterNumbersOfTheFit) {
   // Verdict, chosen effect with value ± SE and unit, the ranked candidates in order.
   EXPECT_THAT(html, HasSubstr("Verdict: explained — the residual is at the noise level"));
   EXPECT_THAT(html, HasSubstr("k_base = 1.234e+04 ± 57 N/m"));
-  const size_t first = html.find("<tr class=\"chosen\"><td>1</td><td>base_isotropic</td><td>8.119e+04</td>");
+  const size_t first =
+      html.find("<tr class=\"chosen\"><td>1</td><td>base_isotropic</td><td>8.119e+04</td>");
   const size_t second = html.find("<td>2</td><td>sensor_offset</td><td>1.115e+04</td>");
   ASSERT_NE(first, std::string::npos);
   ASSERT_NE(second, std::string::npos);
@@ -177,7 +179,8 @@ TEST(FitReportHtml, ScatterAndResidualPlotsPlaceEveryTrialAtItsNumbers) {
   ASSERT_EQ(blocks.size(), 15u);
   for (size_t b = 0; b < blocks.size(); ++b) {
     tinyxml2::XMLDocument doc;
-    ASSERT_EQ(doc.Parse(blocks[b].c_str()), tinyxml2::XML_SUCCESS) << "block " << b << ": " << doc.ErrorStr();
+    ASSERT_EQ(doc.Parse(blocks[b].c_str()), tinyxml2::XML_SUCCESS)
+        << "block " << b << ": " << doc.ErrorStr();
     if (b >= 12) continue;
     const int component = static_cast<int>(b % 6);
     const bool scatter = b < 6;
@@ -231,13 +234,14 @@ TEST(FitReportHtml, IsSelfContained) {
 TEST(FitReportMarkdown, ContainsTheSameNumbersAsTheHtml) {
   const isowrench::FitReport r = MakeReport();
   const std::string md = isowrench::FitReportMarkdown(r);
-  for (const char* s : {"| fx (N) | 0.1234 N | 0.005012 N | 95.9 % |", "0.0001011 N·m", "**Verdict: explained —",
-                        "| 1 | **base_isotropic** | 8.119e+04 |", "| 2 | sensor_offset | 1.115e+04 |",
-                        "k_base = 1.234e+04 ± 57 N/m"}) {
+  for (const char* s : {"| fx (N) | 0.1234 N | 0.005012 N | 95.9 % |", "0.0001011 N·m",
+                        "**Verdict: explained —", "| 1 | **base_isotropic** | 8.119e+04 |",
+                        "| 2 | sensor_offset | 1.115e+04 |", "k_base = 1.234e+04 ± 57 N/m"}) {
     EXPECT_THAT(md, HasSubstr(s)) << s;
   }
   // Worst trial first in the per-trial table: trial 4, measured fx 1, predicted before 1-0.4.
-  EXPECT_THAT(md, HasSubstr("| 4 | 5 | GP | 0.875 | [1 -0.5 0.375 0.004 -0.006 0.01] | [0.6 -0.45 0.355"));
+  EXPECT_THAT(
+      md, HasSubstr("| 4 | 5 | GP | 0.875 | [1 -0.5 0.375 0.004 -0.006 0.01] | [0.6 -0.45 0.355"));
 }
 
 TEST(FitReportHtml, ReportWithoutTrialsOrEffectsStillRenders) {
@@ -268,10 +272,9 @@ TEST(WriteFitReport, FilesHoldTheRenderedReportAndAFailedWriteLeavesNothing) {
   fs::remove_all(dir);
 }
 
-
 TEST(FitReportHtml, ResidualVsPosturePlotsEachJointThatVaries) {
-  const isowrench::Model model =
-      isowrench::Model::FromUrdfFile(std::string(ISOWRENCH_TEST_URDF_DIR) + "/rat_hindlimb_5dof.urdf");
+  const isowrench::Model model = isowrench::Model::FromUrdfFile(
+      std::string(ISOWRENCH_TEST_URDF_DIR) + "/rat_hindlimb_5dof.urdf");
   const isowrench::FitReport r = MakeReport();
   // The report's four trials at postures where only hip_rz and knee_rz vary.
   std::vector<isowrench::Trial> trials;
@@ -300,8 +303,10 @@ TEST(FitReportHtml, ResidualVsPosturePlotsEachJointThatVaries) {
     const auto points = ByClass(series, "point");
     ASSERT_EQ(points.size(), trials.size());
     for (size_t k = 0; k < points.size(); ++k) {
-      EXPECT_NEAR(Num(points[k], "data-x"), trials[k].q[model.JointIndex("hip_rz")] * 180.0 / M_PI, 1e-12);
-      EXPECT_EQ(Num(points[k], "data-y"), before ? r.trials[k].normalized_before : r.trials[k].normalized_after);
+      EXPECT_NEAR(Num(points[k], "data-x"), trials[k].q[model.JointIndex("hip_rz")] * 180.0 / M_PI,
+                  1e-12);
+      EXPECT_EQ(Num(points[k], "data-y"),
+                before ? r.trials[k].normalized_before : r.trials[k].normalized_after);
     }
   }
   // Trials that are not the fit's are refused, naming the mismatch.
@@ -330,13 +335,15 @@ TEST(FitReportHtml, PlotsOfConstantOrNearlyConstantLargeValuesStillRender) {
 // End to end: a real fit (base compliance hidden in simulated data) rendered as HTML carries
 // that fit's own before/after RMS per component and plots every trial.
 TEST(FitReportHtml, RealFitReportCarriesItsOwnBeforeAndAfterNumbers) {
-  const isowrench::Model model =
-      isowrench::Model::FromUrdfFile(std::string(ISOWRENCH_TEST_URDF_DIR) + "/rat_hindlimb_5dof.urdf");
+  const isowrench::Model model = isowrench::Model::FromUrdfFile(
+      std::string(ISOWRENCH_TEST_URDF_DIR) + "/rat_hindlimb_5dof.urdf");
   isowrench::SimulationOptions sim;
   sim.postures = 20;  // small: a fast end-to-end check, not a study of the fit
   sim.seed = 11;
   const std::vector<isowrench::Trial> trials = isowrench::SimulateTrials(
-      model, isowrench::ApplyEffects(model.description(), {isowrench::ParseEffectAssignment(model, "base_isotropic=1e4")}),
+      model,
+      isowrench::ApplyEffects(model.description(),
+                              {isowrench::ParseEffectAssignment(model, "base_isotropic=1e4")}),
       sim);
   isowrench::FitOptions options;
   options.candidates = {"base_isotropic", "sensor_offset"};

@@ -23,7 +23,8 @@ using ::testing::ThrowsMessage;
 constexpr double kPixelTol = 2e-3;
 
 isowrench::Model Rat() {
-  return isowrench::Model::FromUrdfFile(std::string(ISOWRENCH_TEST_URDF_DIR) + "/rat_hindlimb_5dof.urdf");
+  return isowrench::Model::FromUrdfFile(std::string(ISOWRENCH_TEST_URDF_DIR) +
+                                        "/rat_hindlimb_5dof.urdf");
 }
 
 struct View {
@@ -39,8 +40,13 @@ struct View {
 View ReadView(const tinyxml2::XMLElement* root, const std::string& name) {
   for (const auto* g : ByClass(root, "view")) {
     if (name == g->Attribute("data-view")) {
-      auto axis = [](const char* a) { return std::string(a) == "x" ? 0 : std::string(a) == "y" ? 1 : 2; };
-      return {g, axis(g->Attribute("data-right")), axis(g->Attribute("data-up")), Num(g, "data-px-per-m"),
+      auto axis = [](const char* a) {
+        return std::string(a) == "x" ? 0 : std::string(a) == "y" ? 1 : 2;
+      };
+      return {g,
+              axis(g->Attribute("data-right")),
+              axis(g->Attribute("data-up")),
+              Num(g, "data-px-per-m"),
               {Num(g, "data-origin-x"), Num(g, "data-origin-y")}};
     }
   }
@@ -67,7 +73,8 @@ TEST(LimbStickFigureSvg, TopAndSideViewsPutJointsWhereTheGeometrySays) {
   // Planar chain in x-y: knee at 31 mm along -110°, ankle 41 mm further along -110°+105° = -5°.
   const double hip = -110 * M_PI / 180, knee = hip + 105 * M_PI / 180;
   const Eigen::Vector3d p_knee = 0.031 * Eigen::Vector3d(std::cos(hip), std::sin(hip), 0);
-  const Eigen::Vector3d p_ankle = p_knee + 0.041 * Eigen::Vector3d(std::cos(knee), std::sin(knee), 0);
+  const Eigen::Vector3d p_ankle =
+      p_knee + 0.041 * Eigen::Vector3d(std::cos(knee), std::sin(knee), 0);
   for (const char* name : {"top", "side"}) {
     SCOPED_TRACE(name);
     const View v = ReadView(doc.RootElement(), name);
@@ -80,8 +87,11 @@ TEST(LimbStickFigureSvg, TopAndSideViewsPutJointsWhereTheGeometrySays) {
     ASSERT_TRUE(h && k);
     EXPECT_EQ(std::string(h->Attribute("data-joints")), "hip_rz hip_ry hip_rx");
     EXPECT_EQ(std::string(k->Attribute("data-joints")), "knee_rz knee_rx");
-    EXPECT_NEAR((Eigen::Vector2d(Num(h, "cx"), Num(h, "cy")) - v.Screen(Eigen::Vector3d::Zero())).norm(), 0, kPixelTol);
-    EXPECT_NEAR((Eigen::Vector2d(Num(k, "cx"), Num(k, "cy")) - v.Screen(p_knee)).norm(), 0, kPixelTol);
+    EXPECT_NEAR(
+        (Eigen::Vector2d(Num(h, "cx"), Num(h, "cy")) - v.Screen(Eigen::Vector3d::Zero())).norm(), 0,
+        kPixelTol);
+    EXPECT_NEAR((Eigen::Vector2d(Num(k, "cx"), Num(k, "cy")) - v.Screen(p_knee)).norm(), 0,
+                kPixelTol);
     // Endpoint frame axes start at the ankle.
     const auto axes = ByClass(v.g, "endpoint-axis");
     ASSERT_EQ(axes.size(), 3u);
@@ -93,7 +103,9 @@ TEST(LimbStickFigureSvg, TopAndSideViewsPutJointsWhereTheGeometrySays) {
     const auto points = ByClass(v.g, "muscle-point");
     ASSERT_EQ(points.size(), 2u);
     EXPECT_NEAR((Eigen::Vector2d(Num(points[0], "cx"), Num(points[0], "cy")) -
-                 v.Screen(Eigen::Vector3d(0.01267, -0.010403, -0.00478))).norm(), 0, kPixelTol);
+                 v.Screen(Eigen::Vector3d(0.01267, -0.010403, -0.00478)))
+                    .norm(),
+                0, kPixelTol);
   }
 }
 
@@ -122,7 +134,8 @@ TEST(LimbStickFigureSvg, JointAxesHaveTheirWorldDirections) {
   // Parallel to the femur: the 2-D cross product of the drawn segment (world x, world y = -screen
   // y) with the femur direction vanishes.
   const double hip = -110 * M_PI / 180;
-  EXPECT_NEAR(d.x() * std::sin(hip) - (-d.y()) * std::cos(hip), 0, kPixelTol) << "hip_rx along the femur";
+  EXPECT_NEAR(d.x() * std::sin(hip) - (-d.y()) * std::cos(hip), 0, kPixelTol)
+      << "hip_rx along the femur";
 }
 
 TEST(LimbStickFigureSvg, WrongPostureSizeIsRefused) {

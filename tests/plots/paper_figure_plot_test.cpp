@@ -36,7 +36,9 @@ using ::testing::ThrowsMessage;
 // of at most max_component_px = 90 px that adds 4.5e-3 px. 0.01 px bounds both with margin.
 constexpr double kPixelTol = 0.01;
 
-std::vector<PaperPanel> Figure(int n) { return isowrench::ComputePaperFigure(n, ISOWRENCH_TEST_URDF_DIR); }
+std::vector<PaperPanel> Figure(int n) {
+  return isowrench::ComputePaperFigure(n, ISOWRENCH_TEST_URDF_DIR);
+}
 
 struct Parsed {
   tinyxml2::XMLDocument doc;
@@ -52,7 +54,8 @@ void Parse(const std::string& svg, Parsed* p) {
 
 const tinyxml2::XMLElement* PanelFor(const tinyxml2::XMLElement* root, const PaperPanel& panel) {
   for (const tinyxml2::XMLElement* g : ByClass(root, "panel")) {
-    if (panel.row == g->Attribute("data-row") && panel.column == g->Attribute("data-column")) return g;
+    if (panel.row == g->Attribute("data-row") && panel.column == g->Attribute("data-column"))
+      return g;
   }
   return nullptr;
 }
@@ -122,7 +125,8 @@ TEST(PaperFigureSvg, RowLabelsCarryTheStiffnessValuesOfTheirRow) {
       for (const PaperPanel& panel : panels) {
         // Every Eq. 10 panel of the row with all six transducer dofs restrained shares the
         // row's stiffness values; the label must show them with units.
-        if (panel.row != row || panel.method != "Eq. 10" || !(panel.s_t.array() > 0).all()) continue;
+        if (panel.row != row || panel.method != "Eq. 10" || !(panel.s_t.array() > 0).all())
+          continue;
         EXPECT_THAT(label, HasSubstr(Format3(panel.s_t[0])));
         EXPECT_THAT(label, HasSubstr(Format3(panel.s_t[3])));
         EXPECT_THAT(label, HasSubstr("N/m"));
@@ -166,7 +170,8 @@ double CheckGlyph(const tinyxml2::XMLElement* glyph, const Eigen::Vector3d& v, d
   // Unit screen directions of +x, +y, +z under the documented projection: x right, y up, z at
   // oblique_angle_deg with ratio oblique_ratio (SVG y grows downward).
   const double a = options.oblique_angle_deg * M_PI / 180.0;
-  const Eigen::Vector2d dir[3] = {{1, 0}, {0, -1}, {options.oblique_ratio * std::cos(a), -options.oblique_ratio * std::sin(a)}};
+  const Eigen::Vector2d dir[3] = {
+      {1, 0}, {0, -1}, {options.oblique_ratio * std::cos(a), -options.oblique_ratio * std::sin(a)}};
   Eigen::Vector2d origin(Num(glyph, "data-origin-x"), Num(glyph, "data-origin-y"));
   Eigen::Vector2d sum = Eigen::Vector2d::Zero();
   const auto components = ByClass(glyph, "component");
@@ -176,10 +181,13 @@ double CheckGlyph(const tinyxml2::XMLElement* glyph, const Eigen::Vector3d& v, d
     const LineGeom line = Line(components[i]);
     EXPECT_NEAR((line.a - origin).norm(), 0.0, kPixelTol) << "projections start at the origin";
     // Drawn length = |component| * scale (cavalier projection: every axis at true length).
-    EXPECT_NEAR(line.d().norm(), std::abs(v[i]) * px_per_unit * (i == 2 ? options.oblique_ratio : 1.0), kPixelTol)
-        << "axis " << "xyz"[i];
+    EXPECT_NEAR(line.d().norm(),
+                std::abs(v[i]) * px_per_unit * (i == 2 ? options.oblique_ratio : 1.0), kPixelTol)
+        << "axis "
+        << "xyz"[i];
     // Drawn along the axis, on the side of the component's sign.
-    EXPECT_NEAR((line.d() - v[i] * px_per_unit * dir[i]).norm(), 0.0, kPixelTol) << "axis " << "xyz"[i];
+    EXPECT_NEAR((line.d() - v[i] * px_per_unit * dir[i]).norm(), 0.0, kPixelTol) << "axis "
+                                                                                 << "xyz"[i];
     sum += line.d();
     // The projection is drawn in the paper's colour for its axis.
     EXPECT_STREQ(components[i]->Attribute("stroke"), isowrench::kAxisColors[i]);
@@ -210,8 +218,10 @@ TEST(PaperFigureSvg, GlyphLengthsMatchTheWrenchesTheyDraw) {
       const auto moment = ByClass(g, "moment");
       ASSERT_EQ(force.size(), 1u);
       ASSERT_EQ(moment.size(), 1u);
-      const double fs = CheckGlyph(force[0], panel.wrench.head<3>(), options.force_scale_bar, options);
-      const double ms = CheckGlyph(moment[0], panel.wrench.tail<3>(), options.moment_scale_bar, options);
+      const double fs =
+          CheckGlyph(force[0], panel.wrench.head<3>(), options.force_scale_bar, options);
+      const double ms =
+          CheckGlyph(moment[0], panel.wrench.tail<3>(), options.moment_scale_bar, options);
       // One scale per quantity for the whole figure, so panels compare by eye.
       if (force_scale < 0) force_scale = fs, moment_scale = ms;
       EXPECT_NEAR(fs, force_scale, 1e-3 * force_scale);
@@ -240,7 +250,8 @@ TEST(GlyphScales, UseTheScaleBarUnlessAProjectionWouldBeTooLong) {
 TEST(GlyphScales, RefusesNonFiniteWrenchesAndBadOptions) {
   Vector6d w = Vector6d::Zero();
   w[4] = std::nan("");
-  EXPECT_THAT([&] { isowrench::GlyphScales({w}); }, ThrowsMessage<isowrench::Error>(HasSubstr("not finite")));
+  EXPECT_THAT([&] { isowrench::GlyphScales({w}); },
+              ThrowsMessage<isowrench::Error>(HasSubstr("not finite")));
   GlyphOptions bad;
   bad.force_scale_bar = 0;
   EXPECT_THAT([&] { isowrench::GlyphScales({Vector6d::Zero()}, bad); },
@@ -252,9 +263,13 @@ TEST(ObliqueProjection, CavalierKeepsEveryAxisAtTrueLength) {
     EXPECT_NEAR(isowrench::ObliqueProjection(Eigen::Vector3d::Unit(i), 7.0).norm(), 7.0, 1e-12);
   }
   // x right, y up (SVG y down), z down-left at 225 degrees.
-  EXPECT_NEAR((isowrench::ObliqueProjection(Eigen::Vector3d(1, 2, 0), 1.0) - Eigen::Vector2d(1, -2)).norm(), 0, 1e-12);
+  EXPECT_NEAR(
+      (isowrench::ObliqueProjection(Eigen::Vector3d(1, 2, 0), 1.0) - Eigen::Vector2d(1, -2)).norm(),
+      0, 1e-12);
   EXPECT_NEAR((isowrench::ObliqueProjection(Eigen::Vector3d(0, 0, 1), 1.0) -
-               Eigen::Vector2d(-std::sqrt(0.5), std::sqrt(0.5))).norm(), 0, 1e-12);
+               Eigen::Vector2d(-std::sqrt(0.5), std::sqrt(0.5)))
+                  .norm(),
+              0, 1e-12);
 }
 
 TEST(WrenchGlyphSvg, StandaloneGlyphParsesAndDrawsTheGivenWrench) {
@@ -322,7 +337,8 @@ TEST(PaperFigureJson, CarriesTheSameNumbers) {
   for (size_t k = 0; k < panels.size(); ++k) {
     EXPECT_EQ(j["panels"][k]["row"], panels[k].row);
     EXPECT_EQ(j["panels"][k]["base_stiffness"].get<double>(), panels[k].base_stiffness);
-    for (int i = 0; i < 6; ++i) EXPECT_EQ(j["panels"][k]["wrench"][names[i]].get<double>(), panels[k].wrench[i]);
+    for (int i = 0; i < 6; ++i)
+      EXPECT_EQ(j["panels"][k]["wrench"][names[i]].get<double>(), panels[k].wrench[i]);
   }
 }
 
@@ -446,7 +462,8 @@ TEST(WriteTextFile, UnwritablePathThrowsAndLeavesNothing) {
 }
 
 TEST(PaperFigureSvg, EmptyPanelListIsRefused) {
-  EXPECT_THAT([] { isowrench::PaperFigureSvg(2, {}); }, ThrowsMessage<isowrench::Error>(HasSubstr("no panels")));
+  EXPECT_THAT([] { isowrench::PaperFigureSvg(2, {}); },
+              ThrowsMessage<isowrench::Error>(HasSubstr("no panels")));
 }
 
 }  // namespace

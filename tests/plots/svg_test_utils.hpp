@@ -32,14 +32,16 @@ inline void Collect(const tinyxml2::XMLElement* root,
 inline std::vector<const tinyxml2::XMLElement*> ByClass(const tinyxml2::XMLElement* root,
                                                         const std::string& cls) {
   std::vector<const tinyxml2::XMLElement*> out;
-  Collect(root, [&](const tinyxml2::XMLElement* e) { return HasClass(e, cls); }, &out);
+  Collect(
+      root, [&](const tinyxml2::XMLElement* e) { return HasClass(e, cls); }, &out);
   return out;
 }
 
 inline std::vector<const tinyxml2::XMLElement*> ByTag(const tinyxml2::XMLElement* root,
                                                       const std::string& tag) {
   std::vector<const tinyxml2::XMLElement*> out;
-  Collect(root, [&](const tinyxml2::XMLElement* e) { return tag == e->Name(); }, &out);
+  Collect(
+      root, [&](const tinyxml2::XMLElement* e) { return tag == e->Name(); }, &out);
   return out;
 }
 

@@ -13,13 +13,18 @@ double MeanTranslational(const Model& model) {
 class BaseIsotropic final : public EffectType {
  public:
   EffectKindInfo Info() const override {
-    return {"base_isotropic", "base_isotropic", EffectStage::kModel,
-            "Adds three base translation joints (world x y z) held by one stiffness: the skeleton is not "
+    return {"base_isotropic",
+            "base_isotropic",
+            EffectStage::kModel,
+            "Adds three base translation joints (world x y z) held by one stiffness: the skeleton "
+            "is not "
             "rigidly fixed. Offered when the model has no base joints.",
             "k_base (N/m, log10, 1e-4 to 1e4 x the mean transducer translation stiffness)",
-            "base_per_axis (nested: the same with one stiffness per axis); transducer_soft on a translation dof"};
+            "base_per_axis (nested: the same with one stiffness per axis); transducer_soft on a "
+            "translation dof"};
   }
-  std::vector<Effect> Candidates(const Model& model, const std::vector<std::string>&) const override {
+  std::vector<Effect> Candidates(const Model& model,
+                                 const std::vector<std::string>&) const override {
     for (const JointSpec& j : model.description().joints) {
       if (j.role == JointRole::kBase) return {};
     }
@@ -40,6 +45,8 @@ class BaseIsotropic final : public EffectType {
 
 }  // namespace
 
-std::unique_ptr<EffectType> MakeEffect_base_isotropic() { return std::make_unique<BaseIsotropic>(); }
+std::unique_ptr<EffectType> MakeEffect_base_isotropic() {
+  return std::make_unique<BaseIsotropic>();
+}
 
 }  // namespace isowrench::ident

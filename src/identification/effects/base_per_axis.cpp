@@ -8,13 +8,17 @@ namespace {
 class BasePerAxis final : public EffectType {
  public:
   EffectKindInfo Info() const override {
-    return {"base_per_axis", "base_per_axis", EffectStage::kModel,
-            "Adds three base translation joints (world x y z), each held by its own stiffness. Replaced by "
+    return {"base_per_axis",
+            "base_per_axis",
+            EffectStage::kModel,
+            "Adds three base translation joints (world x y z), each held by its own stiffness. "
+            "Replaced by "
             "base_isotropic after the rounds when the three agree (lower BIC).",
             "k_base_x, k_base_y, k_base_z (N/m, log10, same range as base_isotropic)",
             "base_isotropic (nested); transducer_soft on a translation dof"};
   }
-  std::vector<Effect> Candidates(const Model& model, const std::vector<std::string>&) const override {
+  std::vector<Effect> Candidates(const Model& model,
+                                 const std::vector<std::string>&) const override {
     for (const JointSpec& j : model.description().joints) {
       if (j.role == JointRole::kBase) return {};
     }
@@ -23,9 +27,11 @@ class BasePerAxis final : public EffectType {
     Effect e;
     e.kind = "base_per_axis";
     e.id = "base_per_axis";
-    e.description = "imperfect skeletal fixation: a stiffness per world axis for the base translations";
+    e.description =
+        "imperfect skeletal fixation: a stiffness per world axis for the base translations";
     for (const char* axis : {"x", "y", "z"}) {
-      e.parameters.push_back(LogParameter(std::string("k_base_") + axis, "N/m", 1e4 * k, k, 1e-4 * k, 1e4 * k));
+      e.parameters.push_back(
+          LogParameter(std::string("k_base_") + axis, "N/m", 1e4 * k, k, 1e-4 * k, 1e4 * k));
     }
     e.confounders = {"base_isotropic"};
     e.excludes = {"base_isotropic"};

@@ -8,13 +8,20 @@ namespace {
 class Coactivation final : public EffectType {
  public:
   EffectKindInfo Info() const override {
-    return {"coactivation", "coactivation:MUSCLE (models with two or more muscles)", EffectStage::kForce,
-            "In every trial that stimulates another muscle, MUSCLE also pulls with a fraction of its max "
-            "force (stimulus spread). The statics are linear, so its wrench adds to the stimulated one's.",
-            "fraction (of max force, linear, -1 to 1; negative values only keep the estimate unbiased near 0)",
-            "force_scale and attachment of the stimulated muscle when the two lines of action are close"};
+    return {"coactivation",
+            "coactivation:MUSCLE (models with two or more muscles)",
+            EffectStage::kForce,
+            "In every trial that stimulates another muscle, MUSCLE also pulls with a fraction of "
+            "its max "
+            "force (stimulus spread). The statics are linear, so its wrench adds to the stimulated "
+            "one's.",
+            "fraction (of max force, linear, -1 to 1; negative values only keep the estimate "
+            "unbiased near 0)",
+            "force_scale and attachment of the stimulated muscle when the two lines of action are "
+            "close"};
   }
-  std::vector<Effect> Candidates(const Model& model, const std::vector<std::string>& muscles) const override {
+  std::vector<Effect> Candidates(const Model& model,
+                                 const std::vector<std::string>& muscles) const override {
     std::vector<Effect> out;
     if (model.muscle_count() < 2) return out;
     for (const MuscleSpec& m : model.description().muscles) {
@@ -25,7 +32,8 @@ class Coactivation final : public EffectType {
       e.muscle = m.name;
       e.stage = EffectStage::kForce;
       e.post_processing = true;
-      e.description = "muscle " + m.name + " also pulls (a fraction of its max force) when another muscle is stimulated";
+      e.description = "muscle " + m.name +
+                      " also pulls (a fraction of its max force) when another muscle is stimulated";
       EffectParameter p = LinearParameter("fraction", "x", 1.0);
       e.parameters.push_back(p);
       e.confounders = {"force_scale:", "attachment:"};

@@ -16,15 +16,19 @@ double ReachLength(const LimbDescription& d) {
 class Crosstalk final : public EffectType {
  public:
   EffectKindInfo Info() const override {
-    return {"crosstalk", "crosstalk", EffectStage::kMeasurement,
-            "Off-diagonal calibration terms: reading = D (I + E) D^-1 W with D = diag(1, 1, 1, L, L, L) "
-            "(L = the limb's reach, so moments and forces are comparable) and E symmetric with a zero "
-            "diagonal. Only the symmetric part is a parameter because the rest is another effect: the "
-            "diagonal is gain:, the skew part of the force and moment blocks is a small rotation "
-            "(misalignment), and the skew part of the moment-from-force block is a moment origin shift "
-            "(sensor_origin). Fitting those twice would make the parameters unidentifiable.",
-            "15 terms named AXIS1_AXIS2 (x, linear, -0.2 to 0.2) in the normalised units",
-            "gain:, misalignment, sensor_origin (parametrised away, see above)"};
+    return {
+        "crosstalk",
+        "crosstalk",
+        EffectStage::kMeasurement,
+        "Off-diagonal calibration terms: reading = D (I + E) D^-1 W with D = diag(1, 1, 1, L, L, "
+        "L) "
+        "(L = the limb's reach, so moments and forces are comparable) and E symmetric with a zero "
+        "diagonal. Only the symmetric part is a parameter because the rest is another effect: the "
+        "diagonal is gain:, the skew part of the force and moment blocks is a small rotation "
+        "(misalignment), and the skew part of the moment-from-force block is a moment origin shift "
+        "(sensor_origin). Fitting those twice would make the parameters unidentifiable.",
+        "15 terms named AXIS1_AXIS2 (x, linear, -0.2 to 0.2) in the normalised units",
+        "gain:, misalignment, sensor_origin (parametrised away, see above)"};
   }
   std::vector<Effect> Candidates(const Model&, const std::vector<std::string>&) const override {
     Effect e;
@@ -32,10 +36,12 @@ class Crosstalk final : public EffectType {
     e.id = "crosstalk";
     e.stage = EffectStage::kMeasurement;
     e.post_processing = true;
-    e.description = "the transducer's calibration matrix has off-diagonal (crosstalk) terms, symmetric part";
+    e.description =
+        "the transducer's calibration matrix has off-diagonal (crosstalk) terms, symmetric part";
     for (int i = 0; i < 6; ++i) {
       for (int j = i + 1; j < 6; ++j) {
-        e.parameters.push_back(LinearParameter(std::string(AxisName(i)) + "_" + AxisName(j), "x", 0.2));
+        e.parameters.push_back(
+            LinearParameter(std::string(AxisName(i)) + "_" + AxisName(j), "x", 0.2));
       }
     }
     e.confounders = {"gain:", "misalignment", "sensor_origin"};

@@ -36,14 +36,20 @@ double ExtraJointScale(const Model& model, const std::string& joint, const Eigen
 class ExtraJoint final : public EffectType {
  public:
   EffectKindInfo Info() const override {
-    return {"extra_joint", "extra_joint:JOINT:AXIS (AXIS x, y or z in JOINT's child frame)", EffectStage::kModel,
-            "Adds a revolute dof after JOINT about AXIS, held by a passive stiffness: a joint the URDF treats "
-            "as rigid gives. Offered for each axis missing from each group of co-located revolute limb joints.",
+    return {"extra_joint",
+            "extra_joint:JOINT:AXIS (AXIS x, y or z in JOINT's child frame)",
+            EffectStage::kModel,
+            "Adds a revolute dof after JOINT about AXIS, held by a passive stiffness: a joint the "
+            "URDF treats "
+            "as rigid gives. Offered for each axis missing from each group of co-located revolute "
+            "limb joints.",
             "k_joint (N·m/rad, log10, 1e-6 to 1e4 x j^T S_t j of that axis at the nominal posture)",
-            "extra joints of neighbouring groups about parallel axes; invisible when it forms a self-motion "
+            "extra joints of neighbouring groups about parallel axes; invisible when it forms a "
+            "self-motion "
             "with the other joints (flagged as not identifiable)"};
   }
-  std::vector<Effect> Candidates(const Model& model, const std::vector<std::string>&) const override {
+  std::vector<Effect> Candidates(const Model& model,
+                                 const std::vector<std::string>&) const override {
     std::vector<Effect> out;
     const LimbDescription& d = model.description();
     std::vector<const JointSpec*> movable;
@@ -56,7 +62,8 @@ class ExtraJoint final : public EffectType {
              movable[stop]->type == JointType::kRevolute) {
         ++stop;
       }
-      if (movable[start]->type == JointType::kRevolute && movable[start]->role == JointRole::kLimb) {
+      if (movable[start]->type == JointType::kRevolute &&
+          movable[start]->role == JointRole::kLimb) {
         // Axes of the group expressed in the child frame of its last joint at q = 0.
         std::vector<Eigen::Vector3d> axes;
         Eigen::Matrix3d R = Eigen::Matrix3d::Identity();
@@ -68,17 +75,19 @@ class ExtraJoint final : public EffectType {
         for (int a = 0; a < 3; ++a) {
           Eigen::Vector3d axis = Eigen::Vector3d::Unit(a);
           bool covered = false;
-          for (const Eigen::Vector3d& g : axes) covered |= std::abs(g.normalized().dot(axis)) > kCoveredAxis;
+          for (const Eigen::Vector3d& g : axes)
+            covered |= std::abs(g.normalized().dot(axis)) > kCoveredAxis;
           if (covered) continue;
           Effect e;
           e.kind = "extra_joint";
           e.joint = last.name;
           e.axis = axis;
           e.id = "extra_joint:" + last.name + ":" + kAxes[a];
-          e.description = std::string("an extra revolute dof about ") + kAxes[a] + " after joint " + last.name +
-                          ", held by a passive stiffness";
+          e.description = std::string("an extra revolute dof about ") + kAxes[a] + " after joint " +
+                          last.name + ", held by a passive stiffness";
           double scale = ExtraJointScale(model, last.name, axis);
-          e.parameters.push_back(LogParameter("k_joint", "N·m/rad", 1e4 * scale, scale, 1e-6 * scale, 1e4 * scale));
+          e.parameters.push_back(
+              LogParameter("k_joint", "N·m/rad", 1e4 * scale, scale, 1e-6 * scale, 1e4 * scale));
           e.confounders = {"extra_joint:"};
           out.push_back(e);
         }

@@ -9,13 +9,17 @@ namespace {
 class ForceScale final : public EffectType {
  public:
   EffectKindInfo Info() const override {
-    return {"force_scale", "force_scale:MUSCLE", EffectStage::kForce,
-            "Scales MUSCLE's max_force by a factor (the whole wrench of its trials scales: W is linear in "
+    return {"force_scale",
+            "force_scale:MUSCLE",
+            EffectStage::kForce,
+            "Scales MUSCLE's max_force by a factor (the whole wrench of its trials scales: W is "
+            "linear in "
             "the force). Written into the augmented URDF's max_force.",
             "scale (x, log10, 0.01 to 100)",
             "trial_force (per-trial factors contain it); gain on every axis at once"};
   }
-  std::vector<Effect> Candidates(const Model& model, const std::vector<std::string>& muscles) const override {
+  std::vector<Effect> Candidates(const Model& model,
+                                 const std::vector<std::string>& muscles) const override {
     std::vector<Effect> out;
     for (const MuscleSpec& m : model.description().muscles) {
       if (!Wanted(muscles, m.name)) continue;

@@ -8,8 +8,11 @@ namespace {
 class Gain final : public EffectType {
  public:
   EffectKindInfo Info() const override {
-    return {"gain", "gain:AXIS (AXIS one of fx fy fz mx my mz)", EffectStage::kMeasurement,
-            "The transducer reads AXIS times a factor: the diagonal of its 6 x 6 calibration matrix is off.",
+    return {"gain",
+            "gain:AXIS (AXIS one of fx fy fz mx my mz)",
+            EffectStage::kMeasurement,
+            "The transducer reads AXIS times a factor: the diagonal of its 6 x 6 calibration "
+            "matrix is off.",
             "factor (x, log10, 0.1 to 10)",
             "force_scale and trial_force (a common gain on all axes is a force factor); crosstalk"};
   }
@@ -22,7 +25,8 @@ class Gain final : public EffectType {
       e.dof = axis;
       e.stage = EffectStage::kMeasurement;
       e.post_processing = true;
-      e.description = std::string("the transducer reads ") + AxisName(axis) + " times a factor (calibration gain)";
+      e.description = std::string("the transducer reads ") + AxisName(axis) +
+                      " times a factor (calibration gain)";
       e.parameters.push_back(LogParameter("factor", "x", 1.0, 1.0, 0.1, 10.0));
       e.confounders = {"force_scale:", "trial_force"};
       out.push_back(e);

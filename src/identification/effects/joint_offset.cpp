@@ -8,13 +8,16 @@ namespace {
 class JointOffset final : public EffectType {
  public:
   EffectKindInfo Info() const override {
-    return {"joint_offset", "joint_offset:COORD (a limb coordinate)", EffectStage::kPosture,
+    return {"joint_offset",
+            "joint_offset:COORD (a limb coordinate)",
+            EffectStage::kPosture,
             "The true value of COORD is the recorded one plus a constant (goniometer zero, marker "
             "placement): every trial is predicted at the shifted posture.",
             "offset (deg for revolute, mm for prismatic coordinates, linear, -20 to 20)",
             "attachment of a muscle crossing COORD; offsets of coordinates with parallel axes"};
   }
-  std::vector<Effect> Candidates(const Model& model, const std::vector<std::string>&) const override {
+  std::vector<Effect> Candidates(const Model& model,
+                                 const std::vector<std::string>&) const override {
     std::vector<Effect> out;
     for (int i = 0; i < model.dof_count(); ++i) {
       const JointSpec& j = model.joint(i);
@@ -27,7 +30,8 @@ class JointOffset final : public EffectType {
       e.stage = EffectStage::kPosture;
       e.post_processing = true;
       e.description = "the recorded " + name + " is offset from the true value by a constant";
-      e.parameters.push_back(LinearParameter("offset", j.type == JointType::kPrismatic ? "mm" : "deg", 20.0));
+      e.parameters.push_back(
+          LinearParameter("offset", j.type == JointType::kPrismatic ? "mm" : "deg", 20.0));
       e.confounders = {"attachment:", "joint_offset:"};
       out.push_back(e);
     }

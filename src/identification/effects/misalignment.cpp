@@ -10,8 +10,11 @@ namespace {
 class Misalignment final : public EffectType {
  public:
   EffectKindInfo Info() const override {
-    return {"misalignment", "misalignment", EffectStage::kModel,
-            "Rotates the transducer axes by a small rotation vector (in transducer axes): the sensor is "
+    return {"misalignment",
+            "misalignment",
+            EffectStage::kModel,
+            "Rotates the transducer axes by a small rotation vector (in transducer axes): the "
+            "sensor is "
             "mounted turned. Changes the readings' axes and, for an anisotropic S_t, the statics.",
             "rx, ry, rz (deg, linear, -20 to 20)",
             "the skew-symmetric part of a calibration error (which is why crosstalk is symmetric)"};
@@ -20,8 +23,10 @@ class Misalignment final : public EffectType {
     Effect e;
     e.kind = "misalignment";
     e.id = "misalignment";
-    e.description = "transducer axes rotated by a small rotation (rotation vector in transducer axes)";
-    for (const char* n : {"rx", "ry", "rz"}) e.parameters.push_back(LinearParameter(n, "deg", 20.0));
+    e.description =
+        "transducer axes rotated by a small rotation (rotation vector in transducer axes)";
+    for (const char* n : {"rx", "ry", "rz"})
+      e.parameters.push_back(LinearParameter(n, "deg", 20.0));
     return {e};
   }
   void Apply(const Effect&, const std::vector<double>& v, AugmentedModel* m) const override {
@@ -29,7 +34,8 @@ class Misalignment final : public EffectType {
     r *= kDegree;
     if (r.norm() > 0) {
       m->description.transducer.rotation =
-          m->description.transducer.rotation * Eigen::AngleAxisd(r.norm(), r.normalized()).toRotationMatrix();
+          m->description.transducer.rotation *
+          Eigen::AngleAxisd(r.norm(), r.normalized()).toRotationMatrix();
     }
   }
 };

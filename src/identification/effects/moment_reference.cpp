@@ -8,8 +8,11 @@ namespace {
 class MomentReference final : public EffectType {
  public:
   EffectKindInfo Info() const override {
-    return {"moment_reference", "moment_reference", EffectStage::kModel,
-            "Moves the endpoint (where the limb is attached, the moment reference point) by a vector in the "
+    return {"moment_reference",
+            "moment_reference",
+            EffectStage::kModel,
+            "Moves the endpoint (where the limb is attached, the moment reference point) by a "
+            "vector in the "
             "endpoint link's frame: changes the statics (J) and the moment arm of the reading.",
             "dx, dy, dz (mm, linear, -20 to 20)",
             "sensor_origin (the same moment shift without the change in J, in transducer axes)"};
@@ -30,6 +33,8 @@ class MomentReference final : public EffectType {
 
 }  // namespace
 
-std::unique_ptr<EffectType> MakeEffect_moment_reference() { return std::make_unique<MomentReference>(); }
+std::unique_ptr<EffectType> MakeEffect_moment_reference() {
+  return std::make_unique<MomentReference>();
+}
 
 }  // namespace isowrench::ident

@@ -8,8 +8,11 @@ namespace {
 class SensorOffset final : public EffectType {
  public:
   EffectKindInfo Info() const override {
-    return {"sensor_offset", "sensor_offset", EffectStage::kMeasurement,
-            "Adds a constant wrench to every reading (zeroing error, drift). Written into the augmented "
+    return {"sensor_offset",
+            "sensor_offset",
+            EffectStage::kMeasurement,
+            "Adds a constant wrench to every reading (zeroing error, drift). Written into the "
+            "augmented "
             "URDF's comment: URDF cannot hold it.",
             "fx, fy, fz (N, linear, -10 to 10), mx, my, mz (N·m, linear, -1 to 1)",
             "none structurally; a slow drift shows in the trace against trial order instead"};

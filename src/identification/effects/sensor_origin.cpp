@@ -8,11 +8,16 @@ namespace {
 class SensorOrigin final : public EffectType {
  public:
   EffectKindInfo Info() const override {
-    return {"sensor_origin", "sensor_origin", EffectStage::kMeasurement,
-            "The transducer resolves moments about a point offset by d (transducer axes) from the nominal "
-            "one: it reads m - d x f. Unlike moment_reference the limb's attachment (and J) is unchanged.",
+    return {"sensor_origin",
+            "sensor_origin",
+            EffectStage::kMeasurement,
+            "The transducer resolves moments about a point offset by d (transducer axes) from the "
+            "nominal "
+            "one: it reads m - d x f. Unlike moment_reference the limb's attachment (and J) is "
+            "unchanged.",
             "dx, dy, dz (mm, linear, -20 to 20, transducer axes)",
-            "moment_reference (same moment shift, world/link axes, plus a change of J); the skew part of "
+            "moment_reference (same moment shift, world/link axes, plus a change of J); the skew "
+            "part of "
             "the moment-from-force calibration block"};
   }
   std::vector<Effect> Candidates(const Model&, const std::vector<std::string>&) const override {

@@ -8,8 +8,11 @@ namespace {
 class TransducerAnisotropy final : public EffectType {
  public:
   EffectKindInfo Info() const override {
-    return {"transducer_anisotropy", "transducer_anisotropy", EffectStage::kModel,
-            "Scales the transducer's three rotational stiffnesses by one factor (the translation/rotation "
+    return {"transducer_anisotropy",
+            "transducer_anisotropy",
+            EffectStage::kModel,
+            "Scales the transducer's three rotational stiffnesses by one factor (the "
+            "translation/rotation "
             "stiffness ratio of S_t is off). Only over-constrained limbs see it.",
             "rotation_factor (x, log10, 1e-4 to 1e4)",
             "transducer_soft on a rotational dof; base compliance"};
@@ -18,8 +21,9 @@ class TransducerAnisotropy final : public EffectType {
     Effect e;
     e.kind = "transducer_anisotropy";
     e.id = "transducer_anisotropy";
-    e.description = "transducer rotational stiffness differs from the stated one by a factor "
-                    "(translation/rotation stiffness ratio)";
+    e.description =
+        "transducer rotational stiffness differs from the stated one by a factor "
+        "(translation/rotation stiffness ratio)";
     e.parameters.push_back(LogParameter("rotation_factor", "x", 1.0, 1.0, 1e-4, 1e4));
     e.confounders = {"transducer_soft:"};
     return {e};
@@ -33,6 +37,8 @@ class TransducerAnisotropy final : public EffectType {
 
 }  // namespace
 
-std::unique_ptr<EffectType> MakeEffect_transducer_anisotropy() { return std::make_unique<TransducerAnisotropy>(); }
+std::unique_ptr<EffectType> MakeEffect_transducer_anisotropy() {
+  return std::make_unique<TransducerAnisotropy>();
+}
 
 }  // namespace isowrench::ident

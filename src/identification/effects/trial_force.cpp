@@ -8,15 +8,22 @@ namespace {
 class TrialForce final : public EffectType {
  public:
   EffectKindInfo Info() const override {
-    return {"trial_force", "trial_force", EffectStage::kForce,
-            "Multiplies each trial's muscle wrench by its own factor exp(z_t) (fatigue, stimulus variation). "
-            "W is linear in the force, so the factors are solved in closed form per trial (weighted least "
-            "squares against the measured wrench, after the other effects); the fit counts one parameter per "
+    return {"trial_force",
+            "trial_force",
+            EffectStage::kForce,
+            "Multiplies each trial's muscle wrench by its own factor exp(z_t) (fatigue, stimulus "
+            "variation). "
+            "W is linear in the force, so the factors are solved in closed form per trial "
+            "(weighted least "
+            "squares against the measured wrench, after the other effects); the fit counts one "
+            "parameter per "
             "trial. The report gives the spread of ln(factor) and flags trials far from the rest.",
-            "spread (sd of ln factor, used by simulate; the fit reports the spread of the solved factors)",
+            "spread (sd of ln factor, used by simulate; the fit reports the spread of the solved "
+            "factors)",
             "force_scale (contained in the per-trial factors); gain on all axes"};
   }
-  std::vector<Effect> Candidates(const Model& model, const std::vector<std::string>&) const override {
+  std::vector<Effect> Candidates(const Model& model,
+                                 const std::vector<std::string>&) const override {
     Effect e;
     e.kind = "trial_force";
     e.id = "trial_force";
@@ -27,7 +34,8 @@ class TrialForce final : public EffectType {
     EffectParameter p = LinearParameter("spread", "ln", 1.0);
     p.lower = 0.0;
     e.parameters.push_back(p);
-    for (const MuscleSpec& m : model.description().muscles) e.excludes.push_back("force_scale:" + m.name);
+    for (const MuscleSpec& m : model.description().muscles)
+      e.excludes.push_back("force_scale:" + m.name);
     e.confounders = {"force_scale:", "gain:"};
     return {e};
   }
