@@ -30,7 +30,7 @@ struct SimulateOptions {
   bool json = false;
 };
 
-const bool registered = RegisterCommand(
+const bool kSimulateRegistered = RegisterCommand(
     {"simulate",
      "Write synthetic measured wrenches (CSV) from the model plus effects the URDF does not "
      "declare, "
