@@ -266,8 +266,10 @@ void PrintReport(const FitReport& r, const FitCommandOptions& o) {
   }
   if (!r.trace.empty() || !r.trace_summary.empty()) {
     std::cout << "\nWhere the unexplained residual lives (share of the weighted residual explained "
-                 "by a smooth trend,\n"
-              << "or held by one muscle's trials on one axis):\n";
+                 "by a variable's\n"
+              << "first-order effect (stiffness, offset, force, path), by a smooth trend, or held "
+                 "by one muscle's\n"
+              << "trials on one axis; ranked by the share beyond chance):\n";
     for (const FitReport::TraceItem& i : r.trace) {
       std::cout << "  " << Fixed(100 * i.share, 5, 1) << " %  " << i.variable << "  (" << i.note
                 << ")\n";

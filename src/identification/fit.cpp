@@ -1216,11 +1216,145 @@ void ReportTrace(const Model& nominal, const std::vector<Trial>& trials, const C
          QuadraticShare(r, ident::MuscleLengths(nominal, name, trials), use, total),
          "a trend with the muscle's length (force-length behaviour outside the model)"});
   }
+  // Probes that name a variable directly: the share of the residual in the span of the wrench
+  // sensitivity to a small stiffness at each coordinate, to an offset of each coordinate, to
+  // each muscle's force and to its path points (first-order columns from small steps).
+  std::vector<double> chance(items.size(), 2.0 * 6.0);  // columns of each quadratic trend
+  Eigen::VectorXd rv = Eigen::VectorXd::Zero(6 * trials.size());
+  int used = 0;
+  for (size_t k = 0; k < trials.size(); ++k) {
+    if (!use[k]) continue;
+    rv.segment<6>(6 * k) = r[k];
+    ++used;
+  }
+  struct Probe {
+    std::string variable, note;
+    std::vector<AugmentedModel> models;
+  };
+  std::vector<Probe> probes;
+  const AugmentedModel& at = current.augmented;
+  for (int j = 0; j < nominal.dof_count(); ++j) {
+    if (nominal.joint(j).role != JointRole::kLimb) continue;
+    const std::string& name = nominal.joint_names()[j];
+    Probe stiffness{"stiffness at " + name,
+                    "a passive stiffness of this coordinate outside the model and the library",
+                    {}};
+    try {
+      // A stiffness small against what the transducer opposes to this coordinate (j^T S_t j):
+      // the wrench changes linearly with it.
+      const Eigen::VectorXd jc = ident::NominalJacobianColumn(nominal, name);
+      const double scale = jc.dot(nominal.transducer().stiffness.asDiagonal() * jc);
+      const double k0 = FindCoordinate(at.description, name).stiffness;
+      AugmentedModel m = at;
+      m.description = WithJointStiffness(
+          at.description, name, k0 + 1e-4 * (std::isfinite(scale) && scale > 0 ? scale : 1.0));
+      stiffness.models.push_back(std::move(m));
+    } catch (const Error&) {
+    }
+    probes.push_back(std::move(stiffness));
+    Probe offset{"offset of " + name, "the recorded angle of this coordinate is off", {}};
+    AugmentedModel m = at;
+    m.posture_offset[name] +=
+        nominal.joint(j).type == JointType::kPrismatic ? 1e-5 : 1e-4;  // m or rad
+    offset.models.push_back(std::move(m));
+    probes.push_back(std::move(offset));
+  }
+  for (size_t i = 0; i < at.description.muscles.size(); ++i) {
+    const MuscleSpec& muscle = at.description.muscles[i];
+    Probe force{"force of " + muscle.name,
+                "this muscle's force differs from the model (max force, force-length)",
+                {}};
+    AugmentedModel m = at;
+    m.description.muscles[i].max_force *= 1.001;
+    force.models.push_back(std::move(m));
+    probes.push_back(std::move(force));
+    Probe path{"path of " + muscle.name,
+               "this muscle's path points (moment arms) differ from the model",
+               {}};
+    for (size_t p = 0; p < muscle.path.size(); ++p) {
+      for (int axis = 0; axis < 3; ++axis) {
+        AugmentedModel shifted = at;
+        shifted.description.muscles[i].path[p].position[axis] += 1e-5;  // m
+        path.models.push_back(std::move(shifted));
+      }
+    }
+    probes.push_back(std::move(path));
+  }
+  // Whitened prediction changes of a set of perturbed models (outlier rows zero).
+  auto columns = [&](const std::vector<AugmentedModel>& models) {
+    Eigen::MatrixXd D = Eigen::MatrixXd::Zero(6 * trials.size(), models.size());
+    for (size_t c = 0; c < models.size(); ++c) {
+      Prediction p;
+      try {
+        p = PredictTrials(models[c], trials);
+      } catch (const Error&) {
+        continue;
+      }
+      for (size_t k = 0; k < trials.size(); ++k) {
+        if (!use[k] || !p.ok[k]) continue;
+        for (int m = 0; m < 6; ++m) {
+          D(6 * k + m, c) =
+              ident::Weight(trials[k], m, options) * (p.wrench[k][m] - current.prediction[k][m]);
+        }
+      }
+    }
+    if (!D.allFinite()) D.setZero();
+    return D;
+  };
+  // The tentative effects stay in the model and would be refitted with the missing variable:
+  // what a probe explains is measured orthogonally to their columns (a score test), so a
+  // variable they partly absorbed is still found.
+  std::vector<AugmentedModel> chosen_models;
+  for (size_t e = 0; e < current.effects.size(); ++e) {
+    const AppliedEffect& a = current.effects[e];
+    if (a.effect.per_trial) continue;
+    for (size_t j = 0; j < a.values.size(); ++j) {
+      const EffectParameter& q = a.effect.parameters[j];
+      std::vector<AppliedEffect> stepped = current.effects;
+      const double step = 1e-3 * (ident::ToInternal(q, q.upper) - ident::ToInternal(q, q.lower));
+      stepped[e].values[j] = ident::ToUser(q, ident::ToInternal(q, a.values[j]) + step);
+      try {
+        chosen_models.push_back(ApplyEffects(nominal.description(), stepped));
+      } catch (const Error&) {
+      }
+    }
+  }
+  Eigen::MatrixXd Q(6 * trials.size(), 0);
+  if (!chosen_models.empty()) {
+    Eigen::ColPivHouseholderQR<Eigen::MatrixXd> qr(columns(chosen_models));
+    Q = qr.householderQ() * Eigen::MatrixXd::Identity(6 * trials.size(), qr.rank());
+  }
+  std::vector<double> probe_share(probes.size(), 0.0);
+  std::vector<int> probe_rank(probes.size(), 0);
+  ParallelFor(probes.size(), options, [&](size_t i) {
+    Eigen::MatrixXd D = columns(probes[i].models);
+    if (Q.cols() > 0) D -= Q * (Q.transpose() * D);
+    if (D.cols() == 0 || !(total > 0)) return;
+    Eigen::ColPivHouseholderQR<Eigen::MatrixXd> qr(D);
+    probe_rank[i] = static_cast<int>(qr.rank());
+    if (probe_rank[i] == 0) return;
+    const Eigen::VectorXd projected = D * qr.solve(rv);
+    probe_share[i] = std::min(1.0, projected.squaredNorm() / total);
+  });
+  for (size_t i = 0; i < probes.size(); ++i) {
+    if (probe_rank[i] == 0) continue;
+    items.push_back({probes[i].variable, probe_share[i], probes[i].note});
+    chance.push_back(probe_rank[i]);
+  }
   // Trends first (best first), then where the residual sits: per muscle and axis.
-  std::stable_sort(items.begin(), items.end(),
-                   [](const FitReport::TraceItem& a, const FitReport::TraceItem& b) {
-                     return a.share > b.share;
-                   });
+  // Ranked by the share beyond what as many random directions would explain in noise (a trend
+  // has 12 columns, a stiffness probe 1), so small probes are not outranked by wide trends.
+  {
+    std::vector<size_t> rank(items.size());
+    std::iota(rank.begin(), rank.end(), size_t{0});
+    const double n = std::max(1, 6 * used);
+    std::stable_sort(rank.begin(), rank.end(), [&](size_t a, size_t b) {
+      return items[a].share - chance[a] / n > items[b].share - chance[b] / n;
+    });
+    std::vector<FitReport::TraceItem> sorted;
+    for (size_t i : rank) sorted.push_back(items[i]);
+    items = std::move(sorted);
+  }
   const size_t trends = items.size();
   // Per muscle and axis: share of the residual in the trials of each muscle, per component.
   const char* axes[6] = {"fx", "fy", "fz", "mx", "my", "mz"};

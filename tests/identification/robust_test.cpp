@@ -388,10 +388,10 @@ TEST(RobustFit, PlainLeastSquaresIsPulledByOutliersWhereHuberIsNot) {
 }
 
 TEST(Trace, ADriftOutsideTheLibraryEndsUnexplainedAndPointsAtTrialOrder) {
-  // A sensor drift growing with the trial index (no effect in the library has it): the verdict
-  // must be "unexplained" and the trace must name trial order first.
+  // A sensor drift growing with the trial index (no effect in the library has it), Student-t(3)
+  // noise: the verdict must be "unexplained" and the trace must name trial order first.
   Model model = Model::FromUrdfFile(kRat);
-  std::vector<Trial> trials = Simulate(model, {}, 51, 60);
+  std::vector<Trial> trials = Simulate(model, {}, 51, 60, 3);
   for (size_t k = 0; k < trials.size(); ++k)
     trials[k].wrench[1] += 0.02 * static_cast<double>(k) / trials.size();
   FitOptions o;
@@ -401,22 +401,28 @@ TEST(Trace, ADriftOutsideTheLibraryEndsUnexplainedAndPointsAtTrialOrder) {
   ASSERT_FALSE(r.trace.empty()) << r.BriefReport();
   EXPECT_EQ(r.trace[0].variable, "trial order") << r.BriefReport();
   EXPECT_FALSE(r.closest_rejected.empty() && r.chosen.empty());
-  std::cout << "[trace] " << r.trace_summary << "\n";
+  std::cout << "[trace drift] " << r.trace_summary << "\n";
 }
 
-TEST(Trace, AStiffJointOutsideTheLibraryPointsAtACoordinate) {
-  // A passive stiffness on a limb joint (not a candidate) makes the residual depend on the
-  // posture: the trace names a coordinate or a muscle axis, never trial order.
+TEST(Trace, AStiffJointOutsideTheLibraryIsNamedFirst) {
+  // A passive stiffness on hip_ry (no candidate has it: the hip is a full ball, so no extra
+  // joint is offered there) with Student-t(3) noise: "unexplained", and the trace's first item
+  // is the stiffness probe of hip_ry, not another coordinate and never trial order.
   Model model = Model::FromUrdfFile(kRat);
   AugmentedModel truth;
   truth.description = WithJointStiffness(model.description(), "hip_ry", 1e4);
   SimulationOptions so;
   so.postures = 40;
   so.seed = 303;
+  so.noise_dof = 3;
   FitReport r = FitEffects(model, SimulateTrials(model, truth, so), FitOptions());
-  EXPECT_EQ(r.verdict, FitVerdict::kUnexplained);
-  ASSERT_FALSE(r.trace.empty());
+  EXPECT_EQ(r.verdict, FitVerdict::kUnexplained) << r.BriefReport();
+  ASSERT_FALSE(r.trace.empty()) << r.BriefReport();
+  EXPECT_EQ(r.trace[0].variable, "stiffness at hip_ry") << r.BriefReport();
   for (const FitReport::TraceItem& i : r.trace) EXPECT_NE(i.variable, "trial order");
+  std::cout << "[trace hip_ry] " << r.trace_summary << "\n";
+  for (const FitReport::TraceItem& i : r.trace)
+    std::cout << "  " << i.share << " " << i.variable << "\n";
 }
 
 TEST(Correlations, ConfoundedPairsAreNamed) {
