@@ -23,6 +23,7 @@ struct FitCommandOptions {
   bool list_effects = false;
   int rounds = 3;
   int folds = 5;
+  int screen = 8;
   int rows = 20;
   std::string loss = "huber";
   double loss_scale = 2.0;
@@ -265,8 +266,10 @@ void PrintReport(const FitReport& r, const FitCommandOptions& o) {
   }
   if (!r.trace.empty() || !r.trace_summary.empty()) {
     std::cout << "\nWhere the unexplained residual lives (share of the weighted residual explained "
-                 "by a smooth trend,\n"
-              << "or held by one muscle's trials on one axis):\n";
+                 "by a variable's\n"
+              << "first-order effect (stiffness, offset, force, path), by a smooth trend, or held "
+                 "by one muscle's\n"
+              << "trials on one axis; ranked by the share beyond chance):\n";
     for (const FitReport::TraceItem& i : r.trace) {
       std::cout << "  " << Fixed(100 * i.share, 5, 1) << " %  " << i.variable << "  (" << i.note
                 << ")\n";
@@ -324,6 +327,9 @@ const bool kFitRegistered = RegisterCommand(
                       "Also write the report as markdown (lab notebooks) here");
        app.add_option("--rounds", o->rounds, "Most effects to add (default 3)");
        app.add_option("--folds", o->folds, "Cross-validation folds (default 5)");
+       app.add_option("--screen", o->screen,
+                      "Per round, fit only the N candidates with the best linearised ΔBIC (a "
+                      "score test at the current model; default 8, 0 = fit every candidate)");
        app.add_option("--candidates", o->candidates,
                       "Only try these effect ids (default: the whole library)");
        app.add_option("--loss", o->loss,
@@ -366,10 +372,12 @@ const bool kFitRegistered = RegisterCommand(
          if (o->data.empty())
            throw Error("fit: missing <data.csv> (measured wrenches; see docs/identification.md)");
          if (o->rounds < 0) throw Error("fit: --rounds must be >= 0");
+         if (o->screen < 0) throw Error("fit: --screen must be >= 0 (0 = fit every candidate)");
          std::vector<Trial> trials = ReadTrialsCsv(model, o->data);
          FitOptions options;
          options.max_rounds = o->rounds;
          options.folds = o->folds;
+         options.screen_keep = o->screen;
          options.candidates = o->candidates;
          options.loss = ParseRobustLoss(o->loss);
          options.loss_scale = o->loss_scale;

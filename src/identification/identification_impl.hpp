@@ -62,6 +62,8 @@ void PredictSubset(const Model& model, const std::vector<Trial>& trials,
 /// for wrenches.
 struct RawWrenches {
   std::vector<std::string> others;
+  std::vector<int> other_index;  ///< model muscle index of each of `others`
+  std::vector<int> muscle;       ///< model muscle index of each subset trial (-1: not mapped)
   std::vector<Vector6d> own;
   std::vector<std::vector<Vector6d>> other;
   std::vector<bool> ok;

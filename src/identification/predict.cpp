@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <tuple>
 
 #include "identification/identification_impl.hpp"
 #include "isowrench/error.hpp"
@@ -46,13 +47,13 @@ void EvaluateEach(const Model& model, const std::map<std::string, double>& postu
   Eigen::VectorXd q(model.dof_count());
   std::vector<std::pair<int, double>> offsets;
   for (const auto& o : posture_offset) offsets.emplace_back(model.JointIndex(o.first), o.second);
-  std::vector<int> other_index;
-  for (const std::string& m : raw->others) other_index.push_back(model.MuscleIndex(m));
+  const std::vector<int>& other_index = raw->other_index;
   Vector6d w = Vector6d::Zero();
   for (size_t k = 0; k < subset.size(); ++k) {
     const Trial& trial = trials[subset[k]];
     try {
       const int muscle_index = mapper.Map(trial, &q);
+      raw->muscle[k] = muscle_index;
       for (const auto& o : offsets) q[o.first] += o.second;
       std::string failure = evaluate(q, muscle_index, trial.activation, &w);
       if (failure.empty()) raw->own[k] = w;
@@ -109,6 +110,8 @@ RawWrenches EvaluateRaw(const Model& model, const std::map<std::string, double>&
                         const std::vector<int>& subset) {
   RawWrenches raw;
   raw.others = others;
+  for (const std::string& m : others) raw.other_index.push_back(model.MuscleIndex(m));
+  raw.muscle.assign(subset.size(), -1);
   raw.own.assign(subset.size(), Vector6d::Zero());
   raw.other.assign(others.size(), std::vector<Vector6d>(subset.size(), Vector6d::Zero()));
   raw.ok.assign(subset.size(), false);
@@ -158,34 +161,40 @@ void ComposeReadings(const AugmentedModel& model, const std::vector<Trial>& tria
                      const FitOptions& options, std::vector<Vector6d>* readings,
                      std::vector<double>* factors) {
   const std::vector<MuscleSpec>& muscles = model.description.muscles;
-  // Force ratio per muscle name: the description's max force over the one evaluated.
-  std::map<std::string, double> ratio;
-  for (size_t i = 0; i < muscles.size(); ++i) {
-    ratio[muscles[i].name] = i < raw.max_force.size() && raw.max_force[i] > 0
-                                 ? muscles[i].max_force / raw.max_force[i]
-                                 : 1.0;
+  // Force ratio per muscle index: the description's max force over the one evaluated (the
+  // evaluated model was built from a description with the same muscles in the same order).
+  std::vector<double> ratio(muscles.size(), 1.0);
+  for (size_t i = 0; i < muscles.size() && i < raw.max_force.size(); ++i) {
+    if (raw.max_force[i] > 0) ratio[i] = muscles[i].max_force / raw.max_force[i];
   }
-  std::vector<std::pair<int, double>> coactivation;  // index in raw.others, fraction x ratio
+  // (index in raw.others, its muscle index, fraction x ratio)
+  std::vector<std::tuple<int, int, double>> coactivation;
   for (const auto& c : model.coactivation) {
     auto it = std::find(raw.others.begin(), raw.others.end(), c.first);
     if (it == raw.others.end())
       throw Error("coactivation of '" + c.first + "': its wrench was not evaluated");
-    coactivation.emplace_back(static_cast<int>(it - raw.others.begin()), c.second * ratio[c.first]);
+    const int i = static_cast<int>(it - raw.others.begin());
+    const int m = raw.other_index[i];
+    coactivation.emplace_back(
+        i, m, c.second * (m >= 0 && m < static_cast<int>(ratio.size()) ? ratio[m] : 1.0));
   }
   readings->assign(subset.size(), Vector6d::Zero());
   if (factors) factors->assign(subset.size(), 1.0);
   const Eigen::Vector3d d = model.sensor_origin;
+  const bool calibrated = !model.calibration.isIdentity(0.0);
   std::vector<double> factor_of(subset.size(), 1.0);
   std::vector<Vector6d> force(subset.size(), Vector6d::Zero());
   for (size_t k = 0; k < subset.size(); ++k) {
     if (!raw.ok[k]) continue;
     const Trial& trial = trials[subset[k]];
-    Vector6d w = raw.own[k] * ratio[trial.muscle];
+    const int muscle = raw.muscle[k];
+    Vector6d w =
+        raw.own[k] * (muscle >= 0 && muscle < static_cast<int>(ratio.size()) ? ratio[muscle] : 1.0);
     for (const auto& c : coactivation) {
-      if (raw.others[c.first] != trial.muscle) w += c.second * raw.other[c.first][k];
+      if (std::get<1>(c) != muscle) w += std::get<2>(c) * raw.other[std::get<0>(c)][k];
     }
     if (d.squaredNorm() > 0) w.tail<3>() -= d.cross(Eigen::Vector3d(w.head<3>()));
-    w = model.calibration * w;
+    if (calibrated) w = model.calibration * w;
     double factor = 1.0;
     if (model.trial_force) {
       // Closed form: the factor minimising sum_c (weight_c (measured_c - offset_c - factor w_c))^2.
