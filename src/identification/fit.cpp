@@ -986,7 +986,12 @@ FitRound RunRound(int index, const Model& nominal, const std::vector<Effect>& li
   std::vector<std::string> why;
   const bool screening =
       options.screen_keep > 0 && static_cast<int>(screened.size()) > options.screen_keep;
+  auto stage = [&](const std::string& what) {
+    if (options.progress) options.progress("round " + std::to_string(index) + ": " + what);
+  };
   if (screening) {
+    stage("screening " + std::to_string(screened.size()) +
+          " candidates (linearised ΔBIC at the current model)");
     score = ScreenScores(nominal.description(), current, screened, trials, options, &why);
     std::stable_sort(order.begin(), order.end(),
                      [&](size_t a, size_t b) { return score[a] > score[b]; });
@@ -998,6 +1003,8 @@ FitRound RunRound(int index, const Model& nominal, const std::vector<Effect>& li
         !screening || static_cast<int>(rank) < options.screen_keep || screened[i].per_trial;
     (kept ? keep : drop).push_back(i);
   }
+  stage("fitting " + std::to_string(keep.size()) + " of " + std::to_string(screened.size()) +
+        " candidates");
   std::vector<std::vector<double>> x;
   std::vector<CandidateFit> fits =
       FitCandidates(nominal.description(), current, screened, keep, trials, options, &x);
@@ -1033,6 +1040,7 @@ FitRound RunRound(int index, const Model& nominal, const std::vector<Effect>& li
                      if (a.converged != b.converged) return a.converged;
                      return a.bic < b.bic;
                    });
+  stage("cross-validating the best candidates (" + std::to_string(folds.train.size()) + " folds)");
   CrossValidate(nominal.description(), current, trials, folds, options, r.bic_threshold,
                 r.cv_before, *solutions, &r.candidates);
   Select(&r, !folds.train.empty(), options);
@@ -1571,6 +1579,7 @@ FitReport FitEffects(const Model& nominal, const std::vector<Trial>& trials,
     report.rounds.push_back(std::move(r));
   }
 
+  if (options.progress) options.progress("report: residuals, correlations, verdict");
   std::string note;
   if (Simplify(nominal, trials, options, &current, &note)) report.notes.push_back(note);
 
@@ -1582,8 +1591,10 @@ FitReport FitEffects(const Model& nominal, const std::vector<Trial>& trials,
   ReportTrials(trials, nominal_prediction, current, options, &report);
   ReportCorrelations(nominal, trials, current, options, &report);
   ReportVerdict(trials, current, options, &report);
-  if (report.verdict == FitVerdict::kUnexplained)
+  if (report.verdict == FitVerdict::kUnexplained) {
+    if (options.progress) options.progress("report: tracing the unexplained residual");
     ReportTrace(nominal, trials, current, options, &report);
+  }
   report.seconds =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - clock_start).count();
   return report;
