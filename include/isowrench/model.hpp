@@ -21,6 +21,7 @@
 #include <limits>
 #include <memory>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "isowrench/function.hpp"
@@ -88,17 +89,48 @@ struct CoordinateSpec {
   std::string joint;
 };
 
-/// A muscle path point fixed on a link ("ground" = the root link, i.e. fixed in world).
-struct PathPoint {
-  std::string link;
-  Eigen::Vector3d position = Eigen::Vector3d::Zero();  ///< m, in the link's frame
+/// One component of a moving path point (OpenSim MovingPathPoint): component `axis` of the
+/// point's position in its link's frame is `function`(clamp(q, lower, upper)) metres, with q
+/// the value of independent coordinate `coordinate` and lower/upper its range
+/// (CoordinateSpec::lower/upper; no clamp where they are infinite). OpenSim clamps the same way
+/// (MovingPathPoint::getLocation, OpenSim 4.0-4.5). The derivative of the component is
+/// function'(q) inside [lower, upper] and 0 outside, so dL/dq is the derivative of the length.
+struct MovingComponent {
+  int axis = 0;            ///< 0, 1, 2: x, y, z of the link frame
+  std::string coordinate;  ///< an independent coordinate (CoordinateSpec name)
+  Function function;       ///< m as a function of the coordinate (rad or m)
 };
 
-/// A straight-line muscle through its path points (origin first, insertion last).
+/// A muscle path point on a link ("ground" = the root link, i.e. fixed in world). Fixed by
+/// default; `moving` replaces components of `position` by functions of coordinates; a non-empty
+/// `active_coordinate` makes the point conditional (OpenSim ConditionalPathPoint): it is in the
+/// path only while active_lower - 1e-5 <= q <= active_upper + 1e-5 (OpenSim's tolerance, in rad
+/// or m), otherwise the path goes straight from the previous active point to the next.
+struct PathPoint {
+  PathPoint() = default;
+  /// A fixed point: `position` (m) in `link`'s frame.
+  PathPoint(std::string link_name, const Eigen::Vector3d& link_position)
+      : link(std::move(link_name)), position(link_position) {}
+
+  std::string link;
+  Eigen::Vector3d position = Eigen::Vector3d::Zero();  ///< m, in the link's frame
+  /// Moving components, at most one per axis (the other components are `position`'s).
+  std::vector<MovingComponent> moving;
+  /// Conditional point: the coordinate and range (rad or m, lower <= upper) it is active in.
+  std::string active_coordinate;
+  double active_lower = 0.0;
+  double active_upper = 0.0;
+};
+
+/// OpenSim's tolerance on a ConditionalPathPoint's range (rad or m): active while
+/// lower - kActiveRangeTolerance <= q <= upper + kActiveRangeTolerance.
+inline constexpr double kActiveRangeTolerance = 1e-5;
+
+/// A straight-line muscle through its active path points (origin first, insertion last).
 struct MuscleSpec {
   std::string name;
   double max_force = 0.0;       ///< N, > 0; the force used when activation is 1
-  std::vector<PathPoint> path;  ///< at least two points
+  std::vector<PathPoint> path;  ///< at least two points, of which at least two never inactive
 };
 
 /// Index into a 6-vector in KDL order: x y z rx ry rz.

@@ -26,6 +26,16 @@ KDL::Frame ToKdl(const Eigen::Isometry3d& t) {
                     ToKdl(t.translation()));
 }
 
+// A moving component or a conditional point must name an independent coordinate.
+void CheckPointCoordinate(const LimbDescription& d, const std::string& what,
+                          const std::string& name) {
+  try {
+    FindCoordinate(d, name);
+  } catch (const Error& e) {
+    throw Error(what + ": " + e.what());
+  }
+}
+
 void Validate(const LimbDescription& d) {
   const std::string model = "model '" + d.name + "'";
   if (d.joints.empty())
@@ -90,6 +100,28 @@ void Validate(const LimbDescription& d) {
         throw Error(what + ": path point on link '" + p.link + "', which is not on the chain");
       }
       if (!p.position.allFinite()) throw Error(what + ": a path point position is not finite");
+      const std::string point = what + ", point on '" + p.link + "'";
+      bool axes[3] = {false, false, false};
+      for (const MovingComponent& c : p.moving) {
+        if (c.axis < 0 || c.axis > 2) {
+          throw Error(point + ": moving axis " + std::to_string(c.axis) + " is not 0, 1 or 2");
+        }
+        if (axes[c.axis]) throw Error(point + ": two moving functions for axis " + "xyz"[c.axis]);
+        axes[c.axis] = true;
+        CheckPointCoordinate(d, point + ", moving axis " + "xyz"[c.axis], c.coordinate);
+      }
+      if (!p.active_coordinate.empty()) {
+        CheckPointCoordinate(d, point + ", active_coordinate", p.active_coordinate);
+        if (!std::isfinite(p.active_lower) || !std::isfinite(p.active_upper) ||
+            p.active_lower > p.active_upper) {
+          throw Error(point + ": active range [" + util::FormatNumber(p.active_lower) + ", " +
+                      util::FormatNumber(p.active_upper) + "] must be finite with lower <= upper");
+        }
+      }
+    }
+    if (std::count_if(m.path.begin(), m.path.end(),
+                      [](const PathPoint& p) { return p.active_coordinate.empty(); }) < 2) {
+      throw Error(what + " needs at least two points that are not conditional (active_coordinate)");
     }
   }
   for (const auto& [joint, value] : d.nominal_posture) {
@@ -206,6 +238,12 @@ FlatChain Compile(const LimbDescription& d) {
     if (static_cast<int>(spec.path.size()) > kFastMaxPathPoints) {
       throw Error(model + ", muscle '" + spec.name + "' has " + std::to_string(spec.path.size()) +
                   " path points; isowrench handles at most " + std::to_string(kFastMaxPathPoints));
+    }
+    for (const PathPoint& p : spec.path) {
+      if (!p.moving.empty() || !p.active_coordinate.empty()) {
+        throw Error(model + ", muscle '" + spec.name +
+                    "': moving and conditional path points are read but not yet evaluated");
+      }
     }
     FastMuscle muscle;
     muscle.max_force = spec.max_force;

@@ -17,6 +17,7 @@
 #include "isowrench/error.hpp"
 #include "isowrench/input_checks.hpp"
 #include "isowrench/model.hpp"
+#include "model/function_xml.hpp"
 #include "model/urdf_checks.hpp"
 #include "model/urdf_coordinates.hpp"
 #include "util/text.hpp"
@@ -96,6 +97,60 @@ Eigen::Isometry3d ToIsometry(const urdf::Pose& pose) {
           .normalized()
           .toRotationMatrix();
   return t;
+}
+
+// The coordinate a moving component or a conditional point names: an independent coordinate.
+const CoordinateSpec& PointCoordinate(const Reader& r, const tinyxml2::XMLElement& e,
+                                      const LimbDescription& d, const std::string& what,
+                                      const std::string& name) {
+  try {
+    return FindCoordinate(d, name);
+  } catch (const Error& error) {
+    r.Fail(&e, what + ": " + error.what());
+  }
+}
+
+// <isowrench:moving axis= coordinate=> FUNCTION </isowrench:moving> children of a point, and
+// its active_coordinate= / active_range= attributes (docs/urdf-extensions.md, Muscles).
+void ReadMovingAndActive(const Reader& r, const tinyxml2::XMLElement& p, const LimbDescription& d,
+                         const std::string& muscle, PathPoint& point) {
+  const std::string what = "muscle '" + muscle + "', point on '" + point.link + "'";
+  for (auto* c = p.FirstChildElement(); c; c = c->NextSiblingElement()) {
+    if (std::string(c->Name()) != "isowrench:moving") {
+      r.Fail(c, what + ": unexpected <" + c->Name() + ">; expected <isowrench:moving>");
+    }
+    MovingComponent component;
+    const std::string axis = r.Attribute(c, "axis", true);
+    if (axis != "x" && axis != "y" && axis != "z") {
+      r.Fail(c, what + ": moving axis '" + axis + "' is not one of x, y, z");
+    }
+    component.axis = axis[0] - 'x';
+    for (const MovingComponent& other : point.moving) {
+      if (other.axis == component.axis) {
+        r.Fail(c, what + ": axis '" + axis + "' has two <isowrench:moving> elements");
+      }
+    }
+    component.coordinate = PointCoordinate(r, *c, d, what + ", moving axis " + axis,
+                                           r.Attribute(c, "coordinate", true))
+                               .name;
+    component.function = ParseFunctionChild(*c, r.source);
+    point.moving.push_back(component);
+  }
+  const std::string coordinate = r.Attribute(&p, "active_coordinate", false);
+  const std::string range = r.Attribute(&p, "active_range", false);
+  if (coordinate.empty() != range.empty()) {
+    r.Fail(&p,
+           what + ": give both active_coordinate= and active_range=\"lower upper\", or neither");
+  }
+  if (coordinate.empty()) return;
+  point.active_coordinate = PointCoordinate(r, p, d, what + ", active_coordinate", coordinate).name;
+  const std::vector<double> bounds = r.Numbers(&p, "active_range", 2, true);
+  if (bounds[0] > bounds[1]) {
+    r.Fail(&p, what + ": active_range lower " + util::FormatNumber(bounds[0]) + " > upper " +
+                   util::FormatNumber(bounds[1]));
+  }
+  point.active_lower = bounds[0];
+  point.active_upper = bounds[1];
 }
 
 int DofIndex(const std::string& name) {
@@ -344,10 +399,17 @@ LimbDescription ReadUrdfString(const std::string& xml, const std::string& source
         point.link = r.Attribute(p, "link", true);
         check_link(p, point.link);
         point.position = r.Vector3(p, "xyz");
+        ReadMovingAndActive(r, *p, d, m.name, point);
         m.path.push_back(point);
       }
       if (m.path.size() < 2) {
         r.Fail(e, "muscle '" + m.name + "' needs at least two <isowrench:point> elements");
+      }
+      if (std::count_if(m.path.begin(), m.path.end(),
+                        [](const PathPoint& p) { return p.active_coordinate.empty(); }) < 2) {
+        r.Fail(e, "muscle '" + m.name +
+                      "' needs at least two points without active_coordinate (an origin and an "
+                      "insertion that are always in the path)");
       }
       d.muscles.push_back(m);
     } else if (tag == "isowrench:posture") {

@@ -127,7 +127,22 @@ std::string WriteUrdfString(const LimbDescription& description) {
   for (const MuscleSpec& m : d.muscles) {
     o << "  <isowrench:muscle name=\"" << m.name << "\" max_force=\"" << N(m.max_force) << "\">\n";
     for (const PathPoint& p : m.path) {
-      o << "    <isowrench:point link=\"" << p.link << "\" xyz=\"" << Vec(p.position) << "\"/>\n";
+      o << "    <isowrench:point link=\"" << p.link << "\" xyz=\"" << Vec(p.position) << "\"";
+      if (!p.active_coordinate.empty()) {
+        o << " active_coordinate=\"" << p.active_coordinate << "\" active_range=\""
+          << N(p.active_lower) << " " << N(p.active_upper) << "\"";
+      }
+      if (p.moving.empty()) {
+        o << "/>\n";
+        continue;
+      }
+      o << ">\n";
+      for (const MovingComponent& c : p.moving) {
+        o << "      <isowrench:moving axis=\""
+          << "xyz"[c.axis] << "\" coordinate=\"" << c.coordinate << "\">\n"
+          << FunctionXmlText(c.function, "        ") << "      </isowrench:moving>\n";
+      }
+      o << "    </isowrench:point>\n";
     }
     o << "  </isowrench:muscle>\n";
   }
