@@ -541,16 +541,19 @@ ISOWRENCH_NOINLINE void Fold(const FlatChain& d, FastWorkspace::Impl& ws, double
 
 // The kinematics kernel. kFrames: also store each movable joint's world rotation in ws.frames,
 // accept muscle < 0 (no muscle) and world_axes (J in world axes); the evaluation path
-// instantiates it with kFrames = false, where those are compile-time off.
-template <bool kFrames>
-ISOWRENCH_INLINE bool Kinematics(const FlatChain& d, FastWorkspace::Impl& ws, const double* qv,
-                                 int muscle, double activation, bool world_axes) {
+// instantiates it with kFrames = false, where those are compile-time off. kDynamic: the muscle
+// has moving or conditional points (FastMuscle::dynamic, src/fast/path_points.cpp); other
+// muscles run the kDynamic = false instantiation, where those steps are compiled out.
+template <bool kFrames, bool kDynamic>
+ISOWRENCH_INLINE bool KinematicsKernel(const FlatChain& d, FastWorkspace::Impl& ws,
+                                       const double* qv, int muscle, double activation,
+                                       bool world_axes) {
   const int m = d.m;
   assert(ws.m == d.n);
   assert(muscle < static_cast<int>(d.muscles.size()) && (kFrames || muscle >= 0));
   const FastMuscle& mu = (kFrames && muscle < 0) ? kNoMuscle : d.muscles[muscle];
   // Moving and conditional points: positions in their frames (ws.local) and the active points.
-  const bool dynamic = mu.dynamic;
+  constexpr bool dynamic = kDynamic;
   if (dynamic) PreparePathPoints(mu, qv, ws);
   if (d.coupled) {
     Couple(d, ws, qv);
@@ -733,6 +736,22 @@ ISOWRENCH_INLINE bool Kinematics(const FlatChain& d, FastWorkspace::Impl& ws, co
   if (d.coupled) Fold(d, ws, minus_force);
   if (dynamic) AddMovingPointTerms(mu, ws, minus_force);
   return true;
+}
+
+template <bool kFrames>
+ISOWRENCH_NOINLINE bool DynamicKinematics(const FlatChain& d, FastWorkspace::Impl& ws,
+                                          const double* qv, int muscle, double activation,
+                                          bool world_axes) {
+  return KinematicsKernel<kFrames, true>(d, ws, qv, muscle, activation, world_axes);
+}
+
+template <bool kFrames>
+ISOWRENCH_INLINE bool Kinematics(const FlatChain& d, FastWorkspace::Impl& ws, const double* qv,
+                                 int muscle, double activation, bool world_axes) {
+  if ((!kFrames || muscle >= 0) && d.muscles[muscle].dynamic) {
+    return DynamicKinematics<kFrames>(d, ws, qv, muscle, activation, world_axes);
+  }
+  return KinematicsKernel<kFrames, false>(d, ws, qv, muscle, activation, world_axes);
 }
 
 // Locked coordinates are rigid in the statics: their columns of J and entries of tau are set
