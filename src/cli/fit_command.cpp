@@ -312,7 +312,7 @@ void PrintReport(const FitReport& r, const FitCommandOptions& o) {
     std::cout << "wrote the markdown report to " << o.report_markdown << "\n";
 }
 
-const bool registered = RegisterCommand(
+const bool kFitRegistered = RegisterCommand(
     {"fit",
      "Fit measured wrenches (CSV): trace the residual to missing effects, report the error "
      "before/after "

@@ -32,7 +32,7 @@ struct SimulateOptions {
   bool progress = false;
 };
 
-const bool registered = RegisterCommand(
+const bool kSimulateRegistered = RegisterCommand(
     {"simulate",
      "Write synthetic measured wrenches (CSV) from the model plus effects the URDF does not "
      "declare, "

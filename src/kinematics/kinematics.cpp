@@ -4,6 +4,7 @@
 #include "isowrench/kinematics.hpp"
 
 #include <cmath>
+#include <vector>
 
 #include "isowrench/error.hpp"
 #include "isowrench/posture.hpp"
@@ -39,12 +40,18 @@ FastWorkspace::Impl& RunKinematics(const Model& model, KinematicsWorkspace& ws,
   if (!ComputeKinematicsWithFrames(model.impl().flat, b, q.data(), muscle, activation,
                                    world_axes)) {
     const MuscleSpec& spec = model.muscle(muscle);
+    // The points in the path at this posture (conditional ones may be out).
+    std::vector<int> path;
+    for (int i = 0; i < static_cast<int>(spec.path.size()); ++i) path.push_back(i);
+    if (model.impl().flat.muscles[muscle].dynamic) {
+      path.assign(b.active.begin(), b.active.begin() + b.active_count);
+    }
     size_t i = 1;
-    while (i + 1 < spec.path.size() &&
-           (b.points[i] - b.points[i - 1]).norm() >= kFastMinSegmentLength)
+    while (i + 1 < path.size() &&
+           (b.points[path[i]] - b.points[path[i - 1]]).norm() >= kFastMinSegmentLength)
       ++i;
-    throw Error("muscle '" + spec.name + "': path points " + std::to_string(i - 1) + " and " +
-                std::to_string(i) + " coincide at this posture");
+    throw Error("muscle '" + spec.name + "': path points " + std::to_string(path[i - 1]) + " and " +
+                std::to_string(path[i]) + " coincide at this posture");
   }
   return b;
 }

@@ -28,7 +28,7 @@ const std::string kPlanar = std::string(ISOWRENCH_TEST_URDF_DIR) + "/planar_2r.u
 constexpr double kSigmas = 4.0;
 /// Algebraic identities evaluated through a different sequence of operations.
 constexpr double kIdentity = 1e-12;
-#if defined(__SANITIZE_ADDRESS__)
+#if defined(__SANITIZE_ADDRESS__) || defined(ISOWRENCH_TEST_SANITIZED)
 constexpr bool kSanitizer = true;
 constexpr int kNullSeeds = 4;
 #else
