@@ -94,7 +94,9 @@ nlohmann::json CandidateJson(const CandidateFit& f) {
                       {"converged", f.converged},
                       {"solver_message", f.solver_message},
                       {"accepted", f.accepted},
-                      {"verdict", f.verdict}};
+                      {"verdict", f.verdict},
+                      {"screened_out", f.screened_out},
+                      {"screen_delta_bic", f.screen_delta_bic}};
   j["cv_error"] = f.cv_error >= 0 ? nlohmann::json(f.cv_error) : nlohmann::json(nullptr);
   return j;
 }

@@ -208,7 +208,14 @@ std::string util_label(const RoundTrip& c, int noise_dof, double outliers) {
 }
 
 /// Fit, check the chosen ids, the verdict and every least-squares parameter within kSigmas SE.
-void CheckRoundTrip(const RoundTrip& c, int noise_dof, double outliers, unsigned long long seed) {
+/// Sum of (error / SE)^2 over the recovered parameters and their count.
+struct ZSquared {
+  double sum = 0.0;
+  int count = 0;
+};
+
+void CheckRoundTrip(const RoundTrip& c, int noise_dof, double outliers, unsigned long long seed,
+                    ZSquared* z2 = nullptr) {
   Model model = Model::FromUrdfFile(c.model);
   std::vector<Trial> trials = Simulate(model, c.effects, seed, 60, noise_dof, outliers);
   FitOptions o;
@@ -240,6 +247,10 @@ void CheckRoundTrip(const RoundTrip& c, int noise_dof, double outliers, unsigned
             log ? std::log10(f.values[i]) - std::log10(truth[i]) : f.values[i] - truth[i];
         const double se = log ? f.log10_standard_errors[i] : f.standard_errors[i];
         EXPECT_GT(se, 0) << label << " " << f.effect.parameters[i].name;
+        if (z2 && se > 0) {
+          z2->sum += (err / se) * (err / se);
+          ++z2->count;
+        }
         EXPECT_LE(std::abs(err), kSigmas * se)
             << label << " " << f.effect.id << "." << f.effect.parameters[i].name << " = "
             << f.values[i] << " vs " << truth[i];
@@ -261,7 +272,21 @@ const std::vector<RoundTrip>& Singles() {
 }
 
 TEST(RoundTrips, EachNewEffectAloneWithGaussianNoise) {
-  for (const RoundTrip& c : Singles()) CheckRoundTrip(c, 0, 0.0, 31);
+  // Besides each parameter within 4 SE: the reported standard errors are honest, i.e. the mean
+  // of (error / SE)^2 over every recovered parameter of every effect and seed is near 1 (it is a
+  // mean of chi^2_1 variables; the bounds allow for the few dozen, partly correlated, terms).
+  ZSquared z2;
+  const int seeds = kSanitizer ? 1 : 3;
+  for (int seed = 0; seed < seeds; ++seed) {
+    for (const RoundTrip& c : Singles()) CheckRoundTrip(c, 0, 0.0, 31 + 100 * seed, &z2);
+  }
+  std::cout << "[round-trip] mean (error/SE)^2 = " << z2.sum / z2.count << " over " << z2.count
+            << " parameters\n";
+  ASSERT_GT(z2.count, 0);
+  if (!kSanitizer) {
+    EXPECT_GT(z2.sum / z2.count, 0.4);
+    EXPECT_LT(z2.sum / z2.count, 2.0);
+  }
 }
 
 TEST(RoundTrips, EachNewEffectAloneWithStudentT3Noise) {
