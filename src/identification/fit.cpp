@@ -725,7 +725,7 @@ std::vector<double> ScreenScores(const LimbDescription& nominal, const Current& 
         Sensitivities(MakeContext(ApplyEffects(nominal, {}), free, trials, all, options), x0, step,
                       &D, &r, &message)) {
       Eigen::ColPivHouseholderQR<Eigen::MatrixXd> qr(D);
-      Q = qr.householderQ() * Eigen::MatrixXd::Identity(n, qr.rank());
+      if (qr.rank() > 0) Q = qr.householderQ() * Eigen::MatrixXd::Identity(n, qr.rank());
     }
   }
   std::vector<double> score(candidates.size(), 0.0);
@@ -758,6 +758,7 @@ std::vector<double> ScreenScores(const LimbDescription& nominal, const Current& 
       return;
     }
     const double cost = r.squaredNorm();
+    if (D.cols() == 0) return;  // no parameter: nothing to gain (score 0)
     if (Q.cols() > 0) {
       D -= Q * (Q.transpose() * D);
       r -= Q * (Q.transpose() * r);
@@ -1330,14 +1331,15 @@ void ReportTrace(const Model& nominal, const std::vector<Trial>& trials, const C
   Eigen::MatrixXd Q(6 * trials.size(), 0);
   if (!chosen_models.empty()) {
     Eigen::ColPivHouseholderQR<Eigen::MatrixXd> qr(columns(chosen_models));
-    Q = qr.householderQ() * Eigen::MatrixXd::Identity(6 * trials.size(), qr.rank());
+    if (qr.rank() > 0)
+      Q = qr.householderQ() * Eigen::MatrixXd::Identity(6 * trials.size(), qr.rank());
   }
   std::vector<double> probe_share(probes.size(), 0.0);
   std::vector<int> probe_rank(probes.size(), 0);
   ParallelFor(probes.size(), options, [&](size_t i) {
     Eigen::MatrixXd D = columns(probes[i].models);
-    if (Q.cols() > 0) D -= Q * (Q.transpose() * D);
     if (D.cols() == 0 || !(total > 0)) return;
+    if (Q.cols() > 0) D -= Q * (Q.transpose() * D);
     Eigen::ColPivHouseholderQR<Eigen::MatrixXd> qr(D);
     probe_rank[i] = static_cast<int>(qr.rank());
     if (probe_rank[i] == 0) return;
