@@ -1027,6 +1027,7 @@ FitRound RunRound(int index, const Model& nominal, const std::vector<Effect>& li
     f.bic = -1.0;
     f.aic = -1.0;
     f.identifiable = false;
+    f.identifiability = "not assessed (screened out, not fitted)";
     f.solver_message = why[i].empty() ? "not fitted (screened out)" : why[i];
     r.candidates.push_back(std::move(f));
   }
