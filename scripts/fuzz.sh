@@ -3,6 +3,7 @@
 # (default 10) on a copy of the committed seed corpus. Exit non-zero on any crash, sanitizer
 # report, leak (except urdfdom's own, fuzz/lsan.supp) or hang (-timeout=10 s per input).
 #   scripts/fuzz.sh [seconds] [harness...]      harnesses: urdf_fuzzer trial_csv_fuzzer posture_fuzzer
+#                                                osim_import_fuzzer
 # Environment: FUZZ_BUILD (default build-fuzz), CXX (default clang++-14), FUZZ_RUNS (-runs=N
 # instead of a time limit, for campaigns), FUZZ_JOBS (libFuzzer -jobs, default 1 = in process).
 set -euo pipefail
@@ -10,7 +11,7 @@ cd "$(dirname "$0")/.."
 seconds=${1:-10}
 shift || true
 harnesses=("$@")
-[ ${#harnesses[@]} -eq 0 ] && harnesses=(urdf_fuzzer trial_csv_fuzzer posture_fuzzer)
+[ ${#harnesses[@]} -eq 0 ] && harnesses=(urdf_fuzzer trial_csv_fuzzer posture_fuzzer osim_import_fuzzer)
 build=${FUZZ_BUILD:-build-fuzz}
 CXX=${CXX:-clang++-14}
 if ! command -v "$CXX" >/dev/null; then
@@ -25,6 +26,7 @@ export LSAN_OPTIONS="suppressions=$PWD/fuzz/lsan.supp:print_suppressions=0"
 status=0
 for h in "${harnesses[@]}"; do
   corpus_name=${h%_fuzzer}
+  corpus_name=${corpus_name%_import}  # osim_import_fuzzer: fuzz/corpus/osim
   work="$build/corpus/$corpus_name"
   mkdir -p "$work" "$build/findings/$corpus_name"
   cp -n fuzz/corpus/"$corpus_name"/* "$work"/ 2>/dev/null || true

@@ -11,6 +11,7 @@
 /// sd_* columns); without them by FitOptions::default_sd_force / default_sd_moment.
 
 #include <Eigen/Core>
+#include <functional>
 #include <istream>
 #include <map>
 #include <memory>
@@ -294,6 +295,12 @@ struct FitOptions {
   double outlier_threshold = 3.0;
   /// Candidates fitted in parallel on this many threads (0 = hardware concurrency).
   int threads = 0;
+  /// Screening: each round ranks the candidates by a linearised ΔBIC at the current model (a
+  /// score test from one sensitivity column per parameter, exact for effects linear in their
+  /// parameters) and fits only the screen_keep best fully (per-trial effects, solved in closed
+  /// form, always); the others are reported as screened out. 0 = fit every candidate. The ΔBIC
+  /// threshold still counts every candidate tried (look_elsewhere).
+  int screen_keep = 8;
   /// At most this many effects are added (rounds).
   int max_rounds = 3;
   /// Folds for cross-validation (>= 2; fewer trials than folds disables CV).
@@ -331,6 +338,9 @@ struct FitOptions {
   int cv_candidates = 4;
   /// Candidate ids to try; empty = CandidateEffects(model).
   std::vector<std::string> candidates;
+  /// Called with a one-line description of each stage as it starts ("round 1: fitting 8 of 30
+  /// candidates", ...), for progress on long fits; empty = silent.
+  std::function<void(const std::string&)> progress;
   unsigned long long cv_seed = 7;  ///< fold assignment
 };
 
@@ -366,6 +376,12 @@ struct CandidateFit {
   std::string solver_message;
   bool accepted = false;  ///< chosen in this round
   std::string verdict;    ///< "chosen", or why it lost
+  /// Linearised ΔBIC of the screening step (score test at the current model); 0 when the round
+  /// did not screen (no more candidates than FitOptions::screen_keep).
+  double screen_delta_bic = 0.0;
+  /// Not fitted: its linearised ΔBIC was below the screen_keep best (values and standard errors
+  /// empty, converged false, delta_bic = screen_delta_bic).
+  bool screened_out = false;
 };
 
 /// One round: the model before, every candidate, the winner (if any).

@@ -1,7 +1,8 @@
 #pragma once
 // Private: the CLI's command registry and the options every model-based command shares.
 // Each command lives in src/cli/<name>_command.cpp and registers itself with a static
-// `const bool registered = RegisterCommand({...});`.
+// `const bool k<Name>Registered = RegisterCommand({...});` (a name unique to the file: the
+// commands are compiled together as a unity build, CMakeLists.txt).
 
 #include <CLI/CLI.hpp>
 #include <Eigen/Core>

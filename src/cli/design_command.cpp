@@ -53,7 +53,7 @@ std::vector<Trial> CandidatesFromFile(const Model& model, const DesignCommandOpt
   return out;
 }
 
-const bool registered = RegisterCommand(
+const bool kDesignRegistered = RegisterCommand(
     {"design",
      "Choose the postures to record so that named effects are identifiable and separable "
      "(D-optimal), "

@@ -195,7 +195,7 @@ void PrintMuscle(const Diagnosis& d) {
   }
 }
 
-const bool registered = RegisterCommand({
+const bool kDiagnoseRegistered = RegisterCommand({
     "diagnose",
     "Constraint class (over-constrained / matched / under-constrained), self-motions, internal "
     "wrenches, sensitivity of W to every stiffness, and a nonlinear large-deflection check",

@@ -12,7 +12,7 @@
 namespace isowrench::cli {
 namespace {
 
-const bool registered = RegisterCommand({
+const bool kDrawRegistered = RegisterCommand({
     "draw",
     "Draw a two-view stick figure (top x-y, side x-z) of the limb at a posture: joint centres and "
     "axes, "

@@ -12,7 +12,7 @@
 namespace isowrench::cli {
 namespace {
 
-const bool registered = RegisterCommand({
+const bool kFiguresRegistered = RegisterCommand({
     "figures",
     "Draw the paper's Figures 2, 3 and 4 (wrench glyphs as in Fig. 1C) from the shipped rat URDFs: "
     "SVG, CSV and JSON (and PNG when rsvg-convert or ImageMagick is installed)",

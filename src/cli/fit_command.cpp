@@ -1,5 +1,7 @@
 // `isowrench fit <urdf> <data.csv>`: trace the residual of measured wrenches to a missing effect.
 
+#include <unistd.h>
+
 #include <cmath>
 #include <cstdio>
 #include <iostream>
@@ -9,6 +11,7 @@
 #include "isowrench/identification.hpp"
 #include "isowrench/io.hpp"
 #include "isowrench/plots.hpp"
+#include "isowrench/trial_csv.hpp"
 
 namespace isowrench::cli {
 namespace {
@@ -23,8 +26,10 @@ struct FitCommandOptions {
   bool list_effects = false;
   int rounds = 3;
   int folds = 5;
+  int screen = 8;
   int rows = 20;
   std::string loss = "huber";
+  bool progress = false;
   double loss_scale = 2.0;
   std::vector<std::string> candidates;
 };
@@ -265,8 +270,10 @@ void PrintReport(const FitReport& r, const FitCommandOptions& o) {
   }
   if (!r.trace.empty() || !r.trace_summary.empty()) {
     std::cout << "\nWhere the unexplained residual lives (share of the weighted residual explained "
-                 "by a smooth trend,\n"
-              << "or held by one muscle's trials on one axis):\n";
+                 "by a variable's\n"
+              << "first-order effect (stiffness, offset, force, path), by a smooth trend, or held "
+                 "by one muscle's\n"
+              << "trials on one axis; ranked by the share beyond chance):\n";
     for (const FitReport::TraceItem& i : r.trace) {
       std::cout << "  " << Fixed(100 * i.share, 5, 1) << " %  " << i.variable << "  (" << i.note
                 << ")\n";
@@ -305,7 +312,7 @@ void PrintReport(const FitReport& r, const FitCommandOptions& o) {
     std::cout << "wrote the markdown report to " << o.report_markdown << "\n";
 }
 
-const bool registered = RegisterCommand(
+const bool kFitRegistered = RegisterCommand(
     {"fit",
      "Fit measured wrenches (CSV): trace the residual to missing effects, report the error "
      "before/after "
@@ -324,6 +331,9 @@ const bool registered = RegisterCommand(
                       "Also write the report as markdown (lab notebooks) here");
        app.add_option("--rounds", o->rounds, "Most effects to add (default 3)");
        app.add_option("--folds", o->folds, "Cross-validation folds (default 5)");
+       app.add_option("--screen", o->screen,
+                      "Per round, fit only the N candidates with the best linearised ΔBIC (a "
+                      "score test at the current model; default 8, 0 = fit every candidate)");
        app.add_option("--candidates", o->candidates,
                       "Only try these effect ids (default: the whole library)");
        app.add_option("--loss", o->loss,
@@ -331,6 +341,9 @@ const bool registered = RegisterCommand(
        app.add_option(
            "--loss-scale", o->loss_scale,
            "Knee of the robust loss in stated-noise multiples of a row's RMS residual (default 2)");
+       app.add_flag("--progress", o->progress,
+                    "Report reading and fitting progress on stderr even when it is not a "
+                    "terminal (it is reported on a terminal anyway)");
        app.add_option("--rows", o->rows, "Per-trial rows in the table (default 20, 0 = all)");
        app.add_flag("--list-effects", o->list_effects,
                     "List the candidate effects for the model and exit");
@@ -366,13 +379,25 @@ const bool registered = RegisterCommand(
          if (o->data.empty())
            throw Error("fit: missing <data.csv> (measured wrenches; see docs/identification.md)");
          if (o->rounds < 0) throw Error("fit: --rounds must be >= 0");
-         std::vector<Trial> trials = ReadTrialsCsv(model, o->data);
+         if (o->screen < 0) throw Error("fit: --screen must be >= 0 (0 = fit every candidate)");
+         // Streamed: rows are parsed one at a time (no copy of the file's text is kept).
+         const bool progress = o->progress || isatty(fileno(stderr));
+         std::vector<Trial> trials;
+         ForEachTrial(
+             model, o->data, [&](const Trial& t) { trials.push_back(t); },
+             TerminalProgress("reading " + o->data, o->progress));
          FitOptions options;
          options.max_rounds = o->rounds;
          options.folds = o->folds;
+         options.screen_keep = o->screen;
          options.candidates = o->candidates;
          options.loss = ParseRobustLoss(o->loss);
          options.loss_scale = o->loss_scale;
+         if (progress) {
+           options.progress = [](const std::string& stage) {
+             std::cerr << "fit: " << stage << "\n" << std::flush;
+           };
+         }
          FitReport report = FitEffects(model, trials, options);
          report.source = o->data;
          if (!o->output.empty()) WriteAugmentedUrdf(report, o->output);

@@ -25,7 +25,7 @@ void ParseEndpoint(const std::string& text, OpenSimImportOptions& options) {
   }
 }
 
-const bool registered = RegisterCommand({
+const bool kImportRegistered = RegisterCommand({
     "import",
     "Import an OpenSim model (.osim) as an isowrench URDF: the chain from the clamped body to the "
     "endpoint body, coordinates, spline couplings and muscles (docs/opensim.md)",

@@ -145,7 +145,7 @@ std::string Table(const Model& model, const std::vector<PostureKinematics>& resu
   return o.str();
 }
 
-const bool registered = RegisterCommand({
+const bool kKinematicsRegistered = RegisterCommand({
     "kinematics",
     "Endpoint position, 6 x n endpoint Jacobian and every muscle's length and moment arms (-dL/dq) "
     "at "

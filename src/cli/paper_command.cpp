@@ -43,7 +43,7 @@ void PrintFigure(int figure, const std::vector<PaperPanel>& panels) {
   std::cout << "\n";
 }
 
-const bool registered = RegisterCommand({
+const bool kPaperRegistered = RegisterCommand({
     "paper",
     "Recompute the seed paper's Figure 2, 3 or 4 wrenches on the shipped rat hindlimb URDFs",
     20,

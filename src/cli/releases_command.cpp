@@ -117,7 +117,7 @@ void PrintRow(const ReleaseAssessment& a) {
   std::cout << line;
 }
 
-const bool registered = RegisterCommand({
+const bool kReleasesRegistered = RegisterCommand({
     "releases",
     "Compare released-dof choices: which extra transducer dof (axis through the endpoint) can be "
     "released without self-motion, the wrench each gives, its spread over a stiffness range, "

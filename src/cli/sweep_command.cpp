@@ -96,7 +96,7 @@ const char* StatusWord(StaticsStatus s) {
   return "?";
 }
 
-const bool registered = RegisterCommand({
+const bool kSweepRegistered = RegisterCommand({
     "sweep",
     "Wrench over a posture grid x transducer stiffness ratios on the fast path (both cores), "
     "written to a CSV",

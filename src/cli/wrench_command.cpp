@@ -197,7 +197,7 @@ void PrintEvaluation(const Model& model, const WrenchEvaluation& e, const std::s
   }
 }
 
-const bool registered = RegisterCommand({
+const bool kWrenchRegistered = RegisterCommand({
     "wrench",
     "Compute the wrench one muscle applies through the limb to the transducer (Eq. 10), with the "
     "classic J^-T / pseudoinverse answer beside it",

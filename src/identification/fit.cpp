@@ -6,6 +6,7 @@
 #include <ceres/ceres.h>
 #include <glog/logging.h>
 
+#include <Eigen/QR>
 #include <Eigen/SVD>
 #include <algorithm>
 #include <atomic>
@@ -280,6 +281,9 @@ SolveResult Solve(const Context& c, std::vector<double> x) {
   options.logging_type = ceres::SILENT;
   options.minimizer_progress_to_stdout = false;
   options.num_threads = 1;
+  // No projected line search after each successful step of the bounded problem (each costs a
+  // numeric Jacobian): the trust region alone keeps the steps inside the bounds and descending.
+  options.max_num_line_search_step_size_iterations = 0;
   ceres::Solver::Summary summary;
   ceres::Solve(options, &problem, &summary);
   out.x = x;
@@ -637,70 +641,207 @@ std::vector<Effect> Screen(const std::vector<Effect>& library, const Current& cu
   return out;
 }
 
-/// Fit: every screened candidate jointly with the chosen effects on all trials, in parallel
-/// (each thread builds its own models and workspaces). Returns the fits in input order and the
-/// full internal solution of each.
-std::vector<CandidateFit> FitCandidates(const LimbDescription& nominal, const Current& current,
-                                        const std::vector<Effect>& candidates,
-                                        const std::vector<Trial>& trials, const FitOptions& options,
-                                        std::vector<std::vector<double>>* solutions) {
-  const AugmentedModel base = ApplyEffects(nominal, {});
-  const std::vector<int> all = AllIndices(trials.size());
-  std::vector<CandidateFit> fits(candidates.size());
-  solutions->assign(candidates.size(), {});
+/// Run task(i) for i in [0, count) on `options.threads` threads (0 = hardware concurrency);
+/// each task builds its own models and workspaces, so tasks share nothing mutable.
+template <class Task>
+void ParallelFor(size_t count, const FitOptions& options, Task task) {
   std::atomic<size_t> next{0};
   auto work = [&]() {
-    for (size_t i = next++; i < candidates.size(); i = next++) {
-      fits[i] = FitOnSubset(base, current.effects, candidates[i], trials, all, options, nullptr,
-                            true, &(*solutions)[i]);
-    }
+    for (size_t i = next++; i < count; i = next++) task(i);
   };
   int threads =
       options.threads > 0 ? options.threads : static_cast<int>(std::thread::hardware_concurrency());
-  threads = std::max(1, std::min<int>(threads, static_cast<int>(candidates.size())));
+  threads = std::max(1, std::min<int>(threads, static_cast<int>(count)));
   std::vector<std::thread> pool;
   for (int t = 1; t < threads; ++t) pool.emplace_back(work);
   work();
   for (std::thread& t : pool) t.join();
+}
+
+/// Whitened, robust-row-scaled sensitivity columns of context `c` at internal x0: column j is
+/// (P(x0 + step_j e_j) - P(x0)) / step_j. `p0` receives P(x0), `r` the scaled residual at x0
+/// and `scale` the row scales. False (with `message`) when a prediction fails.
+bool Sensitivities(const Context& c, const std::vector<double>& x0, const std::vector<double>& step,
+                   Eigen::MatrixXd* D, Eigen::VectorXd* r, std::string* message) {
+  const size_t rows = c.subset.size();
+  std::vector<Vector6d> p0, pj;
+  if (!c.Predict(x0.data(), &p0, message)) return false;
+  std::vector<double> scale(rows);
+  for (size_t k = 0; k < rows; ++k) {
+    const double s = c.RowChi2(k, p0[k]);
+    scale[k] = s > 0 ? std::sqrt(RowLoss(s, c.options) / s) : 1.0;
+  }
+  r->resize(6 * rows);
+  c.Residuals(p0, r->data());
+  D->resize(6 * rows, static_cast<int>(step.size()));
+  for (size_t j = 0; j < step.size(); ++j) {
+    std::vector<double> x = x0;
+    x[j] += step[j];
+    if (!c.Predict(x.data(), &pj, message)) return false;
+    for (size_t k = 0; k < rows; ++k) {
+      for (int m = 0; m < 6; ++m) {
+        (*D)(6 * k + m, j) = scale[k] * c.weights[6 * k + m] * (pj[k][m] - p0[k][m]) / step[j];
+      }
+    }
+  }
+  return true;
+}
+
+/// Screen, step 2: the linearised ΔBIC of each candidate at the current model (a score test).
+/// One sensitivity column per parameter: the prediction at a small step from the value at which
+/// the effect vanishes (one decade towards the start for a stiffness, 1e-3 of the search range
+/// otherwise) minus the prediction there, whitened and scaled per row like the robust
+/// residuals. The chosen effects are refitted with the candidate, so their columns (at their
+/// current values) are projected out first: Δχ² is the squared norm of the residual's
+/// projection on the candidate's columns orthogonal to theirs. Exact for effects linear in
+/// their parameters (sensor offset, gain, crosstalk, coactivation); per-trial factors are
+/// re-solved inside every prediction, and per-trial candidates get +inf (always fitted). A
+/// candidate that cannot be evaluated near its neutral value gets -inf and `why`.
+std::vector<double> ScreenScores(const LimbDescription& nominal, const Current& current,
+                                 const std::vector<Effect>& candidates,
+                                 const std::vector<Trial>& trials, const FitOptions& options,
+                                 std::vector<std::string>* why) {
+  const bool sd_stated = AllSd(trials);
+  const std::vector<int> all = AllIndices(trials.size());
+  const int n = static_cast<int>(6 * trials.size());
+  // Orthonormal basis of the chosen effects' columns (empty in the first round).
+  Eigen::MatrixXd Q(n, 0);
+  {
+    std::vector<Effect> free;
+    std::vector<double> x0, step;
+    for (const AppliedEffect& a : current.effects) {
+      free.push_back(a.effect);
+      const std::vector<double> x = InternalValues(a.effect, &a.values);
+      x0.insert(x0.end(), x.begin(), x.end());
+      for (const EffectParameter& q : a.effect.parameters) {
+        if (!a.effect.per_trial)
+          step.push_back(1e-3 * (ident::ToInternal(q, q.upper) - ident::ToInternal(q, q.lower)));
+      }
+    }
+    Eigen::MatrixXd D;
+    Eigen::VectorXd r;
+    std::string message;
+    if (!step.empty() &&
+        Sensitivities(MakeContext(ApplyEffects(nominal, {}), free, trials, all, options), x0, step,
+                      &D, &r, &message)) {
+      Eigen::ColPivHouseholderQR<Eigen::MatrixXd> qr(D);
+      Q = qr.householderQ() * Eigen::MatrixXd::Identity(n, qr.rank());
+    }
+  }
+  std::vector<double> score(candidates.size(), 0.0);
+  why->assign(candidates.size(), "");
+  ParallelFor(candidates.size(), options, [&](size_t i) {
+    const Effect& e = candidates[i];
+    if (e.per_trial) {
+      score[i] = std::numeric_limits<double>::infinity();
+      return;
+    }
+    std::vector<double> x0, step;
+    for (const EffectParameter& q : e.parameters) {
+      const double neutral = ident::ToInternal(q, q.neutral);
+      const double initial = ident::ToInternal(q, q.initial);
+      const double range = ident::ToInternal(q, q.upper) - ident::ToInternal(q, q.lower);
+      x0.push_back(neutral);
+      if (q.scale == ParameterScale::kLog10 && std::abs(initial - neutral) > 0.5) {
+        step.push_back(initial < neutral ? -1.0 : 1.0);
+      } else {
+        step.push_back(1e-3 * range);
+      }
+    }
+    Eigen::MatrixXd D;
+    Eigen::VectorXd r;
+    std::string message;
+    if (!Sensitivities(MakeContext(current.augmented, {e}, trials, all, options), x0, step, &D, &r,
+                       &message)) {
+      score[i] = -std::numeric_limits<double>::infinity();
+      (*why)[i] = "cannot be evaluated near its neutral value: " + message;
+      return;
+    }
+    const double cost = r.squaredNorm();
+    if (Q.cols() > 0) {
+      D -= Q * (Q.transpose() * D);
+      r -= Q * (Q.transpose() * r);
+    }
+    const Eigen::VectorXd projected = D * D.colPivHouseholderQr().solve(r);
+    const double reduction = std::min(projected.squaredNorm(), cost);
+    score[i] = Bic(cost, n, 0, sd_stated) -
+               Bic(std::max(cost - reduction, 1e-300), n, static_cast<int>(step.size()), sd_stated);
+  });
+  return score;
+}
+
+/// Fit: every candidate in `fit` (indices into `candidates`) jointly with the chosen effects on
+/// all trials, in parallel. Returns the fits and full internal solutions in `fit` order.
+std::vector<CandidateFit> FitCandidates(const LimbDescription& nominal, const Current& current,
+                                        const std::vector<Effect>& candidates,
+                                        const std::vector<size_t>& fit,
+                                        const std::vector<Trial>& trials, const FitOptions& options,
+                                        std::vector<std::vector<double>>* solutions) {
+  const AugmentedModel base = ApplyEffects(nominal, {});
+  const std::vector<int> all = AllIndices(trials.size());
+  std::vector<CandidateFit> fits(fit.size());
+  solutions->assign(fit.size(), {});
+  ParallelFor(fit.size(), options, [&](size_t i) {
+    fits[i] = FitOnSubset(base, current.effects, candidates[fit[i]], trials, all, options, nullptr,
+                          true, &(*solutions)[i]);
+  });
   return fits;
 }
 
-/// Cross-validate: held-out robust cost per residual of each of the best few candidates that
-/// could win (converged, identifiable, over the ΔBIC threshold); cv_error -2 marks a failed fold.
+/// True when a held-out error beats the current model's (the criterion Select applies).
+bool CvImproves(double cv_error, double cv_before, const FitOptions& options) {
+  return cv_error >= 0 &&
+         cv_error <= cv_before - options.min_cv_improvement * std::min(cv_before, 1.0);
+}
+
+/// Cross-validate the candidates that could win (converged, identifiable, over the ΔBIC
+/// threshold) in BIC order, at most options.cv_candidates of them, until one lowers the held-out
+/// error (the ones after it cannot win: Select takes the first that passes). cv_error is the
+/// held-out robust cost per residual, -2 for a failed fold. The folds run in parallel.
 void CrossValidate(const LimbDescription& nominal, const Current& current,
                    const std::vector<Trial>& trials, const Folds& folds, const FitOptions& options,
-                   double threshold, const std::map<std::string, std::vector<double>>& solutions,
+                   double threshold, double cv_before,
+                   const std::map<std::string, std::vector<double>>& solutions,
                    std::vector<CandidateFit>* candidates) {
   if (folds.train.empty()) return;
   const AugmentedModel base = ApplyEffects(nominal, {});
+  const size_t fold_count = folds.train.size();
   int done = 0;
   for (CandidateFit& f : *candidates) {
     if (done >= options.cv_candidates) break;
     if (!f.converged || !f.identifiable || f.delta_bic < threshold) continue;
     ++done;
-    double held_cost = 0.0;
-    int held_n = 0;
     const std::vector<double>& start = solutions.at(f.effect.id);
     std::vector<Effect> free;
     for (const AppliedEffect& a : current.effects) free.push_back(a.effect);
     free.push_back(f.effect);
-    bool ok = true;
-    for (size_t fold = 0; fold < folds.train.size() && ok; ++fold) {
+    // Per-trial factors are solved on the held-out rows themselves (one of six residual dofs
+    // per row): their cost is inflated by 6 / 5 to stay comparable.
+    double inflate = 1.0;
+    for (const Effect& e : free) inflate = e.per_trial ? 6.0 / 5.0 : inflate;
+    std::vector<double> held_cost(fold_count, 0.0);
+    std::vector<int> held_n(fold_count, -1);  // -1: the fold failed
+    ParallelFor(fold_count, options, [&](size_t fold) {
       std::vector<double> x;
       CandidateFit g = FitOnSubset(base, current.effects, f.effect, trials, folds.train[fold],
                                    options, &start, false, &x);
+      if (!g.converged) return;
       Context c = MakeContext(base, free, trials, folds.test[fold], options);
       std::vector<Vector6d> prediction;
-      ok = g.converged && c.Predict(x.data(), &prediction);
-      if (!ok) break;
-      // Per-trial factors are solved on the held-out rows themselves (one of six residual
-      // dofs per row): their cost is inflated by 6 / 5 to stay comparable.
-      double inflate = 1.0;
-      for (const Effect& e : free) inflate = e.per_trial ? 6.0 / 5.0 : inflate;
-      held_cost += inflate * c.Cost(prediction);
-      held_n += static_cast<int>(6 * folds.test[fold].size());
+      if (!c.Predict(x.data(), &prediction)) return;
+      held_cost[fold] = inflate * c.Cost(prediction);
+      held_n[fold] = static_cast<int>(6 * folds.test[fold].size());
+    });
+    double cost = 0.0;
+    int n = 0;
+    bool ok = true;
+    for (size_t fold = 0; fold < fold_count; ++fold) {
+      ok &= held_n[fold] >= 0;
+      cost += held_cost[fold];
+      n += std::max(0, held_n[fold]);
     }
-    f.cv_error = ok && held_n > 0 ? held_cost / held_n : -2.0;
+    f.cv_error = ok && n > 0 ? cost / n : -2.0;
+    if (CvImproves(f.cv_error, cv_before, options)) break;
   }
 }
 
@@ -711,7 +852,13 @@ int Select(FitRound* r, bool cross_validated, const FitOptions& options) {
     std::string p = std::to_string(f.effect.parameters.size()) + " parameter" +
                     (f.effect.parameters.size() > 1 ? "s" : "");
     if (f.effect.per_trial) p = "per-trial parameters";
-    if (!f.converged) {
+    if (f.screened_out) {
+      f.verdict = f.solver_message != "not fitted (screened out)"
+                      ? "screened out: " + f.solver_message
+                      : "screened out: linearised ΔBIC = " + util::FormatNumber(f.delta_bic, 3) +
+                            " at the current model, not among the " +
+                            std::to_string(options.screen_keep) + " best fitted";
+    } else if (!f.converged) {
       f.verdict = "fit failed: " + f.solver_message;
     } else if (f.delta_bic < r->bic_threshold) {
       f.verdict = "does not earn its " + p + ": ΔBIC = " + util::FormatNumber(f.delta_bic, 3) +
@@ -719,11 +866,10 @@ int Select(FitRound* r, bool cross_validated, const FitOptions& options) {
       if (!f.identifiable) f.verdict += "; not identifiable: " + f.identifiability;
     } else if (!f.identifiable) {
       f.verdict = "not identifiable from these data: " + f.identifiability;
-    } else if (cross_validated && f.cv_error == -1.0) {
-      f.verdict = "not cross-validated (a better candidate was)";
-    } else if (cross_validated &&
-               (f.cv_error < 0 || f.cv_error > r->cv_before - options.min_cv_improvement *
-                                                                  std::min(r->cv_before, 1.0))) {
+    } else if (cross_validated && f.cv_error == -1.0 && r->chosen < 0) {
+      f.verdict = "not cross-validated (the cross-validation limit was reached)";
+    } else if (cross_validated && f.cv_error != -1.0 &&
+               !CvImproves(f.cv_error, r->cv_before, options)) {
       f.verdict = f.cv_error < 0
                       ? "cross-validation fit failed"
                       : "held-out error not lower: " + util::FormatNumber(f.cv_error, 4) + " vs " +
@@ -833,14 +979,55 @@ FitRound RunRound(int index, const Model& nominal, const std::vector<Effect>& li
   r.bic_before = Bic(current.cost, n, current.parameters, sd_stated);
   r.cv_before = current.cost / n;
   const std::vector<Effect> screened = Screen(library, current);
+  // Rank by the linearised ΔBIC and fit the screen_keep best (all when there are few).
+  std::vector<size_t> order(screened.size());
+  std::iota(order.begin(), order.end(), size_t{0});
+  std::vector<double> score(screened.size(), 0.0);
+  std::vector<std::string> why;
+  const bool screening =
+      options.screen_keep > 0 && static_cast<int>(screened.size()) > options.screen_keep;
+  auto stage = [&](const std::string& what) {
+    if (options.progress) options.progress("round " + std::to_string(index) + ": " + what);
+  };
+  if (screening) {
+    stage("screening " + std::to_string(screened.size()) +
+          " candidates (linearised ΔBIC at the current model)");
+    score = ScreenScores(nominal.description(), current, screened, trials, options, &why);
+    std::stable_sort(order.begin(), order.end(),
+                     [&](size_t a, size_t b) { return score[a] > score[b]; });
+  }
+  std::vector<size_t> keep, drop;
+  for (size_t rank = 0; rank < order.size(); ++rank) {
+    const size_t i = order[rank];
+    const bool kept =
+        !screening || static_cast<int>(rank) < options.screen_keep || screened[i].per_trial;
+    (kept ? keep : drop).push_back(i);
+  }
+  stage("fitting " + std::to_string(keep.size()) + " of " + std::to_string(screened.size()) +
+        " candidates");
   std::vector<std::vector<double>> x;
   std::vector<CandidateFit> fits =
-      FitCandidates(nominal.description(), current, screened, trials, options, &x);
+      FitCandidates(nominal.description(), current, screened, keep, trials, options, &x);
   solutions->clear();
-  for (size_t i = 0; i < screened.size(); ++i) {
+  for (size_t i = 0; i < keep.size(); ++i) {
     fits[i].delta_bic = r.bic_before - fits[i].bic;
-    (*solutions)[screened[i].id] = x[i];
+    if (screening) fits[i].screen_delta_bic = score[keep[i]];
+    (*solutions)[screened[keep[i]].id] = x[i];
     r.candidates.push_back(std::move(fits[i]));
+  }
+  for (size_t i : drop) {
+    CandidateFit f;
+    f.effect = screened[i];
+    f.correlation = Eigen::MatrixXd::Identity(0, 0);
+    f.screened_out = true;
+    f.screen_delta_bic = std::isfinite(score[i]) ? score[i] : -1.0;
+    f.delta_bic = f.screen_delta_bic;
+    f.cost = -1.0;
+    f.bic = -1.0;
+    f.aic = -1.0;
+    f.identifiable = false;
+    f.solver_message = why[i].empty() ? "not fitted (screened out)" : why[i];
+    r.candidates.push_back(std::move(f));
   }
   r.bic_threshold =
       options.min_bic_improvement + (options.look_elsewhere && r.candidates.size() > 1
@@ -848,11 +1035,14 @@ FitRound RunRound(int index, const Model& nominal, const std::vector<Effect>& li
                                          : 0.0);
   std::stable_sort(r.candidates.begin(), r.candidates.end(),
                    [](const CandidateFit& a, const CandidateFit& b) {
+                     if (a.screened_out != b.screened_out) return b.screened_out;
+                     if (a.screened_out) return a.screen_delta_bic > b.screen_delta_bic;
                      if (a.converged != b.converged) return a.converged;
                      return a.bic < b.bic;
                    });
-  CrossValidate(nominal.description(), current, trials, folds, options, r.bic_threshold, *solutions,
-                &r.candidates);
+  stage("cross-validating the best candidates (" + std::to_string(folds.train.size()) + " folds)");
+  CrossValidate(nominal.description(), current, trials, folds, options, r.bic_threshold,
+                r.cv_before, *solutions, &r.candidates);
   Select(&r, !folds.train.empty(), options);
   if (r.chosen < 0) {
     r.summary = "no candidate earns its parameters";
@@ -1034,11 +1224,145 @@ void ReportTrace(const Model& nominal, const std::vector<Trial>& trials, const C
          QuadraticShare(r, ident::MuscleLengths(nominal, name, trials), use, total),
          "a trend with the muscle's length (force-length behaviour outside the model)"});
   }
+  // Probes that name a variable directly: the share of the residual in the span of the wrench
+  // sensitivity to a small stiffness at each coordinate, to an offset of each coordinate, to
+  // each muscle's force and to its path points (first-order columns from small steps).
+  std::vector<double> chance(items.size(), 2.0 * 6.0);  // columns of each quadratic trend
+  Eigen::VectorXd rv = Eigen::VectorXd::Zero(6 * trials.size());
+  int used = 0;
+  for (size_t k = 0; k < trials.size(); ++k) {
+    if (!use[k]) continue;
+    rv.segment<6>(6 * k) = r[k];
+    ++used;
+  }
+  struct Probe {
+    std::string variable, note;
+    std::vector<AugmentedModel> models;
+  };
+  std::vector<Probe> probes;
+  const AugmentedModel& at = current.augmented;
+  for (int j = 0; j < nominal.dof_count(); ++j) {
+    if (nominal.joint(j).role != JointRole::kLimb) continue;
+    const std::string& name = nominal.joint_names()[j];
+    Probe stiffness{"stiffness at " + name,
+                    "a passive stiffness of this coordinate outside the model and the library",
+                    {}};
+    try {
+      // A stiffness small against what the transducer opposes to this coordinate (j^T S_t j):
+      // the wrench changes linearly with it.
+      const Eigen::VectorXd jc = ident::NominalJacobianColumn(nominal, name);
+      const double scale = jc.dot(nominal.transducer().stiffness.asDiagonal() * jc);
+      const double k0 = FindCoordinate(at.description, name).stiffness;
+      AugmentedModel m = at;
+      m.description = WithJointStiffness(
+          at.description, name, k0 + 1e-4 * (std::isfinite(scale) && scale > 0 ? scale : 1.0));
+      stiffness.models.push_back(std::move(m));
+    } catch (const Error&) {
+    }
+    probes.push_back(std::move(stiffness));
+    Probe offset{"offset of " + name, "the recorded angle of this coordinate is off", {}};
+    AugmentedModel m = at;
+    m.posture_offset[name] +=
+        nominal.joint(j).type == JointType::kPrismatic ? 1e-5 : 1e-4;  // m or rad
+    offset.models.push_back(std::move(m));
+    probes.push_back(std::move(offset));
+  }
+  for (size_t i = 0; i < at.description.muscles.size(); ++i) {
+    const MuscleSpec& muscle = at.description.muscles[i];
+    Probe force{"force of " + muscle.name,
+                "this muscle's force differs from the model (max force, force-length)",
+                {}};
+    AugmentedModel m = at;
+    m.description.muscles[i].max_force *= 1.001;
+    force.models.push_back(std::move(m));
+    probes.push_back(std::move(force));
+    Probe path{"path of " + muscle.name,
+               "this muscle's path points (moment arms) differ from the model",
+               {}};
+    for (size_t p = 0; p < muscle.path.size(); ++p) {
+      for (int axis = 0; axis < 3; ++axis) {
+        AugmentedModel shifted = at;
+        shifted.description.muscles[i].path[p].position[axis] += 1e-5;  // m
+        path.models.push_back(std::move(shifted));
+      }
+    }
+    probes.push_back(std::move(path));
+  }
+  // Whitened prediction changes of a set of perturbed models (outlier rows zero).
+  auto columns = [&](const std::vector<AugmentedModel>& models) {
+    Eigen::MatrixXd D = Eigen::MatrixXd::Zero(6 * trials.size(), models.size());
+    for (size_t c = 0; c < models.size(); ++c) {
+      Prediction p;
+      try {
+        p = PredictTrials(models[c], trials);
+      } catch (const Error&) {
+        continue;
+      }
+      for (size_t k = 0; k < trials.size(); ++k) {
+        if (!use[k] || !p.ok[k]) continue;
+        for (int m = 0; m < 6; ++m) {
+          D(6 * k + m, c) =
+              ident::Weight(trials[k], m, options) * (p.wrench[k][m] - current.prediction[k][m]);
+        }
+      }
+    }
+    if (!D.allFinite()) D.setZero();
+    return D;
+  };
+  // The tentative effects stay in the model and would be refitted with the missing variable:
+  // what a probe explains is measured orthogonally to their columns (a score test), so a
+  // variable they partly absorbed is still found.
+  std::vector<AugmentedModel> chosen_models;
+  for (size_t e = 0; e < current.effects.size(); ++e) {
+    const AppliedEffect& a = current.effects[e];
+    if (a.effect.per_trial) continue;
+    for (size_t j = 0; j < a.values.size(); ++j) {
+      const EffectParameter& q = a.effect.parameters[j];
+      std::vector<AppliedEffect> stepped = current.effects;
+      const double step = 1e-3 * (ident::ToInternal(q, q.upper) - ident::ToInternal(q, q.lower));
+      stepped[e].values[j] = ident::ToUser(q, ident::ToInternal(q, a.values[j]) + step);
+      try {
+        chosen_models.push_back(ApplyEffects(nominal.description(), stepped));
+      } catch (const Error&) {
+      }
+    }
+  }
+  Eigen::MatrixXd Q(6 * trials.size(), 0);
+  if (!chosen_models.empty()) {
+    Eigen::ColPivHouseholderQR<Eigen::MatrixXd> qr(columns(chosen_models));
+    Q = qr.householderQ() * Eigen::MatrixXd::Identity(6 * trials.size(), qr.rank());
+  }
+  std::vector<double> probe_share(probes.size(), 0.0);
+  std::vector<int> probe_rank(probes.size(), 0);
+  ParallelFor(probes.size(), options, [&](size_t i) {
+    Eigen::MatrixXd D = columns(probes[i].models);
+    if (Q.cols() > 0) D -= Q * (Q.transpose() * D);
+    if (D.cols() == 0 || !(total > 0)) return;
+    Eigen::ColPivHouseholderQR<Eigen::MatrixXd> qr(D);
+    probe_rank[i] = static_cast<int>(qr.rank());
+    if (probe_rank[i] == 0) return;
+    const Eigen::VectorXd projected = D * qr.solve(rv);
+    probe_share[i] = std::min(1.0, projected.squaredNorm() / total);
+  });
+  for (size_t i = 0; i < probes.size(); ++i) {
+    if (probe_rank[i] == 0) continue;
+    items.push_back({probes[i].variable, probe_share[i], probes[i].note});
+    chance.push_back(probe_rank[i]);
+  }
   // Trends first (best first), then where the residual sits: per muscle and axis.
-  std::stable_sort(items.begin(), items.end(),
-                   [](const FitReport::TraceItem& a, const FitReport::TraceItem& b) {
-                     return a.share > b.share;
-                   });
+  // Ranked by the share beyond what as many random directions would explain in noise (a trend
+  // has 12 columns, a stiffness probe 1), so small probes are not outranked by wide trends.
+  {
+    std::vector<size_t> rank(items.size());
+    std::iota(rank.begin(), rank.end(), size_t{0});
+    const double n = std::max(1, 6 * used);
+    std::stable_sort(rank.begin(), rank.end(), [&](size_t a, size_t b) {
+      return items[a].share - chance[a] / n > items[b].share - chance[b] / n;
+    });
+    std::vector<FitReport::TraceItem> sorted;
+    for (size_t i : rank) sorted.push_back(items[i]);
+    items = std::move(sorted);
+  }
   const size_t trends = items.size();
   // Per muscle and axis: share of the residual in the trials of each muscle, per component.
   const char* axes[6] = {"fx", "fy", "fz", "mx", "my", "mz"};
@@ -1255,6 +1579,7 @@ FitReport FitEffects(const Model& nominal, const std::vector<Trial>& trials,
     report.rounds.push_back(std::move(r));
   }
 
+  if (options.progress) options.progress("report: residuals, correlations, verdict");
   std::string note;
   if (Simplify(nominal, trials, options, &current, &note)) report.notes.push_back(note);
 
@@ -1266,8 +1591,10 @@ FitReport FitEffects(const Model& nominal, const std::vector<Trial>& trials,
   ReportTrials(trials, nominal_prediction, current, options, &report);
   ReportCorrelations(nominal, trials, current, options, &report);
   ReportVerdict(trials, current, options, &report);
-  if (report.verdict == FitVerdict::kUnexplained)
+  if (report.verdict == FitVerdict::kUnexplained) {
+    if (options.progress) options.progress("report: tracing the unexplained residual");
     ReportTrace(nominal, trials, current, options, &report);
+  }
   report.seconds =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - clock_start).count();
   return report;

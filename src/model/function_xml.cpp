@@ -12,7 +12,7 @@
 namespace isowrench {
 namespace {
 
-constexpr const char* kPrefix = "isowrench:";
+constexpr const char* kFunctionTagPrefix = "isowrench:";
 constexpr FunctionKind kKinds[] = {
     FunctionKind::kConstant,           FunctionKind::kLinear,          FunctionKind::kSimmSpline,
     FunctionKind::kNaturalCubicSpline, FunctionKind::kPiecewiseLinear, FunctionKind::kPolynomial,
@@ -21,8 +21,8 @@ constexpr FunctionKind kKinds[] = {
 // The kind named by an element, or false.
 bool KindOf(const tinyxml2::XMLElement& e, FunctionKind* kind) {
   const char* name = e.Name();
-  const size_t prefix = std::strlen(kPrefix);
-  if (std::strncmp(name, kPrefix, prefix) != 0) return false;
+  const size_t prefix = std::strlen(kFunctionTagPrefix);
+  if (std::strncmp(name, kFunctionTagPrefix, prefix) != 0) return false;
   for (FunctionKind k : kKinds) {
     if (std::strcmp(name + prefix, FunctionKindName(k)) == 0) {
       *kind = k;
@@ -34,7 +34,8 @@ bool KindOf(const tinyxml2::XMLElement& e, FunctionKind* kind) {
 
 std::string KindList() {
   std::vector<std::string> names;
-  for (FunctionKind k : kKinds) names.push_back(std::string(kPrefix) + FunctionKindName(k));
+  for (FunctionKind k : kKinds)
+    names.push_back(std::string(kFunctionTagPrefix) + FunctionKindName(k));
   return util::Join(names, ", ");
 }
 
@@ -116,7 +117,8 @@ Function ParseFunctionChild(const tinyxml2::XMLElement& parent, const std::strin
   const tinyxml2::XMLElement* found = nullptr;
   for (const tinyxml2::XMLElement* c = parent.FirstChildElement(); c; c = c->NextSiblingElement()) {
     const bool is_function =
-        IsFunctionElement(*c) || std::strncmp(c->Name(), kPrefix, std::strlen(kPrefix)) == 0;
+        IsFunctionElement(*c) ||
+        std::strncmp(c->Name(), kFunctionTagPrefix, std::strlen(kFunctionTagPrefix)) == 0;
     if (!is_function) continue;
     if (!IsFunctionElement(*c)) {
       throw Error(source + ":" + std::to_string(c->GetLineNum()) + ": <" + c->Name() +
@@ -145,7 +147,7 @@ std::string FunctionXmlText(const Function& f, const std::string& indent) {
     return s;
   };
   std::ostringstream o;
-  o << indent << "<" << kPrefix << FunctionKindName(f.kind());
+  o << indent << "<" << kFunctionTagPrefix << FunctionKindName(f.kind());
   switch (f.kind()) {
     case FunctionKind::kConstant: o << " value=\"" << n(f.intercept()) << "\"/>\n"; break;
     case FunctionKind::kLinear:
@@ -161,7 +163,7 @@ std::string FunctionXmlText(const Function& f, const std::string& indent) {
       break;
     case FunctionKind::kMultiplier:
       o << " scale=\"" << n(f.scale()) << "\">\n"
-        << FunctionXmlText(f.inner(), indent + "  ") << indent << "</" << kPrefix
+        << FunctionXmlText(f.inner(), indent + "  ") << indent << "</" << kFunctionTagPrefix
         << FunctionKindName(f.kind()) << ">\n";
       break;
   }

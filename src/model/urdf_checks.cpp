@@ -15,7 +15,7 @@
 namespace isowrench::urdf_checks {
 namespace {
 
-constexpr const char* kPrefix = "isowrench:";
+constexpr const char* kTagPrefix = "isowrench:";
 
 std::string Line(const std::string& source, const tinyxml2::XMLElement& e) {
   return source + ":" + std::to_string(e.GetLineNum());
@@ -127,9 +127,9 @@ void CheckExtensionAttributes(const tinyxml2::XMLElement& robot, const std::stri
     stack.pop_back();
     for (auto* c = e->FirstChildElement(); c; c = c->NextSiblingElement()) stack.push_back(c);
     std::string tag = e->Name();
-    if (tag.rfind(kPrefix, 0) != 0) continue;
+    if (tag.rfind(kTagPrefix, 0) != 0) continue;
     const std::vector<std::string>& allowed =
-        AllowedAttributes(tag.substr(std::string(kPrefix).size()));
+        AllowedAttributes(tag.substr(std::string(kTagPrefix).size()));
     if (allowed.empty()) continue;
     for (const tinyxml2::XMLAttribute* a = e->FirstAttribute(); a; a = a->Next()) {
       std::string name = a->Name();

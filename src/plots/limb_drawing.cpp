@@ -21,7 +21,7 @@ constexpr double kSameCentre = 1e-9;
 // Fraction of the chain length used for axis segments when none is given.
 constexpr double kAxisFraction = 0.12;
 constexpr double kPad = 36;  // px around each view
-constexpr double kTitleHeight = 44;
+constexpr double kBannerHeight = 44;
 constexpr double kViewTitle = 18;
 constexpr double kFooter = 34;  // scale bar and legend
 
@@ -150,7 +150,7 @@ std::string LimbStickFigureSvg(const Model& model, const Eigen::VectorXd& q,
     view_height = std::max(view_height, (v.max.y() - v.min.y()) * scale);
   }
   const double width = 2 * options.view_px;
-  const double height = kTitleHeight + kViewTitle + view_height + 2 * kPad + kFooter;
+  const double height = kBannerHeight + kViewTitle + view_height + 2 * kPad + kFooter;
   const std::string title =
       options.title.empty() ? model.name() + " at " + FormatPosture(model, q) : options.title;
 
@@ -164,7 +164,7 @@ std::string LimbStickFigureSvg(const Model& model, const Eigen::VectorXd& q,
   for (int i = 0; i < 2; ++i) {
     View& v = views[i];
     v.x0 = options.view_px * i + kPad;
-    v.y0 = kTitleHeight + kViewTitle + kPad;
+    v.y0 = kBannerHeight + kViewTitle + kPad;
     svg.Open("g", {{"class", "view"},
                    {"data-view", v.name},
                    {"data-right", kAxisName[v.right]},
@@ -173,12 +173,12 @@ std::string LimbStickFigureSvg(const Model& model, const Eigen::VectorXd& q,
                    {"data-origin-x", Num(v.Screen(Eigen::Vector3d::Zero()).x())},
                    {"data-origin-y", Num(v.Screen(Eigen::Vector3d::Zero()).y())}});
     svg.Element("rect", {{"x", Num(options.view_px * i + 4)},
-                         {"y", Num(kTitleHeight)},
+                         {"y", Num(kBannerHeight)},
                          {"width", Num(options.view_px - 8)},
-                         {"height", Num(height - kTitleHeight - 4)},
+                         {"height", Num(height - kBannerHeight - 4)},
                          {"fill", "none"},
                          {"stroke", "#dddddd"}});
-    svg.Text(options.view_px * i + 12, kTitleHeight + 14,
+    svg.Text(options.view_px * i + 12, kBannerHeight + 14,
              i == 0 ? "Top view (x right, y up; looking down -z)"
                     : "Side view (x right, z up; looking along +y)",
              12, "start", {{"class", "view-title"}, {"font-weight", "bold"}});

@@ -32,7 +32,7 @@ constexpr int kTrials = 40;
 constexpr double kSigmas = 4.0;
 /// Seeds for the statistical tests. Under AddressSanitizer (CI) everything runs ~20x slower, so
 /// the rates are measured on fewer seeds there; the numbers in docs come from the full run.
-#if defined(__SANITIZE_ADDRESS__)
+#if defined(__SANITIZE_ADDRESS__) || defined(ISOWRENCH_TEST_SANITIZED)
 constexpr int kRateSeeds = 2;
 constexpr int kFalseAlarmSeeds = 6;
 #else

@@ -14,6 +14,7 @@
 
 #include "isowrench/error.hpp"
 #include "isowrench/identification.hpp"
+#include "isowrench/trial_csv.hpp"
 
 namespace isowrench {
 namespace {
@@ -27,7 +28,7 @@ const std::string kPlanar = std::string(ISOWRENCH_TEST_URDF_DIR) + "/planar_2r.u
 constexpr double kSigmas = 4.0;
 /// Algebraic identities evaluated through a different sequence of operations.
 constexpr double kIdentity = 1e-12;
-#if defined(__SANITIZE_ADDRESS__)
+#if defined(__SANITIZE_ADDRESS__) || defined(ISOWRENCH_TEST_SANITIZED)
 constexpr bool kSanitizer = true;
 constexpr int kNullSeeds = 4;
 #else
@@ -289,6 +290,108 @@ TEST(RoundTrips, NewEffectsInPairsWithExistingOnes) {
   for (const RoundTrip& c : pairs) CheckRoundTrip(c, 0, kSanitizer ? 0.0 : 0.05, 34);
 }
 
+// ---- streaming -------------------------------------------------------------------------------
+
+TEST(Streaming, SimulationInSmallChunksGivesTheSameTrialsAsInMemory) {
+  // The chunked generator positions three copies of the seeded stream (postures, noise, outlier
+  // signs); chunks of 7 must reproduce the one-chunk order exactly, Student-t noise, per-trial
+  // force factors and gross outliers included.
+  Model model = Model::FromUrdfFile(kRat);
+  std::vector<AppliedEffect> applied = {ParseEffectAssignment(model, "trial_force=0.1")};
+  const AugmentedModel truth = ApplyEffects(model.description(), applied);
+  SimulationOptions o;
+  o.postures = 45;
+  o.seed = 77;
+  o.noise_dof = 4;
+  o.outlier_fraction = 0.1;
+  const std::vector<Trial> whole = SimulateTrials(model, truth, o);
+  std::vector<Trial> chunked;
+  std::vector<long> progress;
+  ForEachSimulatedTrial(
+      model, truth, o, [&](const Trial& t) { chunked.push_back(t); },
+      [&](long rows, double) { progress.push_back(rows); }, 7);
+  ASSERT_EQ(chunked.size(), whole.size());
+  for (size_t k = 0; k < whole.size(); ++k) {
+    EXPECT_EQ(chunked[k].line, whole[k].line);
+    EXPECT_EQ(chunked[k].muscle, whole[k].muscle);
+    EXPECT_EQ(chunked[k].activation, whole[k].activation);
+    EXPECT_EQ(chunked[k].q, whole[k].q);
+    EXPECT_EQ(chunked[k].wrench, whole[k].wrench) << "trial " << k;
+  }
+  EXPECT_EQ(progress, (std::vector<long>{7, 14, 21, 28, 35, 42, 45}));
+  // The 5 outliers (10 % of 45) sit on trials 4, 13, 22, 31, 40 (every 9th, centred), and
+  // their signs are drawn after all the noise: without outliers the same seed gives the same
+  // trials except that those rows are exactly 50 sd off on every component.
+  SimulationOptions clean_options = o;
+  clean_options.outlier_fraction = 0.0;
+  const std::vector<Trial> clean = SimulateTrials(model, truth, clean_options);
+  ASSERT_EQ(clean.size(), whole.size());
+  for (size_t k = 0; k < whole.size(); ++k) {
+    for (int c = 0; c < 6; ++c) {
+      const double off = std::abs(whole[k].wrench[c] - clean[k].wrench[c]) / whole[k].sd[c];
+      EXPECT_NEAR(off, k % 9 == 4 ? 50.0 : 0.0, 1e-6) << "trial " << k << " component " << c;
+    }
+  }
+}
+
+// ---- screening -----------------------------------------------------------------------------
+
+TEST(Screening, TheScoreOfAnEffectLinearInItsParametersIsItsExactChi2Reduction) {
+  // A sensor offset enters the reading linearly, so one Gauss-Newton step from zero is the least
+  // squares solution: the linearised ΔBIC of the screening step must equal the ΔBIC of the full
+  // fit (plain least squares, so no row weights move), and the candidates the screen dropped are
+  // reported as such, unfitted, below the threshold of the winner.
+  Model model = Model::FromUrdfFile(kRat);
+  std::vector<Trial> trials = Simulate(model, {"sensor_offset=0.01,0,0,0,0,-0.0002"}, 61, 40);
+  FitOptions o;
+  o.max_rounds = 1;
+  o.loss = RobustLoss::kNone;
+  o.candidates = {"gain:fx", "sensor_offset", "misalignment", "joint_offset:knee_rz"};
+  o.screen_keep = 1;
+  FitReport r = FitEffects(model, trials, o);
+  ASSERT_EQ(r.rounds.size(), 1u);
+  const FitRound& round = r.rounds[0];
+  ASSERT_EQ(round.candidates.size(), 4u);
+  const CandidateFit& kept = round.candidates[0];
+  EXPECT_EQ(kept.effect.id, "sensor_offset");
+  EXPECT_FALSE(kept.screened_out);
+  EXPECT_GT(kept.delta_bic, 100.0);
+  EXPECT_NEAR(kept.screen_delta_bic, kept.delta_bic, 1e-6 * kept.delta_bic);
+  for (size_t i = 1; i < round.candidates.size(); ++i) {
+    const CandidateFit& f = round.candidates[i];
+    EXPECT_TRUE(f.screened_out) << f.effect.id;
+    EXPECT_FALSE(f.accepted) << f.effect.id;
+    EXPECT_TRUE(f.values.empty()) << f.effect.id;
+    EXPECT_LT(f.screen_delta_bic, kept.screen_delta_bic) << f.effect.id;
+    EXPECT_THAT(f.verdict, HasSubstr("screened out")) << f.effect.id;
+  }
+  ASSERT_EQ(r.chosen.size(), 1u);
+  EXPECT_EQ(r.chosen[0].effect.id, "sensor_offset");
+}
+
+TEST(Screening, FittingOnlyTheBestScoresChoosesWhatFittingEveryCandidateChooses) {
+  // A posture effect (nonlinear in its parameter) with the whole library: the default screen and
+  // no screen at all must choose the same effect with the same value.
+  Model model = Model::FromUrdfFile(kRat);
+  std::vector<Trial> trials = Simulate(model, {"joint_offset:knee_rz=3"}, 62, 40);
+  FitOptions o;
+  o.max_rounds = 1;
+  FitReport screened = FitEffects(model, trials, o);
+  o.screen_keep = 0;
+  FitReport full = FitEffects(model, trials, o);
+  ASSERT_EQ(full.chosen.size(), 1u) << full.BriefReport();
+  ASSERT_EQ(screened.chosen.size(), 1u) << screened.BriefReport();
+  EXPECT_EQ(screened.chosen[0].effect.id, full.chosen[0].effect.id);
+  EXPECT_EQ(full.chosen[0].effect.id, "joint_offset:knee_rz");
+  EXPECT_NEAR(screened.chosen[0].values[0], full.chosen[0].values[0],
+              1e-3 * full.chosen_fits[0].standard_errors[0]);
+  int dropped = 0;
+  for (const CandidateFit& f : screened.rounds[0].candidates) dropped += f.screened_out;
+  // Per-trial candidates rank first (+inf), so exactly screen_keep are fitted.
+  EXPECT_EQ(dropped,
+            static_cast<int>(screened.rounds[0].candidates.size()) - FitOptions().screen_keep);
+}
+
 // ---- null data, unexplained residual
 // -------------------------------------------------------------
 
@@ -330,10 +433,10 @@ TEST(RobustFit, PlainLeastSquaresIsPulledByOutliersWhereHuberIsNot) {
 }
 
 TEST(Trace, ADriftOutsideTheLibraryEndsUnexplainedAndPointsAtTrialOrder) {
-  // A sensor drift growing with the trial index (no effect in the library has it): the verdict
-  // must be "unexplained" and the trace must name trial order first.
+  // A sensor drift growing with the trial index (no effect in the library has it), Student-t(3)
+  // noise: the verdict must be "unexplained" and the trace must name trial order first.
   Model model = Model::FromUrdfFile(kRat);
-  std::vector<Trial> trials = Simulate(model, {}, 51, 60);
+  std::vector<Trial> trials = Simulate(model, {}, 51, 60, 3);
   for (size_t k = 0; k < trials.size(); ++k)
     trials[k].wrench[1] += 0.02 * static_cast<double>(k) / trials.size();
   FitOptions o;
@@ -343,22 +446,28 @@ TEST(Trace, ADriftOutsideTheLibraryEndsUnexplainedAndPointsAtTrialOrder) {
   ASSERT_FALSE(r.trace.empty()) << r.BriefReport();
   EXPECT_EQ(r.trace[0].variable, "trial order") << r.BriefReport();
   EXPECT_FALSE(r.closest_rejected.empty() && r.chosen.empty());
-  std::cout << "[trace] " << r.trace_summary << "\n";
+  std::cout << "[trace drift] " << r.trace_summary << "\n";
 }
 
-TEST(Trace, AStiffJointOutsideTheLibraryPointsAtACoordinate) {
-  // A passive stiffness on a limb joint (not a candidate) makes the residual depend on the
-  // posture: the trace names a coordinate or a muscle axis, never trial order.
+TEST(Trace, AStiffJointOutsideTheLibraryIsNamedFirst) {
+  // A passive stiffness on hip_ry (no candidate has it: the hip is a full ball, so no extra
+  // joint is offered there) with Student-t(3) noise: "unexplained", and the trace's first item
+  // is the stiffness probe of hip_ry, not another coordinate and never trial order.
   Model model = Model::FromUrdfFile(kRat);
   AugmentedModel truth;
   truth.description = WithJointStiffness(model.description(), "hip_ry", 1e4);
   SimulationOptions so;
   so.postures = 40;
   so.seed = 303;
+  so.noise_dof = 3;
   FitReport r = FitEffects(model, SimulateTrials(model, truth, so), FitOptions());
-  EXPECT_EQ(r.verdict, FitVerdict::kUnexplained);
-  ASSERT_FALSE(r.trace.empty());
+  EXPECT_EQ(r.verdict, FitVerdict::kUnexplained) << r.BriefReport();
+  ASSERT_FALSE(r.trace.empty()) << r.BriefReport();
+  EXPECT_EQ(r.trace[0].variable, "stiffness at hip_ry") << r.BriefReport();
   for (const FitReport::TraceItem& i : r.trace) EXPECT_NE(i.variable, "trial order");
+  std::cout << "[trace hip_ry] " << r.trace_summary << "\n";
+  for (const FitReport::TraceItem& i : r.trace)
+    std::cout << "  " << i.share << " " << i.variable << "\n";
 }
 
 TEST(Correlations, ConfoundedPairsAreNamed) {
