@@ -97,6 +97,26 @@ Eigen::Vector3d PointPosition(const Model& model, KinematicsWorkspace& ws, const
   return b.frames[frame.frame] * p + b.origin[frame.frame];
 }
 
+std::vector<Eigen::Vector3d> MusclePathPoints(const Model& model, KinematicsWorkspace& ws,
+                                              const Eigen::VectorXd& q, int muscle_index) {
+  if (muscle_index < 0 || muscle_index >= model.muscle_count()) {
+    throw Error("muscle index " + std::to_string(muscle_index) + " is out of range for model '" +
+                model.name() + "'");
+  }
+  FastWorkspace::Impl& b = RunKinematics(model, ws, q, -1, 1.0, true);
+  const FastMuscle& mu = model.impl().flat.muscles[muscle_index];
+  const int n = static_cast<int>(mu.points.size());
+  if (mu.dynamic) PreparePathPoints(mu, q.data(), b);
+  std::vector<Eigen::Vector3d> out;
+  for (int k = 0; k < (mu.dynamic ? b.active_count : n); ++k) {
+    const int i = mu.dynamic ? b.active[k] : k;
+    const Eigen::Vector3d& local = mu.dynamic ? b.local[i] : mu.points[i].position;
+    const int f = mu.points[i].frame;
+    out.push_back(f < 0 ? local : Eigen::Vector3d(b.frames[f] * local + b.origin[f]));
+  }
+  return out;
+}
+
 Eigen::Matrix3Xd PointJacobian(const Model& model, KinematicsWorkspace& ws,
                                const Eigen::VectorXd& q, const std::string& link,
                                const Eigen::Vector3d& p_link) {

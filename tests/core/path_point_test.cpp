@@ -261,6 +261,27 @@ TEST(PathPointEngine, LengthMatchesTheClosedFormInsideAndBeyondTheRanges) {
   EXPECT_GT(inactive, 0);
 }
 
+TEST(PathPointEngine, MusclePathPointsAreTheActivePointsWhereTheyAre) {
+  const Model model = LegModel();
+  KinematicsWorkspace ws(model);
+  for (double knee : {-2.6, -0.7, 0.9}) {  // clamped and inactive, active, clamped and inactive
+    const double hip = 0.3;
+    const double k = std::clamp(knee, kKneeLower, kKneeUpper);
+    const Eigen::Vector3d S = Rz(hip) * Eigen::Vector3d(kThigh, 0, 0) +
+                              Rz(hip + knee) * Eigen::Vector3d(ShankX(k), kSy, ShankZ(hip));
+    std::vector<Eigen::Vector3d> expected = {kG};
+    if (knee >= kActiveLower && knee <= kActiveUpper) expected.push_back(Rz(hip) * kT);
+    expected.push_back(S);
+    const std::vector<Eigen::Vector3d> points =
+        MusclePathPoints(model, ws, Eigen::Vector2d(hip, knee), 0);
+    ASSERT_EQ(points.size(), expected.size()) << "knee " << knee;
+    for (size_t i = 0; i < points.size(); ++i) {
+      EXPECT_LT((points[i] - expected[i]).norm(), 1e-16) << "knee " << knee << " point " << i;
+    }
+  }
+  EXPECT_THROW(MusclePathPoints(model, ws, Eigen::Vector2d(0, 0), 1), Error);
+}
+
 TEST(PathPointEngine, MomentArmsAreFiniteDifferencesOfTheClosedForm) {
   const Model model = LegModel();
   KinematicsWorkspace ws(model);
