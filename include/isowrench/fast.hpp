@@ -202,10 +202,12 @@ struct BatchOptions {
 /// thread). Inside a block, four evaluations run at once, one per lane of a 4-double SIMD
 /// register (AVX2 where the CPU has it): four postures share a stiffness set, or, for a
 /// posture left over, four sets share its kinematics. Kinematics are computed once per
-/// posture. An evaluation the lanes cannot decide is redone by the scalar path: a Cholesky
-/// pivot at or below FastOptions::cholesky_pivot_tolerance (a singular or nearly singular K),
-/// a non-finite result, coincident path points, or a revolute angle |q| >= 1e5 rad. So
-/// statuses, self-motion counts and kSelfMotionHeld wrenches are those of EvaluateFast; kOk
+/// posture. A muscle with moving or conditional path points (PathPoint::moving,
+/// PathPoint::active_coordinate) has its kinematics on the scalar path, one posture at a time,
+/// its statics still four sets at a time. An evaluation the lanes cannot decide is redone by the
+/// scalar path: a Cholesky pivot at or below FastOptions::cholesky_pivot_tolerance (a singular or
+/// nearly singular K), a non-finite result, coincident path points, or a revolute angle |q| >= 1e5
+/// rad. So statuses, self-motion counts and kSelfMotionHeld wrenches are those of EvaluateFast; kOk
 /// wrenches agree with EvaluateFast to rounding (the lanes may fuse multiply-adds
 /// differently, which moves W by about eps cond(K)). Allocates only the output and the
 /// workspaces of each thread.

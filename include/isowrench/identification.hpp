@@ -11,6 +11,7 @@
 /// sd_* columns); without them by FitOptions::default_sd_force / default_sd_moment.
 
 #include <Eigen/Core>
+#include <functional>
 #include <istream>
 #include <map>
 #include <memory>
@@ -337,6 +338,9 @@ struct FitOptions {
   int cv_candidates = 4;
   /// Candidate ids to try; empty = CandidateEffects(model).
   std::vector<std::string> candidates;
+  /// Called with a one-line description of each stage as it starts ("round 1: fitting 8 of 30
+  /// candidates", ...), for progress on long fits; empty = silent.
+  std::function<void(const std::string&)> progress;
   unsigned long long cv_seed = 7;  ///< fold assignment
 };
 

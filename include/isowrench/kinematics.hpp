@@ -52,6 +52,12 @@ Matrix6Xd EndpointJacobian(const Model& model, KinematicsWorkspace& ws, const Ei
 Eigen::Vector3d PointPosition(const Model& model, KinematicsWorkspace& ws, const Eigen::VectorXd& q,
                               const std::string& link, const Eigen::Vector3d& p_link);
 
+/// World positions (m) of muscle `muscle_index`'s path points that are in the path at posture
+/// q, origin first: moving points where their coordinates put them, conditional points only
+/// while active (PathPoint). @throws Error for a muscle index out of range.
+std::vector<Eigen::Vector3d> MusclePathPoints(const Model& model, KinematicsWorkspace& ws,
+                                              const Eigen::VectorXd& q, int muscle_index);
+
 /// Linear Jacobian (3 x m, world axes, m/rad or m/m) of a point fixed on a link.
 /// Zero for the root link. @throws Error if the link is not on the chain.
 Eigen::Matrix3Xd PointJacobian(const Model& model, KinematicsWorkspace& ws,

@@ -15,7 +15,10 @@
 ///    after the coordinate); any other function makes a coupled joint (q_joint = f(q_coord));
 ///    a coordinate no axis carries with the identity becomes a free-standing coordinate;
 ///  - the joints from ground to the clamped body are baked at their coordinates' default
-///    values into one fixed joint, so world axes and positions are those of the .osim.
+///    values into one fixed joint, so world axes and positions are those of the .osim;
+///  - muscles keep their PathPoints; a MovingPathPoint becomes a PathPoint with moving
+///    components (the coordinate clamped to its range, as OpenSim), a ConditionalPathPoint one
+///    with an active range (OpenSim's 1e-5 tolerance); wrap objects are ignored with a warning.
 /// Lengths are metres, angles radians (the .osim values, never rescaled).
 
 #include <Eigen/Core>

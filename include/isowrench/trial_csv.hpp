@@ -38,8 +38,16 @@ long ForEachTrial(const Model& model, const std::string& path,
                   const TrialProgress& progress = {}, long progress_every = 100000);
 
 /// A progress callback that rewrites one line on stderr ("reading data.csv: 300000 rows, 42%")
-/// when stderr is a terminal, and prints nothing otherwise.
-TrialProgress TerminalProgress(const std::string& what);
+/// when stderr is a terminal (or always with `force`), and prints nothing otherwise.
+TrialProgress TerminalProgress(const std::string& what, bool force = false);
+
+/// The trials SimulateTrials returns (same options, same seed, same values), generated and
+/// handed to `on_trial` `chunk` at a time: memory does not grow with options.postures.
+/// `progress`, when set, is called after each chunk. @throws Error as SimulateTrials.
+void ForEachSimulatedTrial(const Model& nominal, const AugmentedModel& truth,
+                           const SimulationOptions& options,
+                           const std::function<void(const Trial&)>& on_trial,
+                           const TrialProgress& progress = {}, int chunk = 4096);
 
 /// Streaming writer of the CSV format TrialReader reads: the header on construction, then one
 /// row per Write (bounded memory, for simulations of any size).

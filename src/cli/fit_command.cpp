@@ -1,5 +1,7 @@
 // `isowrench fit <urdf> <data.csv>`: trace the residual of measured wrenches to a missing effect.
 
+#include <unistd.h>
+
 #include <cmath>
 #include <cstdio>
 #include <iostream>
@@ -9,6 +11,7 @@
 #include "isowrench/identification.hpp"
 #include "isowrench/io.hpp"
 #include "isowrench/plots.hpp"
+#include "isowrench/trial_csv.hpp"
 
 namespace isowrench::cli {
 namespace {
@@ -26,6 +29,7 @@ struct FitCommandOptions {
   int screen = 8;
   int rows = 20;
   std::string loss = "huber";
+  bool progress = false;
   double loss_scale = 2.0;
   std::vector<std::string> candidates;
 };
@@ -90,7 +94,9 @@ nlohmann::json CandidateJson(const CandidateFit& f) {
                       {"converged", f.converged},
                       {"solver_message", f.solver_message},
                       {"accepted", f.accepted},
-                      {"verdict", f.verdict}};
+                      {"verdict", f.verdict},
+                      {"screened_out", f.screened_out},
+                      {"screen_delta_bic", f.screen_delta_bic}};
   j["cv_error"] = f.cv_error >= 0 ? nlohmann::json(f.cv_error) : nlohmann::json(nullptr);
   return j;
 }
@@ -337,6 +343,9 @@ const bool kFitRegistered = RegisterCommand(
        app.add_option(
            "--loss-scale", o->loss_scale,
            "Knee of the robust loss in stated-noise multiples of a row's RMS residual (default 2)");
+       app.add_flag("--progress", o->progress,
+                    "Report reading and fitting progress on stderr even when it is not a "
+                    "terminal (it is reported on a terminal anyway)");
        app.add_option("--rows", o->rows, "Per-trial rows in the table (default 20, 0 = all)");
        app.add_flag("--list-effects", o->list_effects,
                     "List the candidate effects for the model and exit");
@@ -373,7 +382,12 @@ const bool kFitRegistered = RegisterCommand(
            throw Error("fit: missing <data.csv> (measured wrenches; see docs/identification.md)");
          if (o->rounds < 0) throw Error("fit: --rounds must be >= 0");
          if (o->screen < 0) throw Error("fit: --screen must be >= 0 (0 = fit every candidate)");
-         std::vector<Trial> trials = ReadTrialsCsv(model, o->data);
+         // Streamed: rows are parsed one at a time (no copy of the file's text is kept).
+         const bool progress = o->progress || isatty(fileno(stderr));
+         std::vector<Trial> trials;
+         ForEachTrial(
+             model, o->data, [&](const Trial& t) { trials.push_back(t); },
+             TerminalProgress("reading " + o->data, o->progress));
          FitOptions options;
          options.max_rounds = o->rounds;
          options.folds = o->folds;
@@ -381,6 +395,11 @@ const bool kFitRegistered = RegisterCommand(
          options.candidates = o->candidates;
          options.loss = ParseRobustLoss(o->loss);
          options.loss_scale = o->loss_scale;
+         if (progress) {
+           options.progress = [](const std::string& stage) {
+             std::cerr << "fit: " << stage << "\n" << std::flush;
+           };
+         }
          FitReport report = FitEffects(model, trials, options);
          report.source = o->data;
          if (!o->output.empty()) WriteAugmentedUrdf(report, o->output);

@@ -7,6 +7,7 @@
 #include "isowrench/error.hpp"
 #include "isowrench/identification.hpp"
 #include "isowrench/io.hpp"
+#include "isowrench/trial_csv.hpp"
 
 namespace isowrench::cli {
 namespace {
@@ -28,6 +29,7 @@ struct SimulateOptions {
   double outlier_size = 50.0;
   std::string output;
   bool json = false;
+  bool progress = false;
 };
 
 const bool kSimulateRegistered = RegisterCommand(
@@ -68,6 +70,9 @@ const bool kSimulateRegistered = RegisterCommand(
                       "Muscles to stimulate, cycled over trials (default: all)");
        app.add_option("-o,--output", o->output, "Output CSV file (written atomically)")->required();
        app.add_flag("--json", o->json, "Print a JSON summary instead of text");
+       app.add_flag("--progress", o->progress,
+                    "Report progress on stderr even when it is not a terminal (it is reported on "
+                    "a terminal anyway)");
        return [o]() {
          Model model = LoadModel(o->model);
          std::vector<AppliedEffect> effects;
@@ -88,8 +93,19 @@ const bool kSimulateRegistered = RegisterCommand(
          s.outlier_fraction = o->outliers;
          s.outlier_size = o->outlier_size;
          s.center = LoadPosture(model, o->model);
-         std::vector<Trial> trials = SimulateTrials(model, truth, s);
-         WriteTrialsCsv(model, trials, o->output);
+         // Streamed: each chunk of trials is written as soon as it is simulated (bounded
+         // memory); the file appears only when complete.
+         util::AtomicOutputFile file(o->output);
+         TrialCsvWriter writer(model, file.stream(), /*with_sd=*/true);
+         long written = 0;
+         ForEachSimulatedTrial(
+             model, truth, s,
+             [&](const Trial& t) {
+               writer.Write(t);
+               ++written;
+             },
+             TerminalProgress("simulate " + o->output, o->progress));
+         file.Commit();
          if (o->json) {
            nlohmann::json e = nlohmann::json::array();
            for (const AppliedEffect& a : effects) {
@@ -102,7 +118,7 @@ const bool kSimulateRegistered = RegisterCommand(
              e.push_back({{"id", a.effect.id}, {"parameters", params}});
            }
            std::cout << nlohmann::json{{"output", o->output},
-                                       {"trials", trials.size()},
+                                       {"trials", written},
                                        {"seed", o->seed},
                                        {"noise_force_N", o->noise_force},
                                        {"noise_moment_Nm", o->noise_moment},
@@ -113,7 +129,7 @@ const bool kSimulateRegistered = RegisterCommand(
            return 0;
          }
          std::cout << "isowrench simulate: " << model.name() << " (" << o->model.urdf << ")\n"
-                   << "  trials       " << trials.size() << ", limb joints nominal ± "
+                   << "  trials       " << written << ", limb joints nominal ± "
                    << util::FormatNumber(o->range_deg, 4) << "°, activation "
                    << util::FormatNumber(o->activation_min, 3) << " to "
                    << util::FormatNumber(o->activation_max, 3) << ", seed " << o->seed << "\n"

@@ -55,9 +55,12 @@ class UnitEvaluator {
   // Postures [p0, p1) x sets [s0, s1).
   void Run(long p0, long p1, long s0, long s1) {
     long p = p0;
+    // A muscle with moving or conditional points has its kinematics on the scalar path,
+    // posture by posture (SetLanes); the statics still runs four stiffness sets at a time.
+    const bool scalar_kinematics = model_.data().flat().muscles[muscle_].dynamic;
     // Groups of kLanes postures in the lanes; a short tail too when there are too few sets to
     // fill the lanes instead.
-    while (p < p1 && (p1 - p >= kLanes || s1 - s0 < kLanes)) {
+    while (!scalar_kinematics && p < p1 && (p1 - p >= kLanes || s1 - s0 < kLanes)) {
       const int lanes = static_cast<int>(std::min<long>(kLanes, p1 - p));
       PostureLanes(p, lanes, s0, s1);
       p += lanes;

@@ -541,19 +541,25 @@ ISOWRENCH_NOINLINE void Fold(const FlatChain& d, FastWorkspace::Impl& ws, double
 
 // The kinematics kernel. kFrames: also store each movable joint's world rotation in ws.frames,
 // accept muscle < 0 (no muscle) and world_axes (J in world axes); the evaluation path
-// instantiates it with kFrames = false, where those are compile-time off.
-template <bool kFrames>
-ISOWRENCH_INLINE bool Kinematics(const FlatChain& d, FastWorkspace::Impl& ws, const double* qv,
-                                 int muscle, double activation, bool world_axes) {
+// instantiates it with kFrames = false, where those are compile-time off. kDynamic: the muscle
+// has moving or conditional points (FastMuscle::dynamic, src/fast/path_points.cpp); other
+// muscles run the kDynamic = false instantiation, where those steps are compiled out.
+template <bool kFrames, bool kDynamic>
+ISOWRENCH_INLINE bool KinematicsKernel(const FlatChain& d, FastWorkspace::Impl& ws,
+                                       const double* qv, int muscle, double activation,
+                                       bool world_axes) {
   const int m = d.m;
   assert(ws.m == d.n);
   assert(muscle < static_cast<int>(d.muscles.size()) && (kFrames || muscle >= 0));
+  const FastMuscle& mu = (kFrames && muscle < 0) ? kNoMuscle : d.muscles[muscle];
+  // Moving and conditional points: positions in their frames (ws.local) and the active points.
+  constexpr bool dynamic = kDynamic;
+  if (dynamic) PreparePathPoints(mu, qv, ws);
   if (d.coupled) {
     Couple(d, ws, qv);
     qv = ws.q_joint;
   }
   const FastJoint* joints = d.joints.data();
-  const FastMuscle& mu = (kFrames && muscle < 0) ? kNoMuscle : d.muscles[muscle];
   const int n = static_cast<int>(mu.points.size());
   const FastPathPoint* pts = mu.points.data();
   const int* order = mu.sweep_order.data();  // points by decreasing frame, ground ones left out
@@ -562,7 +568,10 @@ ISOWRENCH_INLINE bool Kinematics(const FlatChain& d, FastWorkspace::Impl& ws, co
   // Path points on ground are fixed in world; the others are placed as soon as their frame is
   // known (walking sweep_order from its end: increasing frames), so that no frame is stored.
   for (int i = 0; i < n; ++i) {
-    if (pts[i].frame < 0) ws.points[i] = pts[i].position;
+    if (pts[i].frame < 0) {
+      ws.points[i] = dynamic ? ws.local[i] : pts[i].position;
+      if (dynamic) ws.point_rotation[i].setIdentity();
+    }
   }
   int next_point = sweep_count - 1;
 
@@ -615,7 +624,8 @@ ISOWRENCH_INLINE bool Kinematics(const FlatChain& d, FastWorkspace::Impl& ws, co
     }
     while (next_point >= 0 && pts[order[next_point]].frame == k) {  // x = M a + o
       const int i = order[next_point--];
-      const double* a = pts[i].position.data();
+      const double* a = dynamic ? ws.local[i].data() : pts[i].position.data();
+      if (dynamic) std::memcpy(ws.point_rotation[i].data(), M, sizeof M);
       const double a0 = a[0], a1 = a[1], a2 = a[2];
       double* x = ws.points[i].data();
       x[0] = (M[0] * a0 + M[3] * a1 + M[6] * a2) + o[0];
@@ -650,34 +660,43 @@ ISOWRENCH_INLINE bool Kinematics(const FlatChain& d, FastWorkspace::Impl& ws, co
     return true;
   }
 
-  // Muscle: unit segment directions and pulls.
+  // Muscle: unit segment directions and pulls (over the active points only for a muscle with
+  // moving or conditional points).
   double total_length = 0.0;
-  double ub0 = 0.0, ub1 = 0.0, ub2 = 0.0;  // u_{i-1}; zero before the origin
-  for (int i = 1; i < n; ++i) {
-    const double* a = ws.points[i - 1].data();
-    const double* b = ws.points[i].data();
-    const double s0 = b[0] - a[0], s1 = b[1] - a[1], s2 = b[2] - a[2];
-    const double length = std::sqrt(s0 * s0 + s1 * s1 + s2 * s2);
-    if (!(length >= kFastMinSegmentLength)) {
-      ws.length = total_length;
-      for (int k = 0; k < m; ++k) JacobianColumn(ws, k, joints[k].revolute, pe, rotate, T);
-      ws.dL.setZero();
-      ws.tau.setZero();
-      if (d.coupled) Fold(d, ws, 0.0);
-      return false;
+  bool coincident = false;
+  if (dynamic) {
+    coincident = !ActivePathPulls(ws, &total_length);
+  } else {
+    double ub0 = 0.0, ub1 = 0.0, ub2 = 0.0;  // u_{i-1}; zero before the origin
+    for (int i = 1; i < n; ++i) {
+      const double* a = ws.points[i - 1].data();
+      const double* b = ws.points[i].data();
+      const double s0 = b[0] - a[0], s1 = b[1] - a[1], s2 = b[2] - a[2];
+      const double length = std::sqrt(s0 * s0 + s1 * s1 + s2 * s2);
+      if (!(length >= kFastMinSegmentLength)) {
+        coincident = true;
+        break;
+      }
+      const double u0 = s0 / length, u1 = s1 / length, u2 = s2 / length;
+      total_length += length;
+      double* g = ws.pulls[i - 1].data();
+      g[0] = ub0 - u0;
+      g[1] = ub1 - u1;
+      g[2] = ub2 - u2;
+      ub0 = u0;
+      ub1 = u1;
+      ub2 = u2;
     }
-    const double u0 = s0 / length, u1 = s1 / length, u2 = s2 / length;
-    total_length += length;
-    double* g = ws.pulls[i - 1].data();
-    g[0] = ub0 - u0;
-    g[1] = ub1 - u1;
-    g[2] = ub2 - u2;
-    ub0 = u0;
-    ub1 = u1;
-    ub2 = u2;
+    ws.pulls[n - 1] = Eigen::Vector3d(ub0, ub1, ub2);
   }
   ws.length = total_length;
-  ws.pulls[n - 1] = Eigen::Vector3d(ub0, ub1, ub2);
+  if (coincident) {
+    for (int k = 0; k < m; ++k) JacobianColumn(ws, k, joints[k].revolute, pe, rotate, T);
+    ws.dL.setZero();
+    ws.tau.setZero();
+    if (d.coupled) Fold(d, ws, 0.0);
+    return false;
+  }
 
   // Backward sweep over the joints: the Jacobian column and dL/dtheta_k of each joint.
   double ps0 = 0.0, ps1 = 0.0, ps2 = 0.0;  // sum of pulls distal to joint k
@@ -715,7 +734,24 @@ ISOWRENCH_INLINE bool Kinematics(const FlatChain& d, FastWorkspace::Impl& ws, co
     tau[k] = minus_force * v;
   }
   if (d.coupled) Fold(d, ws, minus_force);
+  if (dynamic) AddMovingPointTerms(mu, ws, minus_force);
   return true;
+}
+
+template <bool kFrames>
+ISOWRENCH_NOINLINE bool DynamicKinematics(const FlatChain& d, FastWorkspace::Impl& ws,
+                                          const double* qv, int muscle, double activation,
+                                          bool world_axes) {
+  return KinematicsKernel<kFrames, true>(d, ws, qv, muscle, activation, world_axes);
+}
+
+template <bool kFrames>
+ISOWRENCH_INLINE bool Kinematics(const FlatChain& d, FastWorkspace::Impl& ws, const double* qv,
+                                 int muscle, double activation, bool world_axes) {
+  if ((!kFrames || muscle >= 0) && d.muscles[muscle].dynamic) {
+    return DynamicKinematics<kFrames>(d, ws, qv, muscle, activation, world_axes);
+  }
+  return KinematicsKernel<kFrames, false>(d, ws, qv, muscle, activation, world_axes);
 }
 
 // Locked coordinates are rigid in the statics: their columns of J and entries of tau are set

@@ -49,11 +49,31 @@ struct FastWorkspace::Impl {
   FastJointMatrix K_full;
   Eigen::SelfAdjointEigenSolver<FastJointMatrix> eigen;
   FastJointMatrix self_motion;
+  /// Muscles with moving or conditional points (FastMuscle::dynamic), from PreparePathPoints:
+  /// each point's position in its frame, the active points in path order, per moving
+  /// component df/dq (0 where the coordinate is clamped); the kernel adds each point's frame
+  /// rotation in world.
+  std::array<Eigen::Vector3d, kFastMaxPathPoints> local;
+  std::array<Eigen::Matrix3d, kFastMaxPathPoints> point_rotation;
+  std::array<int, kFastMaxPathPoints> active;
+  int active_count = 0;
+  std::array<double, 3 * kFastMaxPathPoints> moving_slope;
   /// J of the last kinematics (or SolveStaticsFast) row-major, row r at r * kFastMaxDofs (the
   /// same values as J): the statics build K from rows of J (vectorisable). Entries beyond m
   /// stay 0.
   double J_rows[6 * kFastMaxDofs];
 };
+
+/// Moving and conditional path points (src/fast/path_points.cpp), for a muscle with
+/// FastMuscle::dynamic. Before the kernel: each point's position in its frame (ws.local), the
+/// active points (ws.active) and df/dq of each moving component at coordinates `q` (columns).
+void PreparePathPoints(const FastMuscle& muscle, const double* q, FastWorkspace::Impl& ws);
+/// The kernel's segment step over the active points only: unit directions, pulls (0 at
+/// inactive points) and the length. Returns false when two consecutive active points coincide.
+bool ActivePathPulls(FastWorkspace::Impl& ws, double* length);
+/// After the kernel (dL and tau in coordinate columns): dL/dq_c += pull_i . R_i direction df/dq_c
+/// for every moving component, and tau = minus_force dL.
+void AddMovingPointTerms(const FastMuscle& muscle, FastWorkspace::Impl& ws, double minus_force);
 
 /// The kinematics kernel of ComputeFastKinematics with every movable joint's world rotation
 /// stored in ws.frames, for the public kinematics functions. `muscle` < 0: no muscle (dL and

@@ -725,7 +725,7 @@ std::vector<double> ScreenScores(const LimbDescription& nominal, const Current& 
         Sensitivities(MakeContext(ApplyEffects(nominal, {}), free, trials, all, options), x0, step,
                       &D, &r, &message)) {
       Eigen::ColPivHouseholderQR<Eigen::MatrixXd> qr(D);
-      Q = qr.householderQ() * Eigen::MatrixXd::Identity(n, qr.rank());
+      if (qr.rank() > 0) Q = qr.householderQ() * Eigen::MatrixXd::Identity(n, qr.rank());
     }
   }
   std::vector<double> score(candidates.size(), 0.0);
@@ -758,6 +758,7 @@ std::vector<double> ScreenScores(const LimbDescription& nominal, const Current& 
       return;
     }
     const double cost = r.squaredNorm();
+    if (D.cols() == 0) return;  // no parameter: nothing to gain (score 0)
     if (Q.cols() > 0) {
       D -= Q * (Q.transpose() * D);
       r -= Q * (Q.transpose() * r);
@@ -986,7 +987,12 @@ FitRound RunRound(int index, const Model& nominal, const std::vector<Effect>& li
   std::vector<std::string> why;
   const bool screening =
       options.screen_keep > 0 && static_cast<int>(screened.size()) > options.screen_keep;
+  auto stage = [&](const std::string& what) {
+    if (options.progress) options.progress("round " + std::to_string(index) + ": " + what);
+  };
   if (screening) {
+    stage("screening " + std::to_string(screened.size()) +
+          " candidates (linearised ΔBIC at the current model)");
     score = ScreenScores(nominal.description(), current, screened, trials, options, &why);
     std::stable_sort(order.begin(), order.end(),
                      [&](size_t a, size_t b) { return score[a] > score[b]; });
@@ -998,6 +1004,8 @@ FitRound RunRound(int index, const Model& nominal, const std::vector<Effect>& li
         !screening || static_cast<int>(rank) < options.screen_keep || screened[i].per_trial;
     (kept ? keep : drop).push_back(i);
   }
+  stage("fitting " + std::to_string(keep.size()) + " of " + std::to_string(screened.size()) +
+        " candidates");
   std::vector<std::vector<double>> x;
   std::vector<CandidateFit> fits =
       FitCandidates(nominal.description(), current, screened, keep, trials, options, &x);
@@ -1019,6 +1027,7 @@ FitRound RunRound(int index, const Model& nominal, const std::vector<Effect>& li
     f.bic = -1.0;
     f.aic = -1.0;
     f.identifiable = false;
+    f.identifiability = "not assessed (screened out, not fitted)";
     f.solver_message = why[i].empty() ? "not fitted (screened out)" : why[i];
     r.candidates.push_back(std::move(f));
   }
@@ -1033,6 +1042,7 @@ FitRound RunRound(int index, const Model& nominal, const std::vector<Effect>& li
                      if (a.converged != b.converged) return a.converged;
                      return a.bic < b.bic;
                    });
+  stage("cross-validating the best candidates (" + std::to_string(folds.train.size()) + " folds)");
   CrossValidate(nominal.description(), current, trials, folds, options, r.bic_threshold,
                 r.cv_before, *solutions, &r.candidates);
   Select(&r, !folds.train.empty(), options);
@@ -1322,14 +1332,15 @@ void ReportTrace(const Model& nominal, const std::vector<Trial>& trials, const C
   Eigen::MatrixXd Q(6 * trials.size(), 0);
   if (!chosen_models.empty()) {
     Eigen::ColPivHouseholderQR<Eigen::MatrixXd> qr(columns(chosen_models));
-    Q = qr.householderQ() * Eigen::MatrixXd::Identity(6 * trials.size(), qr.rank());
+    if (qr.rank() > 0)
+      Q = qr.householderQ() * Eigen::MatrixXd::Identity(6 * trials.size(), qr.rank());
   }
   std::vector<double> probe_share(probes.size(), 0.0);
   std::vector<int> probe_rank(probes.size(), 0);
   ParallelFor(probes.size(), options, [&](size_t i) {
     Eigen::MatrixXd D = columns(probes[i].models);
-    if (Q.cols() > 0) D -= Q * (Q.transpose() * D);
     if (D.cols() == 0 || !(total > 0)) return;
+    if (Q.cols() > 0) D -= Q * (Q.transpose() * D);
     Eigen::ColPivHouseholderQR<Eigen::MatrixXd> qr(D);
     probe_rank[i] = static_cast<int>(qr.rank());
     if (probe_rank[i] == 0) return;
@@ -1571,6 +1582,7 @@ FitReport FitEffects(const Model& nominal, const std::vector<Trial>& trials,
     report.rounds.push_back(std::move(r));
   }
 
+  if (options.progress) options.progress("report: residuals, correlations, verdict");
   std::string note;
   if (Simplify(nominal, trials, options, &current, &note)) report.notes.push_back(note);
 
@@ -1582,8 +1594,10 @@ FitReport FitEffects(const Model& nominal, const std::vector<Trial>& trials,
   ReportTrials(trials, nominal_prediction, current, options, &report);
   ReportCorrelations(nominal, trials, current, options, &report);
   ReportVerdict(trials, current, options, &report);
-  if (report.verdict == FitVerdict::kUnexplained)
+  if (report.verdict == FitVerdict::kUnexplained) {
+    if (options.progress) options.progress("report: tracing the unexplained residual");
     ReportTrace(nominal, trials, current, options, &report);
+  }
   report.seconds =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - clock_start).count();
   return report;

@@ -18,6 +18,8 @@ class Random {
   double Uniform();                      ///< [0, 1)
   double Uniform(double lo, double hi);  ///< [lo, hi)
   double Normal();                       ///< standard normal (Box-Muller)
+  /// Advance as if Next() had been called n times (splitmix64 steps by a constant).
+  void Skip(std::uint64_t n) { state_ += n * 0x9E3779B97F4A7C15ULL; }
 
  private:
   std::uint64_t state_;

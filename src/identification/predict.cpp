@@ -10,6 +10,7 @@
 #include "isowrench/error.hpp"
 #include "isowrench/fast.hpp"
 #include "isowrench/kinematics.hpp"
+#include "isowrench/trial_csv.hpp"
 #include "util/text.hpp"
 
 namespace isowrench {
@@ -306,8 +307,10 @@ Prediction PredictTrials(const AugmentedModel& model, const std::vector<Trial>& 
   return p;
 }
 
-std::vector<Trial> SimulateTrials(const Model& nominal, const AugmentedModel& truth,
-                                  const SimulationOptions& o) {
+void ForEachSimulatedTrial(const Model& nominal, const AugmentedModel& truth,
+                           const SimulationOptions& o,
+                           const std::function<void(const Trial&)>& on_trial,
+                           const TrialProgress& progress, int chunk) {
   if (o.postures < 1)
     throw Error("simulate: --postures must be >= 1, got " + std::to_string(o.postures));
   if (!(o.noise_force >= 0) || !(o.noise_moment >= 0) || !std::isfinite(o.noise_force) ||
@@ -336,55 +339,96 @@ std::vector<Trial> SimulateTrials(const Model& nominal, const AugmentedModel& tr
   if (center.size() != nominal.dof_count())
     throw Error("simulate: centre posture has the wrong size");
   auto names = std::make_shared<const std::vector<std::string>>(nominal.joint_names());
-  ident::Random rng(o.seed);
-  std::vector<Trial> trials(o.postures);
-  for (int k = 0; k < o.postures; ++k) {
-    Trial& t = trials[k];
-    t.joint_names = names;
-    t.q = center;
-    for (int j = 0; j < nominal.dof_count(); ++j) {
-      if (nominal.joint(j).role != JointRole::kLimb) continue;
-      double r = nominal.joint(j).type == JointType::kPrismatic ? o.prismatic_range : o.joint_range;
-      t.q[j] += rng.Uniform(-r, r);
-    }
-    t.muscle = muscles[k % muscles.size()];
-    t.activation = rng.Uniform(o.activation_min, o.activation_max);
-    t.line = k + 3;  // comment line + header line come first in the written file
-  }
-  // The force part of the reading (no per-trial factor, no offset), then factor and offset.
-  AugmentedModel force_part = truth;
-  force_part.trial_force = false;
-  force_part.sensor_offset.setZero();
-  Prediction p = PredictTrials(force_part, trials);
-  if (p.failed)
-    throw Error("simulate: the model with the effects cannot be evaluated: " + p.message);
+  // One seeded stream in three passes: postures and activations of every trial, then the noise
+  // of every trial, then the signs of the gross outliers. The passes are interleaved chunk by
+  // chunk with three copies of the stream positioned where each pass starts (a posture draw
+  // takes one step per limb joint plus one for the activation; the noise pass is replayed once
+  // ahead when there are outliers), so the data equal the all-in-memory order exactly.
+  int limb = 0;
+  for (int j = 0; j < nominal.dof_count(); ++j) limb += nominal.joint(j).role == JointRole::kLimb;
+  ident::Random posture_rng(o.seed);
+  ident::Random noise_rng(o.seed);
+  noise_rng.Skip(static_cast<std::uint64_t>(o.postures) * static_cast<std::uint64_t>(limb + 1));
   // Student-t with nu dof scaled to unit variance: N / sqrt(chi2_nu / nu) * sqrt((nu - 2) / nu).
-  auto noise = [&]() {
+  auto noise = [&](ident::Random& rng) {
     double z = rng.Normal();
     if (o.noise_dof <= 0) return z;
     double chi2 = 0;
     for (int i = 0; i < o.noise_dof; ++i) chi2 += std::pow(rng.Normal(), 2);
     return z / std::sqrt(chi2 / o.noise_dof) * std::sqrt((o.noise_dof - 2.0) / o.noise_dof);
   };
-  const int outliers = static_cast<int>(std::lround(o.outlier_fraction * o.postures));
-  for (int k = 0; k < o.postures; ++k) {
-    Trial& t = trials[k];
-    t.has_sd = true;
-    const double factor =
+  auto draw = [&](ident::Random& rng, double* factor, Vector6d* z) {
+    *factor =
         truth.trial_force_spread > 0 ? std::exp(truth.trial_force_spread * rng.Normal()) : 1.0;
-    for (int c = 0; c < 6; ++c) {
-      double sd = c < 3 ? o.noise_force : o.noise_moment;
-      t.wrench[c] = factor * p.wrench[k][c] + truth.sensor_offset[c] + sd * noise();
-      t.sd[c] = sd > 0 ? sd : o.sd_floor;
-    }
+    for (int c = 0; c < 6; ++c) (*z)[c] = noise(rng);
+  };
+  const int outliers = static_cast<int>(std::lround(o.outlier_fraction * o.postures));
+  ident::Random outlier_rng = noise_rng;
+  if (outliers > 0) {
+    double factor = 1.0;
+    Vector6d z;
+    for (int k = 0; k < o.postures; ++k) draw(outlier_rng, &factor, &z);
   }
   // Gross outliers on evenly spread trials (every n / outliers-th): each component off by
   // outlier_size sd with a random sign.
-  for (int i = 0; i < outliers; ++i) {
-    Trial& t = trials[(static_cast<long>(i) * o.postures) / outliers + (o.postures / outliers) / 2];
-    for (int c = 0; c < 6; ++c)
-      t.wrench[c] += (rng.Uniform() < 0.5 ? -1 : 1) * o.outlier_size * t.sd[c];
+  int next_outlier = 0;
+  auto outlier_index = [&](int i) {
+    return static_cast<int>((static_cast<long>(i) * o.postures) / outliers +
+                            (o.postures / outliers) / 2);
+  };
+  // The force part of the reading (no per-trial factor, no offset), then factor and offset.
+  AugmentedModel force_part = truth;
+  force_part.trial_force = false;
+  force_part.sensor_offset.setZero();
+  chunk = std::max(1, chunk);
+  std::vector<Trial> trials;
+  for (int first = 0; first < o.postures; first += chunk) {
+    const int count = std::min(chunk, o.postures - first);
+    trials.assign(count, Trial());
+    for (int i = 0; i < count; ++i) {
+      Trial& t = trials[i];
+      t.joint_names = names;
+      t.q = center;
+      for (int j = 0; j < nominal.dof_count(); ++j) {
+        if (nominal.joint(j).role != JointRole::kLimb) continue;
+        double r =
+            nominal.joint(j).type == JointType::kPrismatic ? o.prismatic_range : o.joint_range;
+        t.q[j] += posture_rng.Uniform(-r, r);
+      }
+      t.muscle = muscles[(first + i) % muscles.size()];
+      t.activation = posture_rng.Uniform(o.activation_min, o.activation_max);
+      t.line = first + i + 3;  // comment line + header line come first in the written file
+    }
+    Prediction p = PredictTrials(force_part, trials);
+    if (p.failed)
+      throw Error("simulate: the model with the effects cannot be evaluated: " + p.message);
+    for (int i = 0; i < count; ++i) {
+      Trial& t = trials[i];
+      t.has_sd = true;
+      double factor = 1.0;
+      Vector6d z;
+      draw(noise_rng, &factor, &z);
+      for (int c = 0; c < 6; ++c) {
+        double sd = c < 3 ? o.noise_force : o.noise_moment;
+        t.wrench[c] = factor * p.wrench[i][c] + truth.sensor_offset[c] + sd * z[c];
+        t.sd[c] = sd > 0 ? sd : o.sd_floor;
+      }
+      if (next_outlier < outliers && outlier_index(next_outlier) == first + i) {
+        for (int c = 0; c < 6; ++c)
+          t.wrench[c] += (outlier_rng.Uniform() < 0.5 ? -1 : 1) * o.outlier_size * t.sd[c];
+        ++next_outlier;
+      }
+      on_trial(t);
+    }
+    if (progress) progress(first + count, static_cast<double>(first + count) / o.postures);
   }
+}
+
+std::vector<Trial> SimulateTrials(const Model& nominal, const AugmentedModel& truth,
+                                  const SimulationOptions& o) {
+  std::vector<Trial> trials;
+  if (o.postures > 0) trials.reserve(o.postures);
+  ForEachSimulatedTrial(nominal, truth, o, [&](const Trial& t) { trials.push_back(t); });
   return trials;
 }
 

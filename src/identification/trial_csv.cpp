@@ -12,6 +12,7 @@
 #include <fstream>
 #include <iostream>
 #include <map>
+#include <memory>
 #include <sstream>
 
 #include "identification/identification_impl.hpp"
@@ -438,11 +439,16 @@ long ForEachTrial(const Model& model, const std::string& path,
   return rows;
 }
 
-TrialProgress TerminalProgress(const std::string& what) {
-  if (!isatty(fileno(stderr))) return {};
-  return [what](long rows, double fraction) {
+TrialProgress TerminalProgress(const std::string& what, bool force) {
+  if (!force && !isatty(fileno(stderr))) return {};
+  // One line per whole percent (a terminal rewrites it in place with '\r').
+  auto last = std::make_shared<int>(-1);
+  return [what, last](long rows, double fraction) {
+    const int percent = fraction >= 0 ? static_cast<int>(fraction * 100 + 0.5) : -1;
+    if (percent >= 0 && percent == *last && fraction < 1) return;
+    *last = percent;
     std::cerr << "\r" << what << ": " << rows << " rows";
-    if (fraction >= 0) std::cerr << ", " << static_cast<int>(fraction * 100 + 0.5) << "%";
+    if (fraction >= 0) std::cerr << ", " << percent << "%";
     std::cerr << (fraction >= 1 ? "\n" : "") << std::flush;
   };
 }

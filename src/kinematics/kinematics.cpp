@@ -4,6 +4,7 @@
 #include "isowrench/kinematics.hpp"
 
 #include <cmath>
+#include <vector>
 
 #include "isowrench/error.hpp"
 #include "isowrench/posture.hpp"
@@ -39,12 +40,18 @@ FastWorkspace::Impl& RunKinematics(const Model& model, KinematicsWorkspace& ws,
   if (!ComputeKinematicsWithFrames(model.impl().flat, b, q.data(), muscle, activation,
                                    world_axes)) {
     const MuscleSpec& spec = model.muscle(muscle);
+    // The points in the path at this posture (conditional ones may be out).
+    std::vector<int> path;
+    for (int i = 0; i < static_cast<int>(spec.path.size()); ++i) path.push_back(i);
+    if (model.impl().flat.muscles[muscle].dynamic) {
+      path.assign(b.active.begin(), b.active.begin() + b.active_count);
+    }
     size_t i = 1;
-    while (i + 1 < spec.path.size() &&
-           (b.points[i] - b.points[i - 1]).norm() >= kFastMinSegmentLength)
+    while (i + 1 < path.size() &&
+           (b.points[path[i]] - b.points[path[i - 1]]).norm() >= kFastMinSegmentLength)
       ++i;
-    throw Error("muscle '" + spec.name + "': path points " + std::to_string(i - 1) + " and " +
-                std::to_string(i) + " coincide at this posture");
+    throw Error("muscle '" + spec.name + "': path points " + std::to_string(path[i - 1]) + " and " +
+                std::to_string(path[i]) + " coincide at this posture");
   }
   return b;
 }
@@ -88,6 +95,26 @@ Eigen::Vector3d PointPosition(const Model& model, KinematicsWorkspace& ws, const
   const Eigen::Vector3d p = frame.offset * p_link;
   if (frame.frame < 0) return p;
   return b.frames[frame.frame] * p + b.origin[frame.frame];
+}
+
+std::vector<Eigen::Vector3d> MusclePathPoints(const Model& model, KinematicsWorkspace& ws,
+                                              const Eigen::VectorXd& q, int muscle_index) {
+  if (muscle_index < 0 || muscle_index >= model.muscle_count()) {
+    throw Error("muscle index " + std::to_string(muscle_index) + " is out of range for model '" +
+                model.name() + "'");
+  }
+  FastWorkspace::Impl& b = RunKinematics(model, ws, q, -1, 1.0, true);
+  const FastMuscle& mu = model.impl().flat.muscles[muscle_index];
+  const int n = static_cast<int>(mu.points.size());
+  if (mu.dynamic) PreparePathPoints(mu, q.data(), b);
+  std::vector<Eigen::Vector3d> out;
+  for (int k = 0; k < (mu.dynamic ? b.active_count : n); ++k) {
+    const int i = mu.dynamic ? b.active[k] : k;
+    const Eigen::Vector3d& local = mu.dynamic ? b.local[i] : mu.points[i].position;
+    const int f = mu.points[i].frame;
+    out.push_back(f < 0 ? local : Eigen::Vector3d(b.frames[f] * local + b.origin[f]));
+  }
+  return out;
 }
 
 Eigen::Matrix3Xd PointJacobian(const Model& model, KinematicsWorkspace& ws,

@@ -239,17 +239,28 @@ FlatChain Compile(const LimbDescription& d) {
       throw Error(model + ", muscle '" + spec.name + "' has " + std::to_string(spec.path.size()) +
                   " path points; isowrench handles at most " + std::to_string(kFastMaxPathPoints));
     }
-    for (const PathPoint& p : spec.path) {
-      if (!p.moving.empty() || !p.active_coordinate.empty()) {
-        throw Error(model + ", muscle '" + spec.name +
-                    "': moving and conditional path points are read but not yet evaluated");
-      }
-    }
     FastMuscle muscle;
     muscle.max_force = spec.max_force;
     for (const PathPoint& p : spec.path) {
       const LinkFrame& link = flat.links.at(p.link);
-      muscle.points.push_back({link.frame, link.offset * p.position});
+      FastPathPoint point;
+      point.frame = link.frame;
+      Eigen::Vector3d fixed = p.position;
+      for (const MovingComponent& c : p.moving) {
+        const CoordinateSpec& coordinate = d.coordinates[column.at(c.coordinate)];
+        fixed[c.axis] = 0.0;
+        muscle.moving.push_back({static_cast<int>(muscle.points.size()), column.at(c.coordinate),
+                                 c.function, link.offset.linear().col(c.axis), coordinate.lower,
+                                 coordinate.upper});
+      }
+      point.position = link.offset * fixed;
+      if (!p.active_coordinate.empty()) {
+        point.active_column = column.at(p.active_coordinate);
+        point.active_lower = p.active_lower - kActiveRangeTolerance;
+        point.active_upper = p.active_upper + kActiveRangeTolerance;
+      }
+      muscle.dynamic = muscle.dynamic || !p.moving.empty() || point.active_column >= 0;
+      muscle.points.push_back(point);
     }
     for (int f = flat.m - 1; f >= 0; --f) {
       for (size_t k = 0; k < muscle.points.size(); ++k) {

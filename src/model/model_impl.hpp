@@ -33,7 +33,23 @@ struct FastJoint {
 /// A muscle path point in the frame after movable joint `frame` (-1 = world).
 struct FastPathPoint {
   int frame = -1;
-  Eigen::Vector3d position = Eigen::Vector3d::Zero();  ///< m, in that frame
+  /// m, in that frame; for a moving point, with its moving components taken as 0.
+  Eigen::Vector3d position = Eigen::Vector3d::Zero();
+  /// Conditional point: the column of its coordinate (-1: always in the path) and the range
+  /// it is in the path for, OpenSim's 1e-5 tolerance included.
+  int active_column = -1;
+  double active_lower = 0.0;
+  double active_upper = 0.0;
+};
+
+/// One moving component (PathPoint::moving) of point `point`: in the point's frame the point
+/// is FastPathPoint::position + direction * function(clamp(q[column], lower, upper)).
+struct FastMovingComponent {
+  int point = 0;
+  int column = 0;
+  Function function;
+  Eigen::Vector3d direction = Eigen::Vector3d::Zero();  ///< the link axis in the point's frame
+  double lower = 0.0, upper = 0.0;                      ///< the coordinate's range (rad or m)
 };
 
 struct FastMuscle {
@@ -42,6 +58,10 @@ struct FastMuscle {
   /// Point indices ordered by decreasing frame (ground points left out): the order of the
   /// backward torque sweep.
   std::vector<int> sweep_order;
+  /// Moving components of its points; `dynamic`: some point moves or is conditional, and each
+  /// evaluation first runs PreparePathPoints (src/fast/path_points.cpp).
+  std::vector<FastMovingComponent> moving;
+  bool dynamic = false;
 };
 
 /// A link's frame: the frame after movable joint `frame` (-1 = world) times `offset` (the

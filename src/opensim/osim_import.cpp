@@ -9,6 +9,7 @@
 
 #include "isowrench/error.hpp"
 #include "isowrench/opensim.hpp"
+#include "model/urdf_coordinates.hpp"
 #include "opensim/osim_model.hpp"
 #include "util/text.hpp"
 
@@ -312,6 +313,82 @@ struct Builder {
     out.tables.insert(out.tables.begin(), bodies);
   }
 
+  // A coordinate that is a column of the import (not baked, not dropped, not coupled).
+  bool IsColumn(const std::string& name) const {
+    for (const CoordinateSpec& c : out.description.coordinates) {
+      if (c.name == name) return true;
+    }
+    return false;
+  }
+
+  // The value OpenSim gives a coordinate that is not a column: its default (clamped to its
+  // range for a MovingPathPoint, as MovingPathPoint::getLocation does).
+  double Fixed(const std::string& name, bool clamp) const {
+    const osim::Coordinate& c = m.coordinates.at(name);
+    return clamp ? std::clamp(c.default_value, c.lower, c.upper) : c.default_value;
+  }
+
+  // Fill `point` (link and position already set for the fixed part) with the moving components
+  // and the active range of a MovingPathPoint or ConditionalPathPoint. Coordinates that are not
+  // columns are constants at their default. A conditional point on such a coordinate that is
+  // inactive gets active_lower > active_upper (the caller drops it). Returns why the muscle
+  // cannot be imported, or "".
+  std::string MovingOrConditional(const osim::Point& p, PathPoint& point) const {
+    const std::string what = p.type + " '" + p.name + "'";
+    auto unsupported = [&](const std::string& name) -> std::string {
+      if (!coupled.count(name)) return "";
+      return what + " depends on '" + name + "', a coupled coordinate (" + coupled.at(name) +
+             "); points moved by coupled coordinates are not supported";
+    };
+    if (p.conditional) {
+      const std::string& name = p.condition_coordinate;
+      if (std::string why = unsupported(name); !why.empty()) return why;
+      if (IsColumn(name)) {
+        if (!(p.range[0] <= p.range[1])) {
+          point.active_lower = 1.0;  // never active in OpenSim: dropped
+          point.active_upper = 0.0;
+          return "";
+        }
+        point.active_coordinate = name;
+        point.active_lower = p.range[0];
+        point.active_upper = p.range[1];
+      } else {
+        const double q = Fixed(name, false);
+        const bool active =
+            q >= p.range[0] - kActiveRangeTolerance && q <= p.range[1] + kActiveRangeTolerance;
+        point.active_lower = active ? 0.0 : 1.0;
+        point.active_upper = 0.0;
+      }
+      return "";
+    }
+    // MovingPathPoint: one coordinate (or none) for the three components.
+    const std::string& name = p.moving_coordinates[0];
+    if (std::string why = unsupported(name); !why.empty()) return why;
+    Eigen::Vector3d r;
+    for (int i = 0; i < 3; ++i) {
+      r[i] = p.functions[i].Value(name.empty() ? 0.0 : Fixed(name, true));
+    }
+    const Eigen::Isometry3d X =
+        point.link == m.ground ? X_G_baked.at(p.body) * p.X_body_frame : p.X_body_frame;
+    point.position = X * r;
+    if (name.empty() || !IsColumn(name)) return "";
+    if ((X.linear() - Eigen::Matrix3d::Identity()).cwiseAbs().maxCoeff() > 1e-15) {
+      return what + " on body '" + p.body + "' (above the clamp, so in the ground frame) moves " +
+             "with chain coordinate '" + name + "' along axes rotated from the ground's; " +
+             "moving points are supported along their link's axes only";
+    }
+    // Component i in the link frame = X.translation()[i] + f_i(q).
+    for (int i = 0; i < 3; ++i) {
+      if (p.functions[i].kind() == FunctionKind::kConstant) continue;
+      MovingComponent c;
+      c.axis = i;
+      c.coordinate = name;
+      c.function = urdf_coordinates::ComposeLinear(1.0, X.translation()[i], p.functions[i]);
+      point.moving.push_back(c);
+    }
+    return "";
+  }
+
   void Muscles() {
     OpenSimReportTable muscles{
         "Muscles", {"muscle", "type", "max force (N)", "points", "status"}, {}};
@@ -335,41 +412,11 @@ struct Builder {
           break;
         }
         if (p.moving || p.conditional) {
-          // Coordinates baked above the clamp are constants: such points are ordinary.
-          std::vector<std::string> used;
-          if (p.conditional) used.push_back(p.condition_coordinate);
-          for (int i = 0; p.moving && i < 3; ++i) {
-            if (!p.moving_coordinates[i].empty()) used.push_back(p.moving_coordinates[i]);
-          }
-          bool depends_on_chain = false;
-          for (const std::string& c : used) {
-            for (const osim::Joint* j : chain) {
-              depends_on_chain |= std::find(j->coordinates.begin(), j->coordinates.end(), c) !=
-                                  j->coordinates.end();
-            }
-          }
-          if (depends_on_chain) {
-            problem = p.type + " '" + p.name + "' depends on a chain coordinate (" +
-                      util::Join(used, ", ") + "); moving and conditional points are not yet " +
-                      "supported by the isowrench engine";
-            break;
-          }
-          if (p.conditional) {
-            const double q = defaults.at(p.condition_coordinate);
-            if (q < p.range[0] - 1e-5 || q > p.range[1] + 1e-5) continue;  // inactive
-          }
-          if (p.moving) {
-            Eigen::Vector3d r;
-            for (int i = 0; i < 3; ++i) {
-              double q = 0.0;
-              if (!p.moving_coordinates[i].empty()) {
-                const osim::Coordinate& c = m.coordinates.at(p.moving_coordinates[i]);
-                q = std::clamp(c.default_value, c.lower, c.upper);
-              }
-              r[i] = p.functions[i].Value(q);
-            }
-            point.position = point.link == m.ground ? X_G_baked.at(p.body) * (p.X_body_frame * r)
-                                                    : p.X_body_frame * r;
+          problem = MovingOrConditional(p, point);
+          if (!problem.empty()) break;
+          if (p.conditional && point.active_coordinate.empty() &&
+              !(point.active_lower <= point.active_upper)) {
+            continue;  // a conditional point on a constant coordinate that is never active
           }
         }
         spec.path.push_back(point);
@@ -377,8 +424,22 @@ struct Builder {
       if (problem.empty() && !(muscle.max_force > 0.0)) {
         problem = "max_isometric_force " + Num(muscle.max_force) + " N is not positive";
       }
-      if (problem.empty() && spec.path.size() < 2) problem = "fewer than two points remain";
+      if (problem.empty() &&
+          std::count_if(spec.path.begin(), spec.path.end(),
+                        [](const PathPoint& p) { return p.active_coordinate.empty(); }) < 2) {
+        problem = spec.path.size() < 2 ? "fewer than two points remain"
+                                       : "fewer than two points are always in the path (the "
+                                         "others are ConditionalPathPoints)";
+      }
       std::string status = "imported";
+      const auto moving = std::count_if(spec.path.begin(), spec.path.end(),
+                                        [](const PathPoint& p) { return !p.moving.empty(); });
+      const auto conditional =
+          std::count_if(spec.path.begin(), spec.path.end(),
+                        [](const PathPoint& p) { return !p.active_coordinate.empty(); });
+      if (moving) status += ", " + std::to_string(moving) + " moving";
+      if (conditional) status += ", " + std::to_string(conditional) + " conditional";
+      if (moving || conditional) status += (moving + conditional > 1 ? " points" : " point");
       if (!problem.empty()) {
         status = "skipped: " + problem;
         out.warnings.push_back("muscle '" + muscle.name + "' (line " + std::to_string(muscle.line) +
@@ -393,7 +454,7 @@ struct Builder {
           out.warnings.push_back("muscle '" + muscle.name + "' wraps over '" + w + "'" + where +
                                  ": wrapping is not modelled; its path is straight between its "
                                  "points, so length and moment arms differ where it wraps");
-          status = "imported; wrap '" + w + "' ignored";
+          status += "; wrap '" + w + "' ignored";
         }
       }
       muscles.rows.push_back({muscle.name, muscle.type, Num(muscle.max_force),

@@ -6,7 +6,6 @@
 #include <tinyxml2.h>
 
 #include <Eigen/Geometry>
-#include <limits>
 #include <map>
 #include <string>
 #include <vector>
@@ -30,8 +29,9 @@ struct Coordinate {
   std::string name;
   std::string joint;
   double default_value = 0.0;
-  double lower = -std::numeric_limits<double>::infinity();
-  double upper = std::numeric_limits<double>::infinity();
+  // OpenSim's default range when <range> is absent (Coordinate::constructProperties).
+  double lower = -10.0;
+  double upper = 10.0;
   bool locked = false;
   bool rotational = true;
   int line = 0;
@@ -56,7 +56,8 @@ struct Point {
   Eigen::Isometry3d X_body_frame = Eigen::Isometry3d::Identity();  // socket frame in its body
   Eigen::Vector3d location = Eigen::Vector3d::Zero();              // m, in the socket frame
   // MovingPathPoint: component i = functions[i](clamp(q_coordinates[i], coordinate range)),
-  // or the function at 0 when no coordinate is named (OpenSim MovingPathPoint::getLocation).
+  // or the function at 0 when no coordinate is named (OpenSim MovingPathPoint::getLocation);
+  // the three coordinates are equal (OpenSim refuses others). `location` is unused.
   bool moving = false;
   Function functions[3];
   std::string moving_coordinates[3];

@@ -546,8 +546,18 @@ struct Reader {
           if (!holder) holder = p->FirstChildElement(kLocation3[i]);
           const std::string fc = pc + " " + kLocation4[i];
           const Xml* f = holder ? FindFunction(holder, fc) : nullptr;
-          point.functions[i] = f ? ParseFunction(f, fc) : Function::Constant(point.location[i]);
+          // A missing component is OpenSim's default Constant(0) (MovingPathPoint::
+          // constructProperties); a <location> in a MovingPathPoint is not read by OpenSim 4.
+          point.functions[i] = f ? ParseFunction(f, fc) : Function::Constant(0.0);
           point.moving_coordinates[i] = CoordinateSocket(p, kSocket4[i], kName3[i]);
+        }
+        const std::string* c = point.moving_coordinates;
+        if (c[0] != c[1] || c[0] != c[2]) {
+          auto quoted = [](const std::string& name) { return "'" + name + "'"; };
+          Fail(p, pc + ": its x, y and z locations depend on the coordinates " + quoted(c[0]) +
+                      ", " + quoted(c[1]) + ", " + quoted(c[2]) +
+                      "; OpenSim 4 refuses a MovingPathPoint whose three components do not all "
+                      "depend on the same coordinate (MovingPathPoint::extendConnectToModel)");
         }
       } else if (point.type == "ConditionalPathPoint") {
         point.conditional = true;

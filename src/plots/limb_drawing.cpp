@@ -51,10 +51,6 @@ struct Geometry {
   Eigen::Matrix3d transducer;
 };
 
-std::string PathLink(const Model& model, const std::string& link) {
-  return link == "ground" ? model.description().root_link : link;
-}
-
 Geometry Collect(const Model& model, const Eigen::VectorXd& q, double axis_length) {
   KinematicsWorkspace ws(model);
   Geometry g;
@@ -85,11 +81,7 @@ Geometry Collect(const Model& model, const Eigen::VectorXd& q, double axis_lengt
   g.transducer = TransducerRotation(model, ws, q);
   for (int m = 0; m < model.muscle_count(); ++m) {
     const MuscleSpec& spec = model.muscle(m);
-    Geometry::Muscle muscle{spec.name, {}};
-    for (const PathPoint& p : spec.path) {
-      muscle.points.push_back(PointPosition(model, ws, q, PathLink(model, p.link), p.position));
-    }
-    g.muscles.push_back(muscle);
+    g.muscles.push_back({spec.name, MusclePathPoints(model, ws, q, m)});
   }
   return g;
 }

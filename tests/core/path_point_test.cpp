@@ -23,6 +23,27 @@ using ::testing::ThrowsMessage;
 
 constexpr const char* kSource = "moving.urdf";
 
+// The leg: hip (rz) at the ground origin, thigh 0.03 m along x to the knee (rz, range
+// [-2, 0.5] rad), shank 0.04 m along x to the foot (the endpoint).
+constexpr double kThigh = 0.03, kShank = 0.04;
+constexpr double kKneeLower = -2.0, kKneeUpper = 0.5;
+
+// The muscle: origin on the ground at G, point T on the thigh (active for knee in
+// [kActiveLower, kActiveUpper]), insertion S on the shank whose x follows the knee through the
+// piecewise-linear function below and whose z follows the hip through a linear function (a
+// second coordinate, on purpose: the URDF syntax allows one per axis).
+const Eigen::Vector3d kG(-0.01, 0.008, 0.0);
+const Eigen::Vector3d kT(0.02, 0.006, 0.001);
+constexpr double kActiveLower = -1.2, kActiveUpper = -0.3;
+constexpr double kSy = 0.004;
+// x of S on the shank: piecewise linear through (-2, 0.010), (-0.5, 0.016), (0.5, 0.012).
+double ShankX(double knee) {
+  if (knee <= -0.5) return 0.010 + (knee + 2.0) * (0.006 / 1.5);
+  return 0.016 - (knee + 0.5) * 0.004;
+}
+// z of S: 0.002 + 0.001 hip (hip is unlimited: no clamp).
+double ShankZ(double hip) { return 0.002 + 0.001 * hip; }
+
 std::string Leg(const std::string& shank_point, const std::string& thigh_point) {
   return std::string(R"(<?xml version="1.0"?>
 <robot name="moving_leg" xmlns:isowrench="urn:isowrench:urdf:1">
@@ -186,6 +207,187 @@ TEST(PathPointUrdfErrors, NameFileLineMuscleAndRule) {
     ExpectReadError(xml, "<isowrench:muscle name=\"M\"",
                     "needs at least two points without active_coordinate");
   }
+}
+
+// ---- the engine against the closed form -------------------------------------------------------
+
+Eigen::Matrix3d Rz(double a) {
+  return Eigen::AngleAxisd(a, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+}
+
+// The muscle's length written out: thigh frame Rz(hip) at the origin, shank frame Rz(hip + knee)
+// at Rz(hip) (kThigh, 0, 0); the shank point's x uses the knee clamped to its range.
+double ClosedFormLength(double hip, double knee, const Eigen::Vector3d& thigh_point,
+                        bool* active = nullptr) {
+  const double k = std::clamp(knee, kKneeLower, kKneeUpper);
+  const Eigen::Vector3d s_local(ShankX(k), kSy, ShankZ(hip));
+  const Eigen::Vector3d knee_origin = Rz(hip) * Eigen::Vector3d(kThigh, 0, 0);
+  const Eigen::Vector3d S = knee_origin + Rz(hip + knee) * s_local;
+  const Eigen::Vector3d T = Rz(hip) * thigh_point;
+  const bool on = knee >= kActiveLower - 1e-5 && knee <= kActiveUpper + 1e-5;
+  if (active) *active = on;
+  return on ? (T - kG).norm() + (S - T).norm() : (S - kG).norm();
+}
+
+// Central differences of the closed form, h = 1e-6: truncation h^2 |L'''| / 6 < 1e-13,
+// round-off eps L / h ~ 1e-11.
+Eigen::RowVector2d ClosedFormGradient(double hip, double knee, const Eigen::Vector3d& t) {
+  constexpr double h = 1e-6;
+  return Eigen::RowVector2d(
+      (ClosedFormLength(hip + h, knee, t) - ClosedFormLength(hip - h, knee, t)) / (2 * h),
+      (ClosedFormLength(hip, knee + h, t) - ClosedFormLength(hip, knee - h, t)) / (2 * h));
+}
+
+Model LegModel(const Eigen::Vector3d& thigh_point = kT) {
+  LimbDescription d = Read(Leg(kShankPoint, kThighPoint));
+  d.muscles[0].path[1].position = thigh_point;
+  return Model(d);
+}
+
+TEST(PathPointEngine, LengthMatchesTheClosedFormInsideAndBeyondTheRanges) {
+  const Model model = LegModel();
+  KinematicsWorkspace ws(model);
+  int active = 0, inactive = 0;
+  for (double hip : {-0.4, 0.3, 1.1}) {
+    for (double knee : {-2.6, -2.0, -1.5, -1.2, -0.7, -0.3, 0.0, 0.5, 0.9}) {
+      bool on = false;
+      const double expected = ClosedFormLength(hip, knee, kT, &on);
+      (on ? active : inactive)++;
+      const MuscleTorque t = ComputeMuscleTorque(model, ws, Eigen::Vector2d(hip, knee), 0);
+      EXPECT_NEAR(t.length, expected, 1e-15) << "hip " << hip << " knee " << knee;
+    }
+  }
+  EXPECT_GT(active, 0);
+  EXPECT_GT(inactive, 0);
+}
+
+TEST(PathPointEngine, MusclePathPointsAreTheActivePointsWhereTheyAre) {
+  const Model model = LegModel();
+  KinematicsWorkspace ws(model);
+  for (double knee : {-2.6, -0.7, 0.9}) {  // clamped and inactive, active, clamped and inactive
+    const double hip = 0.3;
+    const double k = std::clamp(knee, kKneeLower, kKneeUpper);
+    const Eigen::Vector3d S = Rz(hip) * Eigen::Vector3d(kThigh, 0, 0) +
+                              Rz(hip + knee) * Eigen::Vector3d(ShankX(k), kSy, ShankZ(hip));
+    std::vector<Eigen::Vector3d> expected = {kG};
+    if (knee >= kActiveLower && knee <= kActiveUpper) expected.push_back(Rz(hip) * kT);
+    expected.push_back(S);
+    const std::vector<Eigen::Vector3d> points =
+        MusclePathPoints(model, ws, Eigen::Vector2d(hip, knee), 0);
+    ASSERT_EQ(points.size(), expected.size()) << "knee " << knee;
+    for (size_t i = 0; i < points.size(); ++i) {
+      EXPECT_LT((points[i] - expected[i]).norm(), 1e-16) << "knee " << knee << " point " << i;
+    }
+  }
+  EXPECT_THROW(MusclePathPoints(model, ws, Eigen::Vector2d(0, 0), 1), Error);
+}
+
+TEST(PathPointEngine, MomentArmsAreFiniteDifferencesOfTheClosedForm) {
+  const Model model = LegModel();
+  KinematicsWorkspace ws(model);
+  // Knee angles away from the kinks (knots at -2, -0.5, 0.5; clamp at -2 and 0.5; switches at
+  // -1.2 - 1e-5 and -0.3 + 1e-5), including beyond the knee's range where the moving x is
+  // clamped (its term of dL/dknee is 0 there).
+  for (double hip : {-0.4, 0.3, 1.1}) {
+    for (double knee : {-2.6, -1.5, -1.0, -0.7, -0.2, 0.2, 0.9}) {
+      const MuscleTorque t = ComputeMuscleTorque(model, ws, Eigen::Vector2d(hip, knee), 0, 0.5);
+      const Eigen::RowVector2d expected = ClosedFormGradient(hip, knee, kT);
+      EXPECT_NEAR(t.dL_dq[0], expected[0], 1e-9) << "hip " << hip << " knee " << knee;
+      EXPECT_NEAR(t.dL_dq[1], expected[1], 1e-9) << "hip " << hip << " knee " << knee;
+      EXPECT_NEAR(t.tau[1], -0.5 * 2.0 * expected[1], 1e-9);  // -activation F dL/dq
+    }
+  }
+}
+
+// Across the switch at knee -0.3 + 1e-5 (hip 0.3), each side follows its own closed form: the
+// length jumps by D = |T - G| + |S - T| - |S - G| >= 0 and the moment arm by dD/dq. With the
+// thigh point on the straight line from G to S there, D and dD/dq are 0 (D has its minimum
+// there): length and moment arm are continuous.
+void CheckSwitch(const Eigen::Vector3d& thigh_point, bool on_the_line) {
+  const double hip = 0.3, knee_switch = kActiveUpper + 1e-5;
+  const Model model = LegModel(thigh_point);
+  KinematicsWorkspace ws(model);
+  constexpr double d = 1e-9;
+  const MuscleTorque in = ComputeMuscleTorque(model, ws, Eigen::Vector2d(hip, knee_switch - d), 0);
+  const MuscleTorque out = ComputeMuscleTorque(model, ws, Eigen::Vector2d(hip, knee_switch + d), 0);
+  bool on_in = false, on_out = true;
+  EXPECT_NEAR(in.length, ClosedFormLength(hip, knee_switch - d, thigh_point, &on_in), 1e-15);
+  EXPECT_NEAR(out.length, ClosedFormLength(hip, knee_switch + d, thigh_point, &on_out), 1e-15);
+  ASSERT_TRUE(on_in);
+  ASSERT_FALSE(on_out);
+  // One-sided differences of the closed form, h = 1e-7: error ~h |L''| < 1e-8.
+  constexpr double h = 1e-7;
+  const double left = (ClosedFormLength(hip, knee_switch - d, thigh_point) -
+                       ClosedFormLength(hip, knee_switch - d - h, thigh_point)) /
+                      h;
+  const double right = (ClosedFormLength(hip, knee_switch + d + h, thigh_point) -
+                        ClosedFormLength(hip, knee_switch + d, thigh_point)) /
+                       h;
+  EXPECT_NEAR(in.dL_dq[1], left, 1e-7);
+  EXPECT_NEAR(out.dL_dq[1], right, 1e-7);
+  if (on_the_line) {
+    EXPECT_LT(std::abs(in.length - out.length), 1e-10);  // |dL/dq| < 0.05 m over 2 nm
+    EXPECT_LT(std::abs(in.dL_dq[1] - out.dL_dq[1]), 1e-6);
+  } else {
+    EXPECT_GT(std::abs(in.length - out.length), 1e-5) << "the fixture must make it jump";
+    EXPECT_GT(std::abs(in.dL_dq[1] - out.dL_dq[1]), 1e-4) << "the fixture must make it jump";
+  }
+}
+
+TEST(PathPointEngine, ConditionalPointSwitchJumpsOffTheLineAndIsContinuousOnIt) {
+  CheckSwitch(kT, false);
+  // 40 % of the way from G to S at the switch posture, in the thigh frame.
+  const double hip = 0.3, k = kActiveUpper + 1e-5;
+  const Eigen::Vector3d S = Rz(hip) * Eigen::Vector3d(kThigh, 0, 0) +
+                            Rz(hip + k) * Eigen::Vector3d(ShankX(k), kSy, ShankZ(hip));
+  CheckSwitch(Rz(hip).transpose() * (kG + 0.4 * (S - kG)), true);
+}
+
+TEST(PathPointEngine, BatchEqualsSingleEvaluations) {
+  const Model model = LegModel();
+  const CompiledModel compiled(model);
+  const std::vector<double> hips = {-0.4, 0.3, 1.1};
+  const std::vector<double> knees = {-2.6, -1.5, -1.0, -0.7, -0.2, 0.2, 0.9};
+  Eigen::MatrixXd postures(2, static_cast<long>(hips.size() * knees.size()));
+  long column = 0;
+  for (double hip : hips) {
+    for (double knee : knees) {
+      postures(0, column) = hip;
+      postures(1, column++) = knee;
+    }
+  }
+  std::vector<StiffnessSet> sets = {compiled.model_stiffness()};
+  StiffnessSet soft = sets[0];
+  soft.s_p = FastJointVector::Constant(2, 0.5);
+  sets.push_back(soft);
+  std::vector<FastWrench> batch;
+  EvaluateBatch(compiled, postures, 0, sets, batch, 0.7);
+  FastWorkspace ws(compiled);
+  for (long p = 0; p < postures.cols(); ++p) {
+    for (size_t s = 0; s < sets.size(); ++s) {
+      const FastWrench single = EvaluateFast(compiled, ws, postures.col(p), 0, sets[s], 0.7);
+      const FastWrench& b = batch[p * sets.size() + s];
+      EXPECT_EQ(b.status, single.status);
+      EXPECT_EQ(b.status, StaticsStatus::kOk);
+      for (int i = 0; i < 6; ++i) {
+        EXPECT_NEAR(b.wrench[i], single.wrench[i], 1e-12 * (1 + single.wrench.norm()))
+            << "posture " << p << " set " << s;
+      }
+    }
+  }
+}
+
+TEST(PathPointEngine, ModelRefusesUnknownCoordinatesAndBadRanges) {
+  const LimbDescription d = Read(Leg(kShankPoint, kThighPoint));
+  LimbDescription bad = d;
+  bad.muscles[0].path[2].moving[0].coordinate = "ankle";
+  EXPECT_THAT([&] { Model m(bad); },
+              ThrowsMessage<Error>(AllOf(HasSubstr("muscle 'M', point on 'shank', moving axis x"),
+                                         HasSubstr("is fixed; it has no coordinate"))));
+  bad = d;
+  bad.muscles[0].path[1].active_upper = std::nan("");
+  EXPECT_THAT([&] { Model m(bad); },
+              ThrowsMessage<Error>(HasSubstr("active range [-1.2, nan] must be finite")));
 }
 
 }  // namespace

@@ -14,6 +14,7 @@
 
 #include "isowrench/error.hpp"
 #include "isowrench/identification.hpp"
+#include "isowrench/trial_csv.hpp"
 
 namespace isowrench {
 namespace {
@@ -207,7 +208,14 @@ std::string util_label(const RoundTrip& c, int noise_dof, double outliers) {
 }
 
 /// Fit, check the chosen ids, the verdict and every least-squares parameter within kSigmas SE.
-void CheckRoundTrip(const RoundTrip& c, int noise_dof, double outliers, unsigned long long seed) {
+/// Sum of (error / SE)^2 over the recovered parameters and their count.
+struct ZSquared {
+  double sum = 0.0;
+  int count = 0;
+};
+
+void CheckRoundTrip(const RoundTrip& c, int noise_dof, double outliers, unsigned long long seed,
+                    ZSquared* z2 = nullptr) {
   Model model = Model::FromUrdfFile(c.model);
   std::vector<Trial> trials = Simulate(model, c.effects, seed, 60, noise_dof, outliers);
   FitOptions o;
@@ -239,6 +247,10 @@ void CheckRoundTrip(const RoundTrip& c, int noise_dof, double outliers, unsigned
             log ? std::log10(f.values[i]) - std::log10(truth[i]) : f.values[i] - truth[i];
         const double se = log ? f.log10_standard_errors[i] : f.standard_errors[i];
         EXPECT_GT(se, 0) << label << " " << f.effect.parameters[i].name;
+        if (z2 && se > 0) {
+          z2->sum += (err / se) * (err / se);
+          ++z2->count;
+        }
         EXPECT_LE(std::abs(err), kSigmas * se)
             << label << " " << f.effect.id << "." << f.effect.parameters[i].name << " = "
             << f.values[i] << " vs " << truth[i];
@@ -260,7 +272,21 @@ const std::vector<RoundTrip>& Singles() {
 }
 
 TEST(RoundTrips, EachNewEffectAloneWithGaussianNoise) {
-  for (const RoundTrip& c : Singles()) CheckRoundTrip(c, 0, 0.0, 31);
+  // Besides each parameter within 4 SE: the reported standard errors are honest, i.e. the mean
+  // of (error / SE)^2 over every recovered parameter of every effect and seed is near 1 (it is a
+  // mean of chi^2_1 variables; the bounds allow for the few dozen, partly correlated, terms).
+  ZSquared z2;
+  const int seeds = kSanitizer ? 1 : 3;
+  for (int seed = 0; seed < seeds; ++seed) {
+    for (const RoundTrip& c : Singles()) CheckRoundTrip(c, 0, 0.0, 31 + 100 * seed, &z2);
+  }
+  std::cout << "[round-trip] mean (error/SE)^2 = " << z2.sum / z2.count << " over " << z2.count
+            << " parameters\n";
+  ASSERT_GT(z2.count, 0);
+  if (!kSanitizer) {
+    EXPECT_GT(z2.sum / z2.count, 0.4);
+    EXPECT_LT(z2.sum / z2.count, 2.0);
+  }
 }
 
 TEST(RoundTrips, EachNewEffectAloneWithStudentT3Noise) {
@@ -287,6 +313,50 @@ TEST(RoundTrips, NewEffectsInPairsWithExistingOnes) {
       {kRat, {"sensor_origin=3,0,-2", "force_scale:GP=0.9"}, {"sensor_origin", "force_scale:GP"}},
   };
   for (const RoundTrip& c : pairs) CheckRoundTrip(c, 0, kSanitizer ? 0.0 : 0.05, 34);
+}
+
+// ---- streaming -------------------------------------------------------------------------------
+
+TEST(Streaming, SimulationInSmallChunksGivesTheSameTrialsAsInMemory) {
+  // The chunked generator positions three copies of the seeded stream (postures, noise, outlier
+  // signs); chunks of 7 must reproduce the one-chunk order exactly, Student-t noise, per-trial
+  // force factors and gross outliers included.
+  Model model = Model::FromUrdfFile(kRat);
+  std::vector<AppliedEffect> applied = {ParseEffectAssignment(model, "trial_force=0.1")};
+  const AugmentedModel truth = ApplyEffects(model.description(), applied);
+  SimulationOptions o;
+  o.postures = 45;
+  o.seed = 77;
+  o.noise_dof = 4;
+  o.outlier_fraction = 0.1;
+  const std::vector<Trial> whole = SimulateTrials(model, truth, o);
+  std::vector<Trial> chunked;
+  std::vector<long> progress;
+  ForEachSimulatedTrial(
+      model, truth, o, [&](const Trial& t) { chunked.push_back(t); },
+      [&](long rows, double) { progress.push_back(rows); }, 7);
+  ASSERT_EQ(chunked.size(), whole.size());
+  for (size_t k = 0; k < whole.size(); ++k) {
+    EXPECT_EQ(chunked[k].line, whole[k].line);
+    EXPECT_EQ(chunked[k].muscle, whole[k].muscle);
+    EXPECT_EQ(chunked[k].activation, whole[k].activation);
+    EXPECT_EQ(chunked[k].q, whole[k].q);
+    EXPECT_EQ(chunked[k].wrench, whole[k].wrench) << "trial " << k;
+  }
+  EXPECT_EQ(progress, (std::vector<long>{7, 14, 21, 28, 35, 42, 45}));
+  // The 5 outliers (10 % of 45) sit on trials 4, 13, 22, 31, 40 (every 9th, centred), and
+  // their signs are drawn after all the noise: without outliers the same seed gives the same
+  // trials except that those rows are exactly 50 sd off on every component.
+  SimulationOptions clean_options = o;
+  clean_options.outlier_fraction = 0.0;
+  const std::vector<Trial> clean = SimulateTrials(model, truth, clean_options);
+  ASSERT_EQ(clean.size(), whole.size());
+  for (size_t k = 0; k < whole.size(); ++k) {
+    for (int c = 0; c < 6; ++c) {
+      const double off = std::abs(whole[k].wrench[c] - clean[k].wrench[c]) / whole[k].sd[c];
+      EXPECT_NEAR(off, k % 9 == 4 ? 50.0 : 0.0, 1e-6) << "trial " << k << " component " << c;
+    }
+  }
 }
 
 // ---- screening -----------------------------------------------------------------------------

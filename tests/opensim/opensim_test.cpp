@@ -10,6 +10,7 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <fstream>
 #include <functional>
 #include <map>
@@ -138,6 +139,28 @@ double SolLength(const Posture& p) {
   return Length({w.tibia * Vector3d(-0.002, -0.01, 0), w.foot * Vector3d(-0.006, 0.001, 0.001)});
 }
 
+// RF: pelvis -> a MovingPathPoint on the tibia whose x is a SimmSpline of the knee (knots
+// sampled from the cubic below, so the spline is that cubic on the knots' span), y a linear
+// function of the knee, z a constant. OpenSim clamps the knee to its range [kLo, kHi] (here the
+// knots' span) before evaluating them (MovingPathPoint::getLocation).
+const Cubic kRfX{0.004, 0.001, -0.0005, 0.0001};
+double RfLength(const Posture& p) {
+  World w = Bodies(p);
+  const double k = std::clamp(p.knee, kLo, kHi);
+  const Vector3d moving(kRfX.f(k), 0.0005 * k + 0.001, 0.001);
+  return Length({w.pelvis * Vector3d(0.012, 0.001, 0.002), w.tibia * moving});
+}
+// GAS: femur -> a ConditionalPathPoint on the tibia, in the path while the knee is within
+// [-2, -0.3] widened by OpenSim's 1e-5 (ConditionalPathPoint::isActive) -> foot.
+bool GasMiddleActive(const Posture& p) { return p.knee >= -2.0 - 1e-5 && p.knee <= -0.3 + 1e-5; }
+double GasLength(const Posture& p) {
+  World w = Bodies(p);
+  std::vector<Vector3d> points = {w.femur * Vector3d(-0.002, -0.03, 0.001)};
+  if (GasMiddleActive(p)) points.push_back(w.tibia * Vector3d(-0.003, -0.004, 0));
+  points.push_back(w.foot * Vector3d(-0.005, 0.002, 0));
+  return Length(points);
+}
+
 double& Coordinate(Posture& p, const std::string& name) {
   if (name == "hip_flexion") return p.hip_flexion;
   if (name == "hip_adduction") return p.hip_adduction;
@@ -190,12 +213,27 @@ std::map<std::string, Isometry3d> LinkPoses(const LimbDescription& d, const Post
   return X;
 }
 
+// The URDF semantics of moving and conditional points (docs/urdf-extensions.md), evaluated on
+// the description: component = f(clamp(q, coordinate range)); active within the range +- 1e-5.
 double ImportedLength(const LimbDescription& d, const std::string& muscle, const Posture& p) {
   auto X = LinkPoses(d, p);
+  Posture posture = p;
   for (const MuscleSpec& m : d.muscles) {
     if (m.name != muscle) continue;
     std::vector<Vector3d> points;
-    for (const PathPoint& pt : m.path) points.push_back(X.at(pt.link) * pt.position);
+    for (const PathPoint& pt : m.path) {
+      if (!pt.active_coordinate.empty()) {
+        const double q = Coordinate(posture, pt.active_coordinate);
+        if (q < pt.active_lower - 1e-5 || q > pt.active_upper + 1e-5) continue;
+      }
+      Vector3d position = pt.position;
+      for (const MovingComponent& c : pt.moving) {
+        const CoordinateSpec& spec = FindCoordinate(d, c.coordinate);
+        const double q = std::clamp(Coordinate(posture, c.coordinate), spec.lower, spec.upper);
+        position[c.axis] = c.function.Value(q);
+      }
+      points.push_back(X.at(pt.link) * position);
+    }
     return Length(points);
   }
   ADD_FAILURE() << "no muscle " << muscle;
@@ -250,7 +288,7 @@ TEST(OpenSimImport, MusclesWrapsAndSkippedMusclesAreReported) {
   const OpenSimImport import = Import("pelvis", "foot");
   std::vector<std::string> muscles;
   for (const MuscleSpec& m : import.description.muscles) muscles.push_back(m.name);
-  EXPECT_THAT(muscles, ::testing::ElementsAre("GM", "VAS", "SOL"));
+  EXPECT_THAT(muscles, ::testing::ElementsAre("GM", "VAS", "GAS", "RF", "SOL"));
   EXPECT_EQ(import.description.muscles[1].max_force, 3.0);
   auto warned = [&](const std::string& a, const std::string& b) {
     for (const std::string& w : import.warnings) {
@@ -260,11 +298,26 @@ TEST(OpenSimImport, MusclesWrapsAndSkippedMusclesAreReported) {
   };
   EXPECT_TRUE(warned("'VAS'", "wraps over 'knee_cyl' (WrapCylinder on femur)"));
   EXPECT_TRUE(warned("'PAT'", "body 'patella', which is off the imported chain"));
-  EXPECT_TRUE(warned("'GAS'", "ConditionalPathPoint 'GAS-P2'"));
-  EXPECT_TRUE(warned("'RF'", "MovingPathPoint 'RF-P2'"));
+  EXPECT_FALSE(warned("'GAS'", "")) << "the conditional point is imported";
+  EXPECT_FALSE(warned("'RF'", "")) << "the moving point is imported";
   const std::string report = FormatOpenSimReport(import);
-  EXPECT_THAT(report, AllOf(HasSubstr("marker  dropped"), HasSubstr("hip_rotation"),
-                            HasSubstr("locked"), HasSubstr("PinJoint")));
+  EXPECT_THAT(report,
+              AllOf(HasSubstr("marker  dropped"), HasSubstr("hip_rotation"), HasSubstr("locked"),
+                    HasSubstr("PinJoint"), HasSubstr("imported, 1 moving point"),
+                    HasSubstr("imported, 1 conditional point")));
+  // RF's moving point: x and y follow the knee (the constant z is folded into the position);
+  // GAS's middle point is active on the knee's [-2, -0.3].
+  const PathPoint& rf = import.description.muscles[3].path[1];
+  ASSERT_EQ(rf.moving.size(), 2u);
+  EXPECT_EQ(rf.moving[0].axis, 0);
+  EXPECT_EQ(rf.moving[0].coordinate, "knee_angle");
+  EXPECT_EQ(rf.moving[0].function.kind(), FunctionKind::kSimmSpline);
+  EXPECT_EQ(rf.moving[1].axis, 1);
+  EXPECT_EQ(rf.position.z(), 0.001);
+  const PathPoint& gas = import.description.muscles[2].path[1];
+  EXPECT_EQ(gas.active_coordinate, "knee_angle");
+  EXPECT_EQ(gas.active_lower, -2.0);
+  EXPECT_EQ(gas.active_upper, -0.3);
 }
 
 // ---- kinematics against the independent evaluation -------------------------------------------
@@ -280,6 +333,8 @@ TEST(OpenSimImport, EndpointAndMuscleLengthsMatchOpenSimTransforms) {
     EXPECT_NEAR(ImportedLength(d, "GM", p), GmLength(p), kPosition);
     EXPECT_NEAR(ImportedLength(d, "VAS", p), VasLength(p), kPosition);
     EXPECT_NEAR(ImportedLength(d, "SOL", p), SolLength(p), kPosition);
+    EXPECT_NEAR(ImportedLength(d, "RF", p), RfLength(p), kPosition) << "knee " << p.knee;
+    EXPECT_NEAR(ImportedLength(d, "GAS", p), GasLength(p), kPosition) << "knee " << p.knee;
   }
 }
 
@@ -374,8 +429,16 @@ TEST(OpenSimImport, EngineMatchesOnTheSplineCoupledKnee) {
     // Central differences straddling an end knot see the jump of f'' there: keep away.
     if (std::abs(p.knee - kLo) > 1e-3 && std::abs(p.knee - kHi) > 1e-3) postures.push_back(p);
   }
-  CheckEngine(d, postures, {"GM", "VAS", "SOL"},
-              {{"GM", GmLength}, {"VAS", VasLength}, {"SOL", SolLength}}, true);
+  // RF's moving point is clamped beyond the knee's range (knee -2.2 and 0.25): its length is
+  // constant in the knee there and its moment arm is that of the rigid point. GAS's middle
+  // point is in the path at knee -1 and -0.3 only.
+  CheckEngine(d, postures, {"GM", "VAS", "SOL", "RF", "GAS"},
+              {{"GM", GmLength},
+               {"VAS", VasLength},
+               {"SOL", SolLength},
+               {"RF", RfLength},
+               {"GAS", GasLength}},
+              true);
 }
 
 TEST(OpenSimImport, Version30000LayoutGivesTheSameHip) {
@@ -538,6 +601,14 @@ TEST(OpenSimImportErrors, NameFileLineJointAxisAndRule) {
     auto [text, line] =
         Edited("<PinJoint name=\"ankle\">", "<PinJoint name=\"ankle\"><reverse>true</reverse>");
     ExpectError(text, "hindlimb.osim:" + std::to_string(line) + ":", "joint 'ankle' is reversed");
+  }
+  {  // OpenSim 4 refuses a MovingPathPoint whose components follow different coordinates
+    auto [text, line] =
+        Edited("<socket_y_coordinate>/jointset/knee/knee_angle</socket_y_coordinate>", "");
+    const int point_line = Edited("<MovingPathPoint name=\"RF-P2\">", "").second;
+    ExpectError(text, "hindlimb.osim:" + std::to_string(point_line) + ":",
+                "muscle 'RF' point 'RF-P2': its x, y and z locations depend on the coordinates "
+                "'knee_angle', '', 'knee_angle'");
   }
   const std::string text = FixtureText();
   ExpectError(text, "hindlimb.osim", "--clamp body 'patella' is not on the path from ground",

@@ -1,0 +1,70 @@
+// Moving and conditional muscle path points (PathPoint::moving, PathPoint::active_coordinate):
+// the pre-pass before the kinematics kernel and the extra gradient term after it, for muscles
+// that have such points (FastMuscle::dynamic); other muscles never reach this file.
+//
+// A moving component adds direction * f(clamp(q_c, lower, upper)) to its point (in the point's
+// frame), so the length gains dL/dq_c = pull . R direction f'(q_c) inside [lower, upper] and
+// nothing outside, R being the world rotation of the point's frame. An inactive conditional
+// point is skipped by the segments (its pull is 0, so the sweep ignores it).
+
+#include <algorithm>
+#include <cmath>
+
+#include "fast/fast_impl.hpp"
+
+namespace isowrench {
+
+void PreparePathPoints(const FastMuscle& muscle, const double* q, FastWorkspace::Impl& ws) {
+  const int n = static_cast<int>(muscle.points.size());
+  for (int i = 0; i < n; ++i) ws.local[i] = muscle.points[i].position;
+  for (size_t j = 0; j < muscle.moving.size(); ++j) {
+    const FastMovingComponent& c = muscle.moving[j];
+    const double x = q[c.column];
+    const bool inside = x >= c.lower && x <= c.upper;
+    ws.local[c.point] += c.direction * c.function.Value(std::clamp(x, c.lower, c.upper));
+    ws.moving_slope[j] = inside ? c.function.Derivative(x) : 0.0;
+  }
+  ws.active_count = 0;
+  for (int i = 0; i < n; ++i) {
+    const FastPathPoint& p = muscle.points[i];
+    if (p.active_column < 0 ||
+        (q[p.active_column] >= p.active_lower && q[p.active_column] <= p.active_upper)) {
+      ws.active[ws.active_count++] = i;
+    } else {
+      ws.pulls[i].setZero();
+    }
+  }
+}
+
+bool ActivePathPulls(FastWorkspace::Impl& ws, double* length) {
+  double total = 0.0;
+  Eigen::Vector3d before = Eigen::Vector3d::Zero();  // u of the previous segment
+  for (int j = 1; j < ws.active_count; ++j) {
+    const Eigen::Vector3d segment = ws.points[ws.active[j]] - ws.points[ws.active[j - 1]];
+    const double l = segment.norm();
+    if (!(l >= kFastMinSegmentLength)) {
+      *length = total;
+      return false;
+    }
+    const Eigen::Vector3d u = segment / l;
+    total += l;
+    ws.pulls[ws.active[j - 1]] = before - u;
+    before = u;
+  }
+  ws.pulls[ws.active[ws.active_count - 1]] = before;
+  *length = total;
+  return true;
+}
+
+void AddMovingPointTerms(const FastMuscle& muscle, FastWorkspace::Impl& ws, double minus_force) {
+  for (size_t j = 0; j < muscle.moving.size(); ++j) {
+    const FastMovingComponent& c = muscle.moving[j];
+    if (ws.moving_slope[j] == 0.0) continue;  // clamped, constant, or an inactive point's pull 0
+    const double term =
+        ws.pulls[c.point].dot(ws.point_rotation[c.point] * c.direction) * ws.moving_slope[j];
+    ws.dL[c.column] += term;
+    ws.tau[c.column] = minus_force * ws.dL[c.column];
+  }
+}
+
+}  // namespace isowrench
