@@ -25,7 +25,7 @@ constexpr const char* kSource = "moving.urdf";
 
 // The leg: hip (rz) at the ground origin, thigh 0.03 m along x to the knee (rz, range
 // [-2, 0.5] rad), shank 0.04 m along x to the foot (the endpoint).
-constexpr double kThigh = 0.03, kShank = 0.04;
+constexpr double kThigh = 0.03;  // the shank (0.04 m) carries no path point the closed form needs
 constexpr double kKneeLower = -2.0, kKneeUpper = 0.5;
 
 // The muscle: origin on the ground at G, point T on the thigh (active for knee in
