@@ -4,6 +4,7 @@
 #include <cmath>
 #include <sstream>
 
+#include "isowrench/error.hpp"
 #include "isowrench/model.hpp"
 #include "model/function_xml.hpp"
 #include "util/atomic_file.hpp"
@@ -59,10 +60,32 @@ std::string CoordinateTag(const std::string& name, JointRole role, double stiffn
   return tag + "/>\n";
 }
 
+// Names are written into XML attributes verbatim: refuse one that XML would change or reject
+// (an OpenSim file read leniently can carry a raw '&'; found by fuzz/osim_import_fuzzer.cpp).
+void CheckXmlName(const char* what, const std::string& name) {
+  for (const char c : name) {
+    if (c == '&' || c == '<' || c == '>' || c == '"' || c == '\'' ||
+        static_cast<unsigned char>(c) < 0x20) {
+      throw Error(std::string("cannot write URDF: ") + what + " name '" + name +
+                  "' contains a character XML attribute values cannot hold as is (& < > \" ' or a "
+                  "control character); rename it");
+    }
+  }
+}
+
+void CheckXmlNames(const LimbDescription& d) {
+  CheckXmlName("model", d.name);
+  for (const std::string& link : d.links) CheckXmlName("link", link);
+  for (const JointSpec& j : d.joints) CheckXmlName("joint", j.name);
+  for (const CoordinateSpec& c : d.coordinates) CheckXmlName("coordinate", c.name);
+  for (const MuscleSpec& m : d.muscles) CheckXmlName("muscle", m.name);
+}
+
 }  // namespace
 
 std::string WriteUrdfString(const LimbDescription& description) {
   const LimbDescription d = NormalizeCoordinates(description);
+  CheckXmlNames(d);
   std::ostringstream o;
   o << "<?xml version=\"1.0\"?>\n";
   o << "<!-- Written by isowrench";

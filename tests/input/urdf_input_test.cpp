@@ -73,6 +73,20 @@ TEST(UrdfTree, JointWhoseParentIsItsChildIsAnError) {
                                          HasSubstr("both parent and child"))));
 }
 
+// Found by fuzz/osim_import_fuzzer.cpp (seed fuzz/corpus/osim/raw_ampersand_name.osim): an
+// OpenSim coordinate named "p&elvis_rz" (a raw '&', which tinyxml2 reads leniently) was written
+// verbatim into a URDF attribute that did not read back. The writer refuses such names.
+TEST(UrdfWriter, NameThatXmlCannotHoldIsRefusedNamingIt) {
+  isowrench::LimbDescription d = isowrench::ReadUrdfString(Rat5(), "rat.urdf");
+  ASSERT_FALSE(d.muscles.empty());
+  EXPECT_NO_THROW(isowrench::WriteUrdfString(d));
+  d.muscles.front().name = "G&P";
+  EXPECT_THAT([&] { isowrench::WriteUrdfString(d); },
+              ThrowsMessage<Error>(AllOf(HasSubstr("muscle name 'G&P'"), HasSubstr("rename it"))));
+  d.muscles.front().name = "G<P";
+  EXPECT_THROW(isowrench::WriteUrdfString(d), Error);
+}
+
 TEST(UrdfAttributes, MisspeltTransducerStiffnessSuggestsTheName) {
   std::string xml =
       Replace(Rat5(), R"(stiffness="1e7 1e7 1e7 1e7 1e7 1e7")", R"(stifness="1e3 1e3 1e3 1 1 1")");
