@@ -50,11 +50,11 @@ inline Eigen::MatrixXd KernelPostures(const isowrench::Model& model, int count) 
 
 /// 20 transducer stiffness sets: rotational stiffness = ratio x the model's, ratios
 /// logarithmically spaced from 1 to 1e-4 (the paper's Fig. 2 rows B-D span this range).
-inline std::vector<isowrench::StiffnessSet> KernelStiffnessSets(
-    const isowrench::CompiledModel& compiled, int count = 20) {
+inline std::vector<isowrench::StiffnessSet> KernelStiffnessSets(const isowrench::Model& model,
+                                                                int count = 20) {
   std::vector<isowrench::StiffnessSet> sets;
   for (int k = 0; k < count; ++k) {
-    isowrench::StiffnessSet s = compiled.model_stiffness();
+    isowrench::StiffnessSet s = model.model_stiffness();
     s.s_t.tail<3>() *= std::pow(10.0, -4.0 * k / (count - 1));
     sets.push_back(s);
   }

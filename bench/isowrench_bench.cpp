@@ -21,7 +21,7 @@ namespace {
 
 struct Fixture {
   isowrench::Model model = isowrench::Model::FromUrdfFile(KernelUrdf());
-  isowrench::CompiledModel compiled{model};
+  isowrench::Model compiled{model};
   Eigen::MatrixXd postures = KernelPostures(model, 1 << 16);
   std::vector<isowrench::StiffnessSet> sets = KernelStiffnessSets(compiled);
 };
@@ -57,11 +57,11 @@ BENCHMARK(BM_ReferenceEvaluateWrench);
 
 void BM_FastSingle(benchmark::State& state) {
   Fixture& f = F();
-  isowrench::FastWorkspace ws(f.compiled);
+  isowrench::Data ws(f.compiled);
   long i = 0;
   for (auto _ : state) {
     benchmark::DoNotOptimize(
-        isowrench::EvaluateFast(f.compiled, ws, f.postures.col(i++ & 1023), 0, f.sets[0]));
+        isowrench::Evaluate(f.compiled, ws, f.postures.col(i++ & 1023), 0, f.sets[0]));
   }
   state.SetItemsProcessed(state.iterations());
 }
@@ -71,7 +71,7 @@ BENCHMARK(BM_FastSingle);
 void BM_FastBatchPostures(benchmark::State& state) {
   Fixture& f = F();
   std::vector<isowrench::StiffnessSet> one = {f.sets[0]};
-  std::vector<isowrench::FastWrench> out;
+  std::vector<isowrench::WrenchResult> out;
   isowrench::BatchOptions options;
   options.threads = static_cast<int>(state.range(0));
   for (auto _ : state) {
@@ -87,7 +87,7 @@ BENCHMARK(BM_FastBatchPostures)->Arg(1)->Arg(2)->UseRealTime()->Unit(benchmark::
 void BM_FastBatchStiffness(benchmark::State& state) {
   Fixture& f = F();
   const Eigen::MatrixXd postures = f.postures.leftCols(4096);
-  std::vector<isowrench::FastWrench> out;
+  std::vector<isowrench::WrenchResult> out;
   isowrench::BatchOptions options;
   options.threads = static_cast<int>(state.range(0));
   for (auto _ : state) {
@@ -105,7 +105,7 @@ void BM_Sweep181x181x20(benchmark::State& state) {
   Fixture& f = F();
   const int hip = f.model.JointIndex("hip_rz"), knee = f.model.JointIndex("knee_rz");
   const Eigen::VectorXd nominal = f.model.nominal_posture();
-  std::vector<isowrench::FastWrench> out;
+  std::vector<isowrench::WrenchResult> out;
   isowrench::BatchOptions options;
   options.threads = 2;
   for (auto _ : state) {

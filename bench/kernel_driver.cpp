@@ -18,14 +18,14 @@ namespace {
 
 struct Setup {
   isowrench::Model model = isowrench::Model::FromUrdfFile(KernelUrdf());
-  isowrench::CompiledModel compiled{model};
-  isowrench::FastWorkspace ws{compiled};
+  isowrench::Model compiled{model};
+  isowrench::Data ws{compiled};
   Eigen::MatrixXd postures = KernelPostures(model, 1024);
   std::vector<isowrench::StiffnessSet> sets = KernelStiffnessSets(compiled);
   KdlBaseline kdl{model, 0};
-  std::vector<isowrench::FastWrench> out;
-  isowrench::CompiledModel coupled{CoupledKernelModel()};
-  isowrench::FastWorkspace coupled_ws{coupled};
+  std::vector<isowrench::WrenchResult> out;
+  isowrench::Model coupled{CoupledKernelModel()};
+  isowrench::Data coupled_ws{coupled};
 };
 
 double g_sink = 0.0;
@@ -38,15 +38,14 @@ extern "C" __attribute__((noinline)) long isowrench_measured_loop(Setup& s, cons
   const isowrench::StiffnessSet& st = s.sets[0];
   if (std::strcmp(kernel, "fast") == 0) {
     for (long i = 0; i < n; ++i) {
-      g_sink +=
-          isowrench::EvaluateFast(s.compiled, s.ws, s.postures.col(i & 1023), 0, st).wrench[0];
+      g_sink += isowrench::Evaluate(s.compiled, s.ws, s.postures.col(i & 1023), 0, st).wrench[0];
     }
     return n;
   }
   if (std::strcmp(kernel, "fast-coupled") == 0) {  // kernel K with the spline-coupled knee
     for (long i = 0; i < n; ++i) {
-      g_sink += isowrench::EvaluateFast(s.coupled, s.coupled_ws, s.postures.col(i & 1023), 0, st)
-                    .wrench[0];
+      g_sink +=
+          isowrench::Evaluate(s.coupled, s.coupled_ws, s.postures.col(i & 1023), 0, st).wrench[0];
     }
     return n;
   }
@@ -62,9 +61,9 @@ extern "C" __attribute__((noinline)) long isowrench_measured_loop(Setup& s, cons
   }
   if (std::strcmp(kernel, "fast-stiffness") == 0) {  // kinematics once, 20 stiffness sets
     for (long i = 0; i < n; ++i) {
-      isowrench::ComputeFastKinematics(s.compiled, s.ws, s.postures.col(i & 1023), 0);
+      isowrench::ComputeKinematics(s.compiled, s.ws, s.postures.col(i & 1023), 0);
       for (const auto& set : s.sets)
-        g_sink += isowrench::SolveFastStatics(s.compiled, s.ws, set).wrench[0];
+        g_sink += isowrench::SolveStatics(s.compiled, s.ws, set).wrench[0];
     }
     return n * static_cast<long>(s.sets.size());
   }

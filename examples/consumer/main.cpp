@@ -16,18 +16,18 @@ int main(int argc, char** argv) {
     const Eigen::VectorXd q = model.nominal_posture();
     const isowrench::WrenchEvaluation e = isowrench::EvaluateWrench(model, q, "GP");
 
-    const isowrench::CompiledModel compiled(model);
-    isowrench::FastWorkspace ws(compiled);
-    const isowrench::FastWrench fast = isowrench::EvaluateFast(
-        compiled, ws, q, model.MuscleIndex("GP"), compiled.model_stiffness());
+    isowrench::Data data(model);
+    const isowrench::WrenchResult lean =
+        isowrench::Evaluate(model, data, q, model.MuscleIndex("GP"), model.model_stiffness());
 
     const isowrench::Vector6d& w = e.statics.wrench;
     std::printf("%s, GP at the nominal posture: %s\n", model.name().c_str(),
                 isowrench::StatusName(e.statics.status));
     std::printf("W = [%.6g %.6g %.6g] N, [%.6g %.6g %.6g] N·m (limb on transducer)\n", w[0], w[1],
                 w[2], w[3], w[4], w[5]);
-    const double difference = (fast.wrench - w).norm();
-    std::printf("fast path differs by %.3g\n", difference);
+    const double difference = (lean.wrench - w).norm();
+    std::printf("Evaluate (%s) differs from EvaluateWrench by %.3g\n",
+                isowrench::StatusMessage(lean).c_str(), difference);
     std::printf("identification layer linked: verdict names such as '%s'\n",
                 isowrench::FitVerdictName(isowrench::FitVerdict::kExplained));
     return difference <= 1e-9 * w.norm() ? 0 : 1;

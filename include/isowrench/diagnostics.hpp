@@ -77,14 +77,14 @@ std::vector<JointCentre> FindJointCentres(const Model& model, const Eigen::Vecto
 
 /// Posture-only analysis of J_r (no muscle): rank, class, self-motions, internal wrenches.
 struct ConstraintAnalysis {
-  int joint_count = 0;                  ///< m, movable joints (all roles)
-  int restrained_count = 0;             ///< n, restrained transducer dofs
-  std::vector<std::string> restrained;  ///< their names (x y z rx ry rz)
-  int rank = 0;                         ///< rank of J_r
-  double length_scale = 0.0;            ///< L (m) used for scaling
-  Eigen::VectorXd singular_values;      ///< of the scaled J_r, descending, dimensionless
-  double rank_tolerance = 0.0;          ///< the option used
-  double rank_threshold = 0.0;          ///< rank_tolerance * sigma_max
+  int joint_count = 0;              ///< m, movable joints (all roles)
+  int restrained_count = 0;         ///< n, restrained transducer dofs
+  DofMask restrained;               ///< which they are (names(): x y z rx ry rz)
+  int rank = 0;                     ///< rank of J_r
+  double length_scale = 0.0;        ///< L (m) used for scaling
+  Eigen::VectorXd singular_values;  ///< of the scaled J_r, descending, dimensionless
+  double rank_tolerance = 0.0;      ///< the option used
+  double rank_threshold = 0.0;      ///< rank_tolerance * sigma_max
   ConstraintClass constraint_class = ConstraintClass::kMatched;
   std::string explanation;               ///< one sentence: what the class means for this limb
   std::vector<JointMotion> self_motion;  ///< basis of null(J_r)

@@ -10,8 +10,8 @@
 
 #include "isowrench/conventions.hpp"
 #include "isowrench/diagnostics.hpp"
+#include "isowrench/engine.hpp"
 #include "isowrench/error.hpp"
-#include "isowrench/fast.hpp"
 #include "isowrench/identification.hpp"
 #include "isowrench/kinematics.hpp"
 #include "isowrench/model.hpp"

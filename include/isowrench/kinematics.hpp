@@ -1,6 +1,6 @@
 #pragma once
 /// @file
-/// Kinematics of the one engine (the Model's compiled chain, the same kernel as EvaluateFast):
+/// Kinematics of the one engine (the Model's compiled chain, the same kernel as Evaluate):
 /// endpoint pose and Jacobian, point Jacobians of muscle path points, and the muscle
 /// generalized force tau = -F (dL/dtheta)^T (docs/model.md "Muscle generalized force"). Columns are
 /// the Model's independent coordinates (J = J_joints C for coupled joints). tests/core checks
@@ -8,61 +8,40 @@
 
 #include <Eigen/Core>
 #include <Eigen/Geometry>
-#include <memory>
 
 #include "isowrench/model.hpp"
 
 namespace isowrench {
 
-/// Mutable scratch for repeated kinematics on one Model (the kernel's fixed-size buffers). One
-/// per thread; never shared between threads. Construction allocates; evaluations reuse it.
-class KinematicsWorkspace {
- public:
-  explicit KinematicsWorkspace(const Model& model);
-  ~KinematicsWorkspace();
-  KinematicsWorkspace(KinematicsWorkspace&&) noexcept;
-  KinematicsWorkspace& operator=(KinematicsWorkspace&&) noexcept;
-
-  struct Impl;
-  Impl& impl() { return *impl_; }
-
- private:
-  std::unique_ptr<Impl> impl_;
-};
-
 /// Endpoint pose X_W_E in world (the root link's frame). Orientation is the endpoint link's.
-Eigen::Isometry3d EndpointPose(const Model& model, KinematicsWorkspace& ws,
-                               const Eigen::VectorXd& q);
+Eigen::Isometry3d EndpointPose(const Model& model, Data& data, const Eigen::VectorXd& q);
 
 /// Geometric endpoint Jacobian J_W_E (6 x m): rows [v; w], reference point = endpoint origin,
 /// expressed in world axes; the same as KDL's ChainJntToJacSolver with the endpoint as chain tip.
-Matrix6Xd EndpointJacobianWorld(const Model& model, KinematicsWorkspace& ws,
-                                const Eigen::VectorXd& q);
+Matrix6Xd EndpointJacobianWorld(const Model& model, Data& data, const Eigen::VectorXd& q);
 
 /// Rotation R_W_T of the transducer axes at posture q (constant when axes_in_world).
-Eigen::Matrix3d TransducerRotation(const Model& model, KinematicsWorkspace& ws,
-                                   const Eigen::VectorXd& q);
+Eigen::Matrix3d TransducerRotation(const Model& model, Data& data, const Eigen::VectorXd& q);
 
 /// Endpoint Jacobian in transducer axes: J_T_E = blockdiag(R_W_T^T, R_W_T^T) J_W_E. All 6 rows
 /// (released dofs are handled by the statics, not by deleting rows here).
-Matrix6Xd EndpointJacobian(const Model& model, KinematicsWorkspace& ws, const Eigen::VectorXd& q);
+Matrix6Xd EndpointJacobian(const Model& model, Data& data, const Eigen::VectorXd& q);
 
 /// World position (m) of a point fixed at `p_link` (m) on link `link`.
 /// @throws Error if the link is not on the chain.
-Eigen::Vector3d PointPosition(const Model& model, KinematicsWorkspace& ws, const Eigen::VectorXd& q,
+Eigen::Vector3d PointPosition(const Model& model, Data& data, const Eigen::VectorXd& q,
                               const std::string& link, const Eigen::Vector3d& p_link);
 
 /// World positions (m) of muscle `muscle_index`'s path points that are in the path at posture
 /// q, origin first: moving points where their coordinates put them, conditional points only
 /// while active (PathPoint). @throws Error for a muscle index out of range.
-std::vector<Eigen::Vector3d> MusclePathPoints(const Model& model, KinematicsWorkspace& ws,
+std::vector<Eigen::Vector3d> MusclePathPoints(const Model& model, Data& data,
                                               const Eigen::VectorXd& q, int muscle_index);
 
 /// Linear Jacobian (3 x m, world axes, m/rad or m/m) of a point fixed on a link.
 /// Zero for the root link. @throws Error if the link is not on the chain.
-Eigen::Matrix3Xd PointJacobian(const Model& model, KinematicsWorkspace& ws,
-                               const Eigen::VectorXd& q, const std::string& link,
-                               const Eigen::Vector3d& p_link);
+Eigen::Matrix3Xd PointJacobian(const Model& model, Data& data, const Eigen::VectorXd& q,
+                               const std::string& link, const Eigen::Vector3d& p_link);
 
 /// A muscle's length, its derivative and its generalized force at a posture.
 struct MuscleTorque {
@@ -75,8 +54,7 @@ struct MuscleTorque {
 /// Evaluate muscle `muscle_index` at activation `activation` (force = activation * max_force).
 /// @throws Error if a path segment has zero length (coincident points) or activation is not
 ///         finite.
-MuscleTorque ComputeMuscleTorque(const Model& model, KinematicsWorkspace& ws,
-                                 const Eigen::VectorXd& q, int muscle_index,
-                                 double activation = 1.0);
+MuscleTorque ComputeMuscleTorque(const Model& model, Data& data, const Eigen::VectorXd& q,
+                                 int muscle_index, double activation = 1.0);
 
 }  // namespace isowrench

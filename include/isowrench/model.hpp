@@ -18,6 +18,7 @@
 #include <Eigen/Core>
 #include <Eigen/Geometry>
 #include <array>
+#include <initializer_list>
 #include <limits>
 #include <memory>
 #include <string>
@@ -31,6 +32,27 @@ namespace isowrench {
 using Vector6d = Eigen::Matrix<double, 6, 1>;
 using Matrix6d = Eigen::Matrix<double, 6, 6>;
 using Matrix6Xd = Eigen::Matrix<double, 6, Eigen::Dynamic>;
+
+/// Largest number of independent coordinates (and of movable joints) a Model may have: the
+/// engine's buffers are fixed-size matrices of this many rows/columns, so an evaluation never
+/// allocates.
+inline constexpr int kMaxDofs = 16;
+
+/// A joint-space vector of at most kMaxDofs entries, stored inline (no heap).
+using JointVector = Eigen::Matrix<double, Eigen::Dynamic, 1, 0, kMaxDofs, 1>;
+/// An m x r matrix with m, r <= kMaxDofs, stored inline (no heap).
+using JointMatrix = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, 0, kMaxDofs, kMaxDofs>;
+/// A 6 x m endpoint Jacobian with m <= kMaxDofs, stored inline (no heap).
+using JacobianBuffer = Eigen::Matrix<double, 6, Eigen::Dynamic, 0, 6, kMaxDofs>;
+
+/// One set of compliances for the statics.
+struct StiffnessSet {
+  /// S_t diagonal in transducer axes [kx ky kz krx kry krz] (N/m, N·m/rad), each >= 0; a zero
+  /// entry is a released dof (docs/model.md "Released dofs").
+  Vector6d s_t = Vector6d::Zero();
+  /// S_p diagonal, one entry per movable joint in column order (N·m/rad or N/m), each >= 0.
+  JointVector s_p;
+};
 
 /// Joint kinds isowrench represents. URDF "continuous" becomes kRevolute; "fixed" joints are
 /// folded into the chain; "floating" and "planar" are refused with an Error.
@@ -139,6 +161,49 @@ enum Dof : int { kX = 0, kY = 1, kZ = 2, kRX = 3, kRY = 4, kRZ = 5 };
 /// Name of a 6-vector component ("x", "y", "z", "rx", "ry", "rz").
 const char* DofName(int dof);
 
+/// A set of the 6 transducer dofs (x y z rx ry rz, transducer axes): the one way isowrench says
+/// which dofs are released (TransducerSpec::released, WithReleasedDofs, ClassicWrench) or
+/// restrained (~released). Spelled "rz", "rx,ry" or "rx ry" in files and on the command line.
+class DofMask {
+ public:
+  /// The empty set.
+  DofMask() = default;
+  /// The named dofs: DofMask{"rz", "x"}. @throws Error naming a name that is not a dof.
+  DofMask(std::initializer_list<std::string> names);
+  /// The named dofs ("none" names nothing). @throws Error naming a name that is not a dof.
+  static DofMask FromNames(const std::vector<std::string>& names);
+  /// "rz", "rx,ry", "rx ry", "" or "none". @throws Error naming the token that is not a dof.
+  static DofMask Parse(const std::string& text);
+  /// All six dofs.
+  static DofMask All() { return FromBits(0x3f); }
+  /// Bit i set: dof i (Dof order) is in the set.
+  static DofMask FromBits(unsigned bits) { return DofMask(bits & 0x3fu); }
+
+  /// True when dof `dof` (0..5, Dof order) is in the set.
+  bool operator[](int dof) const { return ((bits_ >> dof) & 1u) != 0; }
+  /// Add (value true) or remove dof `dof`; returns *this.
+  DofMask& set(int dof, bool value = true) {
+    bits_ = value ? (bits_ | (1u << dof)) : (bits_ & ~(1u << dof));
+    return *this;
+  }
+  /// The complement: the restrained dofs of a released set and vice versa.
+  DofMask operator~() const { return DofMask(~bits_ & 0x3fu); }
+  unsigned bits() const { return bits_; }
+  int count() const;
+  bool any() const { return bits_ != 0; }
+  bool none() const { return bits_ == 0; }
+  /// Names in Dof order ({} for the empty set).
+  std::vector<std::string> names() const;
+  /// Names joined by `separator` ("rx,ry"), "none" for the empty set.
+  std::string ToString(const std::string& separator = ",") const;
+  bool operator==(const DofMask& other) const { return bits_ == other.bits_; }
+  bool operator!=(const DofMask& other) const { return bits_ != other.bits_; }
+
+ private:
+  explicit DofMask(unsigned bits) : bits_(bits) {}
+  unsigned bits_ = 0;
+};
+
 /// The endpoint and the transducer it is bolted to.
 struct TransducerSpec {
   std::string link;                                    ///< the distal link carrying the endpoint
@@ -150,7 +215,7 @@ struct TransducerSpec {
   /// S_t diagonal in transducer axes [kx ky kz krx kry krz]; N/m then N·m/rad; each >= 0.
   Vector6d stiffness = Vector6d::Constant(1e7);
   /// Released dofs of the transducer (rows deleted from J and S_t), in transducer axes.
-  std::array<bool, 6> released{{false, false, false, false, false, false}};
+  DofMask released;
 };
 
 /// Transducer stiffness presets from docs/model.md "Transducer stiffness presets".
@@ -231,19 +296,20 @@ LimbDescription WithExtraJoint(LimbDescription description, const std::string& a
                                const std::string& new_joint, const Eigen::Vector3d& axis,
                                double stiffness);
 
-/// Mark transducer dofs released; `dofs` holds names x y z rx ry rz (empty = none released).
-LimbDescription WithReleasedDofs(LimbDescription description, const std::vector<std::string>& dofs);
+/// Set the transducer's released dofs to `released` (the empty set: none released), e.g.
+/// WithReleasedDofs(d, {"rz"}) or WithReleasedDofs(d, DofMask::Parse("rx,ry")).
+LimbDescription WithReleasedDofs(LimbDescription description, const DofMask& released);
 
 /// Replace the S_t diagonal (each entry finite and >= 0).
 LimbDescription WithTransducerStiffness(LimbDescription description, const Vector6d& stiffness);
 
 /// Immutable model built from a description: validated, and its chain compiled to the flat
 /// structure every kinematics and statics evaluation runs on (one engine: the kinematics
-/// functions, EvaluateWrench, EvaluateFast and EvaluateBatch). Its columns are the independent
+/// functions, EvaluateWrench, Evaluate and EvaluateBatch). Its columns are the independent
 /// coordinates (LimbDescription::coordinates): each movable joint is driven by one of them,
 /// q_joint = coupling(q_coordinate), and results are J = J_joints C, tau = C^T tau_joints with
 /// C = dq_joint/dq. Cheap to copy (shared state). Thread-safe to share; mutable scratch lives
-/// in KinematicsWorkspace / FastWorkspace.
+/// in a Data, one per thread.
 class Model {
  public:
   /// Validate and build. @throws Error naming the joint/link/muscle for any invalid entry.
@@ -287,12 +353,62 @@ class Model {
   /// the "leg length" the small-motion rule is relative to.
   double chain_length() const;
 
+  /// True for revolute columns, false for prismatic ones. @throws std::out_of_range.
+  bool revolute(int column) const;
+
+  /// The model's own compliances: S_t from the transducer spec with released dofs set to 0,
+  /// S_p from the coordinates' stiffnesses (the StiffnessSet of engine.hpp).
+  const StiffnessSet& model_stiffness() const;
+
   /// Opaque access for isowrench's own modules (the compiled chain). Not part of the stable API.
   struct Impl;
   const Impl& impl() const { return *impl_; }
 
  private:
   std::shared_ptr<const Impl> impl_;
+};
+
+/// Mutable scratch of the engine for one thread (the Model/Data split: the Model is shared,
+/// each thread owns a Data). Evaluations leave their results here (the last evaluation's
+/// Jacobian, torque, displacement and self-motion basis stay readable until the next one).
+/// Construction allocates once; evaluations never allocate. Never share one between threads.
+class Data {
+ public:
+  /// Workspace sized for `model`.
+  explicit Data(const Model& model);
+  /// Workspace for the raw-matrix solve SolveStatics(Data&, J, ...) with `dof_count` joints.
+  /// @throws Error if dof_count is not in [1, kMaxDofs].
+  explicit Data(int dof_count);
+  ~Data();
+  Data(Data&&) noexcept;
+  Data& operator=(Data&&) noexcept;
+
+  /// J_T_E (6 x m) of the last ComputeKinematics: rows [v; w] in transducer axes,
+  /// reference point the endpoint origin (m/rad, m/m, rad/rad).
+  const JacobianBuffer& jacobian() const;
+  /// Muscle torque tau = -F (dL/dtheta)^T of the last kinematics (N·m or N per joint).
+  const JointVector& tau() const;
+  /// dL/dtheta of the last kinematics (m/rad or m/m per joint).
+  const JointVector& muscle_length_gradient() const;
+  /// Muscle length (m) of the last kinematics.
+  double muscle_length() const;
+  /// Endpoint position in world (m) of the last kinematics.
+  const Eigen::Vector3d& endpoint_position() const;
+  /// R_W_T of the last kinematics: transducer axes in world.
+  const Eigen::Matrix3d& transducer_rotation() const;
+  /// dtheta of the last solve (rad or m per joint); zeros after kSelfMotion / kInvalidInput.
+  const JointVector& dtheta() const;
+  /// Self-motion basis of the last solve: m x r, unit columns spanning null(K), largest entry
+  /// positive (the same convention as StaticsResult::self_motion); r = 0 when K is regular.
+  const JointMatrix& self_motion() const;
+
+  /// Opaque access for isowrench's own modules (the kernel's buffers). Not part of the stable API.
+  struct Impl;
+  Impl& impl() { return *impl_; }
+  const Impl& impl() const { return *impl_; }
+
+ private:
+  std::unique_ptr<Impl> impl_;
 };
 
 }  // namespace isowrench

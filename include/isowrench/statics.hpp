@@ -31,9 +31,9 @@ struct StaticsOptions {
   double leg_length = 0.0;
 };
 
-/// Outcome of every solve (SolveStatics, EvaluateWrench, EvaluateFast, EvaluateBatch,
-/// SolveStaticsFast, ClassicWrench): one convention, each result carrying one of these and,
-/// where it can hold one (all but the 64-byte FastWrench), a message.
+/// Outcome of every solve (SolveStatics, EvaluateWrench, Evaluate, EvaluateBatch,
+/// SolveStatics, ClassicWrench): one convention, each result carrying one of these and,
+/// where it can hold one (all but the 64-byte WrenchResult), a message.
 enum class StaticsStatus {
   kOk,  ///< unique W; K positive definite (classic: J_r^T W = tau solved exactly)
   /// K singular but tau does not excite the self-motion: W still unique. Classic: J_r is rank
@@ -92,7 +92,7 @@ StaticsResult SolveStatics(const Matrix6Xd& J, const Vector6d& s_t, const Eigen:
                            const Eigen::VectorXd& tau, const StaticsOptions& options = {},
                            const std::vector<bool>& revolute = {});
 
-/// The classic answers without compliance, on the restrained rows (mask true = restrained):
+/// The classic answers without compliance, on the restrained rows (the dofs not in `released`):
 /// J_r^-T tau when J_r is square and invertible (Eq. 11/14), otherwise pinv(J_r^T) tau =
 /// J_r (J_r^T J_r)^-1 tau (Eq. 15), by SVD with threshold rank_tolerance * sigma_max.
 struct ClassicResult {
@@ -105,8 +105,8 @@ struct ClassicResult {
   int rank = 0;                        ///< rank of J_r
   double residual = 0.0;               ///< |J_r^T W_r - tau|: > 0 when tau is not reachable
 };
-ClassicResult ClassicWrench(const Matrix6Xd& J, const std::array<bool, 6>& restrained,
-                            const Eigen::VectorXd& tau, double rank_tolerance = 1e-10);
+ClassicResult ClassicWrench(const Matrix6Xd& J, const DofMask& released, const Eigen::VectorXd& tau,
+                            double rank_tolerance = 1e-10);
 
 /// Everything about one muscle at one posture on a model: kinematics, muscle torque, statics
 /// with the model's S_t, S_p and released dofs, and the classic comparison.
@@ -132,9 +132,9 @@ WrenchEvaluation EvaluateWrench(const Model& model, const Eigen::VectorXd& q,
                                 const StaticsOptions& options = {});
 
 /// The same with a caller-owned workspace and a muscle index, for repeated evaluations (no new
-/// KinematicsWorkspace per call). @throws Error for a bad index or posture.
-WrenchEvaluation EvaluateWrench(const Model& model, KinematicsWorkspace& ws,
-                                const Eigen::VectorXd& q, int muscle_index, double activation = 1.0,
+/// Data per call). @throws Error for a bad index or posture.
+WrenchEvaluation EvaluateWrench(const Model& model, Data& data, const Eigen::VectorXd& q,
+                                int muscle_index, double activation = 1.0,
                                 const StaticsOptions& options = {});
 
 /// "hip_rx +1.00, knee_ry +0.97, knee_rx +0.26": a joint-space direction in named joints,

@@ -19,8 +19,8 @@
 #include <vector>
 
 #include "isowrench/diagnostics.hpp"
+#include "isowrench/engine.hpp"
 #include "isowrench/error.hpp"
-#include "isowrench/fast.hpp"
 #include "isowrench/identification.hpp"
 #include "isowrench/kinematics.hpp"
 #include "isowrench/model.hpp"
@@ -40,14 +40,12 @@ using CArray = py::array_t<double, py::array::c_style | py::array::forcecast>;
   throw py::error_already_set();
 }
 
-/// A loaded model: the immutable Model and its compiled copy for the batch path.
+/// A loaded model: the immutable Model and the file it came from.
 struct PyModel {
   Model model;
   std::string path;
-  std::shared_ptr<const CompiledModel> compiled;
 
-  PyModel(Model m, std::string p)
-      : model(std::move(m)), path(std::move(p)), compiled(std::make_shared<CompiledModel>(model)) {}
+  PyModel(Model m, std::string p) : model(std::move(m)), path(std::move(p)) {}
 };
 
 std::string CoordinateList(const Model& model) {
@@ -108,22 +106,10 @@ std::shared_ptr<PyModel> Variant(const std::shared_ptr<PyModel>& m, const py::ob
     }
   }
   if (!released.is_none()) {
-    std::vector<std::string> dofs;
-    if (py::isinstance<py::str>(released)) {
-      std::string text = released.cast<std::string>();
-      std::string item;
-      for (char c : text + ",") {
-        if (c == ',' || c == ' ') {
-          if (!item.empty() && item != "none") dofs.push_back(item);
-          item.clear();
-        } else {
-          item += c;
-        }
-      }
-    } else {
-      dofs = released.cast<std::vector<std::string>>();
-    }
-    d = WithReleasedDofs(std::move(d), dofs);
+    d = WithReleasedDofs(std::move(d),
+                         py::isinstance<py::str>(released)
+                             ? DofMask::Parse(released.cast<std::string>())
+                             : DofMask::FromNames(released.cast<std::vector<std::string>>()));
   }
   return std::make_shared<PyModel>(Model(std::move(d)), m->path);
 }
@@ -171,7 +157,7 @@ py::array_t<double> Array(const Eigen::MatrixXd& m) {
 py::dict Kinematics(const PyModel& m, const py::object& q_arg) {
   const Model& model = m.model;
   const Eigen::VectorXd q = Posture(model, q_arg);
-  KinematicsWorkspace ws(model);
+  Data ws(model);
   py::dict out;
   out["q"] = Array(q);
   out["endpoint_m"] = Array(Eigen::VectorXd(EndpointPose(model, ws, q).translation()));
@@ -252,10 +238,10 @@ py::object WrenchBatch(const std::shared_ptr<PyModel>& m0, const std::string& mu
     if (count > 0) {
       // A C-contiguous (N, n) array is an n x N column-major matrix: no copy.
       Eigen::Map<const Eigen::MatrixXd> columns(q, n, count);
-      std::vector<FastWrench> results;
+      std::vector<WrenchResult> results;
       BatchOptions options;
       options.threads = threads > 0 ? threads : std::max(1u, std::thread::hardware_concurrency());
-      EvaluateBatch(*m->compiled, columns, muscle_index, {m->compiled->model_stiffness()}, results,
+      EvaluateBatch(m->model, columns, muscle_index, {m->model.model_stiffness()}, results,
                     activation, options);
       for (py::ssize_t p = 0; p < count; ++p) {
         for (int k = 0; k < 6; ++k) w[p * 6 + k] = results[static_cast<size_t>(p)].wrench[k];
@@ -349,7 +335,7 @@ py::dict Diagnose(const PyModel& m, const std::string& muscle, const py::object&
   constraints["explanation"] = a.explanation;
   constraints["joint_dofs"] = a.joint_count;
   constraints["restrained_dofs"] = a.restrained_count;
-  constraints["restrained"] = a.restrained;
+  constraints["restrained"] = a.restrained.names();
   constraints["rank"] = a.rank;
   constraints["singular_values"] = Array(a.singular_values);
   constraints["length_scale_m"] = a.length_scale;
@@ -623,14 +609,7 @@ PYBIND11_MODULE(_core, mod) {
           [](const PyModel& m) { return Array(Eigen::VectorXd(m.model.transducer().stiffness)); },
           "(6,) S_t diagonal [kx ky kz (N/m), krx kry krz (N·m/rad)] in transducer axes.")
       .def_property_readonly(
-          "released",
-          [](const PyModel& m) {
-            std::vector<std::string> out;
-            for (int i = 0; i < 6; ++i) {
-              if (m.model.transducer().released[i]) out.push_back(DofName(i));
-            }
-            return out;
-          },
+          "released", [](const PyModel& m) { return m.model.transducer().released.names(); },
           "Released transducer dofs (names among x y z rx ry rz).")
       .def_property_readonly(
           "leg_length_m", [](const PyModel& m) { return m.model.chain_length(); },

@@ -61,7 +61,7 @@ void AddModelOptions(CLI::App& app, ModelOptions& o, bool with_muscle) {
 
 Model LoadModel(const ModelOptions& o) {
   LimbDescription d = ReadUrdfFile(o.urdf);
-  if (o.release_given) d = WithReleasedDofs(std::move(d), o.release);
+  if (o.release_given) d = WithReleasedDofs(std::move(d), DofMask::FromNames(o.release));
   if (!o.transducer.empty() && !o.transducer_stiffness.empty()) {
     throw Error("give either --transducer or --transducer-stiffness, not both");
   }

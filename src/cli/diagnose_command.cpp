@@ -60,7 +60,7 @@ nlohmann::json ConstraintsJson(const ConstraintAnalysis& a) {
           {"explanation", a.explanation},
           {"joint_dofs", a.joint_count},
           {"restrained_dofs", a.restrained_count},
-          {"restrained", a.restrained},
+          {"restrained", a.restrained.names()},
           {"rank", a.rank},
           {"singular_values", ToJson(a.singular_values)},
           {"singular_value_units", "dimensionless (translation rows divided by the length scale)"},
@@ -134,7 +134,7 @@ void PrintMotions(const char* title, const std::vector<JointMotion>& motions, co
 void PrintConstraints(const ConstraintAnalysis& a) {
   std::cout << "  class        " << ConstraintClassName(a.constraint_class) << ": " << a.explanation
             << "\n"
-            << "  restrained   " << util::Join(a.restrained, " ") << " (transducer axes)\n"
+            << "  restrained   " << a.restrained.ToString(" ") << " (transducer axes)\n"
             << "  J_r singular values (translation rows / L, L = " << N(a.length_scale * 1e3)
             << " mm; rad/rad):";
   for (Eigen::Index i = 0; i < a.singular_values.size(); ++i)

@@ -29,7 +29,7 @@ struct PostureKinematics {
   std::vector<Eigen::VectorXd> moment_arm;  // per muscle, -dL/dq
 };
 
-PostureKinematics Evaluate(const Model& model, KinematicsWorkspace& ws, const Eigen::VectorXd& q) {
+PostureKinematics EvaluatePosture(const Model& model, Data& ws, const Eigen::VectorXd& q) {
   PostureKinematics k;
   k.q = q;
   k.endpoint = EndpointPose(model, ws, q).translation();
@@ -177,9 +177,9 @@ const bool kKinematicsRegistered = RegisterCommand({
         std::vector<Eigen::VectorXd> postures = {base};
         if (!options->postures_csv.empty())
           postures = ReadPostureCsv(model, options->postures_csv, base);
-        KinematicsWorkspace ws(model);
+        Data ws(model);
         std::vector<PostureKinematics> results;
-        for (const Eigen::VectorXd& q : postures) results.push_back(Evaluate(model, ws, q));
+        for (const Eigen::VectorXd& q : postures) results.push_back(EvaluatePosture(model, ws, q));
         // Everything is computed before anything is printed: an error leaves no partial output.
         if (options->json) {
           std::cout << JsonText(Json(model, results));

@@ -10,8 +10,8 @@
 #include <thread>
 
 #include "cli/command.hpp"
+#include "isowrench/engine.hpp"
 #include "isowrench/error.hpp"
-#include "isowrench/fast.hpp"
 #include "isowrench/io.hpp"
 #include "isowrench/posture.hpp"
 
@@ -146,10 +146,9 @@ const bool kSweepRegistered = RegisterCommand({
         const long P = static_cast<long>(postures_d);
         const auto start = std::chrono::steady_clock::now();
 
-        CompiledModel compiled(model);
         std::vector<StiffnessSet> sets;
         for (double ratio : r) {
-          StiffnessSet s = compiled.model_stiffness();
+          StiffnessSet s = model.model_stiffness();
           s.s_t.tail<3>() *= ratio;
           sets.push_back(s);
         }
@@ -165,14 +164,14 @@ const bool kSweepRegistered = RegisterCommand({
             index[a] = 0;
           }
         }
-        std::vector<FastWrench> results;
+        std::vector<WrenchResult> results;
         {
           Progress progress("sweep", P * static_cast<long>(sets.size()));
           BatchOptions batch;
           batch.threads = *threads;
           batch.solve.rank_tolerance = options->statics.rank_tolerance;
           batch.progress = [&progress](long done, long) { progress.Update(done); };
-          EvaluateBatch(compiled, postures, muscle, sets, results, options->activation, batch);
+          EvaluateBatch(model, postures, muscle, sets, results, options->activation, batch);
         }
         const double compute_seconds =
             std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
@@ -205,7 +204,7 @@ const bool kSweepRegistered = RegisterCommand({
               rest /= n;
             }
             for (long s = 0; s < S; ++s) {
-              const FastWrench& w = results[static_cast<size_t>(p * S + s)];
+              const WrenchResult& w = results[static_cast<size_t>(p * S + s)];
               ++block_counts[static_cast<size_t>(b)][w.status];
               for (double u : user) {
                 Append(out, u);

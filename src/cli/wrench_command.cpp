@@ -11,11 +11,7 @@ namespace isowrench::cli {
 namespace {
 
 std::string ReleasedText(const TransducerSpec& t) {
-  std::vector<std::string> names;
-  for (int i = 0; i < 6; ++i) {
-    if (t.released[i]) names.push_back(DofName(i));
-  }
-  return names.empty() ? "none (all 6 dofs restrained)" : util::Join(names, " ");
+  return t.released.none() ? "none (all 6 dofs restrained)" : t.released.ToString(" ");
 }
 
 std::string Unit(const Model& model, int i, const char* revolute, const char* prismatic) {
@@ -68,10 +64,7 @@ nlohmann::json EvaluationJson(const Model& model, const WrenchEvaluation& e,
     self_motion.push_back(
         {{"direction", ToJson(v)}, {"description", DescribeJointMotion(model, v)}});
   }
-  std::vector<std::string> released;
-  for (int i = 0; i < 6; ++i) {
-    if (model.transducer().released[i]) released.push_back(DofName(i));
-  }
+  const std::vector<std::string> released = model.transducer().released.names();
   const bool none = NoEquilibrium(s);
   const std::vector<std::string> base = BaseDofs(model);
   nlohmann::json classic =

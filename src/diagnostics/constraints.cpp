@@ -49,7 +49,7 @@ std::string CommonPrefix(const std::vector<std::string>& names) {
 std::string InterpretMotion(const Model& model, const Eigen::VectorXd& q,
                             const Eigen::VectorXd& dtheta, const std::vector<JointCentre>& centres,
                             double L) {
-  KinematicsWorkspace ws(model);
+  Data ws(model);
   Matrix6Xd Jw = EndpointJacobianWorld(model, ws, q);
   Eigen::Vector3d p_E = EndpointPose(model, ws, q).translation();
   // Named points the screw axis may pass through.
@@ -108,7 +108,7 @@ const char* ConstraintClassName(ConstraintClass c) {
 
 std::vector<JointCentre> FindJointCentres(const Model& model, const Eigen::VectorXd& q) {
   ValidatePosture(model, q);
-  KinematicsWorkspace ws(model);
+  Data ws(model);
   const double L = model.chain_length() > 0 ? model.chain_length() : 1.0;
   Eigen::Vector3d p_E = EndpointPose(model, ws, q).translation();
   std::vector<JointCentre> centres;
@@ -141,7 +141,7 @@ ConstraintAnalysis AnalyzeConstraints(const Model& model, const Eigen::VectorXd&
   ConstraintAnalysis a;
   a.length_scale = diagnostics::LengthScale(model, options.length_scale);
   const double L = a.length_scale;
-  KinematicsWorkspace ws(model);
+  Data ws(model);
   a.jacobian = EndpointJacobian(model, ws, q);
   std::vector<int> rows = diagnostics::RestrainedRows(model);
   std::vector<bool> prismatic = diagnostics::PrismaticColumns(model);
@@ -149,7 +149,7 @@ ConstraintAnalysis AnalyzeConstraints(const Model& model, const Eigen::VectorXd&
   const int m = model.dof_count();
   a.joint_count = m;
   a.restrained_count = n;
-  for (int r : rows) a.restrained.push_back(DofName(r));
+  for (int r : rows) a.restrained.set(r);
   a.rank_tolerance = options.rank_tolerance;
 
   Eigen::MatrixXd Js = diagnostics::ScaledRows(a.jacobian, rows, prismatic, L);

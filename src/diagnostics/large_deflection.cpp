@@ -47,7 +47,7 @@ Eigen::Matrix3d InverseLeftJacobian(const Eigen::Vector3d& phi) {
 
 struct Problem {
   const Model& model;
-  KinematicsWorkspace ws;
+  Data ws;
   Eigen::VectorXd q0;
   int muscle_index;
   double activation;

@@ -361,7 +361,7 @@ ReleaseCandidate MakeReleaseCandidate(const std::string& name, ReleaseKind kind,
 std::vector<ReleaseCandidate> DefaultReleaseCandidates(const Model& model,
                                                        const Eigen::VectorXd& q) {
   ValidatePosture(model, q);
-  KinematicsWorkspace ws(model);
+  Data ws(model);
   const Eigen::Matrix3d R = TransducerRotation(model, ws, q);
   std::vector<ReleaseCandidate> out;
   const auto& released = model.transducer().released;
@@ -394,7 +394,7 @@ std::pair<ForbiddenAxes, ForbiddenAxes> FindForbiddenAxes(const Model& model,
                                                           const ReleaseOptions& options) {
   ValidatePosture(model, q);
   const double L = diagnostics::LengthScale(model, options.length_scale);
-  KinematicsWorkspace ws(model);
+  Data ws(model);
   const Matrix6Xd J = EndpointJacobian(model, ws, q);
   const Eigen::Matrix3d R = TransducerRotation(model, ws, q);
   const std::vector<int> rows = diagnostics::RestrainedRows(model);
@@ -502,7 +502,7 @@ AxisSweep SweepReleaseAxes(const Model& model, const Eigen::VectorXd& q, int cou
   if (count < 1) throw Error("--sweep needs at least 1 sample; got " + std::to_string(count));
   ValidatePosture(model, q);
   const double L = diagnostics::LengthScale(model, options.length_scale);
-  KinematicsWorkspace ws(model);
+  Data ws(model);
   System s;
   s.J = EndpointJacobian(model, ws, q);
   s.prismatic = diagnostics::PrismaticColumns(model);

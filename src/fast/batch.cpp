@@ -36,10 +36,9 @@ bool ValidStiffness(const StiffnessSet& s) {
 // evaluations the lanes leave undecided (and for postures evaluated alone).
 class UnitEvaluator {
  public:
-  UnitEvaluator(const CompiledModel& model, const Eigen::Ref<const Eigen::MatrixXd>& postures,
-                int muscle, const std::vector<StiffnessSet>& stiffness,
-                const std::vector<char>& valid, double activation, const FastOptions& options,
-                FastWrench* results)
+  UnitEvaluator(const Model& model, const Eigen::Ref<const Eigen::MatrixXd>& postures, int muscle,
+                const std::vector<StiffnessSet>& stiffness, const std::vector<char>& valid,
+                double activation, const SolveOptions& options, WrenchResult* results)
       : model_(model),
         postures_(postures),
         muscle_(muscle),
@@ -49,15 +48,14 @@ class UnitEvaluator {
         options_(options),
         results_(results),
         lanes_(model),
-        scalar_{FastWorkspace(model), FastWorkspace(model), FastWorkspace(model),
-                FastWorkspace(model)} {}
+        scalar_{Data(model), Data(model), Data(model), Data(model)} {}
 
   // Postures [p0, p1) x sets [s0, s1).
   void Run(long p0, long p1, long s0, long s1) {
     long p = p0;
     // A muscle with moving or conditional points has its kinematics on the scalar path,
     // posture by posture (SetLanes); the statics still runs four stiffness sets at a time.
-    const bool scalar_kinematics = model_.data().flat().muscles[muscle_].dynamic;
+    const bool scalar_kinematics = model_.impl().flat.muscles[muscle_].dynamic;
     // Groups of kLanes postures in the lanes; a short tail too when there are too few sets to
     // fill the lanes instead.
     while (!scalar_kinematics && p < p1 && (p1 - p >= kLanes || s1 - s0 < kLanes)) {
@@ -69,7 +67,7 @@ class UnitEvaluator {
   }
 
  private:
-  FastWrench& Result(long p, long s) {
+  WrenchResult& Result(long p, long s) {
     return results_[p * static_cast<long>(stiffness_.size()) + s];
   }
 
@@ -79,10 +77,10 @@ class UnitEvaluator {
     for (int l = 0; l < kLanes; ++l) q[l] = postures_.col(p + std::min(l, lanes - 1)).data();
     const unsigned scalar_lanes = LaneKinematics(model_, lanes_, q, muscle_, activation_);
     bool scalar_ready[kLanes] = {false, false, false, false};
-    FastWrench* out[kLanes];
+    WrenchResult* out[kLanes];
     for (long s = s0; s < s1; ++s) {
       if (!valid_[static_cast<size_t>(s)]) {
-        for (int l = 0; l < lanes; ++l) Result(p + l, s) = FastWrench{};
+        for (int l = 0; l < lanes; ++l) Result(p + l, s) = WrenchResult{};
         continue;
       }
       const StiffnessSet* sets[kLanes] = {&stiffness_[s], &stiffness_[s], &stiffness_[s],
@@ -92,10 +90,10 @@ class UnitEvaluator {
       for (int l = 0; l < lanes; ++l) {
         if (undecided & (1u << l)) {
           if (!scalar_ready[l]) {
-            ComputeFastKinematics(model_, scalar_[l], postures_.col(p + l), muscle_, activation_);
+            ComputeKinematics(model_, scalar_[l], postures_.col(p + l), muscle_, activation_);
             scalar_ready[l] = true;
           }
-          Result(p + l, s) = SolveFastStatics(model_, scalar_[l], stiffness_[s], options_);
+          Result(p + l, s) = SolveStatics(model_, scalar_[l], stiffness_[s], options_);
         }
       }
     }
@@ -107,9 +105,9 @@ class UnitEvaluator {
 
   // One posture, its kinematics broadcast to every lane, kLanes stiffness sets at a time.
   void SetLanes(long p, long s0, long s1) {
-    FastWorkspace& ws = scalar_[0];
-    if (!ComputeFastKinematics(model_, ws, postures_.col(p), muscle_, activation_)) {
-      for (long s = s0; s < s1; ++s) Result(p, s) = FastWrench{};
+    Data& ws = scalar_[0];
+    if (!ComputeKinematics(model_, ws, postures_.col(p), muscle_, activation_)) {
+      for (long s = s0; s < s1; ++s) Result(p, s) = WrenchResult{};
       return;
     }
     LaneBroadcast(ws, lanes_);
@@ -117,7 +115,7 @@ class UnitEvaluator {
     int filled = 0;
     auto flush = [&] {
       const StiffnessSet* sets[kLanes];
-      FastWrench* out[kLanes];
+      WrenchResult* out[kLanes];
       for (int l = 0; l < kLanes; ++l) {
         const int from = std::min(l, filled - 1);  // padding lanes repeat the last set
         sets[l] = &stiffness_[group[from]];
@@ -126,13 +124,13 @@ class UnitEvaluator {
       const unsigned undecided = LaneSolve(model_, lanes_, sets, options_, out);
       for (int l = 0; l < filled; ++l) {
         if (undecided & (1u << l))
-          Result(p, group[l]) = SolveFastStatics(model_, ws, stiffness_[group[l]], options_);
+          Result(p, group[l]) = SolveStatics(model_, ws, stiffness_[group[l]], options_);
       }
       filled = 0;
     };
     for (long s = s0; s < s1; ++s) {
       if (!valid_[static_cast<size_t>(s)]) {
-        Result(p, s) = FastWrench{};
+        Result(p, s) = WrenchResult{};
         continue;
       }
       group[filled++] = s;
@@ -141,28 +139,28 @@ class UnitEvaluator {
     if (filled > 0) flush();
   }
 
-  const CompiledModel& model_;
+  const Model& model_;
   const Eigen::Ref<const Eigen::MatrixXd>& postures_;
   const int muscle_;
   const std::vector<StiffnessSet>& stiffness_;
   const std::vector<char>& valid_;
   const double activation_;
-  const FastOptions& options_;
-  FastWrench* const results_;
+  const SolveOptions& options_;
+  WrenchResult* const results_;
   LaneWorkspace lanes_;
-  FastWorkspace scalar_[kLanes];
-  FastWrench padding_;
+  Data scalar_[kLanes];
+  WrenchResult padding_;
 };
 
 }  // namespace
 
-void EvaluateBatch(const CompiledModel& model, const Eigen::Ref<const Eigen::MatrixXd>& postures,
+void EvaluateBatch(const Model& model, const Eigen::Ref<const Eigen::MatrixXd>& postures,
                    int muscle, const std::vector<StiffnessSet>& stiffness,
-                   std::vector<FastWrench>& out, double activation, const BatchOptions& options) {
+                   std::vector<WrenchResult>& out, double activation, const BatchOptions& options) {
   const int m = model.dof_count();
   if (postures.rows() != m) {
     throw Error("EvaluateBatch: postures have " + std::to_string(postures.rows()) +
-                " rows; model '" + model.model().name() + "' has " + std::to_string(m) + " joints");
+                " rows; model '" + model.name() + "' has " + std::to_string(m) + " joints");
   }
   {
     // An entry is inf or NaN when its exponent bits are all set: one vectorisable pass of
@@ -187,7 +185,7 @@ void EvaluateBatch(const CompiledModel& model, const Eigen::Ref<const Eigen::Mat
   }
   if (muscle < 0 || muscle >= model.muscle_count()) {
     throw Error("EvaluateBatch: muscle index " + std::to_string(muscle) +
-                " is out of range (model '" + model.model().name() + "' has " +
+                " is out of range (model '" + model.name() + "' has " +
                 std::to_string(model.muscle_count()) + " muscles)");
   }
   if (stiffness.empty()) throw Error("EvaluateBatch: no stiffness set given");
@@ -202,7 +200,7 @@ void EvaluateBatch(const CompiledModel& model, const Eigen::Ref<const Eigen::Mat
   const long P = static_cast<long>(postures.cols());
   const long S = static_cast<long>(stiffness.size());
   const long total = P * S;
-  out.assign(static_cast<size_t>(total), FastWrench{});
+  out.assign(static_cast<size_t>(total), WrenchResult{});
   if (P == 0) {
     if (options.progress) options.progress(0, 0);
     return;
@@ -227,7 +225,7 @@ void EvaluateBatch(const CompiledModel& model, const Eigen::Ref<const Eigen::Mat
   const int threads = static_cast<int>(std::clamp<long>(threads_wanted, 1, units));
   std::atomic<long> next_unit{0};
   std::atomic<long> done{0};
-  FastWrench* results = out.data();
+  WrenchResult* results = out.data();
 
   auto work = [&](bool report) {
     UnitEvaluator evaluator(model, postures, muscle, stiffness, valid, activation, options.solve,

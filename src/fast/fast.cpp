@@ -98,13 +98,13 @@ ISOWRENCH_INLINE void GeneralAxisAndTurn(double* M, const FastJoint& j, double q
 
 // The eigen-solve used when the Cholesky pivots say K is (nearly) singular: the same rank and
 // excitation decisions as SolveStatics, on the workspace's fixed-size buffers.
-FastWrench SolveByEigen(FastWorkspace::Impl& ws, int m, const double* J, const double* s_t,
-                        const double* tau, const FastOptions& options) {
-  FastWrench out;
-  FastJointMatrix& K = ws.K_full;
+WrenchResult SolveByEigen(Data::Impl& ws, int m, const double* J, const double* s_t,
+                          const double* tau, const SolveOptions& options) {
+  WrenchResult out;
+  JointMatrix& K = ws.K_full;
   K.resize(m, m);
   for (int i = 0; i < m; ++i) {
-    for (int j = 0; j <= i; ++j) K(i, j) = K(j, i) = ws.K[j * kFastMaxDofs + i];  // upper triangle
+    for (int j = 0; j <= i; ++j) K(i, j) = K(j, i) = ws.K[j * kMaxDofs + i];  // upper triangle
   }
   ws.eigen.compute(K);
   const auto& lambda = ws.eigen.eigenvalues();
@@ -169,15 +169,15 @@ ISOWRENCH_INLINE bool ValidSolveInput(int m, const double* s_t, const double* s_
   return nonfinite == 0.0 && lowest >= 0.0;
 }
 
-FastWrench Invalid(FastWorkspace::Impl& ws) {
+WrenchResult Invalid(Data::Impl& ws) {
   ws.dtheta.setZero(ws.m);
   ws.self_motion.resize(ws.m, 0);
-  return FastWrench{};
+  return WrenchResult{};
 }
 
 // Every solve keeps K = J^T S_t J + S_p in ws.K as its upper triangle by rows (K_ij, j >= i, at
-// ws.K[i * kFastMaxDofs + j]): the eigen fallback reads it from there. The factor is kept as
-// U = L^T (K = U^T U), row j of U at U[j * kFastMaxDofs + k], k >= j; both kernels below form
+// ws.K[i * kMaxDofs + j]): the eigen fallback reads it from there. The factor is kept as
+// U = L^T (K = U^T U), row j of U at U[j * kMaxDofs + k], k >= j; both kernels below form
 // the same products and sums in the same order (up to the compiler's fusing of multiply-adds):
 // K_ij = sum_r (s_r J_rj) J_ri, the pivot d_j = K_jj - sum_{k<j} U_kj^2 and, for i > j,
 // U_ji = (K_ji - sum_{k<j} U_kj U_ki) / sqrt(d_j).
@@ -185,15 +185,15 @@ FastWrench Invalid(FastWorkspace::Impl& ws) {
 // Forward and back substitution with U (only its strict upper triangle and the reciprocal
 // diagonal are read), then W = S_t J dtheta. N > 0 fixes m at compile time (loops unroll).
 template <int N>
-ISOWRENCH_INLINE FastWrench Substitute(FastWorkspace::Impl& ws, int m, const double* U,
-                                       const double* inv_diag, const double* J, const double* s_t,
-                                       const double* tau) {
-  constexpr int S = kFastMaxDofs;
+ISOWRENCH_INLINE WrenchResult Substitute(Data::Impl& ws, int m, const double* U,
+                                         const double* inv_diag, const double* J, const double* s_t,
+                                         const double* tau) {
+  constexpr int S = kMaxDofs;
   double y[S];
   ws.dtheta.resize(m);
   double* x = ws.dtheta.data();
   SolveWithFactor<N>(m, U, inv_diag, tau, y, x);
-  FastWrench out;
+  WrenchResult out;
   if (N > 0) {
     // W on 4-double vectors: rows 0-3 and rows 2-5 of each column of J (rows 2 and 3 twice),
     // the same sums in the same order as below.
@@ -230,10 +230,10 @@ ISOWRENCH_INLINE FastWrench Substitute(FastWorkspace::Impl& ws, int m, const dou
 
 // K, Cholesky, the solves, on scalars: any m (N = 0: the runtime m).
 template <int N>
-ISOWRENCH_INLINE FastWrench SolveKernel(FastWorkspace::Impl& ws, int m_runtime, const double* J,
-                                        const double* s_t, const double* s_p, const double* tau,
-                                        const FastOptions& options) {
-  constexpr int S = kFastMaxDofs;
+ISOWRENCH_INLINE WrenchResult SolveKernel(Data::Impl& ws, int m_runtime, const double* J,
+                                          const double* s_t, const double* s_p, const double* tau,
+                                          const SolveOptions& options) {
+  constexpr int S = kMaxDofs;
   const int m = N > 0 ? N : std::min(m_runtime, S);  // workspaces never exceed S
   if (!ValidSolveInput(m, s_t, s_p, tau)) return Invalid(ws);
   double* K = ws.K;
@@ -306,11 +306,11 @@ ISOWRENCH_INLINE bool ValidSolveInputV4(const double* s_t, const double* s_p, co
 }
 
 template <int N>
-ISOWRENCH_INLINE FastWrench SolveKernelV4(FastWorkspace::Impl& ws, const double* J,
-                                          const double* s_t, const double* s_p, const double* tau,
-                                          const FastOptions& options) {
-  static_assert(N >= 1 && 4 * ((N + 3) / 4) <= kFastMaxDofs, "blocks within a row of J_rows");
-  constexpr int S = kFastMaxDofs;
+ISOWRENCH_INLINE WrenchResult SolveKernelV4(Data::Impl& ws, const double* J, const double* s_t,
+                                            const double* s_p, const double* tau,
+                                            const SolveOptions& options) {
+  static_assert(N >= 1 && 4 * ((N + 3) / 4) <= kMaxDofs, "blocks within a row of J_rows");
+  constexpr int S = kMaxDofs;
   constexpr int B = (N + 3) / 4;  // blocks of 4 columns
   if (!ValidSolveInputV4<N>(s_t, s_p, tau)) return Invalid(ws);
   const double* Jr = ws.J_rows;
@@ -370,9 +370,9 @@ ISOWRENCH_INLINE FastWrench SolveKernelV4(FastWorkspace::Impl& ws, const double*
   return Substitute<N>(ws, N, U, inv_diag, J, s_t, tau);
 }
 
-ISOWRENCH_CLONES FastWrench SolveDispatch(FastWorkspace::Impl& ws, const double* J,
-                                          const double* s_t, const double* s_p, const double* tau,
-                                          const FastOptions& options) {
+ISOWRENCH_CLONES WrenchResult SolveDispatch(Data::Impl& ws, const double* J, const double* s_t,
+                                            const double* s_p, const double* tau,
+                                            const SolveOptions& options) {
   switch (ws.m) {
     case 1: return SolveKernelV4<1>(ws, J, s_t, s_p, tau, options);
     case 2: return SolveKernelV4<2>(ws, J, s_t, s_p, tau, options);
@@ -390,28 +390,27 @@ ISOWRENCH_CLONES FastWrench SolveDispatch(FastWorkspace::Impl& ws, const double*
 
 }  // namespace
 
-// ---- CompiledModel --------------------------------------------------------------------------
-
-CompiledModel::CompiledModel(const Model& model) {
-  auto data = std::make_shared<Data>(model);
-  const TransducerSpec& t = model.transducer();
-  data->stiffness.s_t = t.stiffness;
-  for (int i = 0; i < 6; ++i) {
-    if (t.released[i]) data->stiffness.s_t[i] = 0.0;
+std::string StatusMessage(const WrenchResult& result) {
+  const std::string count = std::to_string(result.self_motion_count) +
+                            (result.self_motion_count == 1 ? " direction" : " directions");
+  switch (result.status) {
+    case StaticsStatus::kOk: return "ok: K = J^T S_t J + S_p is positive definite; W unique";
+    case StaticsStatus::kSelfMotionHeld:
+      return "self-motion (not excited): null(K) has " + count +
+             " that tau does not drive; W unique (pseudo-inverse solve)";
+    case StaticsStatus::kSelfMotion:
+      return "self-motion: tau drives " + count +
+             " of null(K); no equilibrium, W not defined (zeros)";
+    case StaticsStatus::kInvalidInput: break;
   }
-  data->stiffness.s_p = model.joint_stiffness();
-  data_ = data;
+  return "invalid input: a stiffness or torque entry is negative or not finite, a size does not "
+         "match, or two consecutive muscle path points coincide at this posture; W not computed "
+         "(zeros)";
 }
 
-int CompiledModel::dof_count() const { return data_->flat().n; }
-int CompiledModel::muscle_count() const { return static_cast<int>(data_->flat().muscles.size()); }
-bool CompiledModel::revolute(int column) const { return data_->model.impl().revolute.at(column); }
-StiffnessSet CompiledModel::model_stiffness() const { return data_->stiffness; }
-const Model& CompiledModel::model() const { return data_->model; }
+// ---- Data --------------------------------------------------------------------------
 
-// ---- FastWorkspace --------------------------------------------------------------------------
-
-FastWorkspace::Impl::Impl(int dofs) : m(dofs), eigen(dofs) {
+Data::Impl::Impl(int dofs) : m(dofs), eigen(dofs) {
   J.setZero(6, m);
   dL.setZero(m);
   tau.setZero(m);
@@ -422,29 +421,28 @@ FastWorkspace::Impl::Impl(int dofs) : m(dofs), eigen(dofs) {
   for (double& v : J_rows) v = 0.0;
 }
 
-FastWorkspace::FastWorkspace(const CompiledModel& model)
-    : impl_(std::make_unique<Impl>(model.dof_count())) {}
+Data::Data(const Model& model) : impl_(std::make_unique<Impl>(model.dof_count())) {}
 
-FastWorkspace::FastWorkspace(int dof_count) {
-  if (dof_count < 1 || dof_count > kFastMaxDofs) {
-    throw Error("FastWorkspace: dof count " + std::to_string(dof_count) + " is not in [1, " +
-                std::to_string(kFastMaxDofs) + "]");
+Data::Data(int dof_count) {
+  if (dof_count < 1 || dof_count > kMaxDofs) {
+    throw Error("Data: dof count " + std::to_string(dof_count) + " is not in [1, " +
+                std::to_string(kMaxDofs) + "]");
   }
   impl_ = std::make_unique<Impl>(dof_count);
 }
 
-FastWorkspace::~FastWorkspace() = default;
-FastWorkspace::FastWorkspace(FastWorkspace&&) noexcept = default;
-FastWorkspace& FastWorkspace::operator=(FastWorkspace&&) noexcept = default;
+Data::~Data() = default;
+Data::Data(Data&&) noexcept = default;
+Data& Data::operator=(Data&&) noexcept = default;
 
-const FastJacobian& FastWorkspace::jacobian() const { return impl_->J; }
-const FastJointVector& FastWorkspace::tau() const { return impl_->tau; }
-const FastJointVector& FastWorkspace::muscle_length_gradient() const { return impl_->dL; }
-double FastWorkspace::muscle_length() const { return impl_->length; }
-const Eigen::Vector3d& FastWorkspace::endpoint_position() const { return impl_->endpoint; }
-const Eigen::Matrix3d& FastWorkspace::transducer_rotation() const { return impl_->R_W_T; }
-const FastJointVector& FastWorkspace::dtheta() const { return impl_->dtheta; }
-const FastJointMatrix& FastWorkspace::self_motion() const { return impl_->self_motion; }
+const JacobianBuffer& Data::jacobian() const { return impl_->J; }
+const JointVector& Data::tau() const { return impl_->tau; }
+const JointVector& Data::muscle_length_gradient() const { return impl_->dL; }
+double Data::muscle_length() const { return impl_->length; }
+const Eigen::Vector3d& Data::endpoint_position() const { return impl_->endpoint; }
+const Eigen::Matrix3d& Data::transducer_rotation() const { return impl_->R_W_T; }
+const JointVector& Data::dtheta() const { return impl_->dtheta; }
+const JointMatrix& Data::self_motion() const { return impl_->self_motion; }
 
 // ---- Evaluation -----------------------------------------------------------------------------
 
@@ -452,9 +450,9 @@ namespace {
 
 // Column k of the endpoint Jacobian (reference point p_E, world axes turned into transducer
 // axes by T = R_W_T unless `rotate` is false), stored column-major in J and row-major in J_rows.
-ISOWRENCH_INLINE void JacobianColumn(FastWorkspace::Impl& ws, int k, bool revolute,
-                                     const double* pe, bool rotate, const double* T) {
-  constexpr int S = kFastMaxDofs;
+ISOWRENCH_INLINE void JacobianColumn(Data::Impl& ws, int k, bool revolute, const double* pe,
+                                     bool rotate, const double* T) {
+  constexpr int S = kMaxDofs;
   const double* z = ws.axis[k].data();
   double v[3], w[3];
   if (revolute) {
@@ -496,7 +494,7 @@ namespace {
 const FastMuscle kNoMuscle{};  // the muscle of a kinematics call without one
 
 // Coupled chains: q_joint_k = f_k(q[c_k]) and its derivative for every movable joint.
-ISOWRENCH_NOINLINE void Couple(const FlatChain& d, FastWorkspace::Impl& ws, const double* q) {
+ISOWRENCH_NOINLINE void Couple(const FlatChain& d, Data::Impl& ws, const double* q) {
   for (int k = 0; k < d.m; ++k) {
     const double x = q[d.coordinate[k]];
     if (d.identity[k]) {
@@ -512,8 +510,8 @@ ISOWRENCH_NOINLINE void Couple(const FlatChain& d, FastWorkspace::Impl& ws, cons
 // Coupled chains: the joint columns of J and dL/dq (m of them) folded into coordinate columns
 // (n), J[:, c] = sum_{k: c_k = c} J_joint[:, k] dq_joint_k/dq_c, the same for dL/dq; tau =
 // minus_force dL/dq. J_rows follows J and stays zero beyond n.
-ISOWRENCH_NOINLINE void Fold(const FlatChain& d, FastWorkspace::Impl& ws, double minus_force) {
-  constexpr int S = kFastMaxDofs;
+ISOWRENCH_NOINLINE void Fold(const FlatChain& d, Data::Impl& ws, double minus_force) {
+  constexpr int S = kMaxDofs;
   double J[6 * S] = {};
   double dL[S] = {};
   const double* joint_J = ws.J.data();
@@ -545,9 +543,8 @@ ISOWRENCH_NOINLINE void Fold(const FlatChain& d, FastWorkspace::Impl& ws, double
 // has moving or conditional points (FastMuscle::dynamic, src/fast/path_points.cpp); other
 // muscles run the kDynamic = false instantiation, where those steps are compiled out.
 template <bool kFrames, bool kDynamic>
-ISOWRENCH_INLINE bool KinematicsKernel(const FlatChain& d, FastWorkspace::Impl& ws,
-                                       const double* qv, int muscle, double activation,
-                                       bool world_axes) {
+ISOWRENCH_INLINE bool KinematicsKernel(const FlatChain& d, Data::Impl& ws, const double* qv,
+                                       int muscle, double activation, bool world_axes) {
   const int m = d.m;
   assert(ws.m == d.n);
   assert(muscle < static_cast<int>(d.muscles.size()) && (kFrames || muscle >= 0));
@@ -739,15 +736,14 @@ ISOWRENCH_INLINE bool KinematicsKernel(const FlatChain& d, FastWorkspace::Impl& 
 }
 
 template <bool kFrames>
-ISOWRENCH_NOINLINE bool DynamicKinematics(const FlatChain& d, FastWorkspace::Impl& ws,
-                                          const double* qv, int muscle, double activation,
-                                          bool world_axes) {
+ISOWRENCH_NOINLINE bool DynamicKinematics(const FlatChain& d, Data::Impl& ws, const double* qv,
+                                          int muscle, double activation, bool world_axes) {
   return KinematicsKernel<kFrames, true>(d, ws, qv, muscle, activation, world_axes);
 }
 
 template <bool kFrames>
-ISOWRENCH_INLINE bool Kinematics(const FlatChain& d, FastWorkspace::Impl& ws, const double* qv,
-                                 int muscle, double activation, bool world_axes) {
+ISOWRENCH_INLINE bool Kinematics(const FlatChain& d, Data::Impl& ws, const double* qv, int muscle,
+                                 double activation, bool world_axes) {
   if ((!kFrames || muscle >= 0) && d.muscles[muscle].dynamic) {
     return DynamicKinematics<kFrames>(d, ws, qv, muscle, activation, world_axes);
   }
@@ -759,10 +755,10 @@ ISOWRENCH_INLINE bool Kinematics(const FlatChain& d, FastWorkspace::Impl& ws, co
 // least 1), so that K has an isolated diagonal there and dtheta is exactly 0 on them; the
 // other entries of dtheta and W are those of the statics without the locked columns. The
 // reported J and tau (ws.J, ws.tau) keep every column.
-ISOWRENCH_NOINLINE FastWrench SolveLocked(const FlatChain& d, FastWorkspace::Impl& ws,
-                                          const StiffnessSet& stiffness,
-                                          const FastOptions& options) {
-  constexpr int S = kFastMaxDofs;
+ISOWRENCH_NOINLINE WrenchResult SolveLocked(const FlatChain& d, Data::Impl& ws,
+                                            const StiffnessSet& stiffness,
+                                            const SolveOptions& options) {
+  constexpr int S = kMaxDofs;
   const int n = d.n;
   double J[6 * S];
   double tau[S];
@@ -784,52 +780,51 @@ ISOWRENCH_NOINLINE FastWrench SolveLocked(const FlatChain& d, FastWorkspace::Imp
 
 }  // namespace
 
-ISOWRENCH_CLONES bool ComputeFastKinematics(const CompiledModel& model, FastWorkspace& workspace,
-                                            const Eigen::Ref<const Eigen::VectorXd>& q, int muscle,
-                                            double activation) {
+ISOWRENCH_CLONES bool ComputeKinematics(const Model& model, Data& workspace,
+                                        const Eigen::Ref<const Eigen::VectorXd>& q, int muscle,
+                                        double activation) {
   assert(q.size() == model.dof_count());
-  return Kinematics<false>(model.data().flat(), workspace.impl(), q.data(), muscle, activation,
+  return Kinematics<false>(model.impl().flat, workspace.impl(), q.data(), muscle, activation,
                            false);
 }
 
-bool ComputeKinematicsWithFrames(const FlatChain& chain, FastWorkspace::Impl& ws, const double* q,
+bool ComputeKinematicsWithFrames(const FlatChain& chain, Data::Impl& ws, const double* q,
                                  int muscle, double activation, bool world_axes) {
   return Kinematics<true>(chain, ws, q, muscle, activation, world_axes);
 }
 
-FastWrench SolveFastStatics(const CompiledModel& model, FastWorkspace& workspace,
-                            const StiffnessSet& stiffness, const FastOptions& options) {
-  FastWorkspace::Impl& ws = workspace.impl();
+WrenchResult SolveStatics(const Model& model, Data& workspace, const StiffnessSet& stiffness,
+                          const SolveOptions& options) {
+  Data::Impl& ws = workspace.impl();
   const int m = model.dof_count();
   assert(ws.m == m);
   if (stiffness.s_p.size() != m) return Invalid(ws);
-  const FlatChain& d = model.data().flat();
+  const FlatChain& d = model.impl().flat;
   if (d.any_locked) return SolveLocked(d, ws, stiffness, options);
   return SolveDispatch(ws, ws.J.data(), stiffness.s_t.data(), stiffness.s_p.data(), ws.tau.data(),
                        options);
 }
 
-FastWrench EvaluateFast(const CompiledModel& model, FastWorkspace& ws,
-                        const Eigen::Ref<const Eigen::VectorXd>& q, int muscle,
-                        const StiffnessSet& stiffness, double activation,
-                        const FastOptions& options) {
-  if (!ComputeFastKinematics(model, ws, q, muscle, activation)) return Invalid(ws.impl());
-  return SolveFastStatics(model, ws, stiffness, options);
+WrenchResult Evaluate(const Model& model, Data& ws, const Eigen::Ref<const Eigen::VectorXd>& q,
+                      int muscle, const StiffnessSet& stiffness, double activation,
+                      const SolveOptions& options) {
+  if (!ComputeKinematics(model, ws, q, muscle, activation)) return Invalid(ws.impl());
+  return SolveStatics(model, ws, stiffness, options);
 }
 
-FastWrench SolveStaticsFast(FastWorkspace& workspace, const Eigen::Ref<const Matrix6Xd>& J,
-                            const Vector6d& s_t, const Eigen::Ref<const Eigen::VectorXd>& s_p,
-                            const Eigen::Ref<const Eigen::VectorXd>& tau,
-                            const FastOptions& options) {
-  FastWorkspace::Impl& ws = workspace.impl();
+WrenchResult SolveStatics(Data& workspace, const Eigen::Ref<const Matrix6Xd>& J,
+                          const Vector6d& s_t, const Eigen::Ref<const Eigen::VectorXd>& s_p,
+                          const Eigen::Ref<const Eigen::VectorXd>& tau,
+                          const SolveOptions& options) {
+  Data::Impl& ws = workspace.impl();
   const int m = ws.m;
   if (J.cols() != m || s_p.size() != m || tau.size() != m || !J.allFinite()) return Invalid(ws);
   ws.J = J;
   for (int r = 0; r < 6; ++r) {
-    for (int k = 0; k < m; ++k) ws.J_rows[r * kFastMaxDofs + k] = J(r, k);
+    for (int k = 0; k < m; ++k) ws.J_rows[r * kMaxDofs + k] = J(r, k);
   }
   ws.tau = tau;
-  double s_p_copy[kFastMaxDofs];
+  double s_p_copy[kMaxDofs];
   for (int i = 0; i < m; ++i) s_p_copy[i] = s_p[i];
   return SolveDispatch(ws, ws.J.data(), s_t.data(), s_p_copy, ws.tau.data(), options);
 }

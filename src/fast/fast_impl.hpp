@@ -1,12 +1,12 @@
 #pragma once
-// Private: the buffers of FastWorkspace and the kinematics kernel every evaluation runs.
+// Private: the buffers of Data and the kinematics kernel every evaluation runs.
 
 #include <Eigen/Eigenvalues>
 #include <array>
 #include <utility>
 #include <vector>
 
-#include "isowrench/fast.hpp"
+#include "isowrench/engine.hpp"
 #include "model/model_impl.hpp"
 
 namespace isowrench {
@@ -14,41 +14,34 @@ namespace isowrench {
 /// A path segment shorter than this (m) has no direction (same rule as ComputeMuscleTorque).
 inline constexpr double kFastMinSegmentLength = 1e-9;
 
-struct CompiledModel::Data {
-  explicit Data(Model m) : model(std::move(m)) {}
-  Model model;
-  StiffnessSet stiffness;
-  const FlatChain& flat() const { return model.impl().flat; }
-};
-
-struct FastWorkspace::Impl {
+struct Data::Impl {
   explicit Impl(int dofs);
   int m = 0;
   // Kinematics of the last posture: per movable joint its world axis and origin (a point on
   // the axis); per path point of the muscle its world position and pull dL/dx (a sum of unit
   // segment directions).
-  std::array<Eigen::Vector3d, kFastMaxDofs> origin;
-  std::array<Eigen::Vector3d, kFastMaxDofs> axis;
+  std::array<Eigen::Vector3d, kMaxDofs> origin;
+  std::array<Eigen::Vector3d, kMaxDofs> axis;
   std::array<Eigen::Vector3d, kFastMaxPathPoints> points;
   std::array<Eigen::Vector3d, kFastMaxPathPoints> pulls;
   /// World rotation of the frame after each movable joint; written only by the kernel with
   /// frames (the public kinematics functions), not by the evaluation path.
-  std::array<Eigen::Matrix3d, kFastMaxDofs> frames;
+  std::array<Eigen::Matrix3d, kMaxDofs> frames;
   /// Coupled chains only: each movable joint's position q_joint = f(q_c) and dq_joint/dq_c.
-  double q_joint[kFastMaxDofs];
-  double dq_joint[kFastMaxDofs];
+  double q_joint[kMaxDofs];
+  double dq_joint[kMaxDofs];
   Eigen::Vector3d endpoint = Eigen::Vector3d::Zero();
   Eigen::Matrix3d R_W_T = Eigen::Matrix3d::Identity();
-  FastJacobian J;
-  FastJointVector dL;
-  FastJointVector tau;
+  JacobianBuffer J;
+  JointVector dL;
+  JointVector tau;
   double length = 0.0;
   // Statics.
-  double K[kFastMaxDofs * kFastMaxDofs];  // upper triangle by rows: K_ij (j >= i) at i * 16 + j
-  FastJointVector dtheta;
-  FastJointMatrix K_full;
-  Eigen::SelfAdjointEigenSolver<FastJointMatrix> eigen;
-  FastJointMatrix self_motion;
+  double K[kMaxDofs * kMaxDofs];  // upper triangle by rows: K_ij (j >= i) at i * 16 + j
+  JointVector dtheta;
+  JointMatrix K_full;
+  Eigen::SelfAdjointEigenSolver<JointMatrix> eigen;
+  JointMatrix self_motion;
   /// Muscles with moving or conditional points (FastMuscle::dynamic), from PreparePathPoints:
   /// each point's position in its frame, the active points in path order, per moving
   /// component df/dq (0 where the coordinate is clamped); the kernel adds each point's frame
@@ -58,28 +51,28 @@ struct FastWorkspace::Impl {
   std::array<int, kFastMaxPathPoints> active;
   int active_count = 0;
   std::array<double, 3 * kFastMaxPathPoints> moving_slope;
-  /// J of the last kinematics (or SolveStaticsFast) row-major, row r at r * kFastMaxDofs (the
+  /// J of the last kinematics (or SolveStatics) row-major, row r at r * kMaxDofs (the
   /// same values as J): the statics build K from rows of J (vectorisable). Entries beyond m
   /// stay 0.
-  double J_rows[6 * kFastMaxDofs];
+  double J_rows[6 * kMaxDofs];
 };
 
 /// Moving and conditional path points (src/fast/path_points.cpp), for a muscle with
 /// FastMuscle::dynamic. Before the kernel: each point's position in its frame (ws.local), the
 /// active points (ws.active) and df/dq of each moving component at coordinates `q` (columns).
-void PreparePathPoints(const FastMuscle& muscle, const double* q, FastWorkspace::Impl& ws);
+void PreparePathPoints(const FastMuscle& muscle, const double* q, Data::Impl& ws);
 /// The kernel's segment step over the active points only: unit directions, pulls (0 at
 /// inactive points) and the length. Returns false when two consecutive active points coincide.
-bool ActivePathPulls(FastWorkspace::Impl& ws, double* length);
+bool ActivePathPulls(Data::Impl& ws, double* length);
 /// After the kernel (dL and tau in coordinate columns): dL/dq_c += pull_i . R_i direction df/dq_c
 /// for every moving component, and tau = minus_force dL.
-void AddMovingPointTerms(const FastMuscle& muscle, FastWorkspace::Impl& ws, double minus_force);
+void AddMovingPointTerms(const FastMuscle& muscle, Data::Impl& ws, double minus_force);
 
-/// The kinematics kernel of ComputeFastKinematics with every movable joint's world rotation
+/// The kinematics kernel of ComputeKinematics with every movable joint's world rotation
 /// stored in ws.frames, for the public kinematics functions. `muscle` < 0: no muscle (dL and
 /// tau zero). `world_axes`: J in world axes instead of transducer axes. Returns false when two
-/// consecutive path points coincide (as ComputeFastKinematics). q: chain.m entries.
-bool ComputeKinematicsWithFrames(const FlatChain& chain, FastWorkspace::Impl& ws, const double* q,
+/// consecutive path points coincide (as ComputeKinematics). q: chain.m entries.
+bool ComputeKinematicsWithFrames(const FlatChain& chain, Data::Impl& ws, const double* q,
                                  int muscle, double activation, bool world_axes);
 
 }  // namespace isowrench

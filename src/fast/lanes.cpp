@@ -1,4 +1,4 @@
-// The lane kernel: ComputeFastKinematics and SolveFastStatics written on 4-double vectors (GCC
+// The lane kernel: ComputeKinematics and SolveStatics written on 4-double vectors (GCC
 // vector extensions), one evaluation per lane. The chain's structure (joint types, axes, path
 // point frames) is the same in every lane, so every branch below is uniform across lanes; only
 // the numbers differ. The formulas are those of fast.cpp (see its header for the kinematics
@@ -58,24 +58,24 @@ ISOWRENCH_INLINE void SinCos(const V& x, V& sin_x, V& cos_x) {
 // Frames are 3 x 3 row-major (R[3 * row + col]); vectors are 3 lanes-vectors.
 struct LaneWorkspace::Impl {
   int m = 0;
-  V q[kFastMaxDofs];
-  V R[kFastMaxDofs][9];
-  V origin[kFastMaxDofs][3];
-  V axis[kFastMaxDofs][3];
+  V q[kMaxDofs];
+  V R[kMaxDofs][9];
+  V origin[kMaxDofs][3];
+  V axis[kMaxDofs][3];
   V points[kFastMaxPathPoints][3];
   V pulls[kFastMaxPathPoints][3];
-  bool frame_needed[kFastMaxDofs] = {};  // a path point of some muscle hangs on frame k
-  V J[kFastMaxDofs][6];                  // column k: [v; w] in transducer axes
-  V tau[kFastMaxDofs];
-  V K[kFastMaxDofs * kFastMaxDofs];  // statics: lower triangle of K by rows,
-  V U[kFastMaxDofs * kFastMaxDofs];  // its Cholesky factor U = L^T (upper triangle by rows)
-  V x[kFastMaxDofs];                 // dtheta
+  bool frame_needed[kMaxDofs] = {};  // a path point of some muscle hangs on frame k
+  V J[kMaxDofs][6];                  // column k: [v; w] in transducer axes
+  V tau[kMaxDofs];
+  V K[kMaxDofs * kMaxDofs];  // statics: lower triangle of K by rows,
+  V U[kMaxDofs * kMaxDofs];  // its Cholesky factor U = L^T (upper triangle by rows)
+  V x[kMaxDofs];             // dtheta
 };
 
 // The buffers are written before they are read; only the flags are initialised.
-LaneWorkspace::LaneWorkspace(const CompiledModel& model) : impl_(new Impl) {
+LaneWorkspace::LaneWorkspace(const Model& model) : impl_(new Impl) {
   impl_->m = model.dof_count();
-  for (const FastMuscle& muscle : model.data().flat().muscles) {
+  for (const FastMuscle& muscle : model.impl().flat.muscles) {
     for (const FastPathPoint& p : muscle.points) {
       if (p.frame >= 0) impl_->frame_needed[p.frame] = true;
     }
@@ -199,17 +199,17 @@ ISOWRENCH_INLINE void ForwardKinematics(const FlatChain& d, LaneWorkspace::Impl&
 
 }  // namespace
 
-ISOWRENCH_CLONES unsigned LaneKinematics(const CompiledModel& model, LaneWorkspace& workspace,
+ISOWRENCH_CLONES unsigned LaneKinematics(const Model& model, LaneWorkspace& workspace,
                                          const double* const q[kLanes], int muscle,
                                          double activation) {
-  const FlatChain& d = model.data().flat();
+  const FlatChain& d = model.impl().flat;
   LaneWorkspace::Impl& ws = workspace.impl();
   const int m = d.m;
   // Postures (joint positions: on a coupled chain q_joint = f(q_c), lane by lane, with the
   // derivatives for the fold below), and whether every revolute angle is within the fast
   // sin/cos range.
   VI out_of_range = VI{0, 0, 0, 0};
-  V dq_joint[kFastMaxDofs];
+  V dq_joint[kMaxDofs];
   for (int k = 0; k < m; ++k) {
     if (d.coupled) {
       const int c = d.coordinate[k];
@@ -330,8 +330,8 @@ ISOWRENCH_CLONES unsigned LaneKinematics(const CompiledModel& model, LaneWorkspa
     ws.tau[k] = minus_force * dL;
   }
   if (d.coupled) {  // joint columns into coordinate columns (Fold in fast.cpp)
-    V J[kFastMaxDofs][6];
-    V tau[kFastMaxDofs];
+    V J[kMaxDofs][6];
+    V tau[kMaxDofs];
     for (int c = 0; c < d.n; ++c) {
       tau[c] = ISOWRENCH_V4_SPLAT(0.0);
       for (int r = 0; r < 6; ++r) J[c][r] = ISOWRENCH_V4_SPLAT(0.0);
@@ -349,9 +349,9 @@ ISOWRENCH_CLONES unsigned LaneKinematics(const CompiledModel& model, LaneWorkspa
   return Bits(coincident | out_of_range);
 }
 
-ISOWRENCH_CLONES void LaneBroadcast(const FastWorkspace& scalar, LaneWorkspace& workspace) {
+ISOWRENCH_CLONES void LaneBroadcast(const Data& scalar, LaneWorkspace& workspace) {
   LaneWorkspace::Impl& ws = workspace.impl();
-  const FastWorkspace::Impl& s = scalar.impl();
+  const Data::Impl& s = scalar.impl();
   for (int k = 0; k < ws.m; ++k) {
     for (int r = 0; r < 6; ++r) ws.J[k][r] = ISOWRENCH_V4_SPLAT(s.J(r, k));
     ws.tau[k] = ISOWRENCH_V4_SPLAT(s.tau[k]);
@@ -364,9 +364,9 @@ namespace {
 // same pivot rule, two triangular solves, W = S_t J dtheta. Returns the undecided lanes' mask.
 template <int N>
 ISOWRENCH_INLINE void SolveLanesKernel(LaneWorkspace::Impl& ws, int m_runtime, const V* s_t,
-                                       const V* s_p, const FastOptions& options, V* wrench,
+                                       const V* s_p, const SolveOptions& options, V* wrench,
                                        VI& undecided) {
-  constexpr int S = kFastMaxDofs;
+  constexpr int S = kMaxDofs;
   const int m = N > 0 ? N : std::min(m_runtime, S);
   V* K = ws.K;
   V* U = ws.U;
@@ -422,7 +422,7 @@ ISOWRENCH_INLINE void SolveLanesKernel(LaneWorkspace::Impl& ws, int m_runtime, c
 
 // Returns the undecided lanes' bitmask.
 ISOWRENCH_INLINE unsigned SolveLanesDispatch(LaneWorkspace::Impl& ws, const V* s_t, const V* s_p,
-                                             const FastOptions& options, V* wrench) {
+                                             const SolveOptions& options, V* wrench) {
   VI undecided;
   switch (ws.m) {
     case 1: SolveLanesKernel<1>(ws, 1, s_t, s_p, options, wrench, undecided); break;
@@ -440,15 +440,15 @@ ISOWRENCH_INLINE unsigned SolveLanesDispatch(LaneWorkspace::Impl& ws, const V* s
 
 }  // namespace
 
-ISOWRENCH_CLONES unsigned LaneSolve(const CompiledModel& model, LaneWorkspace& workspace,
+ISOWRENCH_CLONES unsigned LaneSolve(const Model& model, LaneWorkspace& workspace,
                                     const StiffnessSet* const sets[kLanes],
-                                    const FastOptions& options, FastWrench* const out[kLanes]) {
+                                    const SolveOptions& options, WrenchResult* const out[kLanes]) {
   LaneWorkspace::Impl& ws = workspace.impl();
   const int m = model.dof_count();
   // Locked coordinates: the scalar path's SolveLocked decides every lane.
-  if (model.data().flat().any_locked) return (1u << kLanes) - 1;
+  if (model.impl().flat.any_locked) return (1u << kLanes) - 1;
   V s_t[6];
-  V s_p[kFastMaxDofs];
+  V s_p[kMaxDofs];
   if (sets[0] == sets[1] && sets[0] == sets[2] && sets[0] == sets[3]) {  // four postures, one set
     for (int r = 0; r < 6; ++r) s_t[r] = ISOWRENCH_V4_SPLAT(sets[0]->s_t[r]);
     for (int i = 0; i < m; ++i) s_p[i] = ISOWRENCH_V4_SPLAT(sets[0]->s_p[i]);
@@ -462,7 +462,7 @@ ISOWRENCH_CLONES unsigned LaneSolve(const CompiledModel& model, LaneWorkspace& w
   const unsigned undecided = SolveLanesDispatch(ws, s_t, s_p, options, wrench);
   for (int l = 0; l < kLanes; ++l) {
     if (undecided & (1u << l)) continue;
-    FastWrench& w = *out[l];
+    WrenchResult& w = *out[l];
     for (int r = 0; r < 6; ++r) w.wrench[r] = wrench[r][l];
     w.status = StaticsStatus::kOk;
     w.self_motion_count = 0;

@@ -1,12 +1,12 @@
 #pragma once
 // Private: the batch kernel, four evaluations at once, one per lane of a 4-double SIMD register
 // (AVX2 on x86-64-v3; two SSE2 registers per lane group on older CPUs). The same kernel as
-// ComputeFastKinematics + SolveFastStatics; a lane it cannot decide is flagged and the caller
+// ComputeKinematics + SolveStatics; a lane it cannot decide is flagged and the caller
 // redoes it on the scalar path, which owns the eigen-solve and the self-motion report.
 
 #include <memory>
 
-#include "isowrench/fast.hpp"
+#include "isowrench/engine.hpp"
 
 namespace isowrench {
 
@@ -17,7 +17,7 @@ inline constexpr int kLanes = 4;
 /// postures. Constructed once; the functions below never allocate.
 class LaneWorkspace {
  public:
-  explicit LaneWorkspace(const CompiledModel& model);
+  explicit LaneWorkspace(const Model& model);
   ~LaneWorkspace();
   LaneWorkspace(const LaneWorkspace&) = delete;
   LaneWorkspace& operator=(const LaneWorkspace&) = delete;
@@ -33,20 +33,19 @@ class LaneWorkspace {
 /// q[l] (dof_count() entries each) in lane l. Returns the bitmask of lanes (bit l) the caller
 /// must evaluate on the scalar path instead: two consecutive path points coincide (kInvalidInput
 /// there), or a revolute angle has |q| >= 1e5 rad, beyond the lane sin/cos range reduction.
-unsigned LaneKinematics(const CompiledModel& model, LaneWorkspace& ws,
-                        const double* const q[kLanes], int muscle, double activation);
+unsigned LaneKinematics(const Model& model, LaneWorkspace& ws, const double* const q[kLanes],
+                        int muscle, double activation);
 
-/// Puts the Jacobian and torque of the scalar workspace (after ComputeFastKinematics) in every
+/// Puts the Jacobian and torque of the scalar workspace (after ComputeKinematics) in every
 /// lane: one posture, a different stiffness set per lane.
-void LaneBroadcast(const FastWorkspace& scalar, LaneWorkspace& ws);
+void LaneBroadcast(const Data& scalar, LaneWorkspace& ws);
 
 /// The statics of lane l with stiffness set *sets[l] (each checked by the caller: sizes match,
 /// entries finite and >= 0), writing *out[l] with status kOk. Returns the bitmask of lanes left
-/// undecided (a Cholesky pivot at or below FastOptions::cholesky_pivot_tolerance, or a
+/// undecided (a Cholesky pivot at or below SolveOptions::cholesky_pivot_tolerance, or a
 /// non-finite result); their *out[l] is not written and the caller solves them on the scalar
 /// path.
-unsigned LaneSolve(const CompiledModel& model, LaneWorkspace& ws,
-                   const StiffnessSet* const sets[kLanes], const FastOptions& options,
-                   FastWrench* const out[kLanes]);
+unsigned LaneSolve(const Model& model, LaneWorkspace& ws, const StiffnessSet* const sets[kLanes],
+                   const SolveOptions& options, WrenchResult* const out[kLanes]);
 
 }  // namespace isowrench

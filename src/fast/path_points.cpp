@@ -14,7 +14,7 @@
 
 namespace isowrench {
 
-void PreparePathPoints(const FastMuscle& muscle, const double* q, FastWorkspace::Impl& ws) {
+void PreparePathPoints(const FastMuscle& muscle, const double* q, Data::Impl& ws) {
   const int n = static_cast<int>(muscle.points.size());
   for (int i = 0; i < n; ++i) ws.local[i] = muscle.points[i].position;
   for (size_t j = 0; j < muscle.moving.size(); ++j) {
@@ -36,7 +36,7 @@ void PreparePathPoints(const FastMuscle& muscle, const double* q, FastWorkspace:
   }
 }
 
-bool ActivePathPulls(FastWorkspace::Impl& ws, double* length) {
+bool ActivePathPulls(Data::Impl& ws, double* length) {
   double total = 0.0;
   Eigen::Vector3d before = Eigen::Vector3d::Zero();  // u of the previous segment
   for (int j = 1; j < ws.active_count; ++j) {
@@ -56,7 +56,7 @@ bool ActivePathPulls(FastWorkspace::Impl& ws, double* length) {
   return true;
 }
 
-void AddMovingPointTerms(const FastMuscle& muscle, FastWorkspace::Impl& ws, double minus_force) {
+void AddMovingPointTerms(const FastMuscle& muscle, Data::Impl& ws, double minus_force) {
   for (size_t j = 0; j < muscle.moving.size(); ++j) {
     const FastMovingComponent& c = muscle.moving[j];
     if (ws.moving_slope[j] == 0.0) continue;  // clamped, constant, or an inactive point's pull 0

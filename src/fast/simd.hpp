@@ -5,7 +5,7 @@
 #include <cstdint>
 #include <cstring>
 
-#include "isowrench/fast.hpp"
+#include "isowrench/engine.hpp"
 
 // The hot functions are compiled twice, for x86-64-v3 (AVX2 + FMA: a multiply-add is one
 // instruction, 4 doubles per register) and for the baseline; the loader picks the one the CPU
@@ -90,13 +90,13 @@ ISOWRENCH_INLINE void Kernel(const T& x, const T& k, T& sin_r, T& cos_r) {
 }  // namespace sincos
 
 /// Solve U^T U x = b with the Cholesky factor U (upper triangle by rows: U_ki at
-/// U[k * kFastMaxDofs + i], k <= i; only the strict upper triangle and the reciprocal diagonal
+/// U[k * kMaxDofs + i], k <= i; only the strict upper triangle and the reciprocal diagonal
 /// inv_diag are read): forward substitution into y, back substitution into x. T is double or
 /// V4; N > 0 fixes m at compile time (loops unroll).
 template <int N, class T>
 ISOWRENCH_INLINE void SolveWithFactor(int m, const T* U, const T* inv_diag, const T* b, T* y,
                                       T* x) {
-  constexpr int S = kFastMaxDofs;  // the row stride of U
+  constexpr int S = kMaxDofs;  // the row stride of U
   ISOWRENCH_UNROLL
   for (int i = 0; i < m; ++i) {
     T v = b[i];

@@ -7,8 +7,8 @@
 #include <tuple>
 
 #include "identification/identification_impl.hpp"
+#include "isowrench/engine.hpp"
 #include "isowrench/error.hpp"
-#include "isowrench/fast.hpp"
 #include "isowrench/kinematics.hpp"
 #include "isowrench/trial_csv.hpp"
 #include "util/text.hpp"
@@ -117,9 +117,9 @@ RawWrenches EvaluateRaw(const Model& model, const std::map<std::string, double>&
   raw.other.assign(others.size(), std::vector<Vector6d>(subset.size(), Vector6d::Zero()));
   raw.ok.assign(subset.size(), false);
   for (int i = 0; i < model.muscle_count(); ++i) raw.max_force.push_back(model.muscle(i).max_force);
-  if (model.dof_count() > kFastMaxDofs || model.dof_count() < 1) {
+  if (model.dof_count() > kMaxDofs || model.dof_count() < 1) {
     // Reference path (KDL kinematics + SolveStatics): the fast path cannot compile the model.
-    KinematicsWorkspace kinematics(model);
+    Data kinematics(model);
     EvaluateEach(model, posture_offset, trials, subset, &raw,
                  [&](const Eigen::VectorXd& q, int muscle_index, double activation,
                      Vector6d* w) -> std::string {
@@ -131,16 +131,14 @@ RawWrenches EvaluateRaw(const Model& model, const std::map<std::string, double>&
                  });
     return raw;
   }
-  CompiledModel compiled(model);
-  FastWorkspace ws(compiled);
-  const StiffnessSet stiffness = compiled.model_stiffness();
+  Data ws(model);
+  const StiffnessSet stiffness = model.model_stiffness();
   EvaluateEach(model, posture_offset, trials, subset, &raw,
                [&](const Eigen::VectorXd& q, int muscle_index, double activation,
                    Vector6d* w) -> std::string {
                  if (!q.allFinite() || !std::isfinite(activation))
                    return "non-finite posture or activation";
-                 const FastWrench f =
-                     EvaluateFast(compiled, ws, q, muscle_index, stiffness, activation);
+                 const WrenchResult f = Evaluate(model, ws, q, muscle_index, stiffness, activation);
                  if (f.status != StaticsStatus::kOk && f.status != StaticsStatus::kSelfMotionHeld) {
                    return std::string(StatusName(f.status)) +
                           " (the model cannot hold this posture; see `isowrench wrench`)";
@@ -253,7 +251,7 @@ void PredictSubset(const Model& model, const std::vector<Trial>& trials,
 }
 
 Eigen::VectorXd NominalJacobianColumn(const Model& model, const std::string& joint) {
-  KinematicsWorkspace ws(model);
+  Data ws(model);
   Matrix6Xd J = EndpointJacobian(model, ws, model.nominal_posture());
   return J.col(model.JointIndex(joint));
 }
@@ -261,7 +259,7 @@ Eigen::VectorXd NominalJacobianColumn(const Model& model, const std::string& joi
 std::vector<double> MuscleLengths(const Model& model, const std::string& muscle,
                                   const std::vector<Trial>& trials) {
   std::vector<double> out(trials.size(), std::numeric_limits<double>::quiet_NaN());
-  KinematicsWorkspace ws(model);
+  Data ws(model);
   TrialMapper mapper(model);
   Eigen::VectorXd q(model.dof_count());
   int index = -1;

@@ -25,9 +25,8 @@ const LinkFrame& LinkOf(const Model& model, const std::string& link) {
 
 }  // namespace
 
-FastWorkspace::Impl& RunKinematics(const Model& model, KinematicsWorkspace& ws,
-                                   const Eigen::VectorXd& q, int muscle, double activation,
-                                   bool world_axes) {
+Data::Impl& RunKinematics(const Model& model, Data& ws, const Eigen::VectorXd& q, int muscle,
+                          double activation, bool world_axes) {
   ValidatePosture(model, q);
   if (muscle >= model.muscle_count()) {
     throw Error("muscle index " + std::to_string(muscle) + " is out of range for model '" +
@@ -36,7 +35,7 @@ FastWorkspace::Impl& RunKinematics(const Model& model, KinematicsWorkspace& ws,
   if (muscle >= 0 && !std::isfinite(activation)) {
     throw Error("muscle '" + model.muscle(muscle).name + "': activation is not finite");
   }
-  FastWorkspace::Impl& b = ws.impl().buffers;
+  Data::Impl& b = ws.impl();
   if (!ComputeKinematicsWithFrames(model.impl().flat, b, q.data(), muscle, activation,
                                    world_axes)) {
     const MuscleSpec& spec = model.muscle(muscle);
@@ -56,15 +55,8 @@ FastWorkspace::Impl& RunKinematics(const Model& model, KinematicsWorkspace& ws,
   return b;
 }
 
-KinematicsWorkspace::KinematicsWorkspace(const Model& model)
-    : impl_(std::make_unique<Impl>(model.dof_count())) {}
-KinematicsWorkspace::~KinematicsWorkspace() = default;
-KinematicsWorkspace::KinematicsWorkspace(KinematicsWorkspace&&) noexcept = default;
-KinematicsWorkspace& KinematicsWorkspace::operator=(KinematicsWorkspace&&) noexcept = default;
-
-Eigen::Isometry3d EndpointPose(const Model& model, KinematicsWorkspace& ws,
-                               const Eigen::VectorXd& q) {
-  const FastWorkspace::Impl& b = RunKinematics(model, ws, q, -1, 1.0, true);
+Eigen::Isometry3d EndpointPose(const Model& model, Data& ws, const Eigen::VectorXd& q) {
+  const Data::Impl& b = RunKinematics(model, ws, q, -1, 1.0, true);
   Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
   const FlatChain& chain = model.impl().flat;
   pose.linear() = b.frames[chain.m - 1] * chain.endpoint_rotation;
@@ -72,38 +64,36 @@ Eigen::Isometry3d EndpointPose(const Model& model, KinematicsWorkspace& ws,
   return pose;
 }
 
-Matrix6Xd EndpointJacobianWorld(const Model& model, KinematicsWorkspace& ws,
-                                const Eigen::VectorXd& q) {
+Matrix6Xd EndpointJacobianWorld(const Model& model, Data& ws, const Eigen::VectorXd& q) {
   return RunKinematics(model, ws, q, -1, 1.0, true).J;
 }
 
-Eigen::Matrix3d TransducerRotation(const Model& model, KinematicsWorkspace& ws,
-                                   const Eigen::VectorXd& q) {
+Eigen::Matrix3d TransducerRotation(const Model& model, Data& ws, const Eigen::VectorXd& q) {
   const TransducerSpec& t = model.transducer();
   if (t.axes_in_world) return t.rotation;
   return RunKinematics(model, ws, q, -1, 1.0, false).R_W_T;
 }
 
-Matrix6Xd EndpointJacobian(const Model& model, KinematicsWorkspace& ws, const Eigen::VectorXd& q) {
+Matrix6Xd EndpointJacobian(const Model& model, Data& ws, const Eigen::VectorXd& q) {
   return RunKinematics(model, ws, q, -1, 1.0, false).J;
 }
 
-Eigen::Vector3d PointPosition(const Model& model, KinematicsWorkspace& ws, const Eigen::VectorXd& q,
+Eigen::Vector3d PointPosition(const Model& model, Data& ws, const Eigen::VectorXd& q,
                               const std::string& link, const Eigen::Vector3d& p_link) {
   const LinkFrame& frame = LinkOf(model, link);
-  const FastWorkspace::Impl& b = RunKinematics(model, ws, q, -1, 1.0, true);
+  const Data::Impl& b = RunKinematics(model, ws, q, -1, 1.0, true);
   const Eigen::Vector3d p = frame.offset * p_link;
   if (frame.frame < 0) return p;
   return b.frames[frame.frame] * p + b.origin[frame.frame];
 }
 
-std::vector<Eigen::Vector3d> MusclePathPoints(const Model& model, KinematicsWorkspace& ws,
+std::vector<Eigen::Vector3d> MusclePathPoints(const Model& model, Data& ws,
                                               const Eigen::VectorXd& q, int muscle_index) {
   if (muscle_index < 0 || muscle_index >= model.muscle_count()) {
     throw Error("muscle index " + std::to_string(muscle_index) + " is out of range for model '" +
                 model.name() + "'");
   }
-  FastWorkspace::Impl& b = RunKinematics(model, ws, q, -1, 1.0, true);
+  Data::Impl& b = RunKinematics(model, ws, q, -1, 1.0, true);
   const FastMuscle& mu = model.impl().flat.muscles[muscle_index];
   const int n = static_cast<int>(mu.points.size());
   if (mu.dynamic) PreparePathPoints(mu, q.data(), b);
@@ -117,11 +107,10 @@ std::vector<Eigen::Vector3d> MusclePathPoints(const Model& model, KinematicsWork
   return out;
 }
 
-Eigen::Matrix3Xd PointJacobian(const Model& model, KinematicsWorkspace& ws,
-                               const Eigen::VectorXd& q, const std::string& link,
-                               const Eigen::Vector3d& p_link) {
+Eigen::Matrix3Xd PointJacobian(const Model& model, Data& ws, const Eigen::VectorXd& q,
+                               const std::string& link, const Eigen::Vector3d& p_link) {
   const LinkFrame& frame = LinkOf(model, link);
-  const FastWorkspace::Impl& b = RunKinematics(model, ws, q, -1, 1.0, true);
+  const Data::Impl& b = RunKinematics(model, ws, q, -1, 1.0, true);
   Eigen::Matrix3Xd J = Eigen::Matrix3Xd::Zero(3, model.dof_count());
   if (frame.frame < 0) return J;
   const Eigen::Vector3d x = b.frames[frame.frame] * (frame.offset * p_link) + b.origin[frame.frame];
@@ -141,13 +130,13 @@ Eigen::Matrix3Xd PointJacobian(const Model& model, KinematicsWorkspace& ws,
   return J;
 }
 
-MuscleTorque ComputeMuscleTorque(const Model& model, KinematicsWorkspace& ws,
-                                 const Eigen::VectorXd& q, int muscle_index, double activation) {
+MuscleTorque ComputeMuscleTorque(const Model& model, Data& ws, const Eigen::VectorXd& q,
+                                 int muscle_index, double activation) {
   if (muscle_index < 0 || muscle_index >= model.muscle_count()) {
     throw Error("muscle index " + std::to_string(muscle_index) + " is out of range for model '" +
                 model.name() + "'");
   }
-  const FastWorkspace::Impl& b = RunKinematics(model, ws, q, muscle_index, activation, false);
+  const Data::Impl& b = RunKinematics(model, ws, q, muscle_index, activation, false);
   MuscleTorque out;
   out.length = b.length;
   out.force = activation * model.muscle(muscle_index).max_force;

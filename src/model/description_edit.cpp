@@ -275,20 +275,60 @@ LimbDescription WithExtraJoint(LimbDescription d, const std::string& after_joint
   return NormalizeCoordinates(std::move(d));
 }
 
-LimbDescription WithReleasedDofs(LimbDescription d, const std::vector<std::string>& dofs) {
-  d.transducer.released.fill(false);
-  for (const std::string& name : dofs) {
-    if (name == "none") continue;
-    bool found = false;
-    for (int i = 0; i < 6; ++i) {
-      if (name == DofName(i)) {
-        d.transducer.released[i] = true;
-        found = true;
-      }
-    }
-    if (!found) throw Error("released dof '" + name + "' is not one of x y z rx ry rz");
-  }
+LimbDescription WithReleasedDofs(LimbDescription d, const DofMask& released) {
+  d.transducer.released = released;
   return d;
+}
+
+DofMask::DofMask(std::initializer_list<std::string> names)
+    : DofMask(FromNames(std::vector<std::string>(names))) {}
+
+DofMask DofMask::FromNames(const std::vector<std::string>& names) {
+  DofMask mask;
+  for (const std::string& name : names) {
+    if (name == "none") continue;
+    int index = -1;
+    for (int i = 0; i < 6; ++i) {
+      if (name == DofName(i)) index = i;
+    }
+    if (index < 0) throw Error("dof '" + name + "' is not one of x y z rx ry rz");
+    mask.set(index);
+  }
+  return mask;
+}
+
+DofMask DofMask::Parse(const std::string& text) {
+  std::vector<std::string> names;
+  std::string token;
+  for (char c : text + ",") {
+    if (c == ',' || c == ' ' || c == '\t') {
+      if (!token.empty()) names.push_back(token);
+      token.clear();
+    } else {
+      token += c;
+    }
+  }
+  return FromNames(names);
+}
+
+int DofMask::count() const {
+  int n = 0;
+  for (int i = 0; i < 6; ++i) n += (*this)[i] ? 1 : 0;
+  return n;
+}
+
+std::vector<std::string> DofMask::names() const {
+  std::vector<std::string> out;
+  for (int i = 0; i < 6; ++i) {
+    if ((*this)[i]) out.emplace_back(DofName(i));
+  }
+  return out;
+}
+
+std::string DofMask::ToString(const std::string& separator) const {
+  std::string out;
+  for (const std::string& name : names()) out += (out.empty() ? "" : separator) + name;
+  return out.empty() ? "none" : out;
 }
 
 LimbDescription WithTransducerStiffness(LimbDescription d, const Vector6d& stiffness) {

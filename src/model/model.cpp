@@ -8,8 +8,8 @@
 #include <map>
 #include <set>
 
+#include "isowrench/engine.hpp"
 #include "isowrench/error.hpp"
-#include "isowrench/fast.hpp"
 #include "isowrench/input_checks.hpp"
 #include "model/model_impl.hpp"
 #include "util/text.hpp"
@@ -206,10 +206,10 @@ FlatChain Compile(const LimbDescription& d) {
   }
   flat.m = frame + 1;
   flat.n = static_cast<int>(d.coordinates.size());
-  if (flat.m > kFastMaxDofs || flat.n > kFastMaxDofs) {
+  if (flat.m > kMaxDofs || flat.n > kMaxDofs) {
     throw Error(model + " has " + std::to_string(flat.m) + " movable joints and " +
                 std::to_string(flat.n) + " coordinates; isowrench handles at most " +
-                std::to_string(kFastMaxDofs) + " of each");
+                std::to_string(kMaxDofs) + " of each");
   }
   std::map<std::string, int> column;
   for (int c = 0; c < flat.n; ++c) {
@@ -306,6 +306,14 @@ Model::Model(LimbDescription description) {
     impl->columns.push_back(column);
   }
   impl->chain_length = length + description.transducer.endpoint.norm();
+  impl->stiffness.s_t = description.transducer.stiffness;
+  for (int i = 0; i < 6; ++i) {
+    if (description.transducer.released[i]) impl->stiffness.s_t[i] = 0.0;
+  }
+  impl->stiffness.s_p.resize(static_cast<Eigen::Index>(impl->columns.size()));
+  for (std::size_t i = 0; i < impl->columns.size(); ++i) {
+    impl->stiffness.s_p[static_cast<Eigen::Index>(i)] = impl->columns[i].stiffness;
+  }
   impl->description = std::move(description);
   impl_ = impl;
 }
@@ -314,6 +322,8 @@ Model Model::FromUrdfFile(const std::string& path) { return Model(ReadUrdfFile(p
 
 const LimbDescription& Model::description() const { return impl_->description; }
 int Model::dof_count() const { return static_cast<int>(impl_->columns.size()); }
+bool Model::revolute(int column) const { return impl_->revolute.at(column); }
+const StiffnessSet& Model::model_stiffness() const { return impl_->stiffness; }
 const std::vector<std::string>& Model::joint_names() const { return impl_->joint_names; }
 const JointSpec& Model::joint(int i) const { return impl_->columns.at(i); }
 const CoordinateSpec& Model::coordinate(int i) const {

@@ -110,6 +110,7 @@ struct Model::Impl {
   std::vector<JointSpec> columns;
   FlatChain flat;
   double chain_length = 0.0;
+  StiffnessSet stiffness;  ///< Model::model_stiffness()
 };
 
 /// Build the KDL chain for a validated description: the independent reference the tests and

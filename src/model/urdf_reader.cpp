@@ -348,7 +348,7 @@ LimbDescription ReadUrdfString(const std::string& xml, const std::string& source
   for (const std::string& dof : util::Split(r.Attribute(transducer, "released", false), " ,")) {
     int index = DofIndex(dof);
     if (index < 0) r.Fail(transducer, "released dof '" + dof + "' is not one of x y z rx ry rz");
-    t.released[index] = true;
+    t.released.set(index);
   }
 
   // Coordinates, mimics and couplings first: postures and joint tags name coordinates.

@@ -49,8 +49,7 @@ struct Case {
 
 LimbDescription Configure(const Model& base, bool release_rz, const Vector6d& s_t,
                           double base_stiffness) {
-  LimbDescription d = WithReleasedDofs(
-      base.description(), release_rz ? std::vector<std::string>{"rz"} : std::vector<std::string>{});
+  LimbDescription d = WithReleasedDofs(base.description(), release_rz ? DofMask{"rz"} : DofMask{});
   d = WithTransducerStiffness(std::move(d), s_t);
   if (base_stiffness > 0) d = WithBaseStiffness(std::move(d), base_stiffness);
   return d;
@@ -129,7 +128,7 @@ std::string DefaultUrdfDirectory() {
 Vector6d FemurRemovedWrench(const Model& model, const Eigen::VectorXd& q,
                             const std::string& muscle_name, double activation) {
   const MuscleSpec& muscle = model.muscle(model.MuscleIndex(muscle_name));
-  KinematicsWorkspace ws(model);
+  Data ws(model);
   const std::string& tibia = model.transducer().link;
   Eigen::Vector3d endpoint = EndpointPose(model, ws, q).translation();
   const double force = activation * muscle.max_force;

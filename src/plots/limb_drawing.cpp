@@ -52,7 +52,7 @@ struct Geometry {
 };
 
 Geometry Collect(const Model& model, const Eigen::VectorXd& q, double axis_length) {
-  KinematicsWorkspace ws(model);
+  Data ws(model);
   Geometry g;
   const LimbDescription& d = model.description();
   g.bones.push_back(PointPosition(model, ws, q, d.root_link, Eigen::Vector3d::Zero()));

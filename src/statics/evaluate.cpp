@@ -16,12 +16,12 @@ WrenchEvaluation EvaluateWrench(const Model& model, const Eigen::VectorXd& q,
                                 const std::string& muscle, double activation,
                                 const StaticsOptions& options) {
   int muscle_index = model.MuscleIndex(muscle);
-  KinematicsWorkspace ws(model);
+  Data ws(model);
   return EvaluateWrench(model, ws, q, muscle_index, activation, options);
 }
 
-WrenchEvaluation EvaluateWrench(const Model& model, KinematicsWorkspace& ws,
-                                const Eigen::VectorXd& q, int muscle_index, double activation,
+WrenchEvaluation EvaluateWrench(const Model& model, Data& ws, const Eigen::VectorXd& q,
+                                int muscle_index, double activation,
                                 const StaticsOptions& options) {
   if (muscle_index < 0 || muscle_index >= model.muscle_count()) {
     throw Error("muscle index " + std::to_string(muscle_index) + " is out of range for model '" +
@@ -32,26 +32,21 @@ WrenchEvaluation EvaluateWrench(const Model& model, KinematicsWorkspace& ws,
   e.q = q;
   e.muscle = model.muscle(muscle_index).name;
   // One run of the kinematics kernel: J in transducer axes, R_W_T and the muscle torque.
-  const FastWorkspace::Impl& k = RunKinematics(model, ws, q, muscle_index, activation, false);
+  const Data::Impl& k = RunKinematics(model, ws, q, muscle_index, activation, false);
   e.R_W_T = k.R_W_T;
   e.jacobian = k.J;
   e.muscle_length = k.length;
   e.muscle_force = activation * model.muscle(muscle_index).max_force;
   e.tau = k.tau;
   const TransducerSpec& t = model.transducer();
-  std::array<bool, 6> restrained;
-  e.s_t = t.stiffness;
-  for (int i = 0; i < 6; ++i) {
-    restrained[i] = !t.released[i];
-    if (t.released[i]) e.s_t[i] = 0.0;
-  }
+  e.s_t = model.model_stiffness().s_t;
   e.s_p = model.joint_stiffness();
   StaticsOptions opts = options;
   if (opts.leg_length <= 0) opts.leg_length = model.chain_length();
   const FlatChain& chain = model.impl().flat;
   if (!chain.any_locked) {
     e.statics = SolveStatics(e.jacobian, e.s_t, e.s_p, e.tau, opts, model.impl().revolute);
-    e.classic = ClassicWrench(e.jacobian, restrained, e.tau);
+    e.classic = ClassicWrench(e.jacobian, t.released, e.tau);
   } else {
     // Locked coordinates are rigid: the statics and the classic answer run on the free columns,
     // and dtheta and the self-motion basis are 0 on the locked ones.
@@ -81,7 +76,7 @@ WrenchEvaluation EvaluateWrench(const Model& model, KinematicsWorkspace& ws,
     }
     e.statics.dtheta = dtheta;
     e.statics.self_motion = self_motion;
-    e.classic = ClassicWrench(J, restrained, tau);
+    e.classic = ClassicWrench(J, t.released, tau);
   }
   e.wrench_world.head<3>() = e.R_W_T * e.statics.wrench.head<3>();
   e.wrench_world.tail<3>() = e.R_W_T * e.statics.wrench.tail<3>();

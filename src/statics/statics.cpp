@@ -154,12 +154,12 @@ StaticsResult SolveStatics(const Matrix6Xd& J, const Vector6d& s_t, const Eigen:
   return r;
 }
 
-ClassicResult ClassicWrench(const Matrix6Xd& J, const std::array<bool, 6>& restrained,
-                            const Eigen::VectorXd& tau, double rank_tolerance) {
+ClassicResult ClassicWrench(const Matrix6Xd& J, const DofMask& released, const Eigen::VectorXd& tau,
+                            double rank_tolerance) {
   ClassicResult out;
   std::vector<int> rows;
   for (int i = 0; i < 6; ++i) {
-    if (restrained[i]) rows.push_back(i);
+    if (!released[i]) rows.push_back(i);
   }
   const Eigen::Index n = static_cast<Eigen::Index>(rows.size());
   const Eigen::Index m = J.cols();

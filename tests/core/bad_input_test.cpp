@@ -125,7 +125,7 @@ TEST(BadEvaluation, UnknownMuscleAndWrongPosture) {
   EXPECT_THAT([&] { isowrench::EvaluateWrench(rat, rat.nominal_posture(), "TA"); },
               ThrowsMessage<Error>(HasSubstr("TA")));
   EXPECT_THROW(isowrench::EvaluateWrench(rat, Eigen::VectorXd::Zero(3), "GP"), Error);
-  isowrench::KinematicsWorkspace ws(rat);
+  isowrench::Data ws(rat);
   EXPECT_THROW(isowrench::ComputeMuscleTorque(rat, ws, rat.nominal_posture(), 0, kNaN), Error);
   EXPECT_THAT(
       [&] {
@@ -143,7 +143,7 @@ TEST(BadEvaluation, ZeroLengthMuscleSegmentThrows) {
   EXPECT_THROW(
       {
         const isowrench::Model m(d);
-        isowrench::KinematicsWorkspace ws(m);
+        isowrench::Data ws(m);
         isowrench::ComputeMuscleTorque(m, ws, m.nominal_posture(), 0);
       },
       Error);
@@ -151,7 +151,7 @@ TEST(BadEvaluation, ZeroLengthMuscleSegmentThrows) {
 
 TEST(BadStatics, NonFiniteOrNegativeInputGivesInvalidInputNeverNaN) {
   const isowrench::Model rat = LoadModel("rat_hindlimb_5dof.urdf");
-  isowrench::KinematicsWorkspace ws(rat);
+  isowrench::Data ws(rat);
   const Eigen::VectorXd q = rat.nominal_posture();
   const isowrench::Matrix6Xd J = isowrench::EndpointJacobian(rat, ws, q);
   const Eigen::VectorXd tau = isowrench::ComputeMuscleTorque(rat, ws, q, 0).tau;

@@ -660,7 +660,7 @@ TEST(CoupledKinematics, EngineMatchesDifferencesOfAnIndependentForwardKinematics
   const isowrench::Model model = LoadModel("rat_hindlimb_coupled_knee.urdf");
   ASSERT_TRUE(kin::EngineMapsCouplings(model)) << "the engine must map couplings to coordinates";
   const kin::CoupledKnee knee;
-  isowrench::KinematicsWorkspace ws(model);
+  isowrench::Data ws(model);
   for (const Eigen::VectorXd& q : kin::Postures()) {
     EXPECT_TRUE(
         MatricesNear(isowrench::EndpointPose(model, ws, q).translation(), knee.Endpoint(q), 1e-15));
@@ -746,7 +746,7 @@ TEST(CoupledKinematics, MimicLegEqualsTheSameLegWrittenAsOneJoint) {
       Read(leg(R"("fixed"><parent link="mid"/><child link="shank"/></joint>)")));
   ASSERT_TRUE(kin::EngineMapsCouplings(mimic)) << "the engine must map couplings to coordinates";
   ASSERT_EQ(mimic.dof_count(), 2);
-  isowrench::KinematicsWorkspace ws_m(mimic), ws_s(single);
+  isowrench::Data ws_m(mimic), ws_s(single);
   for (double knee : {-1.0, 0.3, 2.0}) {
     Eigen::Vector2d q(0.4, knee);
     Eigen::Vector2d q_single(0.4, 2 * knee + 0.2);

@@ -11,7 +11,7 @@
 #include <random>
 #include <string>
 
-#include "isowrench/fast.hpp"
+#include "isowrench/engine.hpp"
 #include "test_models.hpp"
 
 namespace isowrench_test {
@@ -110,7 +110,7 @@ TEST_P(CoupledLeg, ColumnsAreTheIndependentCoordinates) {
 TEST_P(CoupledLeg, PoseJacobianAndMomentArmsEqualHandKinematicsAndItsDifferences) {
   const Model model(isowrench::ReadUrdfString(Leg(law().xml), "leg.urdf"));
   const auto ty = law().ty;
-  isowrench::KinematicsWorkspace ws(model);
+  isowrench::Data ws(model);
   std::mt19937 rng(5);
   std::uniform_real_distribution<double> hip(-kPi, kPi), knee(-0.9, 2.4);
   const Eigen::Vector3d foot(0.04, 0, 0);
@@ -146,10 +146,9 @@ TEST_P(CoupledLeg, PoseJacobianAndMomentArmsEqualHandKinematicsAndItsDifferences
 
 TEST_P(CoupledLeg, FastSingleBatchAndReferenceAgree) {
   isowrench::LimbDescription d = isowrench::ReadUrdfString(Leg(law().xml), "leg.urdf");
-  d.transducer.released = {false, false, false, true, true, false};  // 4 restrained, 2 dofs
+  d.transducer.released = isowrench::DofMask{"rx", "ry"};  // 4 restrained, 2 dofs
   const Model model(d);
-  const isowrench::CompiledModel compiled(model);
-  isowrench::FastWorkspace ws(compiled);
+  isowrench::Data ws(model);
   std::mt19937 rng(6);
   std::uniform_real_distribution<double> hip(-kPi, kPi), knee(-0.9, 2.4);
   const int postures = 37;  // not a multiple of the lane count
@@ -158,18 +157,17 @@ TEST_P(CoupledLeg, FastSingleBatchAndReferenceAgree) {
     Q(0, p) = hip(rng);
     Q(1, p) = knee(rng);
   }
-  std::vector<isowrench::StiffnessSet> sets(3, compiled.model_stiffness());
+  std::vector<isowrench::StiffnessSet> sets(3, model.model_stiffness());
   sets[1].s_p.setConstant(0.3);
   sets[2].s_t *= 0.01;
-  std::vector<isowrench::FastWrench> batch;
-  isowrench::EvaluateBatch(compiled, Q, 0, sets, batch, 0.7);
+  std::vector<isowrench::WrenchResult> batch;
+  isowrench::EvaluateBatch(model, Q, 0, sets, batch, 0.7);
   for (int p = 0; p < postures; ++p) {
     const Eigen::VectorXd q = Q.col(p);
     const isowrench::WrenchEvaluation ref = isowrench::EvaluateWrench(model, q, "M", 0.7);
     for (size_t s = 0; s < sets.size(); ++s) {
-      const isowrench::FastWrench single =
-          isowrench::EvaluateFast(compiled, ws, q, 0, sets[s], 0.7);
-      const isowrench::FastWrench& b = batch[p * sets.size() + s];
+      const isowrench::WrenchResult single = isowrench::Evaluate(model, ws, q, 0, sets[s], 0.7);
+      const isowrench::WrenchResult& b = batch[p * sets.size() + s];
       ASSERT_EQ(single.status, b.status);
       const double scale = std::max(1.0, single.wrench.norm());
       EXPECT_LE((single.wrench - b.wrench).norm(), 1e-9 * scale) << p << " " << s;
@@ -250,15 +248,14 @@ TEST(MimicPair, EqualsOneJointTurningTwiceAsFast) {
 // locked joint made fixed at its value, while J and the moment arms keep its column.
 TEST(LockedCoordinate, StaticsEqualTheLegWithThatJointFixed) {
   isowrench::LimbDescription d = isowrench::ReadUrdfString(Leg(kPolynomial), "leg.urdf");
-  d.transducer.released = {false, false, false, true, true, true};  // 3 restrained, 2 dofs
+  d.transducer.released = isowrench::DofMask{"rx", "ry", "rz"};  // 3 restrained, 2 dofs
   d.joints[0].stiffness = 0.0;
   isowrench::LimbDescription locked = d;
   for (isowrench::CoordinateSpec& c : locked.coordinates) {
     if (c.name == "knee") c.locked = true;
   }
   const Model model(locked);
-  const isowrench::CompiledModel compiled(model);
-  isowrench::FastWorkspace ws(compiled);
+  isowrench::Data ws(model);
   std::mt19937 rng(8);
   std::uniform_real_distribution<double> hip(-kPi, kPi), knee(-0.9, 2.4);
   for (int p = 0; p < 50; ++p) {
@@ -298,8 +295,8 @@ TEST(LockedCoordinate, StaticsEqualTheLegWithThatJointFixed) {
                 1e-9 * std::abs(b.statics.dtheta[0]) + 1e-15);
     EXPECT_NE(a.tau[1], 0.0);  // the moment arm about the locked knee is still reported
     EXPECT_LE((a.jacobian.col(0) - b.jacobian.col(0)).cwiseAbs().maxCoeff(), kTol);
-    const isowrench::FastWrench fast =
-        isowrench::EvaluateFast(compiled, ws, q, 0, compiled.model_stiffness());
+    const isowrench::WrenchResult fast =
+        isowrench::Evaluate(model, ws, q, 0, model.model_stiffness());
     ASSERT_EQ(fast.status, a.statics.status);
     EXPECT_LE((fast.wrench - a.statics.wrench).norm(),
               1e-9 * std::max(1.0, a.statics.wrench.norm()));

@@ -20,7 +20,7 @@
 namespace isowrench_test {
 namespace {
 
-using isowrench::KinematicsWorkspace;
+using isowrench::Data;
 using isowrench::Model;
 
 // Both sides compose the same frames in a different order: rounding only, a few dozen
@@ -105,7 +105,7 @@ class EngineVsKdl : public ::testing::TestWithParam<std::string> {};
 
 TEST_P(EngineVsKdl, EndpointPoseAndJacobianEqualKdlOnRandomPostures) {
   const Model model = LoadModel(GetParam());
-  KinematicsWorkspace ws(model);
+  Data ws(model);
   KdlReference kdl(model);
   std::mt19937 rng(12);
   double worst = 0.0;
@@ -131,7 +131,7 @@ TEST_P(EngineVsKdl, EndpointPoseAndJacobianEqualKdlOnRandomPostures) {
 
 TEST_P(EngineVsKdl, PointPositionsAndJacobiansOnEveryLinkEqualKdl) {
   const Model model = LoadModel(GetParam());
-  KinematicsWorkspace ws(model);
+  Data ws(model);
   KdlReference kdl(model);
   std::mt19937 rng(13);
   std::uniform_real_distribution<double> offset(-0.05, 0.05);
@@ -156,7 +156,7 @@ TEST_P(EngineVsKdl, PointPositionsAndJacobiansOnEveryLinkEqualKdl) {
 // h^2/6 |L'''| <= 1e-12 * 0.6 / 6 ~ 1e-13, rounding eps |L| / h ~ 1.3e-10; 1e-8 is 75x that.
 TEST_P(EngineVsKdl, MuscleLengthAndGradientEqualKdlDifferences) {
   const Model model = LoadModel(GetParam());
-  KinematicsWorkspace ws(model);
+  Data ws(model);
   KdlReference kdl(model);
   std::mt19937 rng(14);
   constexpr double h = 1e-6;

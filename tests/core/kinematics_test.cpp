@@ -16,7 +16,7 @@
 namespace isowrench_test {
 namespace {
 
-using isowrench::KinematicsWorkspace;
+using isowrench::Data;
 using isowrench::Matrix6Xd;
 using isowrench::Model;
 
@@ -31,8 +31,7 @@ constexpr double kFdTol = 1e-8;
 constexpr double kClosedFormTol = 1e-12;
 constexpr int kPosturesPerModel = 10;
 
-Matrix6Xd FiniteDifferenceEndpointJacobian(const Model& model, KinematicsWorkspace& ws,
-                                           const Eigen::VectorXd& q) {
+Matrix6Xd FiniteDifferenceEndpointJacobian(const Model& model, Data& ws, const Eigen::VectorXd& q) {
   const Eigen::Matrix3d R = isowrench::EndpointPose(model, ws, q).linear();
   Matrix6Xd J(6, model.dof_count());
   for (int i = 0; i < model.dof_count(); ++i) {
@@ -49,7 +48,7 @@ Matrix6Xd FiniteDifferenceEndpointJacobian(const Model& model, KinematicsWorkspa
   return J;
 }
 
-Eigen::Matrix3Xd FiniteDifferencePointJacobian(const Model& model, KinematicsWorkspace& ws,
+Eigen::Matrix3Xd FiniteDifferencePointJacobian(const Model& model, Data& ws,
                                                const Eigen::VectorXd& q, const std::string& link,
                                                const Eigen::Vector3d& p) {
   Eigen::Matrix3Xd Jp(3, model.dof_count());
@@ -68,7 +67,7 @@ class EveryShippedUrdf : public ::testing::TestWithParam<std::string> {};
 
 TEST_P(EveryShippedUrdf, EndpointJacobianMatchesFiniteDifferences) {
   const Model model = LoadModel(GetParam());
-  KinematicsWorkspace ws(model);
+  Data ws(model);
   std::mt19937 rng(1234);
   for (int k = 0; k < kPosturesPerModel; ++k) {
     const Eigen::VectorXd q = RandomPosture(model, rng);
@@ -80,7 +79,7 @@ TEST_P(EveryShippedUrdf, EndpointJacobianMatchesFiniteDifferences) {
 
 TEST_P(EveryShippedUrdf, PointJacobianMatchesFiniteDifferencesOnEveryLink) {
   const Model model = LoadModel(GetParam());
-  KinematicsWorkspace ws(model);
+  Data ws(model);
   std::mt19937 rng(5678);
   const Eigen::Vector3d p(0.012, -0.007, 0.004);  // an arbitrary point, m, in each link
   for (int k = 0; k < kPosturesPerModel / 2; ++k) {
@@ -95,7 +94,7 @@ TEST_P(EveryShippedUrdf, PointJacobianMatchesFiniteDifferencesOnEveryLink) {
 
 TEST_P(EveryShippedUrdf, RootLinkPointsDoNotMove) {
   const Model model = LoadModel(GetParam());
-  KinematicsWorkspace ws(model);
+  Data ws(model);
   std::mt19937 rng(91);
   const Eigen::Vector3d p(0.1, 0.2, 0.3);
   const std::string& root = model.description().root_link;
@@ -107,7 +106,7 @@ TEST_P(EveryShippedUrdf, RootLinkPointsDoNotMove) {
 
 TEST_P(EveryShippedUrdf, EndpointIsThePointOfTheTransducerLink) {
   const Model model = LoadModel(GetParam());
-  KinematicsWorkspace ws(model);
+  Data ws(model);
   std::mt19937 rng(17);
   const auto& t = model.transducer();
   for (int k = 0; k < 3; ++k) {
@@ -126,7 +125,7 @@ TEST_P(EveryShippedUrdf, TransducerAxesInWorldGiveTheWorldJacobian) {
   // All shipped transducers are bolted to ground with world axes: R_W_T = I and J_T_E = J_W_E.
   const Model model = LoadModel(GetParam());
   ASSERT_TRUE(model.transducer().axes_in_world);
-  KinematicsWorkspace ws(model);
+  Data ws(model);
   std::mt19937 rng(23);
   const Eigen::VectorXd q = RandomPosture(model, rng);
   EXPECT_TRUE(MatricesNear(isowrench::TransducerRotation(model, ws, q), Eigen::Matrix3d::Identity(),
@@ -137,7 +136,7 @@ TEST_P(EveryShippedUrdf, TransducerAxesInWorldGiveTheWorldJacobian) {
 
 TEST_P(EveryShippedUrdf, MuscleTorqueIsMinusForceTimesLengthGradient) {
   const Model model = LoadModel(GetParam());
-  KinematicsWorkspace ws(model);
+  Data ws(model);
   std::mt19937 rng(4242);
   for (int m = 0; m < model.muscle_count(); ++m) {
     const isowrench::MuscleSpec& spec = model.muscle(m);
@@ -184,7 +183,7 @@ TEST(RatKinematics, NominalEndpointMatchesHandComputedPose) {
   // Rz(-110) [0.031 0 0]; the tibia's orientation is Rz(-110 + 105) = Rz(-5 deg); the ankle is
   // the knee plus Rz(-5) [0.041 0 0].
   const Model model = LoadModel("rat_hindlimb_5dof.urdf");
-  KinematicsWorkspace ws(model);
+  Data ws(model);
   const Eigen::VectorXd q = model.nominal_posture();
   const Eigen::Vector3d knee(0.031 * std::cos(Deg(-110)), 0.031 * std::sin(Deg(-110)), 0.0);
   const Eigen::Vector3d ankle =
@@ -215,7 +214,7 @@ TEST(RatKinematics, NominalEndpointMatchesHandComputedPose) {
 // rows z, rx, ry identically 0.
 TEST(Planar2rKinematics, JacobianMatchesClosedForm) {
   const Model model = LoadModel("planar_2r.urdf");
-  KinematicsWorkspace ws(model);
+  Data ws(model);
   const double l1 = 0.30, l2 = 0.25;
   std::mt19937 rng(77);
   std::vector<Eigen::VectorXd> postures = {model.nominal_posture()};
@@ -244,7 +243,7 @@ TEST(Planar2rKinematics, JacobianMatchesClosedForm) {
 // c_i, so tau_i = F u . (z x (p - c_i)), the moment of the pull F u about joint i.
 TEST(Planar2rKinematics, BiarticularMuscleTorqueMatchesMomentOfThePull) {
   const Model model = LoadModel("planar_2r.urdf");
-  KinematicsWorkspace ws(model);
+  Data ws(model);
   const int m = model.MuscleIndex("biarticular");
   const double F = 100.0;
   std::mt19937 rng(99);
@@ -265,7 +264,7 @@ TEST(Planar2rKinematics, BiarticularMuscleTorqueMatchesMomentOfThePull) {
 
 TEST(MuscleTorque, ScalesWithActivation) {
   const Model model = LoadModel("rat_hindlimb_5dof.urdf");
-  KinematicsWorkspace ws(model);
+  Data ws(model);
   const Eigen::VectorXd q = model.nominal_posture();
   const int gp = model.MuscleIndex("GP");
   const isowrench::MuscleTorque full = isowrench::ComputeMuscleTorque(model, ws, q, gp, 1.0);
@@ -276,12 +275,12 @@ TEST(MuscleTorque, ScalesWithActivation) {
   EXPECT_TRUE(MatricesNear(half.dL_dq, full.dL_dq, 0.0));
 }
 
-TEST(KinematicsWorkspace, IsMovable) {
+TEST(Data, IsMovable) {
   const Model model = LoadModel("planar_2r.urdf");
-  KinematicsWorkspace a(model);
+  Data a(model);
   const Eigen::VectorXd q = model.nominal_posture();
   const Matrix6Xd J = isowrench::EndpointJacobianWorld(model, a, q);
-  KinematicsWorkspace b(std::move(a));
+  Data b(std::move(a));
   EXPECT_TRUE(MatricesNear(isowrench::EndpointJacobianWorld(model, b, q), J, 0.0));
 }
 

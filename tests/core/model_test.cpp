@@ -33,7 +33,7 @@ constexpr double kSameMechanismTol = 1e-12;
   if (a.dof_count() != b.dof_count()) {
     return ::testing::AssertionFailure() << a.dof_count() << " vs " << b.dof_count() << " dofs";
   }
-  isowrench::KinematicsWorkspace wa(a), wb(b);
+  isowrench::Data wa(a), wb(b);
   std::mt19937 rng(seed);
   for (int k = 0; k < 5; ++k) {
     const Eigen::VectorXd q = RandomPosture(a, rng);
@@ -72,7 +72,7 @@ TEST(ShippedModels, RatNominalPostureAndGeometry) {
   EXPECT_TRUE(MatricesNear(t.endpoint, Eigen::Vector3d(0.041, 0, 0), 0.0));
   EXPECT_TRUE(t.axes_in_world);
   EXPECT_TRUE(MatricesNear(t.stiffness, Vector6d::Constant(1e7), 0.0));
-  for (bool r : t.released) EXPECT_FALSE(r);
+  EXPECT_TRUE(t.released.none());
   EXPECT_TRUE(MatricesNear(rat.joint_stiffness(), Eigen::VectorXd::Zero(5), 0.0));
   for (int i = 0; i < rat.dof_count(); ++i) EXPECT_EQ(rat.joint(i).role, JointRole::kLimb);
 }
@@ -157,13 +157,35 @@ TEST(DescriptionEdits, WithExtraJointReproducesTheSixDofKnee) {
   EXPECT_TRUE(SameKinematics(built, shipped, 12));
 }
 
+TEST(DofMask, ParsesEverySpellingAndNamesTheBadToken) {
+  using isowrench::DofMask;
+  // x y z rx ry rz are bits 0..5 (Dof order).
+  EXPECT_EQ(DofMask::Parse("rz").bits(), 0x20u);
+  EXPECT_EQ(DofMask::Parse("rx,ry").bits(), 0x18u);
+  EXPECT_EQ(DofMask::Parse(" rx  ry ").bits(), 0x18u);
+  EXPECT_EQ(DofMask::Parse("x, z").bits(), 0x05u);
+  EXPECT_TRUE(DofMask::Parse("").none());
+  EXPECT_TRUE(DofMask::Parse("none").none());
+  EXPECT_EQ(DofMask::FromNames({"y", "rx"}), (DofMask{"rx", "y"}));
+  EXPECT_EQ(DofMask::All().count(), 6);
+  EXPECT_EQ((~DofMask{"rz"}).bits(), 0x1fu);
+  EXPECT_EQ((~DofMask{"rz"}).count(), 5);
+  EXPECT_EQ(DofMask::Parse("ry,x").ToString(), "x,ry");
+  EXPECT_EQ(DofMask{}.ToString(" "), "none");
+  EXPECT_EQ(DofMask::Parse("rz y").names(), (std::vector<std::string>{"y", "rz"}));
+  DofMask m;
+  m.set(isowrench::kRY).set(isowrench::kZ).set(isowrench::kRY, false);
+  EXPECT_TRUE(m[isowrench::kZ]);
+  EXPECT_FALSE(m[isowrench::kRY]);
+  EXPECT_THAT([] { DofMask::Parse("rx,rw"); }, ThrowsMessage<isowrench::Error>(HasSubstr("'rw'")));
+  EXPECT_THAT([] { DofMask::FromNames({"X"}); }, ThrowsMessage<isowrench::Error>(HasSubstr("'X'")));
+}
+
 TEST(DescriptionEdits, ReleasedDofsStiffnessAndTransducer) {
   const LimbDescription d = LoadDescription("rat_hindlimb_5dof.urdf");
   const LimbDescription r = isowrench::WithReleasedDofs(d, {"rz", "x"});
-  const std::array<bool, 6> expected{{true, false, false, false, false, true}};
-  EXPECT_EQ(r.transducer.released, expected);
-  EXPECT_EQ(isowrench::WithReleasedDofs(r, {}).transducer.released,
-            (std::array<bool, 6>{{false, false, false, false, false, false}}));
+  EXPECT_EQ(r.transducer.released.bits(), (1u << isowrench::kX) | (1u << isowrench::kRZ));
+  EXPECT_TRUE(isowrench::WithReleasedDofs(r, {}).transducer.released.none());
   const Model k(isowrench::WithJointStiffness(d, "knee_rx", 3.5));
   EXPECT_DOUBLE_EQ(k.joint_stiffness()[k.JointIndex("knee_rx")], 3.5);
   Vector6d s;

@@ -63,7 +63,7 @@ TEST(PaperFigure2, IsotropicRowBEqualsPseudoinverseRowA) {  // identity 1
   EXPECT_TRUE(MatricesNear(b.wrench, a.wrench, 0.0, kIdentityTol));
   // Row A against an independent pseudoinverse of the 5-dof rat at the nominal posture.
   const isowrench::Model rat = LoadModel("rat_hindlimb_5dof.urdf");
-  isowrench::KinematicsWorkspace ws(rat);
+  isowrench::Data ws(rat);
   const Eigen::VectorXd q = rat.nominal_posture();
   const isowrench::Matrix6Xd J = isowrench::EndpointJacobian(rat, ws, q);
   const Eigen::VectorXd tau = isowrench::ComputeMuscleTorque(rat, ws, q, rat.MuscleIndex("GP")).tau;
@@ -129,7 +129,7 @@ TEST(PaperFigure3, LowBaseStiffnessGivesTheFemurRemovedWrench) {
   EXPECT_EQ(e.method, "femur removed");
   // E by hand: F u at the insertion, moment about the ankle (u toward the muscle origin).
   const isowrench::Model rat = LoadModel("rat_hindlimb_5dof.urdf");
-  isowrench::KinematicsWorkspace ws(rat);
+  isowrench::Data ws(rat);
   const Eigen::VectorXd q = rat.nominal_posture();
   const Eigen::Vector3d p =
       isowrench::PointPosition(rat, ws, q, "tibia", Eigen::Vector3d(0.0156, -0.00452, -0.00378));

@@ -246,7 +246,7 @@ Model LegModel(const Eigen::Vector3d& thigh_point = kT) {
 
 TEST(PathPointEngine, LengthMatchesTheClosedFormInsideAndBeyondTheRanges) {
   const Model model = LegModel();
-  KinematicsWorkspace ws(model);
+  Data ws(model);
   int active = 0, inactive = 0;
   for (double hip : {-0.4, 0.3, 1.1}) {
     for (double knee : {-2.6, -2.0, -1.5, -1.2, -0.7, -0.3, 0.0, 0.5, 0.9}) {
@@ -263,7 +263,7 @@ TEST(PathPointEngine, LengthMatchesTheClosedFormInsideAndBeyondTheRanges) {
 
 TEST(PathPointEngine, MusclePathPointsAreTheActivePointsWhereTheyAre) {
   const Model model = LegModel();
-  KinematicsWorkspace ws(model);
+  Data ws(model);
   for (double knee : {-2.6, -0.7, 0.9}) {  // clamped and inactive, active, clamped and inactive
     const double hip = 0.3;
     const double k = std::clamp(knee, kKneeLower, kKneeUpper);
@@ -284,7 +284,7 @@ TEST(PathPointEngine, MusclePathPointsAreTheActivePointsWhereTheyAre) {
 
 TEST(PathPointEngine, MomentArmsAreFiniteDifferencesOfTheClosedForm) {
   const Model model = LegModel();
-  KinematicsWorkspace ws(model);
+  Data ws(model);
   // Knee angles away from the kinks (knots at -2, -0.5, 0.5; clamp at -2 and 0.5; switches at
   // -1.2 - 1e-5 and -0.3 + 1e-5), including beyond the knee's range where the moving x is
   // clamped (its term of dL/dknee is 0 there).
@@ -306,7 +306,7 @@ TEST(PathPointEngine, MomentArmsAreFiniteDifferencesOfTheClosedForm) {
 void CheckSwitch(const Eigen::Vector3d& thigh_point, bool on_the_line) {
   const double hip = 0.3, knee_switch = kActiveUpper + 1e-5;
   const Model model = LegModel(thigh_point);
-  KinematicsWorkspace ws(model);
+  Data ws(model);
   constexpr double d = 1e-9;
   const MuscleTorque in = ComputeMuscleTorque(model, ws, Eigen::Vector2d(hip, knee_switch - d), 0);
   const MuscleTorque out = ComputeMuscleTorque(model, ws, Eigen::Vector2d(hip, knee_switch + d), 0);
@@ -345,7 +345,6 @@ TEST(PathPointEngine, ConditionalPointSwitchJumpsOffTheLineAndIsContinuousOnIt) 
 
 TEST(PathPointEngine, BatchEqualsSingleEvaluations) {
   const Model model = LegModel();
-  const CompiledModel compiled(model);
   const std::vector<double> hips = {-0.4, 0.3, 1.1};
   const std::vector<double> knees = {-2.6, -1.5, -1.0, -0.7, -0.2, 0.2, 0.9};
   Eigen::MatrixXd postures(2, static_cast<long>(hips.size() * knees.size()));
@@ -356,17 +355,17 @@ TEST(PathPointEngine, BatchEqualsSingleEvaluations) {
       postures(1, column++) = knee;
     }
   }
-  std::vector<StiffnessSet> sets = {compiled.model_stiffness()};
+  std::vector<StiffnessSet> sets = {model.model_stiffness()};
   StiffnessSet soft = sets[0];
-  soft.s_p = FastJointVector::Constant(2, 0.5);
+  soft.s_p = JointVector::Constant(2, 0.5);
   sets.push_back(soft);
-  std::vector<FastWrench> batch;
-  EvaluateBatch(compiled, postures, 0, sets, batch, 0.7);
-  FastWorkspace ws(compiled);
+  std::vector<WrenchResult> batch;
+  EvaluateBatch(model, postures, 0, sets, batch, 0.7);
+  Data ws(model);
   for (long p = 0; p < postures.cols(); ++p) {
     for (size_t s = 0; s < sets.size(); ++s) {
-      const FastWrench single = EvaluateFast(compiled, ws, postures.col(p), 0, sets[s], 0.7);
-      const FastWrench& b = batch[p * sets.size() + s];
+      const WrenchResult single = Evaluate(model, ws, postures.col(p), 0, sets[s], 0.7);
+      const WrenchResult& b = batch[p * sets.size() + s];
       EXPECT_EQ(b.status, single.status);
       EXPECT_EQ(b.status, StaticsStatus::kOk);
       for (int i = 0; i < 6; ++i) {

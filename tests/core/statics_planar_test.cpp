@@ -79,7 +79,7 @@ TEST(Planar2rStatics, OverConstrainedWrenchMatchesCramerSolution) {
   }
   const std::vector<Eigen::Vector3d> gains = {{1e4, 1e4, 1e2}, {1e3, 5e4, 1.0}, {7.0, 7.0, 7.0}};
   for (const Eigen::Vector2d& q : postures) {
-    KinematicsWorkspace ws(model);
+    Data ws(model);
     const Matrix6Xd J = isowrench::EndpointJacobian(model, ws, q);
     const Eigen::Vector2d tau(torque(rng), torque(rng));
     for (const Eigen::Vector3d& g : gains) {
@@ -205,7 +205,7 @@ TEST(EvaluateWrench, ReportsTheInputsItUsed) {
   const Model model(isowrench::WithReleasedDofs(LoadDescription("rat_hindlimb_5dof.urdf"), {"rz"}));
   const Eigen::VectorXd q = model.nominal_posture();
   const auto eval = EvaluateWrench(model, q, "GP", 0.5);
-  KinematicsWorkspace ws(model);
+  Data ws(model);
   EXPECT_TRUE(MatricesNear(eval.q, q, 0.0));
   EXPECT_TRUE(MatricesNear(eval.jacobian, isowrench::EndpointJacobian(model, ws, q), 1e-15));
   EXPECT_DOUBLE_EQ(eval.muscle_force, 1.15);

@@ -29,7 +29,7 @@ namespace {
 LimbDescription WithExplicitRelease(const Model& model, const Eigen::VectorXd& q,
                                     isowrench::JointType type, const Eigen::Vector3d& axis_world) {
   LimbDescription d = model.description();
-  KinematicsWorkspace ws(model);
+  Data ws(model);
   const Eigen::Matrix3d R_W_tibia = isowrench::EndpointPose(model, ws, q).linear();
   isowrench::JointSpec j;
   j.name = "release";
@@ -91,7 +91,7 @@ TEST(ReleasedDofs, ReleaseAboutTheTibiaAxisAllowsSelfMotion) {
   // loading the transducer (knee_rx turns the tibia about that very line).
   const Model limb = LoadModel("rat_hindlimb_5dof.urdf");
   const Eigen::VectorXd q = limb.nominal_posture();
-  KinematicsWorkspace ws(limb);
+  Data ws(limb);
   const Eigen::Vector3d tibia_axis = isowrench::EndpointPose(limb, ws, q).linear().col(0);
   const Model joint(WithExplicitRelease(limb, q, isowrench::JointType::kRevolute, tibia_axis));
   Eigen::VectorXd q6(6);
@@ -115,7 +115,7 @@ TEST(BaseCompliance, FemurRemovedWrenchIsThePullOnTheTibia) {
   // W = [F u; (p_ins - p_E) x F u], u from the insertion toward the origin: the tibia, held
   // only by the transducer, passes the muscle's pull on to it.
   const Model model = LoadModel("rat_hindlimb_5dof.urdf");
-  KinematicsWorkspace ws(model);
+  Data ws(model);
   const Eigen::VectorXd q = model.nominal_posture();
   const Eigen::Vector3d o(0.01267, -0.010403, -0.00478);
   const Eigen::Vector3d p =

@@ -13,8 +13,8 @@
 
 namespace isowrench_test {
 
+using isowrench::Data;
 using isowrench::EvaluateWrench;
-using isowrench::KinematicsWorkspace;
 using isowrench::LimbDescription;
 using isowrench::Matrix6Xd;
 using isowrench::Model;
@@ -44,7 +44,7 @@ struct Problem {
 };
 
 inline Problem ProblemAt(const Model& model, const Eigen::VectorXd& q, const std::string& muscle) {
-  KinematicsWorkspace ws(model);
+  Data ws(model);
   Problem p;
   p.J = isowrench::EndpointJacobian(model, ws, q);
   p.tau = isowrench::ComputeMuscleTorque(model, ws, q, model.MuscleIndex(muscle)).tau;

@@ -91,7 +91,7 @@ TEST(Releases, RotationAboutAnkleKneeLineIsSelfMotion) {
   EXPECT_FALSE(a.statics.ok());
   // Independent reason: knee_rx turns the tibia about its own long axis, the ankle-knee line, so
   // its Jacobian column is exactly the release column [0; a] (up to sign).
-  isowrench::KinematicsWorkspace ws(model);
+  isowrench::Data ws(model);
   Vector6d col = isowrench::EndpointJacobian(model, ws, q).col(model.JointIndex("knee_rx"));
   EXPECT_LT(col.head<3>().norm(), 1e-15);
   EXPECT_NEAR(std::abs(col.tail<3>().dot(axis)), 1.0, 1e-14);
@@ -107,7 +107,7 @@ TEST(Releases, RotationAboutAnkleHipLineIsSelfMotion) {
   // The whole leg turning rigidly about the hip-ankle line (a hip ball rotation) leaves the
   // ankle in place: check by forward kinematics that such a hip motion exists. The hip's
   // angular velocity w = axis is reached by its three joints; solve for their rates.
-  isowrench::KinematicsWorkspace ws(model);
+  isowrench::Data ws(model);
   const Eigen::VectorXd q = model.nominal_posture();
   auto J = isowrench::EndpointJacobian(model, ws, q);
   Eigen::Matrix3d hip_axes = J.bottomRows<3>().leftCols<3>();
@@ -319,7 +319,7 @@ TEST(Constraints, FemurAxialRotationIsTheSelfMotionOfThe6DofLimb) {
   // By forward kinematics, independent of J: moving along d by eps keeps the knee centre and the
   // whole tibia pose fixed to first order (changes are O(eps^2) ~ 1e-12 m or rad), while the
   // femur turns by ~eps about its own long axis.
-  isowrench::KinematicsWorkspace ws(model);
+  isowrench::Data ws(model);
   const double eps = 1e-6;
   const Eigen::Isometry3d X0 = isowrench::EndpointPose(model, ws, q);
   const Eigen::Isometry3d X1 = isowrench::EndpointPose(model, ws, q + eps * d);

@@ -16,7 +16,7 @@ endfunction()
 
 run(${CMAKE_COMMAND} --install ${BUILD_DIR} --prefix ${prefix})
 
-foreach(f include/isowrench/isowrench.hpp include/isowrench/fast.hpp share/isowrench/urdf/rat_hindlimb_5dof.urdf
+foreach(f include/isowrench/isowrench.hpp include/isowrench/engine.hpp share/isowrench/urdf/rat_hindlimb_5dof.urdf
           bin/isowrench)
   if(NOT EXISTS ${prefix}/${f})
     message(FATAL_ERROR "not installed: ${f}")

@@ -57,10 +57,8 @@ TEST(FastAllocation, EvaluationsAllocateNothingAfterWarmUp) {
       Model::FromUrdfFile(std::string(ISOWRENCH_TEST_URDF_DIR) + "/rat_hindlimb_5dof_base.urdf");
   const Model rat6 =
       Model::FromUrdfFile(std::string(ISOWRENCH_TEST_URDF_DIR) + "/rat_hindlimb_6dof.urdf");
-  const CompiledModel compiled(model), compiled6(rat6);
-  FastWorkspace ws(compiled), ws6(compiled6), raw(3);
-  const StiffnessSet stiffness = compiled.model_stiffness(),
-                     stiffness6 = compiled6.model_stiffness();
+  Data ws(model), ws6(rat6), raw(3);
+  const StiffnessSet stiffness = model.model_stiffness(), stiffness6 = rat6.model_stiffness();
   constexpr int kN = 2000;
   Eigen::MatrixXd postures(model.dof_count(), kN);
   std::mt19937 rng(11);
@@ -82,18 +80,17 @@ TEST(FastAllocation, EvaluationsAllocateNothingAfterWarmUp) {
   const Eigen::Vector3d tau(0.7, 0.7, -0.2);
 
   // Warm-up: anything lazily initialised (libm tables, ...) happens here.
-  EvaluateFast(compiled, ws, postures.col(0), 0, stiffness);
-  EvaluateFast(compiled6, ws6, straight, 0, stiffness6);
-  SolveStaticsFast(raw, J, s_t, s_p, tau);
+  Evaluate(model, ws, postures.col(0), 0, stiffness);
+  Evaluate(rat6, ws6, straight, 0, stiffness6);
+  SolveStatics(raw, J, s_t, s_p, tau);
 
   const long before = g_allocations.load();
   double checksum = 0.0;
   int held = 0;
   for (int p = 0; p < kN; ++p) {
-    checksum += EvaluateFast(compiled, ws, postures.col(p), 0, stiffness).wrench.sum();
-    held += EvaluateFast(compiled6, ws6, straight, 0, stiffness6).status ==
-            StaticsStatus::kSelfMotionHeld;
-    checksum += SolveStaticsFast(raw, J, s_t, s_p, tau).wrench.sum();
+    checksum += Evaluate(model, ws, postures.col(p), 0, stiffness).wrench.sum();
+    held += Evaluate(rat6, ws6, straight, 0, stiffness6).status == StaticsStatus::kSelfMotionHeld;
+    checksum += SolveStatics(raw, J, s_t, s_p, tau).wrench.sum();
   }
   const long allocations = g_allocations.load() - before;
   EXPECT_EQ(allocations, 0) << "allocations in " << 3 * kN << " evaluations";

@@ -1,4 +1,4 @@
-// Tests of include/isowrench/fast.hpp: the compiled fast path equals the KDL reference
+// Tests of include/isowrench/engine.hpp: the compiled fast path equals the KDL reference
 // (EndpointJacobian, ComputeMuscleTorque, EvaluateWrench) on random postures of every shipped
 // URDF and of a chain built to exercise every code path (fixed joints, tilted origins, general
 // axes, a transducer turning with the bone, a multi-point muscle over several links); singular
@@ -21,12 +21,11 @@
 
 namespace {
 
-using isowrench::CompiledModel;
-using isowrench::FastWorkspace;
-using isowrench::FastWrench;
+using isowrench::Data;
 using isowrench::Model;
 using isowrench::StaticsStatus;
 using isowrench::StiffnessSet;
+using isowrench::WrenchResult;
 
 constexpr double kPi = 3.14159265358979323846;
 constexpr double kEps = std::numeric_limits<double>::epsilon();
@@ -161,17 +160,16 @@ TEST(FastPath, JacobianTorqueAndWrenchEqualKdlOnRandomPostures) {
   for (const Case& c : AllModels()) {
     SCOPED_TRACE(c.label);
     const Model& model = c.model;
-    CompiledModel compiled(model);
-    FastWorkspace ws(compiled);
-    isowrench::KinematicsWorkspace kdl(model);
-    const StiffnessSet stiffness = compiled.model_stiffness();
+    Data ws(model);
+    isowrench::Data kdl(model);
+    const StiffnessSet stiffness = model.model_stiffness();
     int compared_wrenches = 0;
     for (int n = 0; n < kPosturesPerModel; ++n) {
       const Eigen::VectorXd q = RandomPosture(model, rng);
       for (int mu = 0; mu < model.muscle_count(); ++mu) {
         SCOPED_TRACE("posture " + std::to_string(n) + ", muscle " + model.muscle(mu).name);
         const double activation = 0.25 + 0.5 * mu;
-        ASSERT_TRUE(isowrench::ComputeFastKinematics(compiled, ws, q, mu, activation));
+        ASSERT_TRUE(isowrench::ComputeKinematics(model, ws, q, mu, activation));
         const isowrench::Matrix6Xd J_ref = isowrench::EndpointJacobian(model, kdl, q);
         EXPECT_TRUE(Near(ws.jacobian(), J_ref, kKinematicsRelTol, "J_T_E"));
         EXPECT_TRUE(Near(ws.endpoint_position(),
@@ -186,7 +184,7 @@ TEST(FastPath, JacobianTorqueAndWrenchEqualKdlOnRandomPostures) {
             Near(ws.muscle_length_gradient().transpose(), mt.dL_dq, kKinematicsRelTol, "dL/dq"));
         EXPECT_NEAR(ws.muscle_length(), mt.length, 1e-15);
 
-        const FastWrench w = isowrench::SolveFastStatics(compiled, ws, stiffness);
+        const WrenchResult w = isowrench::SolveStatics(model, ws, stiffness);
         const isowrench::WrenchEvaluation ref =
             isowrench::EvaluateWrench(model, q, model.muscle(mu).name, activation);
         // Near-singular postures may fall on either side of the two solvers' rank rules
@@ -218,10 +216,9 @@ TEST(FastPath, ReportsSelfMotionLikeTheReferenceForPlanar4rWithoutJointStiffness
               "j2", 0),
           "j3", 0),
       "j4", 0));
-  CompiledModel compiled(model);
-  FastWorkspace ws(compiled);
+  Data ws(model);
   const Eigen::VectorXd q = model.nominal_posture();
-  const FastWrench w = isowrench::EvaluateFast(compiled, ws, q, 0, compiled.model_stiffness());
+  const WrenchResult w = isowrench::Evaluate(model, ws, q, 0, model.model_stiffness());
   const isowrench::WrenchEvaluation ref = isowrench::EvaluateWrench(model, q, model.muscle(0).name);
   EXPECT_EQ(ref.statics.status, StaticsStatus::kSelfMotion);
   EXPECT_EQ(w.status, StaticsStatus::kSelfMotion);
@@ -233,7 +230,7 @@ TEST(FastPath, ReportsSelfMotionLikeTheReferenceForPlanar4rWithoutJointStiffness
   const Eigen::MatrixXd N = ws.self_motion();
   EXPECT_TRUE(Near(N * N.transpose(), ref.statics.self_motion * ref.statics.self_motion.transpose(),
                    1e-9, "null-space projector"));
-  const Eigen::VectorXd s_t = compiled.model_stiffness().s_t;
+  const Eigen::VectorXd s_t = model.model_stiffness().s_t;
   const Eigen::MatrixXd K = ws.jacobian().transpose() * s_t.asDiagonal() * ws.jacobian();
   EXPECT_LT((K * N).norm(), 1e-9 * K.norm());
 }
@@ -248,10 +245,9 @@ TEST(FastPath, StraightKneeSingularKNotExcitedGivesTheUniqueWrench) {
   Eigen::VectorXd q = model.nominal_posture();
   q[model.JointIndex("knee_rz")] = 0.0;
   q[model.JointIndex("hip_ry")] = 0.3;
-  CompiledModel compiled(model);
-  FastWorkspace ws(compiled);
-  const StiffnessSet stiffness = compiled.model_stiffness();
-  const FastWrench w = isowrench::EvaluateFast(compiled, ws, q, 0, stiffness);
+  Data ws(model);
+  const StiffnessSet stiffness = model.model_stiffness();
+  const WrenchResult w = isowrench::Evaluate(model, ws, q, 0, stiffness);
   ASSERT_EQ(w.status, StaticsStatus::kSelfMotionHeld);
   ASSERT_EQ(w.self_motion_count, 1);
   const int hip_rx = model.JointIndex("hip_rx"), knee_rx = model.JointIndex("knee_rx");
@@ -273,7 +269,7 @@ TEST(FastPath, StraightKneeSingularKNotExcitedGivesTheUniqueWrench) {
   for (double k : {1e-3, 1.0, 1e3}) {
     StiffnessSet held = stiffness;
     held.s_p[hip_rx] = k;
-    const FastWrench regular = isowrench::SolveFastStatics(compiled, ws, held);
+    const WrenchResult regular = isowrench::SolveStatics(model, ws, held);
     ASSERT_EQ(regular.status, StaticsStatus::kOk) << "hip_rx stiffness " << k;
     EXPECT_TRUE(Near(w.wrench, regular.wrench, 1e-8, "W vs W with hip_rx spring"));
   }
@@ -289,10 +285,10 @@ TEST(FastPath, RawMatrixSolveSeparatesHeldAndExcitedSelfMotion) {
   J << 1, 1, 0, 0, 0, 1, 2, 2, 0, 0, 0, 3, 1, 1, 1, 0, 0, 0;
   const isowrench::Vector6d s_t = isowrench::Vector6d::Constant(10.0);
   const Eigen::VectorXd s_p = Eigen::VectorXd::Zero(3);
-  FastWorkspace ws(3);
+  Data ws(3);
   Eigen::VectorXd tau(3);
   tau << 0.7, 0.7, -0.2;  // n . tau = 0: held
-  FastWrench held = isowrench::SolveStaticsFast(ws, J, s_t, s_p, tau);
+  WrenchResult held = isowrench::SolveStatics(ws, J, s_t, s_p, tau);
   EXPECT_EQ(held.status, StaticsStatus::kSelfMotionHeld);
   EXPECT_EQ(held.self_motion_count, 1);
   // The same answer as folding the two joints into one column with torque 0.7 (independent).
@@ -306,18 +302,17 @@ TEST(FastPath, RawMatrixSolveSeparatesHeldAndExcitedSelfMotion) {
   EXPECT_TRUE(Near(held.wrench, W2, 1e-12, "W vs folded joints"));
 
   tau << 0.7, 0.2, -0.2;  // excites the self-motion: no equilibrium
-  FastWrench excited = isowrench::SolveStaticsFast(ws, J, s_t, s_p, tau);
+  WrenchResult excited = isowrench::SolveStatics(ws, J, s_t, s_p, tau);
   EXPECT_EQ(excited.status, StaticsStatus::kSelfMotion);
   EXPECT_TRUE(excited.wrench.isZero(0.0));
 
   // Bad input is a status, not an exception.
   Eigen::VectorXd bad_s_p = s_p;
   bad_s_p[1] = -1.0;
-  EXPECT_EQ(isowrench::SolveStaticsFast(ws, J, s_t, bad_s_p, tau).status,
-            StaticsStatus::kInvalidInput);
+  EXPECT_EQ(isowrench::SolveStatics(ws, J, s_t, bad_s_p, tau).status, StaticsStatus::kInvalidInput);
   tau[0] = std::numeric_limits<double>::quiet_NaN();
-  EXPECT_EQ(isowrench::SolveStaticsFast(ws, J, s_t, s_p, tau).status, StaticsStatus::kInvalidInput);
-  EXPECT_EQ(isowrench::SolveStaticsFast(ws, J.leftCols(2), s_t, s_p, tau).status,
+  EXPECT_EQ(isowrench::SolveStatics(ws, J, s_t, s_p, tau).status, StaticsStatus::kInvalidInput);
+  EXPECT_EQ(isowrench::SolveStatics(ws, J.leftCols(2), s_t, s_p, tau).status,
             StaticsStatus::kInvalidInput);
 }
 
@@ -327,20 +322,19 @@ TEST(FastPath, RawMatrixSolveSeparatesHeldAndExcitedSelfMotion) {
 // promises, 16 m eps cond(K) relative to the largest entry (at least 1e-12): the stiffness sets
 // here reach cond(K) ~ 1e10, where a one-ulp change in K moves W by ~1e-6. A wrong index, lane
 // or sign gives O(1) differences.
-::testing::AssertionResult BatchMatchesSingle(const CompiledModel& compiled,
-                                              const Eigen::MatrixXd& postures,
+::testing::AssertionResult BatchMatchesSingle(const Model& model, const Eigen::MatrixXd& postures,
                                               const std::vector<StiffnessSet>& sets,
-                                              const std::vector<FastWrench>& batch,
+                                              const std::vector<WrenchResult>& batch,
                                               double activation, const std::string& label) {
-  FastWorkspace ws(compiled);
+  Data ws(model);
   if (batch.size() != static_cast<size_t>(postures.cols()) * sets.size()) {
     return ::testing::AssertionFailure() << label << ": " << batch.size() << " results";
   }
   for (int p = 0; p < postures.cols(); ++p) {
     for (size_t s = 0; s < sets.size(); ++s) {
-      const FastWrench single =
-          isowrench::EvaluateFast(compiled, ws, postures.col(p), 0, sets[s], activation);
-      const FastWrench& b = batch[static_cast<size_t>(p) * sets.size() + s];
+      const WrenchResult single =
+          isowrench::Evaluate(model, ws, postures.col(p), 0, sets[s], activation);
+      const WrenchResult& b = batch[static_cast<size_t>(p) * sets.size() + s];
       const std::string where =
           label + ", posture " + std::to_string(p) + ", set " + std::to_string(s);
       if (b.status != single.status || b.self_motion_count != single.self_motion_count) {
@@ -369,18 +363,17 @@ TEST(FastPath, RawMatrixSolveSeparatesHeldAndExcitedSelfMotion) {
 TEST(FastPath, BatchEqualsSingleEvaluationsOnBothThreads) {
   Model model =
       Model::FromUrdfFile(std::string(ISOWRENCH_TEST_URDF_DIR) + "/rat_hindlimb_5dof_base.urdf");
-  CompiledModel compiled(model);
   std::mt19937 rng(7);
   constexpr int kPostures = 701;  // many units for both threads, and a tail of one posture
   Eigen::MatrixXd postures(model.dof_count(), kPostures);
   for (int p = 0; p < kPostures; ++p) postures.col(p) = RandomPosture(model, rng);
   std::vector<StiffnessSet> sets;
   for (double ratio : {1.0, 1e-2, 1e-4}) {
-    StiffnessSet s = compiled.model_stiffness();
+    StiffnessSet s = model.model_stiffness();
     s.s_t.tail<3>() *= ratio;
     sets.push_back(s);
   }
-  std::vector<FastWrench> batch;
+  std::vector<WrenchResult> batch;
   long last_done = -1, last_total = -1;
   isowrench::BatchOptions options;
   options.threads = 2;
@@ -389,11 +382,11 @@ TEST(FastPath, BatchEqualsSingleEvaluationsOnBothThreads) {
     last_done = done;
     last_total = total;
   };
-  isowrench::EvaluateBatch(compiled, postures, 0, sets, batch, 0.8, options);
+  isowrench::EvaluateBatch(model, postures, 0, sets, batch, 0.8, options);
   const long evaluations = kPostures * static_cast<long>(sets.size());
   EXPECT_EQ(last_done, evaluations);
   EXPECT_EQ(last_total, evaluations);
-  EXPECT_TRUE(BatchMatchesSingle(compiled, postures, sets, batch, 0.8, "rat_hindlimb_5dof_base"));
+  EXPECT_TRUE(BatchMatchesSingle(model, postures, sets, batch, 0.8, "rat_hindlimb_5dof_base"));
 }
 
 // Every model, both lane layouts (four postures per register; one posture and four stiffness
@@ -402,34 +395,34 @@ TEST(FastPath, BatchEqualsSingleEvaluationsOnBothThreads) {
 TEST(FastPath, BatchLanesEqualSingleOnEveryModelIncludingUndecidedLanes) {
   bool saw_self_motion = false, saw_invalid = false;
   for (const Case& c : AllModels()) {
+    const Model& model = c.model;
     SCOPED_TRACE(c.label);
-    CompiledModel compiled(c.model);
     std::mt19937 rng(11);
     constexpr int kPostures = 13;  // 3 groups of 4 and a tail of 1
     Eigen::MatrixXd postures(c.model.dof_count(), kPostures);
     for (int p = 0; p < kPostures; ++p) postures.col(p) = RandomPosture(c.model, rng);
     postures.col(5).setZero();  // straight chain: a singular K without joint stiffness
     std::vector<StiffnessSet> sets;
-    sets.push_back(compiled.model_stiffness());
-    StiffnessSet soft = compiled.model_stiffness();
+    sets.push_back(model.model_stiffness());
+    StiffnessSet soft = model.model_stiffness();
     soft.s_t.tail<3>() *= 1e-3;
     sets.push_back(soft);
-    StiffnessSet no_joints = compiled.model_stiffness();
+    StiffnessSet no_joints = model.model_stiffness();
     no_joints.s_p.setZero();
     sets.push_back(no_joints);
     StiffnessSet nothing = no_joints;
     nothing.s_t.setZero();
     sets.push_back(nothing);
-    StiffnessSet negative = compiled.model_stiffness();
+    StiffnessSet negative = model.model_stiffness();
     negative.s_t[2] = -1.0;
     sets.push_back(negative);
     for (int threads : {1, 2}) {
       isowrench::BatchOptions options;
       options.threads = threads;
-      std::vector<FastWrench> batch;
-      isowrench::EvaluateBatch(compiled, postures, 0, sets, batch, 0.7, options);
-      EXPECT_TRUE(BatchMatchesSingle(compiled, postures, sets, batch, 0.7, "postures x sets"));
-      for (const FastWrench& w : batch) {
+      std::vector<WrenchResult> batch;
+      isowrench::EvaluateBatch(model, postures, 0, sets, batch, 0.7, options);
+      EXPECT_TRUE(BatchMatchesSingle(model, postures, sets, batch, 0.7, "postures x sets"));
+      for (const WrenchResult& w : batch) {
         saw_self_motion |=
             w.status == StaticsStatus::kSelfMotion || w.status == StaticsStatus::kSelfMotionHeld;
         saw_invalid |= w.status == StaticsStatus::kInvalidInput;
@@ -438,15 +431,15 @@ TEST(FastPath, BatchLanesEqualSingleOnEveryModelIncludingUndecidedLanes) {
     // One posture, 11 sets: the sets go across the lanes (two full groups and a padded one).
     std::vector<StiffnessSet> many;
     for (int k = 0; k < 11; ++k) {
-      StiffnessSet s = k % 5 == 4 ? sets[2] : compiled.model_stiffness();
+      StiffnessSet s = k % 5 == 4 ? sets[2] : model.model_stiffness();
       s.s_t.tail<3>() *= std::pow(10.0, -0.4 * k);
       many.push_back(s);
     }
     many[7] = negative;
-    std::vector<FastWrench> batch;
-    isowrench::EvaluateBatch(compiled, postures.leftCols(1), 0, many, batch, 1.0);
+    std::vector<WrenchResult> batch;
+    isowrench::EvaluateBatch(model, postures.leftCols(1), 0, many, batch, 1.0);
     EXPECT_TRUE(
-        BatchMatchesSingle(compiled, postures.leftCols(1), many, batch, 1.0, "one posture x sets"));
+        BatchMatchesSingle(model, postures.leftCols(1), many, batch, 1.0, "one posture x sets"));
   }
   EXPECT_TRUE(saw_self_motion);  // the scalar fallback ran
   EXPECT_TRUE(saw_invalid);
@@ -456,7 +449,6 @@ TEST(FastPath, BatchLanesEqualSingleOnEveryModelIncludingUndecidedLanes) {
 // range (handed to std::sin / std::cos) give the scalar path's wrench.
 TEST(FastPath, BatchLaneAnglesAcrossQuadrantsAndHugeAnglesEqualSingle) {
   Model model = Model::FromUrdfFile(std::string(ISOWRENCH_TEST_URDF_DIR) + "/planar_2r.urdf");
-  CompiledModel compiled(model);
   const std::vector<double> angles = {0.0,        kPi / 4,     kPi / 2, -kPi / 2,       kPi - 1e-9,
                                       -kPi,       3 * kPi / 2, 7.0,     -123.456,       99999.5,
                                       1e5 + 0.25, -2.5e6,      1e12,    kPi / 4 - 1e-15};
@@ -465,29 +457,26 @@ TEST(FastPath, BatchLaneAnglesAcrossQuadrantsAndHugeAnglesEqualSingle) {
     postures(0, static_cast<int>(i)) = angles[i];
     postures(1, static_cast<int>(i)) = angles[angles.size() - 1 - i] + 0.3;
   }
-  std::vector<StiffnessSet> sets = {compiled.model_stiffness()};
-  std::vector<FastWrench> batch;
-  isowrench::EvaluateBatch(compiled, postures, 0, sets, batch);
-  EXPECT_TRUE(BatchMatchesSingle(compiled, postures, sets, batch, 1.0, "planar_2r angles"));
+  std::vector<StiffnessSet> sets = {model.model_stiffness()};
+  std::vector<WrenchResult> batch;
+  isowrench::EvaluateBatch(model, postures, 0, sets, batch);
+  EXPECT_TRUE(BatchMatchesSingle(model, postures, sets, batch, 1.0, "planar_2r angles"));
 }
 
 TEST(FastPath, BatchRejectsBadInputNamingIt) {
   Model model = Model::FromUrdfFile(std::string(ISOWRENCH_TEST_URDF_DIR) + "/planar_2r.urdf");
-  CompiledModel compiled(model);
-  std::vector<FastWrench> out;
-  std::vector<StiffnessSet> sets = {compiled.model_stiffness()};
+  std::vector<WrenchResult> out;
+  std::vector<StiffnessSet> sets = {model.model_stiffness()};
   using ::testing::HasSubstr;
-  EXPECT_THAT(
-      [&] { isowrench::EvaluateBatch(compiled, Eigen::MatrixXd::Zero(3, 4), 0, sets, out); },
-      ::testing::ThrowsMessage<isowrench::Error>(HasSubstr("3 rows")));
-  EXPECT_THAT(
-      [&] { isowrench::EvaluateBatch(compiled, Eigen::MatrixXd::Zero(2, 4), 5, sets, out); },
-      ::testing::ThrowsMessage<isowrench::Error>(HasSubstr("muscle index 5")));
+  EXPECT_THAT([&] { isowrench::EvaluateBatch(model, Eigen::MatrixXd::Zero(3, 4), 0, sets, out); },
+              ::testing::ThrowsMessage<isowrench::Error>(HasSubstr("3 rows")));
+  EXPECT_THAT([&] { isowrench::EvaluateBatch(model, Eigen::MatrixXd::Zero(2, 4), 5, sets, out); },
+              ::testing::ThrowsMessage<isowrench::Error>(HasSubstr("muscle index 5")));
   Eigen::MatrixXd nan_postures = Eigen::MatrixXd::Zero(2, 4);
   nan_postures(1, 2) = std::numeric_limits<double>::quiet_NaN();
-  EXPECT_THAT([&] { isowrench::EvaluateBatch(compiled, nan_postures, 0, sets, out); },
+  EXPECT_THAT([&] { isowrench::EvaluateBatch(model, nan_postures, 0, sets, out); },
               ::testing::ThrowsMessage<isowrench::Error>(HasSubstr("non-finite")));
-  EXPECT_THAT([] { FastWorkspace ws(0); },
+  EXPECT_THAT([] { Data ws(0); },
               ::testing::ThrowsMessage<isowrench::Error>(HasSubstr("dof count 0")));
 }
 
@@ -498,20 +487,19 @@ TEST(FastPath, CoincidentPathPointsGiveInvalidInputNotNaN) {
       isowrench::ReadUrdfFile(std::string(ISOWRENCH_TEST_URDF_DIR) + "/planar_2r.urdf");
   d.muscles[1].path[0] = {"forearm", Eigen::Vector3d(0.04, 0.01, 0)};
   Model model(d);
-  CompiledModel compiled(model);
-  FastWorkspace ws(compiled);
-  const FastWrench w =
-      isowrench::EvaluateFast(compiled, ws, model.nominal_posture(), 1, compiled.model_stiffness());
+  Data ws(model);
+  const WrenchResult w =
+      isowrench::Evaluate(model, ws, model.nominal_posture(), 1, model.model_stiffness());
   EXPECT_EQ(w.status, StaticsStatus::kInvalidInput);
   EXPECT_TRUE(w.wrench.allFinite());
   // The lane kernel flags the same lanes (here all five postures, set by set).
   Eigen::MatrixXd postures(2, 5);
   for (int p = 0; p < 5; ++p) postures.col(p) = model.nominal_posture() * (1.0 + 0.1 * p);
-  std::vector<FastWrench> batch;
-  isowrench::EvaluateBatch(compiled, postures, 1,
-                           {compiled.model_stiffness(), compiled.model_stiffness()}, batch);
+  std::vector<WrenchResult> batch;
+  isowrench::EvaluateBatch(model, postures, 1, {model.model_stiffness(), model.model_stiffness()},
+                           batch);
   ASSERT_EQ(batch.size(), 10u);
-  for (const FastWrench& b : batch) {
+  for (const WrenchResult& b : batch) {
     EXPECT_EQ(b.status, StaticsStatus::kInvalidInput);
     EXPECT_TRUE((b.wrench.array() == 0.0).all());
   }

@@ -369,7 +369,7 @@ void CheckEngine(const LimbDescription& d, const std::vector<Posture>& postures,
   Model model(d);
   ASSERT_EQ(model.dof_count(), static_cast<int>(d.coordinates.size()))
       << "the engine's columns must be the coordinates";
-  KinematicsWorkspace ws(model);
+  Data ws(model);
   const std::vector<std::string>& columns = model.joint_names();
   auto endpoint = [&](const Posture& p) {
     World w = Bodies(p);
