@@ -80,6 +80,9 @@ class Function {
   double Derivative(double x) const;
   /// d2f/dx2.
   double SecondDerivative(double x) const;
+  /// f(x) and df/dx at once (one interval search for the knot-based kinds): the same numbers
+  /// as Value(x) and Derivative(x).
+  void ValueAndDerivative(double x, double* value, double* derivative) const;
 
   FunctionKind kind() const;
   /// True for Constant, Linear, and a Multiplier of one of these (possibly nested): the

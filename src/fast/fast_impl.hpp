@@ -14,7 +14,9 @@ namespace isowrench {
 /// A path segment shorter than this (m) has no direction (same rule as ComputeMuscleTorque).
 inline constexpr double kFastMinSegmentLength = 1e-9;
 
+/// The scalar workspace of the engine (src/fast/kernel.hpp describes what the kernel needs).
 struct Data::Impl {
+  using Scalar = double;
   explicit Impl(int dofs);
   int m = 0;
   // Kinematics of the last posture: per movable joint its world axis and origin (a point on
@@ -36,8 +38,19 @@ struct Data::Impl {
   JointVector dL;
   JointVector tau;
   double length = 0.0;
+  double* JacobianData() { return J.data(); }
+  double* DlData() { return dL.data(); }
+  double* TauData() { return tau.data(); }
+  double* EndpointData() { return endpoint.data(); }
+  double* TransducerData() { return R_W_T.data(); }
+  void Resize(int columns) {
+    J.resize(6, columns);
+    dL.resize(columns);
+    tau.resize(columns);
+  }
   // Statics.
   double K[kMaxDofs * kMaxDofs];  // upper triangle by rows: K_ij (j >= i) at i * 16 + j
+  double U[kMaxDofs * kMaxDofs];  // its Cholesky factor, K = U^T U (upper triangle by rows)
   JointVector dtheta;
   JointMatrix K_full;
   Eigen::SelfAdjointEigenSolver<JointMatrix> eigen;
@@ -51,10 +64,6 @@ struct Data::Impl {
   std::array<int, kFastMaxPathPoints> active;
   int active_count = 0;
   std::array<double, 3 * kFastMaxPathPoints> moving_slope;
-  /// J of the last kinematics (or SolveStatics) row-major, row r at r * kMaxDofs (the
-  /// same values as J): the statics build K from rows of J (vectorisable). Entries beyond m
-  /// stay 0.
-  double J_rows[6 * kMaxDofs];
 };
 
 /// Moving and conditional path points (src/fast/path_points.cpp), for a muscle with
@@ -71,7 +80,7 @@ void AddMovingPointTerms(const FastMuscle& muscle, Data::Impl& ws, double minus_
 /// The kinematics kernel of ComputeKinematics with every movable joint's world rotation
 /// stored in ws.frames, for the public kinematics functions. `muscle` < 0: no muscle (dL and
 /// tau zero). `world_axes`: J in world axes instead of transducer axes. Returns false when two
-/// consecutive path points coincide (as ComputeKinematics). q: chain.m entries.
+/// consecutive path points coincide (as ComputeKinematics). q: chain.n coordinates.
 bool ComputeKinematicsWithFrames(const FlatChain& chain, Data::Impl& ws, const double* q,
                                  int muscle, double activation, bool world_axes);
 

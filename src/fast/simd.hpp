@@ -3,7 +3,6 @@
 // arithmetic both write once for a scalar and for a 4-lane vector.
 
 #include <cstdint>
-#include <cstring>
 
 #include "isowrench/engine.hpp"
 
@@ -51,8 +50,6 @@ typedef std::int64_t V4i __attribute__((vector_size(32)));
 }  // namespace isowrench
 
 #define ISOWRENCH_V4_SPLAT(x) (::isowrench::V4{(x), (x), (x), (x)})
-#define ISOWRENCH_V4_LOAD(v, p) std::memcpy(&(v), (p), sizeof(::isowrench::V4))
-#define ISOWRENCH_V4_STORE(p, v) std::memcpy((p), &(v), sizeof(::isowrench::V4))
 
 namespace isowrench {
 

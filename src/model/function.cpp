@@ -210,27 +210,23 @@ int FindInterval(const std::vector<double>& x, double a) {
   return k;
 }
 
-// order 0, 1, 2 of a knot-based function.
-double EvaluateKnots(const Function::Impl& s, double a, int order) {
+// Orders 0, 1 and 2 of a knot-based function at a, from one interval search.
+struct KnotValues {
+  double value, first, second;
+};
+KnotValues EvaluateKnots(const Function::Impl& s, double a) {
   const std::vector<double>& x = s.x;
   const int n = static_cast<int>(x.size());
-  if (a < x[0]) {
-    return order == 0 ? s.y[0] + (a - x[0]) * s.b[0] : order == 1 ? s.b[0] : 0.0;
-  }
-  if (a > x[n - 1]) {
-    return order == 0 ? s.y[n - 1] + (a - x[n - 1]) * s.b[n - 1] : order == 1 ? s.b[n - 1] : 0.0;
-  }
-  if (std::abs(a - x[0]) <= kRoundoffError) {
-    return order == 0 ? s.y[0] : order == 1 ? s.b[0] : 2.0 * s.c[0];
-  }
+  if (a < x[0]) return {s.y[0] + (a - x[0]) * s.b[0], s.b[0], 0.0};
+  if (a > x[n - 1]) return {s.y[n - 1] + (a - x[n - 1]) * s.b[n - 1], s.b[n - 1], 0.0};
+  if (std::abs(a - x[0]) <= kRoundoffError) return {s.y[0], s.b[0], 2.0 * s.c[0]};
   if (std::abs(a - x[n - 1]) <= kRoundoffError) {
-    return order == 0 ? s.y[n - 1] : order == 1 ? s.b[n - 1] : 2.0 * s.c[n - 1];
+    return {s.y[n - 1], s.b[n - 1], 2.0 * s.c[n - 1]};
   }
   const int k = FindInterval(x, a);
   const double dx = a - x[k];
-  if (order == 0) return s.y[k] + dx * (s.b[k] + dx * (s.c[k] + dx * s.d[k]));
-  if (order == 1) return s.b[k] + dx * (2.0 * s.c[k] + 3.0 * dx * s.d[k]);
-  return 2.0 * s.c[k] + 6.0 * dx * s.d[k];
+  return {s.y[k] + dx * (s.b[k] + dx * (s.c[k] + dx * s.d[k])),
+          s.b[k] + dx * (2.0 * s.c[k] + 3.0 * dx * s.d[k]), 2.0 * s.c[k] + 6.0 * dx * s.d[k]};
 }
 
 // Horner's rule on coefficients highest order first (SimTK::Function::Polynomial).
@@ -253,7 +249,10 @@ double Evaluate(const Function::Impl& s, double a, int order) {
       return order == 0 ? s.slope * a + s.intercept : order == 1 ? s.slope : 0.0;
     case FunctionKind::kSimmSpline:
     case FunctionKind::kNaturalCubicSpline:
-    case FunctionKind::kPiecewiseLinear: return EvaluateKnots(s, a, order);
+    case FunctionKind::kPiecewiseLinear: {
+      const KnotValues v = EvaluateKnots(s, a);
+      return order == 0 ? v.value : order == 1 ? v.first : v.second;
+    }
     case FunctionKind::kPolynomial: return EvaluatePolynomial(s.coefficients, a, order);
     case FunctionKind::kMultiplier: {
       const Function& f = s.inner.front();
@@ -367,6 +366,20 @@ Function Function::Multiplier(Function inner, double scale) {
 double Function::Value(double x) const { return Evaluate(*impl_, x, 0); }
 double Function::Derivative(double x) const { return Evaluate(*impl_, x, 1); }
 double Function::SecondDerivative(double x) const { return Evaluate(*impl_, x, 2); }
+
+void Function::ValueAndDerivative(double x, double* value, double* derivative) const {
+  switch (impl_->kind) {
+    case FunctionKind::kSimmSpline:
+    case FunctionKind::kNaturalCubicSpline:
+    case FunctionKind::kPiecewiseLinear: {
+      const KnotValues v = EvaluateKnots(*impl_, x);
+      *value = v.value;
+      *derivative = v.first;
+      return;
+    }
+    default: *value = Evaluate(*impl_, x, 0); *derivative = Evaluate(*impl_, x, 1);
+  }
+}
 
 FunctionKind Function::kind() const { return impl_->kind; }
 

@@ -245,6 +245,33 @@ TEST(AllKinds, DerivativesMatchFiniteDifferences) {
   }
 }
 
+// ValueAndDerivative (one interval search, used by the engine for couplings) must give exactly
+// Value and Derivative, on the knots, between them and on both sides of them.
+TEST(AllKinds, ValueAndDerivativeIsValueAndDerivative) {
+  std::vector<double> y;
+  for (double x : kKnots) y.push_back(0.003 * std::sin(2 * x) - 0.001 * x);
+  const std::vector<Function> functions = {
+      Function::SimmSpline(kKnots, y),
+      Function::NaturalCubicSpline(kKnots, y),
+      Function::PiecewiseLinear(kKnots, y),
+      Function::Polynomial({0.3, -0.2, 0.1, 0.05}),
+      Function::Multiplier(Function::SimmSpline(kKnots, y), 1.7),
+      Function::Linear(0.3, 0.1),
+      Function::Constant(-0.25)};
+  std::vector<double> xs = kKnots;
+  for (double x = -3.0; x <= 1.0; x += 0.0625) xs.push_back(x);
+  xs.push_back(kKnots.front() + 1e-14);  // within OpenSim's round-off of the end knots
+  xs.push_back(kKnots.back() - 1e-14);
+  for (const Function& f : functions) {
+    for (double x : xs) {
+      double value = std::nan(""), derivative = std::nan("");
+      f.ValueAndDerivative(x, &value, &derivative);
+      EXPECT_EQ(value, f.Value(x)) << FunctionKindName(f.kind()) << " at " << x;
+      EXPECT_EQ(derivative, f.Derivative(x)) << FunctionKindName(f.kind()) << " at " << x;
+    }
+  }
+}
+
 TEST(BadKnots, ErrorsNameTheRule) {
   const double nan = std::numeric_limits<double>::quiet_NaN();
   EXPECT_THAT(

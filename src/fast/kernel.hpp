@@ -1,0 +1,463 @@
+#pragma once
+// Private: the engine, written once over the number type T: T = double evaluates one posture
+// (fast.cpp: Data::Impl), T = V4 evaluates four at once, one per SIMD lane (lanes.cpp:
+// LaneWorkspace::Impl). The chain's structure (joint types, axes, path point frames) is the
+// same in every lane, so every branch below is uniform across lanes; only the numbers differ.
+//
+// Kinematics (per movable joint k, parent frame (M, o), folded fixed transform (R0, p0)):
+//   joint origin  j_k = o + M p0,   M <- M R0,   world axis z_k = M a_k,
+//   revolute:  M <- M Rot(a_k, q_k), o_k = j_k;   prismatic: o_k = j_k + z_k q_k.
+// Endpoint Jacobian columns (KDL's, reference point p_E, world axes):
+//   revolute [z_k x (p_E - o_k); z_k],  prismatic [z_k; 0].
+// Muscle: with unit segment directions u_i, dL/dtheta = sum_points Jp(x_i)^T g_i where
+// g_i = u_{i-1} - u_i is the "pull" at point i (u_{-1} = u_n = 0). Summing the pulls and their
+// moments from the distal end (a backward sweep over joints) gives, per joint k,
+//   revolute  dL/dtheta_k = z_k . (sum x_i x g_i - o_k x sum g_i),  prismatic z_k . sum g_i,
+// over the points distal to joint k: O(m + points) instead of one point Jacobian per point.
+// Coupled chains: the joint columns of J and dL/dq are folded into coordinate columns as the
+// sweep computes them, J = J_joints C with C = dq_joint/dq.
+// Statics: K = J^T S_t J + S_p, Cholesky K = U^T U, two triangular solves, W = S_t J dtheta
+// (Cholesky).
+//
+// A workspace W provides: `using Scalar = T`; arrays origin, axis (kMaxDofs x 3), points,
+// pulls (kFastMaxPathPoints x 3), q_joint, dq_joint (kMaxDofs) and frames (kMaxDofs x 9,
+// column-major; only for kFrames), reached through Ptr(); T length; JacobianData() (6 per
+// column, column-major), DlData(), TauData(), EndpointData(), TransducerData() (3 x 3
+// column-major R_W_T), and Resize(columns) before J, dL and tau are written.
+
+#include <Eigen/Core>
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+#include <type_traits>
+#include <utility>
+
+#include "fast/fast_impl.hpp"
+#include "fast/simd.hpp"
+#include "model/model_impl.hpp"
+
+namespace isowrench {
+namespace kernel {
+
+/// The result of a comparison: bool for double, a lane mask (all bits set where true) for V4.
+template <class T>
+struct MaskOf {
+  using type = bool;
+};
+template <>
+struct MaskOf<V4> {
+  using type = V4i;
+};
+template <class T>
+using Mask = typename MaskOf<T>::type;
+
+template <class T>
+inline constexpr bool kScalar = std::is_same_v<T, double>;
+
+// Raw pointers to the 3 (or 9) numbers of a vector (frame) of either workspace.
+ISOWRENCH_INLINE double* Ptr(Eigen::Vector3d& v) { return v.data(); }
+ISOWRENCH_INLINE double* Ptr(Eigen::Matrix3d& m) { return m.data(); }
+ISOWRENCH_INLINE V4* Ptr(V4 (&v)[3]) { return v; }
+ISOWRENCH_INLINE V4* Ptr(V4 (&m)[9]) { return m; }
+
+ISOWRENCH_INLINE void Sqrt(double x, double& out) { out = std::sqrt(x); }
+ISOWRENCH_INLINE void Sqrt(const V4& x, V4& out) {
+  for (int l = 0; l < 4; ++l) out[l] = std::sqrt(x[l]);
+}
+
+// sin and cos of one angle, to within an ulp or two, in about 50 instructions instead of the
+// ~120 of libm's sincos: sincos::Kernel (simd.hpp) and the quadrant, by branches. Angles beyond
+// sincos::kMaxReduced fall back to std::sin / std::cos.
+ISOWRENCH_INLINE void SinCos(double x, double& sin_x, double& cos_x) {
+  if (!(std::abs(x) < sincos::kMaxReduced)) {
+    sin_x = std::sin(x);
+    cos_x = std::cos(x);
+    return;
+  }
+  const double k = (x * sincos::kTwoOverPi + sincos::kRound) - sincos::kRound;
+  const long n = static_cast<long>(k);
+  double sin_r, cos_r;
+  sincos::Kernel(x, k, sin_r, cos_r);
+  // Quadrant n mod 4: (sin, cos) = (s, c), (c, -s), (-s, -c), (-c, s).
+  const bool swap = n & 1;
+  const double sign_sin = (n & 2) ? -1.0 : 1.0;
+  const double sign_cos = ((n + 1) & 2) ? -1.0 : 1.0;
+  sin_x = sign_sin * (swap ? cos_r : sin_r);
+  cos_x = sign_cos * (swap ? sin_r : cos_r);
+}
+
+// The same per lane, with the quadrant read from the low bits of x 2/pi + 1.5 * 2^52 (its
+// mantissa holds round(x 2/pi), two's complement modulo 4) and applied by selects and sign-bit
+// flips. Valid for |x| < sincos::kMaxReduced: LaneKinematics hands lanes with larger angles to
+// the scalar path.
+ISOWRENCH_INLINE void SinCos(const V4& x, V4& sin_x, V4& cos_x) {
+  const V4 shifted = x * sincos::kTwoOverPi + sincos::kRound;
+  const V4i n = (V4i)shifted;  // GCC vector casts keep the bits
+  const V4 k = shifted - sincos::kRound;
+  V4 sin_r, cos_r;
+  sincos::Kernel(x, k, sin_r, cos_r);
+  const V4i swap = (n & 1) != 0;
+  const V4 s = swap ? cos_r : sin_r;
+  const V4 c = swap ? sin_r : cos_r;
+  const V4i sign_sin = (n & 2) << 62;
+  const V4i sign_cos = ((n + 1) & 2) << 62;
+  sin_x = (V4)((V4i)s ^ sign_sin);
+  cos_x = (V4)((V4i)c ^ sign_cos);
+}
+
+// M <- M R0 for a 3 x 3 column-major frame M and a constant rotation R0.
+template <class T>
+ISOWRENCH_INLINE void MultiplyRotation(T* M, const Eigen::Matrix3d& R0) {
+  T P[9];
+  for (int c = 0; c < 3; ++c) {
+    for (int r = 0; r < 3; ++r)
+      P[3 * c + r] = M[r] * R0(0, c) + M[3 + r] * R0(1, c) + M[6 + r] * R0(2, c);
+  }
+  for (int i = 0; i < 9; ++i) M[i] = P[i];
+}
+
+// World axis z = sign * column K of M, then (turn) M <- M Rot(e_K, q) given c = cos q and
+// s = sign * sin q.
+template <int K, class T>
+ISOWRENCH_INLINE void AxisAndTurn(T* M, double sign, const T& c, const T& s, T* z, bool turn) {
+  z[0] = sign * M[3 * K];
+  z[1] = sign * M[3 * K + 1];
+  z[2] = sign * M[3 * K + 2];
+  if (!turn) return;
+  constexpr int A = 3 * ((K + 1) % 3), B = 3 * ((K + 2) % 3);  // the two columns that turn
+  for (int r = 0; r < 3; ++r) {
+    const T a = M[A + r], b = M[B + r];
+    M[A + r] = c * a + s * b;
+    M[B + r] = c * b - s * a;
+  }
+}
+
+// The same for a general unit axis a (Rodrigues: Rot = c I + s [a]x + (1 - c) a a^T, with s
+// the plain sine here), out of the hot path: no shipped chain has one.
+template <class T>
+ISOWRENCH_NOINLINE void GeneralAxisAndTurnOutOfLine(T* M, const Eigen::Vector3d& a, const T& c,
+                                                    const T& s, T* z, bool turn) {
+  for (int r = 0; r < 3; ++r) z[r] = M[r] * a[0] + M[3 + r] * a[1] + M[6 + r] * a[2];
+  if (!turn) return;
+  const T t = 1.0 - c;
+  T rot[9];  // column-major
+  for (int col = 0; col < 3; ++col) {
+    for (int r = 0; r < 3; ++r) rot[3 * col + r] = t * (a[r] * a[col]);
+    rot[4 * col] += c;
+  }
+  rot[5] += s * a[0];  // (2, 1)
+  rot[7] -= s * a[0];  // (1, 2)
+  rot[6] += s * a[1];  // (0, 2)
+  rot[2] -= s * a[1];  // (2, 0)
+  rot[1] += s * a[2];  // (1, 0)
+  rot[3] -= s * a[2];  // (0, 1)
+  T out[9];
+  for (int col = 0; col < 3; ++col) {
+    for (int r = 0; r < 3; ++r)
+      out[3 * col + r] =
+          M[r] * rot[3 * col] + M[3 + r] * rot[3 * col + 1] + M[6 + r] * rot[3 * col + 2];
+  }
+  for (int i = 0; i < 9; ++i) M[i] = out[i];
+}
+// M goes through a copy so that the caller's frame never has its address taken and stays in
+// registers.
+template <class T>
+ISOWRENCH_INLINE void GeneralAxisAndTurn(T* M, const Eigen::Vector3d& a, const T& c, const T& s,
+                                         T* z, bool turn) {
+  T copy[9];
+  for (int i = 0; i < 9; ++i) copy[i] = M[i];
+  GeneralAxisAndTurnOutOfLine(copy, a, c, s, z, turn);
+  for (int i = 0; i < 9; ++i) M[i] = copy[i];
+}
+
+/// Forward kinematics, the endpoint Jacobian (world axes, turned into transducer axes when
+/// `rotate`) and the length, dL/dq and tau = minus_force dL/dq of muscle `mu`, at joint
+/// positions q (d.m entries; on a coupled chain ws.dq_joint holds dq_joint/dq). Sets
+/// `coincident` on the lanes where two consecutive path points coincide (their dL and tau are
+/// not meaningful; the scalar path sets them to 0). Masks are written through references, not
+/// returned: a 32-byte vector returned by value changes the ABI without AVX (-Wpsabi).
+/// kFrames: also store each movable joint's world rotation in ws.frames (the public kinematics
+/// functions). kDynamic (scalar only): the muscle has moving or conditional points
+/// (src/fast/path_points.cpp); ws.local and ws.active were prepared by PreparePathPoints.
+template <bool kFrames, bool kDynamic, class W, class T = typename W::Scalar>
+ISOWRENCH_INLINE void Kinematics(const FlatChain& d, W& ws, const T* q, const FastMuscle& mu,
+                                 double minus_force, bool rotate, Mask<T>& coincident) {
+  static_assert(kScalar<T> || (!kFrames && !kDynamic), "frames and moving points: scalar only");
+  const int m = d.m;
+  const FastJoint* joints = d.joints.data();
+  const int n = static_cast<int>(mu.points.size());
+  const FastPathPoint* pts = mu.points.data();
+  const int* order = mu.sweep_order.data();  // points by decreasing frame, ground ones left out
+  const int sweep_count = static_cast<int>(mu.sweep_order.size());
+  const T zero = T{};
+  const T one = T{} + 1.0;
+
+  // Path points on ground are fixed in world; the others are placed as soon as their frame is
+  // known (walking sweep_order from its end: increasing frames), so that no frame is stored.
+  for (int i = 0; i < n; ++i) {
+    if (pts[i].frame >= 0) continue;
+    T* x = Ptr(ws.points[i]);
+    if constexpr (kDynamic) {
+      ws.point_rotation[i].setIdentity();
+      for (int c = 0; c < 3; ++c) x[c] = ws.local[i][c];
+    } else {
+      for (int c = 0; c < 3; ++c) x[c] = zero + pts[i].position[c];
+    }
+  }
+  int next_point = sweep_count - 1;
+
+  // The current frame lives in locals (registers): rotation M column-major (M[3 c + r]) and
+  // origin o; it starts as the world frame.
+  T M[9] = {one, zero, zero, zero, one, zero, zero, zero, one};
+  T o[3] = {zero, zero, zero};
+  for (int k = 0; k < m; ++k) {
+    const FastJoint& j = joints[k];
+    if (!j.translation_is_zero) {  // joint origin o + M p0
+      const double* t = j.origin_translation.data();
+      for (int r = 0; r < 3; ++r) o[r] = o[r] + (M[r] * t[0] + M[3 + r] * t[1] + M[6 + r] * t[2]);
+    }
+    if (!j.rotation_is_identity) MultiplyRotation(M, j.origin_rotation);
+    T* z = Ptr(ws.axis[k]);
+    const T qk = q[k];
+    if (j.revolute) {
+      T s, c;
+      SinCos(qk, s, c);
+      if (j.axis_kind == 3) {
+        GeneralAxisAndTurn(M, j.axis, c, s, z, true);
+      } else {
+        s *= j.axis_sign;
+        switch (j.axis_kind) {
+          case 0: AxisAndTurn<0>(M, j.axis_sign, c, s, z, true); break;
+          case 1: AxisAndTurn<1>(M, j.axis_sign, c, s, z, true); break;
+          default: AxisAndTurn<2>(M, j.axis_sign, c, s, z, true); break;
+        }
+      }
+    } else {
+      switch (j.axis_kind) {
+        case 0: AxisAndTurn<0>(M, j.axis_sign, one, zero, z, false); break;
+        case 1: AxisAndTurn<1>(M, j.axis_sign, one, zero, z, false); break;
+        case 2: AxisAndTurn<2>(M, j.axis_sign, one, zero, z, false); break;
+        default: GeneralAxisAndTurn(M, j.axis, one, zero, z, false); break;
+      }
+      for (int r = 0; r < 3; ++r) o[r] = o[r] + z[r] * qk;
+    }
+    T* ok = Ptr(ws.origin[k]);
+    for (int r = 0; r < 3; ++r) ok[r] = o[r];
+    if constexpr (kFrames) {
+      T* frame = Ptr(ws.frames[k]);
+      for (int i = 0; i < 9; ++i) frame[i] = M[i];
+    }
+    while (next_point >= 0 && pts[order[next_point]].frame == k) {  // x = M a + o
+      const int i = order[next_point--];
+      T* x = Ptr(ws.points[i]);
+      if constexpr (kDynamic) {
+        std::memcpy(ws.point_rotation[i].data(), M, sizeof M);
+        const double* a = ws.local[i].data();
+        for (int r = 0; r < 3; ++r) x[r] = (M[r] * a[0] + M[3 + r] * a[1] + M[6 + r] * a[2]) + o[r];
+      } else {
+        const double* a = pts[i].position.data();
+        for (int r = 0; r < 3; ++r) x[r] = (M[r] * a[0] + M[3 + r] * a[1] + M[6 + r] * a[2]) + o[r];
+      }
+    }
+  }
+  // Endpoint and R_W_T (column-major) in locals: the stores below cannot alias them.
+  T pe[3];
+  {
+    const double* e = d.endpoint.data();
+    for (int r = 0; r < 3; ++r) pe[r] = (M[r] * e[0] + M[3 + r] * e[1] + M[6 + r] * e[2]) + o[r];
+  }
+  T Rt[9];
+  if (d.transducer_identity) {
+    for (int i = 0; i < 9; ++i) Rt[i] = i % 4 == 0 ? one : zero;
+  } else if (d.transducer_in_world) {
+    for (int i = 0; i < 9; ++i) Rt[i] = zero + d.transducer_rotation.data()[i];
+  } else {
+    for (int i = 0; i < 9; ++i) Rt[i] = M[i];
+    MultiplyRotation(Rt, d.transducer_rotation);
+  }
+  {
+    T* out = ws.EndpointData();
+    for (int r = 0; r < 3; ++r) out[r] = pe[r];
+    out = ws.TransducerData();
+    for (int i = 0; i < 9; ++i) out[i] = Rt[i];
+  }
+  ws.Resize(d.n);
+
+  // Muscle: unit segment directions and pulls (over the active points only for a muscle with
+  // moving or conditional points).
+  coincident = Mask<T>{};
+  T total_length = zero;
+  if constexpr (kDynamic) {
+    double length = 0.0;
+    coincident = !ActivePathPulls(ws, &length);
+    total_length = length;
+  } else {
+    T before[3] = {zero, zero, zero};  // u_{i-1}; zero before the origin
+    for (int i = 1; i < n; ++i) {
+      const T* a = Ptr(ws.points[i - 1]);
+      const T* b = Ptr(ws.points[i]);
+      const T s0 = b[0] - a[0], s1 = b[1] - a[1], s2 = b[2] - a[2];
+      T length;
+      Sqrt(s0 * s0 + s1 * s1 + s2 * s2, length);
+      coincident |= (length >= kFastMinSegmentLength) == 0;
+      const T inv = 1.0 / length;
+      const T u[3] = {s0 * inv, s1 * inv, s2 * inv};
+      total_length += length;
+      T* g = Ptr(ws.pulls[i - 1]);
+      for (int c = 0; c < 3; ++c) {
+        g[c] = before[c] - u[c];
+        before[c] = u[c];
+      }
+    }
+    if (n > 0) {
+      T* g = Ptr(ws.pulls[n - 1]);
+      for (int c = 0; c < 3; ++c) g[c] = before[c];
+    }
+  }
+  ws.length = total_length;
+
+  // Backward sweep over the joints: the Jacobian column and dL/dtheta_k of each joint.
+  T ps[3] = {zero, zero, zero};  // sum of pulls distal to joint k
+  T ms[3] = {zero, zero, zero};  // sum of their moments about the world origin
+  int next = 0;
+  T* J = ws.JacobianData();
+  T* dL = ws.DlData();
+  T* tau = ws.TauData();
+  if (d.coupled) {  // columns accumulate their joints' contributions
+    for (int c = 0; c < d.n; ++c) {
+      dL[c] = zero;
+      for (int r = 0; r < 6; ++r) J[6 * c + r] = zero;
+    }
+  }
+  for (int k = m - 1; k >= 0; --k) {
+    while (next < sweep_count && pts[order[next]].frame == k) {
+      const int i = order[next++];
+      const T* x = Ptr(ws.points[i]);
+      const T* g = Ptr(ws.pulls[i]);
+      for (int c = 0; c < 3; ++c) ps[c] += g[c];
+      ms[0] += x[1] * g[2] - x[2] * g[1];
+      ms[1] += x[2] * g[0] - x[0] * g[2];
+      ms[2] += x[0] * g[1] - x[1] * g[0];
+    }
+    const T* z = Ptr(ws.axis[k]);
+    T v[3], w[3];
+    T dl;
+    if (joints[k].revolute) {
+      const T* ok = Ptr(ws.origin[k]);
+      const T d0 = pe[0] - ok[0], d1 = pe[1] - ok[1], d2 = pe[2] - ok[2];
+      v[0] = z[1] * d2 - z[2] * d1;
+      v[1] = z[2] * d0 - z[0] * d2;
+      v[2] = z[0] * d1 - z[1] * d0;
+      for (int r = 0; r < 3; ++r) w[r] = z[r];
+      const T w0 = ms[0] - (ok[1] * ps[2] - ok[2] * ps[1]);
+      const T w1 = ms[1] - (ok[2] * ps[0] - ok[0] * ps[2]);
+      const T w2 = ms[2] - (ok[0] * ps[1] - ok[1] * ps[0]);
+      dl = z[0] * w0 + z[1] * w1 + z[2] * w2;
+    } else {
+      for (int r = 0; r < 3; ++r) {
+        v[r] = z[r];
+        w[r] = zero;
+      }
+      dl = z[0] * ps[0] + z[1] * ps[1] + z[2] * ps[2];
+    }
+    if (rotate) {  // R_W_T^T v, R_W_T^T w
+      const T v0 = v[0], v1 = v[1], v2 = v[2], w0 = w[0], w1 = w[1], w2 = w[2];
+      for (int r = 0; r < 3; ++r) {
+        v[r] = Rt[3 * r] * v0 + Rt[3 * r + 1] * v1 + Rt[3 * r + 2] * v2;
+        w[r] = Rt[3 * r] * w0 + Rt[3 * r + 1] * w1 + Rt[3 * r + 2] * w2;
+      }
+    }
+    if (d.coupled) {  // J[:, c] += J_joint[:, k] dq_joint_k/dq_c, the same for dL/dq
+      const int c = d.coordinate[k];
+      const T f = ws.dq_joint[k];
+      T* col = J + 6 * c;
+      for (int r = 0; r < 3; ++r) {
+        col[r] += f * v[r];
+        col[3 + r] += f * w[r];
+      }
+      dL[c] += f * dl;
+    } else {
+      T* col = J + 6 * k;
+      for (int r = 0; r < 3; ++r) {
+        col[r] = v[r];
+        col[3 + r] = w[r];
+      }
+      dL[k] = dl;
+      tau[k] = minus_force * dl;
+    }
+  }
+  if (d.coupled) {
+    for (int c = 0; c < d.n; ++c) tau[c] = minus_force * dL[c];
+  }
+}
+
+/// The statics for one lane type: K = J^T S_t J + S_p (kept in K as its upper triangle by rows,
+/// K_ij at K[i * kMaxDofs + j], j >= i), the Cholesky factor U (K = U^T U, row k of U at
+/// U[k * kMaxDofs + i], i >= k), dtheta = K^-1 tau into x and W = S_t J dtheta into wrench.
+/// J: 6 numbers per column. N > 0 fixes m at compile time (loops unroll). Sets `undecided` on
+/// the lanes it cannot decide: K not clearly positive definite (a pivot at or below
+/// options.cholesky_pivot_tolerance times the largest diagonal entry; the scalar path returns
+/// at the first such pivot, leaving U, x and wrench unwritten) or a non-finite W.
+template <int N, class T>
+ISOWRENCH_INLINE void Cholesky(int m_runtime, const T* J, const T* s_t, const T* s_p, const T* tau,
+                               double pivot_tolerance, T* K, T* U, T* x, T* wrench,
+                               Mask<T>& undecided) {
+  constexpr int S = kMaxDofs;
+  const int m = N > 0 ? N : std::min(m_runtime, S);
+  T max_diag = T{};
+  ISOWRENCH_UNROLL
+  for (int i = 0; i < m; ++i) {
+    T sj[6];
+    ISOWRENCH_UNROLL
+    for (int r = 0; r < 6; ++r) sj[r] = s_t[r] * J[6 * i + r];
+    ISOWRENCH_UNROLL
+    for (int j = 0; j <= i; ++j) {
+      T sum = sj[0] * J[6 * j];
+      ISOWRENCH_UNROLL
+      for (int r = 1; r < 6; ++r) sum += sj[r] * J[6 * j + r];
+      K[j * S + i] = sum;
+    }
+    K[i * S + i] += s_p[i];
+    max_diag = K[i * S + i] > max_diag ? K[i * S + i] : max_diag;
+  }
+  const T pivot_floor = pivot_tolerance * max_diag;
+  undecided = (max_diag > 0.0) == 0;
+  if constexpr (kScalar<T>) {
+    if (undecided) return;
+  }
+  T inv_diag[S];
+  ISOWRENCH_UNROLL
+  for (int j = 0; j < m; ++j) {
+    T dj = K[j * S + j];
+    ISOWRENCH_UNROLL
+    for (int k = 0; k < j; ++k) dj -= U[k * S + j] * U[k * S + j];
+    undecided |= (dj > pivot_floor) == 0;
+    if constexpr (kScalar<T>) {
+      if (undecided) return;
+    }
+    T root;
+    Sqrt(dj, root);
+    const T inv = 1.0 / root;
+    inv_diag[j] = inv;
+    ISOWRENCH_UNROLL
+    for (int i = j + 1; i < m; ++i) {
+      T v = K[j * S + i];
+      ISOWRENCH_UNROLL
+      for (int k = 0; k < j; ++k) v -= U[k * S + i] * U[k * S + j];
+      U[j * S + i] = v * inv;
+    }
+  }
+  T y[S];
+  SolveWithFactor<N>(m, U, inv_diag, tau, y, x);
+  ISOWRENCH_UNROLL
+  for (int r = 0; r < 6; ++r) {
+    T v = J[r] * x[0];
+    ISOWRENCH_UNROLL
+    for (int j = 1; j < m; ++j) v += J[6 * j + r] * x[j];
+    wrench[r] = s_t[r] * v;
+    undecided |= (wrench[r] - wrench[r]) != 0.0;  // inf or NaN
+  }
+}
+
+}  // namespace kernel
+}  // namespace isowrench
