@@ -2,7 +2,8 @@
 # Quick start, command 2 (CI runs exactly this): install what is missing, then
 #   pass 1: g++, Release, -Werror, in ./build: the whole test suite (benchmarks not built);
 #   pass 2: clang++, -O1 with assert() live (no NDEBUG), address + undefined-behaviour
-#           sanitizers, -Werror, in ./build-asan: the whole test suite again.
+#           sanitizers, -Werror, in ./build-asan: the whole test suite again, plus each libFuzzer
+#           harness (fuzz/) for ISOWRENCH_FUZZ_SECONDS (default 5) on its seed corpus.
 #   first:  scripts/format.sh --check: every C++ file must match .clang-format (fails the run
 #           otherwise; ISOWRENCH_FORMAT_STRICT=0 only reports).
 # ISOWRENCH_SANITIZE=0 skips pass 2. Compilers: ISOWRENCH_CXX (g++), ISOWRENCH_SANITIZE_CXX
@@ -34,14 +35,11 @@ if [ "${ISOWRENCH_SANITIZE:-1}" != "0" ]; then
   # Build type "Debug" only to drop NDEBUG; -O1 keeps the suite fast, -g1 gives line numbers.
   cmake -S . -B "$ASAN_DIR" -DCMAKE_CXX_COMPILER="${ISOWRENCH_SANITIZE_CXX:-clang++}" \
         -DCMAKE_BUILD_TYPE=Debug "-DCMAKE_CXX_FLAGS_DEBUG=-O1 -g1" -DISOWRENCH_WERROR=ON \
-        -DISOWRENCH_SANITIZE=ON -DISOWRENCH_BUILD_BENCHMARKS=OFF -DISOWRENCH_SIMD_CLONES=OFF >/dev/null
+        -DISOWRENCH_SANITIZE=ON -DISOWRENCH_BUILD_BENCHMARKS=OFF -DISOWRENCH_SIMD_CLONES=OFF \
+        -DISOWRENCH_FUZZ_SMOKE=ON "-DISOWRENCH_FUZZ_SMOKE_SECONDS=${ISOWRENCH_FUZZ_SECONDS:-5}" >/dev/null
   cmake --build "$ASAN_DIR" -j "$JOBS"
   # Any sanitizer report fails the test that triggered it.
   export ASAN_OPTIONS=${ASAN_OPTIONS:-abort_on_error=0:halt_on_error=1:detect_leaks=1:strict_string_checks=1}
   export UBSAN_OPTIONS=${UBSAN_OPTIONS:-halt_on_error=1:print_stacktrace=1}
   ctest --test-dir "$ASAN_DIR" --output-on-failure -j "$JOBS"
 fi
-# libFuzzer harnesses, 10 s each (fuzz/, docs/reliability.md): opt-in with ISOWRENCH_FUZZ=1. Their
-# sanitized build of the library costs ~525 CPU s (>= 4.4 min on 2 cores); it joins CI once a clean
-# CI run with it has been timed within the 12-minute budget.
-[ "${ISOWRENCH_FUZZ:-0}" = "0" ] || bash scripts/fuzz.sh 10
