@@ -26,7 +26,7 @@ std::string ReadText(const std::string& path) {
   return s.str();
 }
 
-std::string Rat5() {
+std::string Rat5Text() {
   return ReadText(std::string(ISOWRENCH_TEST_URDF_DIR) + "/rat_hindlimb_5dof.urdf");
 }
 
@@ -58,7 +58,7 @@ TEST(UrdfTree, JointLoopIsAnErrorNamingTheJoints) {
 }
 
 TEST(UrdfTree, LinkWithTwoParentsIsAnError) {
-  std::string xml = Replace(Rat5(), R"(<parent link="knee_z_link"/> <child link="tibia"/>)",
+  std::string xml = Replace(Rat5Text(), R"(<parent link="knee_z_link"/> <child link="tibia"/>)",
                             R"(<parent link="knee_z_link"/> <child link="femur"/>)");
   EXPECT_THAT([&] { isowrench::ReadUrdfString(xml, "two.urdf"); },
               ThrowsMessage<Error>(AllOf(HasSubstr("two parents"), HasSubstr("'hip_rx'"),
@@ -66,7 +66,7 @@ TEST(UrdfTree, LinkWithTwoParentsIsAnError) {
 }
 
 TEST(UrdfTree, JointWhoseParentIsItsChildIsAnError) {
-  std::string xml = Replace(Rat5(), R"(<parent link="femur"/> <child link="knee_z_link"/>)",
+  std::string xml = Replace(Rat5Text(), R"(<parent link="femur"/> <child link="knee_z_link"/>)",
                             R"(<parent link="femur"/> <child link="femur"/>)");
   EXPECT_THAT([&] { isowrench::ReadUrdfString(xml, "self.urdf"); },
               ThrowsMessage<Error>(AllOf(HasSubstr("self.urdf:27"), HasSubstr("'knee_rz'"),
@@ -77,7 +77,7 @@ TEST(UrdfTree, JointWhoseParentIsItsChildIsAnError) {
 // OpenSim coordinate named "p&elvis_rz" (a raw '&', which tinyxml2 reads leniently) was written
 // verbatim into a URDF attribute that did not read back. The writer refuses such names.
 TEST(UrdfWriter, NameThatXmlCannotHoldIsRefusedNamingIt) {
-  isowrench::LimbDescription d = isowrench::ReadUrdfString(Rat5(), "rat.urdf");
+  isowrench::LimbDescription d = isowrench::ReadUrdfString(Rat5Text(), "rat.urdf");
   ASSERT_FALSE(d.muscles.empty());
   EXPECT_NO_THROW(isowrench::WriteUrdfString(d));
   d.muscles.front().name = "G&P";
@@ -88,8 +88,8 @@ TEST(UrdfWriter, NameThatXmlCannotHoldIsRefusedNamingIt) {
 }
 
 TEST(UrdfAttributes, MisspeltTransducerStiffnessSuggestsTheName) {
-  std::string xml =
-      Replace(Rat5(), R"(stiffness="1e7 1e7 1e7 1e7 1e7 1e7")", R"(stifness="1e3 1e3 1e3 1 1 1")");
+  std::string xml = Replace(Rat5Text(), R"(stiffness="1e7 1e7 1e7 1e7 1e7 1e7")",
+                            R"(stifness="1e3 1e3 1e3 1 1 1")");
   EXPECT_THAT(
       [&] { isowrench::ReadUrdfString(xml, "t.urdf"); },
       ThrowsMessage<Error>(AllOf(HasSubstr("t.urdf:37"), HasSubstr("<isowrench:transducer>"),
@@ -98,7 +98,7 @@ TEST(UrdfAttributes, MisspeltTransducerStiffnessSuggestsTheName) {
 
 TEST(UrdfAttributes, MisspeltJointStiffnessSuggestsTheName) {
   std::string xml = Replace(
-      Rat5(), "<isowrench:posture joint=\"hip_rz\"",
+      Rat5Text(), "<isowrench:posture joint=\"hip_rz\"",
       "<isowrench:joint name=\"knee_rx\" stiffnes=\"1\"/>\n  <isowrench:posture joint=\"hip_rz\"");
   EXPECT_THAT(
       [&] { isowrench::ReadUrdfString(xml, "j.urdf"); },
@@ -107,7 +107,7 @@ TEST(UrdfAttributes, MisspeltJointStiffnessSuggestsTheName) {
 }
 
 TEST(UrdfAttributes, UnknownAttributeOnNestedPointIsNamed) {
-  std::string xml = Replace(Rat5(), R"(<isowrench:point link="tibia" xyz=)",
+  std::string xml = Replace(Rat5Text(), R"(<isowrench:point link="tibia" xyz=)",
                             R"(<isowrench:point lnk="tibia" xyz=)");
   EXPECT_THAT([&] { isowrench::ReadUrdfString(xml, "p.urdf"); },
               ThrowsMessage<Error>(AllOf(HasSubstr("<isowrench:point>"), HasSubstr("'lnk'"),
@@ -115,7 +115,7 @@ TEST(UrdfAttributes, UnknownAttributeOnNestedPointIsNamed) {
 }
 
 TEST(UrdfAttributes, UnknownPostureJointSuggestsTheClosest) {
-  std::string xml = Replace(Rat5(), R"(<isowrench:posture joint="knee_rz")",
+  std::string xml = Replace(Rat5Text(), R"(<isowrench:posture joint="knee_rz")",
                             R"(<isowrench:posture joint="knee_z")");
   EXPECT_THAT(
       [&] { isowrench::ReadUrdfString(xml, "q.urdf"); },
@@ -125,7 +125,7 @@ TEST(UrdfAttributes, UnknownPostureJointSuggestsTheClosest) {
 TEST(UrdfAttributes, ContractAttributesAreAccepted) {
   // Names other readers rely on (coordinates, couplings, functions, moving points, locked=)
   // must never be rejected by the attribute check itself.
-  std::string xml = Replace(Rat5(), "<isowrench:posture joint=\"hip_rz\"",
+  std::string xml = Replace(Rat5Text(), "<isowrench:posture joint=\"hip_rz\"",
                             "<isowrench:joint name=\"knee_rx\" role=\"extra\" stiffness=\"1\"/>\n"
                             "  <isowrench:posture joint=\"hip_rz\"");
   EXPECT_NO_THROW(isowrench::ReadUrdfString(xml, "ok.urdf"));
@@ -140,7 +140,7 @@ TEST(Suggestions, ClosestNameByEditDistance) {
 // ---- defect 3: stiffness range -----------------------------------------------------------
 
 TEST(StiffnessRange, HugeUrdfJointStiffnessIsAnErrorNamingTheElement) {
-  std::string xml = Replace(Rat5(), "<isowrench:posture joint=\"hip_rz\"",
+  std::string xml = Replace(Rat5Text(), "<isowrench:posture joint=\"hip_rz\"",
                             "<isowrench:joint name=\"knee_rx\" stiffness=\"1e308\"/>\n  "
                             "<isowrench:posture joint=\"hip_rz\"");
   EXPECT_THAT(
@@ -150,7 +150,7 @@ TEST(StiffnessRange, HugeUrdfJointStiffnessIsAnErrorNamingTheElement) {
 }
 
 TEST(StiffnessRange, HugeTransducerStiffnessIsAnErrorNamingTheDof) {
-  std::string xml = Replace(Rat5(), R"(stiffness="1e7 1e7 1e7 1e7 1e7 1e7")",
+  std::string xml = Replace(Rat5Text(), R"(stiffness="1e7 1e7 1e7 1e7 1e7 1e7")",
                             R"(stiffness="1e7 1e7 1e7 1e7 1e300 1e7")");
   EXPECT_THAT(
       [&] { isowrench::ReadUrdfString(xml, "t.urdf"); },
@@ -158,7 +158,7 @@ TEST(StiffnessRange, HugeTransducerStiffnessIsAnErrorNamingTheDof) {
 }
 
 TEST(StiffnessRange, ApiEditsNameTheFunction) {
-  isowrench::LimbDescription d = isowrench::ReadUrdfString(Rat5(), "rat5");
+  isowrench::LimbDescription d = isowrench::ReadUrdfString(Rat5Text(), "rat5");
   EXPECT_THAT([&] { isowrench::WithBaseStiffness(d, 1e308); },
               ThrowsMessage<Error>(AllOf(HasSubstr("base"), HasSubstr("1e+308"))));
   EXPECT_THAT([&] { isowrench::WithJointStiffness(d, "knee_rx", 2e15); },
@@ -175,7 +175,7 @@ TEST(StiffnessRange, ApiEditsNameTheFunction) {
 
 TEST(StiffnessRange, TheMaximumItselfSolvesWithoutOverflow) {
   // At kMaxStiffness the statics is finite: K = J^T S J stays far from DBL_MAX.
-  isowrench::LimbDescription d = isowrench::ReadUrdfString(Rat5(), "rat5");
+  isowrench::LimbDescription d = isowrench::ReadUrdfString(Rat5Text(), "rat5");
   d = isowrench::WithTransducerStiffness(d,
                                          isowrench::Vector6d::Constant(isowrench::kMaxStiffness));
   d = isowrench::WithBaseStiffness(d, isowrench::kMaxStiffness);
@@ -199,7 +199,7 @@ TEST(Dimensions, ShippedModelsDoNotWarn) {
 
 TEST(Dimensions, FemurInMillimetresWarnsNamingTheJoint) {
   // 31 where 0.031 m was meant: the femur becomes 31 m, GP's length about 31 m too.
-  std::string xml = Replace(Rat5(), R"(<origin xyz="0.031 0 0")", R"(<origin xyz="31 0 0")");
+  std::string xml = Replace(Rat5Text(), R"(<origin xyz="0.031 0 0")", R"(<origin xyz="31 0 0")");
   isowrench::WarningCollector warnings;
   isowrench::ReadUrdfString(xml, "mm.urdf");
   EXPECT_THAT(warnings.text(), AllOf(HasSubstr("mm.urdf:27"), HasSubstr("knee_rz"),
@@ -209,7 +209,7 @@ TEST(Dimensions, FemurInMillimetresWarnsNamingTheJoint) {
 
 TEST(Dimensions, TinyEndpointOffsetWarns) {
   std::string xml =
-      Replace(Rat5(), R"(link="tibia" xyz="0.041 0 0")", R"(link="tibia" xyz="0.000041 0 0")");
+      Replace(Rat5Text(), R"(link="tibia" xyz="0.041 0 0")", R"(link="tibia" xyz="0.000041 0 0")");
   isowrench::WarningCollector warnings;
   isowrench::ReadUrdfString(xml, "um.urdf");
   EXPECT_THAT(warnings.text(), AllOf(HasSubstr("endpoint"), HasSubstr("4.1e-05 m")));

@@ -20,7 +20,7 @@ using ::testing::HasSubstr;
 using ::testing::ThrowsMessage;
 
 // Coordinates are written with 3 decimals: 5e-4 px per coordinate, 1e-3 px for a difference.
-constexpr double kPixelTol = 2e-3;
+constexpr double kDrawingPixelTol = 2e-3;
 
 isowrench::Model Rat() {
   return isowrench::Model::FromUrdfFile(std::string(ISOWRENCH_TEST_URDF_DIR) +
@@ -89,13 +89,14 @@ TEST(LimbStickFigureSvg, TopAndSideViewsPutJointsWhereTheGeometrySays) {
     EXPECT_EQ(std::string(k->Attribute("data-joints")), "knee_rz knee_rx");
     EXPECT_NEAR(
         (Eigen::Vector2d(Num(h, "cx"), Num(h, "cy")) - v.Screen(Eigen::Vector3d::Zero())).norm(), 0,
-        kPixelTol);
+        kDrawingPixelTol);
     EXPECT_NEAR((Eigen::Vector2d(Num(k, "cx"), Num(k, "cy")) - v.Screen(p_knee)).norm(), 0,
-                kPixelTol);
+                kDrawingPixelTol);
     // Endpoint frame axes start at the ankle.
     const auto axes = ByClass(v.g, "endpoint-axis");
     ASSERT_EQ(axes.size(), 3u);
-    for (const auto* a : axes) EXPECT_NEAR((Line(a).a - v.Screen(p_ankle)).norm(), 0, kPixelTol);
+    for (const auto* a : axes)
+      EXPECT_NEAR((Line(a).a - v.Screen(p_ankle)).norm(), 0, kDrawingPixelTol);
     // Muscle path: the GP origin is fixed in world at (12.67, -10.403, -4.78) mm.
     const auto muscles = ByClass(v.g, "muscle");
     ASSERT_EQ(muscles.size(), 1u);
@@ -105,7 +106,7 @@ TEST(LimbStickFigureSvg, TopAndSideViewsPutJointsWhereTheGeometrySays) {
     EXPECT_NEAR((Eigen::Vector2d(Num(points[0], "cx"), Num(points[0], "cy")) -
                  v.Screen(Eigen::Vector3d(0.01267, -0.010403, -0.00478)))
                     .norm(),
-                0, kPixelTol);
+                0, kDrawingPixelTol);
   }
 }
 
@@ -126,15 +127,15 @@ TEST(LimbStickFigureSvg, JointAxesHaveTheirWorldDirections) {
     return LineGeom{};
   };
   // hip_rz turns about world z: a point in the top view, a vertical 10 mm segment in the side view.
-  EXPECT_NEAR(axis_line(top, "hip_rz").d().norm(), 0, kPixelTol);
-  EXPECT_NEAR(std::abs(axis_line(side, "hip_rz").d().y()), 0.01 * side.scale, kPixelTol);
+  EXPECT_NEAR(axis_line(top, "hip_rz").d().norm(), 0, kDrawingPixelTol);
+  EXPECT_NEAR(std::abs(axis_line(side, "hip_rz").d().y()), 0.01 * side.scale, kDrawingPixelTol);
   // hip_rx turns about the femur's long axis, which lies in the x-y plane along -110°.
   const Eigen::Vector2d d = axis_line(top, "hip_rx").d();
-  EXPECT_NEAR(d.norm(), 0.01 * top.scale, kPixelTol);
+  EXPECT_NEAR(d.norm(), 0.01 * top.scale, kDrawingPixelTol);
   // Parallel to the femur: the 2-D cross product of the drawn segment (world x, world y = -screen
   // y) with the femur direction vanishes.
   const double hip = -110 * M_PI / 180;
-  EXPECT_NEAR(d.x() * std::sin(hip) - (-d.y()) * std::cos(hip), 0, kPixelTol)
+  EXPECT_NEAR(d.x() * std::sin(hip) - (-d.y()) * std::cos(hip), 0, kDrawingPixelTol)
       << "hip_rx along the femur";
 }
 
