@@ -515,6 +515,12 @@ struct Reader {
     muscle.name = Name(m);
     muscle.type = m->Name();
     muscle.line = m->GetLineNum();
+    for (const Muscle& other : model.muscles) {
+      if (other.name == muscle.name) {
+        Fail(m, "muscle '" + muscle.name + "' is declared twice (first at line " +
+                    std::to_string(other.line) + ")");
+      }
+    }
     const std::string context = "muscle '" + muscle.name + "'";
     muscle.max_force = ChildNumbers(m, "max_isometric_force", 1, context, true)[0];
     const Xml* path = m->FirstChildElement("GeometryPath");

@@ -610,6 +610,14 @@ TEST(OpenSimImportErrors, NameFileLineJointAxisAndRule) {
                 "muscle 'RF' point 'RF-P2': its x, y and z locations depend on the coordinates "
                 "'knee_angle', '', 'knee_angle'");
   }
+  {  // found by the .osim fuzz campaign (2026-11-25): two muscles of one name were imported and
+     // written into a URDF that the reader then refused (fuzz/corpus/osim/duplicate_muscle.osim)
+    const int first = Edited("<Millard2012EquilibriumMuscle name=\"RF\">", "").second;
+    auto [text, line] = Edited("<Millard2012EquilibriumMuscle name=\"SOL\">",
+                               "<Millard2012EquilibriumMuscle name=\"RF\">");
+    ExpectError(text, "hindlimb.osim:" + std::to_string(line) + ":",
+                "muscle 'RF' is declared twice (first at line " + std::to_string(first) + ")");
+  }
   const std::string text = FixtureText();
   ExpectError(text, "hindlimb.osim", "--clamp body 'patella' is not on the path from ground",
               "patella", "foot");
