@@ -196,15 +196,8 @@ const FastMuscle kNoMuscle{};  // the muscle of a kinematics call without one
 
 // Coupled chains: q_joint_k = f_k(q[c_k]) and its derivative for every movable joint.
 ISOWRENCH_NOINLINE void Couple(const FlatChain& d, Data::Impl& ws, const double* q) {
-  for (int k = 0; k < d.m; ++k) {
-    const double x = q[d.coordinate[k]];
-    if (d.identity[k]) {
-      ws.q_joint[k] = x;
-      ws.dq_joint[k] = 1.0;
-    } else {
-      d.coupling[k].ValueAndDerivative(x, &ws.q_joint[k], &ws.dq_joint[k]);
-    }
-  }
+  for (int k = 0; k < d.m; ++k)
+    kernel::CoupleJoint(d, k, q[d.coordinate[k]], ws.q_joint[k], ws.dq_joint[k]);
 }
 
 // The kernel on one posture q (coordinates). kFrames: the public kinematics functions (frames

@@ -170,6 +170,18 @@ ISOWRENCH_INLINE void GeneralAxisAndTurn(T* M, const Eigen::Vector3d& a, const T
   for (int i = 0; i < 9; ++i) M[i] = copy[i];
 }
 
+/// Coupled chains: the position q_joint = f_k(x) of movable joint k and dq_joint/dx, at the value
+/// x of its coordinate (both evaluation paths call this for every joint, lane by lane).
+ISOWRENCH_INLINE void CoupleJoint(const FlatChain& d, int k, double x, double& q_joint,
+                                  double& dq_joint) {
+  if (d.identity[k]) {
+    q_joint = x;
+    dq_joint = 1.0;
+  } else {
+    d.coupling[k].ValueAndDerivative(x, &q_joint, &dq_joint);
+  }
+}
+
 /// Forward kinematics, the endpoint Jacobian (world axes, turned into transducer axes when
 /// `rotate`) and the length, dL/dq and tau = minus_force dL/dq of muscle `mu`, at joint
 /// positions q (d.m entries; on a coupled chain ws.dq_joint holds dq_joint/dq). Sets

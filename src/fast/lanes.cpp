@@ -74,16 +74,10 @@ ISOWRENCH_CLONES unsigned LaneKinematics(const Model& model, LaneWorkspace& work
     if (d.coupled) {
       const int c = d.coordinate[k];
       for (int l = 0; l < kLanes; ++l) {
-        const double x = q[l][c];
-        if (d.identity[k]) {
-          ws.q[k][l] = x;
-          ws.dq_joint[k][l] = 1.0;
-        } else {
-          double value, derivative;
-          d.coupling[k].ValueAndDerivative(x, &value, &derivative);
-          ws.q[k][l] = value;
-          ws.dq_joint[k][l] = derivative;
-        }
+        double q_joint, dq_joint;
+        kernel::CoupleJoint(d, k, q[l][c], q_joint, dq_joint);
+        ws.q[k][l] = q_joint;
+        ws.dq_joint[k][l] = dq_joint;
       }
     } else {
       ws.q[k] = V{q[0][k], q[1][k], q[2][k], q[3][k]};
