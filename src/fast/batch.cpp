@@ -163,19 +163,24 @@ void EvaluateBatch(const Model& model, const Eigen::Ref<const Eigen::MatrixXd>& 
                 " rows; model '" + model.name() + "' has " + std::to_string(m) + " joints");
   }
   {
-    // An entry is inf or NaN when its exponent bits are all set: one vectorisable pass of
-    // integer ORs, then a search for the culprit only if there is one.
-    constexpr std::uint64_t kExponent = 0x7ff0000000000000ull;
-    std::uint64_t nonfinite = 0;
-    for (Eigen::Index p = 0; p < postures.cols(); ++p) {
-      const double* q = postures.col(p).data();
-      for (int i = 0; i < m; ++i) {
+    // An entry is inf or NaN when its exponent bits are all set, that is when adding 1 to the
+    // exponent field carries into the sign bit: one vectorisable pass of ANDs, adds and ORs
+    // over the high words, the whole matrix at once when its columns are contiguous, then a
+    // search for the culprit only if there is one.
+    std::uint32_t carries = 0;
+    auto scan = [&](const double* q, long count) {
+      for (long i = 0; i < count; ++i) {
         std::uint64_t bits;
         std::memcpy(&bits, q + i, sizeof bits);
-        nonfinite |= (bits & kExponent) == kExponent;
+        carries |= (static_cast<std::uint32_t>(bits >> 32) & 0x7ff00000u) + 0x00100000u;
       }
+    };
+    if (postures.outerStride() == m) {
+      scan(postures.data(), static_cast<long>(m) * static_cast<long>(postures.cols()));
+    } else {
+      for (Eigen::Index p = 0; p < postures.cols(); ++p) scan(postures.col(p).data(), m);
     }
-    if (nonfinite != 0) {
+    if (carries & 0x80000000u) {
       for (Eigen::Index p = 0; p < postures.cols(); ++p) {
         if (!postures.col(p).allFinite()) {
           throw Error("EvaluateBatch: posture " + std::to_string(p) + " has a non-finite entry");
@@ -200,7 +205,7 @@ void EvaluateBatch(const Model& model, const Eigen::Ref<const Eigen::MatrixXd>& 
   const long P = static_cast<long>(postures.cols());
   const long S = static_cast<long>(stiffness.size());
   const long total = P * S;
-  out.assign(static_cast<size_t>(total), WrenchResult{});
+  out.resize(static_cast<size_t>(total));  // every entry is written below
   if (P == 0) {
     if (options.progress) options.progress(0, 0);
     return;

@@ -22,8 +22,9 @@
 // A workspace W provides: `using Scalar = T`; arrays origin, axis (kMaxDofs x 3), points,
 // pulls (kFastMaxPathPoints x 3), q_joint, dq_joint (kMaxDofs) and frames (kMaxDofs x 9,
 // column-major; only for kFrames), reached through Ptr(); T length; JacobianData() (6 per
-// column, column-major), DlData(), TauData(), EndpointData(), TransducerData() (3 x 3
-// column-major R_W_T), and Resize(columns) before J, dL and tau are written.
+// column, column-major), DlData(), TauData(), for T = double also EndpointData() and
+// TransducerData() (3 x 3 column-major R_W_T), and Resize(columns) before J, dL and tau are
+// written.
 
 #include <Eigen/Core>
 #include <algorithm>
@@ -109,10 +110,13 @@ ISOWRENCH_INLINE void SinCos(const V4& x, V4& sin_x, V4& cos_x) {
 template <class T>
 ISOWRENCH_INLINE void MultiplyRotation(T* M, const Eigen::Matrix3d& R0) {
   T P[9];
+  ISOWRENCH_UNROLL
   for (int c = 0; c < 3; ++c) {
+    ISOWRENCH_UNROLL
     for (int r = 0; r < 3; ++r)
       P[3 * c + r] = M[r] * R0(0, c) + M[3 + r] * R0(1, c) + M[6 + r] * R0(2, c);
   }
+  ISOWRENCH_UNROLL
   for (int i = 0; i < 9; ++i) M[i] = P[i];
 }
 
@@ -125,6 +129,7 @@ ISOWRENCH_INLINE void AxisAndTurn(T* M, double sign, const T& c, const T& s, T* 
   z[2] = sign * M[3 * K + 2];
   if (!turn) return;
   constexpr int A = 3 * ((K + 1) % 3), B = 3 * ((K + 2) % 3);  // the two columns that turn
+  ISOWRENCH_UNROLL
   for (int r = 0; r < 3; ++r) {
     const T a = M[A + r], b = M[B + r];
     M[A + r] = c * a + s * b;
@@ -137,11 +142,13 @@ ISOWRENCH_INLINE void AxisAndTurn(T* M, double sign, const T& c, const T& s, T* 
 template <class T>
 ISOWRENCH_NOINLINE void GeneralAxisAndTurnOutOfLine(T* M, const Eigen::Vector3d& a, const T& c,
                                                     const T& s, T* z, bool turn) {
+  ISOWRENCH_UNROLL
   for (int r = 0; r < 3; ++r) z[r] = M[r] * a[0] + M[3 + r] * a[1] + M[6 + r] * a[2];
   if (!turn) return;
   const T t = 1.0 - c;
   T rot[9];  // column-major
   for (int col = 0; col < 3; ++col) {
+    ISOWRENCH_UNROLL
     for (int r = 0; r < 3; ++r) rot[3 * col + r] = t * (a[r] * a[col]);
     rot[4 * col] += c;
   }
@@ -153,10 +160,12 @@ ISOWRENCH_NOINLINE void GeneralAxisAndTurnOutOfLine(T* M, const Eigen::Vector3d&
   rot[3] -= s * a[2];  // (0, 1)
   T out[9];
   for (int col = 0; col < 3; ++col) {
+    ISOWRENCH_UNROLL
     for (int r = 0; r < 3; ++r)
       out[3 * col + r] =
           M[r] * rot[3 * col] + M[3 + r] * rot[3 * col + 1] + M[6 + r] * rot[3 * col + 2];
   }
+  ISOWRENCH_UNROLL
   for (int i = 0; i < 9; ++i) M[i] = out[i];
 }
 // M goes through a copy so that the caller's frame never has its address taken and stays in
@@ -165,11 +174,35 @@ template <class T>
 ISOWRENCH_INLINE void GeneralAxisAndTurn(T* M, const Eigen::Vector3d& a, const T& c, const T& s,
                                          T* z, bool turn) {
   T copy[9];
+  ISOWRENCH_UNROLL
   for (int i = 0; i < 9; ++i) copy[i] = M[i];
   GeneralAxisAndTurnOutOfLine(copy, a, c, s, z, turn);
+  ISOWRENCH_UNROLL
   for (int i = 0; i < 9; ++i) M[i] = copy[i];
 }
 
+// One posture: sin and cos of every joint position q[k] (k < d.m; meaningful for the revolute
+// joints) ahead of the joint loop, four joints per vector SinCos (joints with |q| >=
+// sincos::kMaxReduced one by one). The lanes call their vector SinCos inside the joint loop.
+ISOWRENCH_INLINE void JointSinCos(const FlatChain& d, const double* q, double* sin_q,
+                                  double* cos_q) {
+  const int m = d.m;
+  double padded[kMaxDofs + 4];
+  std::memcpy(padded, q, sizeof(double) * static_cast<size_t>(m));
+  for (int k = m; k < m + 3; ++k) padded[k] = 0.0;
+  for (int k0 = 0; k0 < m; k0 += 4) {
+    V4 x, s, c;
+    std::memcpy(&x, padded + k0, sizeof x);
+    const V4 magnitude = (V4)((V4i)x & 0x7fffffffffffffff);
+    const V4i reduced = magnitude < sincos::kMaxReduced;
+    SinCos(x, s, c);
+    std::memcpy(sin_q + k0, &s, sizeof s);
+    std::memcpy(cos_q + k0, &c, sizeof c);
+    if (!(reduced[0] & reduced[1] & reduced[2] & reduced[3])) {
+      for (int k = k0; k < std::min(m, k0 + 4); ++k) SinCos(q[k], sin_q[k], cos_q[k]);
+    }
+  }
+}
 /// Coupled chains: the position q_joint = f_k(x) of movable joint k and dq_joint/dx, at the value
 /// x of its coordinate (both evaluation paths call this for every joint, lane by lane).
 ISOWRENCH_INLINE void CoupleJoint(const FlatChain& d, int k, double x, double& q_joint,
@@ -211,8 +244,10 @@ ISOWRENCH_INLINE void Kinematics(const FlatChain& d, W& ws, const T* q, const Fa
     T* x = Ptr(ws.points[i]);
     if constexpr (kDynamic) {
       ws.point_rotation[i].setIdentity();
+      ISOWRENCH_UNROLL
       for (int c = 0; c < 3; ++c) x[c] = ws.local[i][c];
     } else {
+      ISOWRENCH_UNROLL
       for (int c = 0; c < 3; ++c) x[c] = zero + pts[i].position[c];
     }
   }
@@ -220,12 +255,15 @@ ISOWRENCH_INLINE void Kinematics(const FlatChain& d, W& ws, const T* q, const Fa
 
   // The current frame lives in locals (registers): rotation M column-major (M[3 c + r]) and
   // origin o; it starts as the world frame.
+  double sin_q[kMaxDofs + 4], cos_q[kMaxDofs + 4];  // + 4: JointSinCos writes whole vectors
+  if constexpr (kScalar<T>) JointSinCos(d, q, sin_q, cos_q);
   T M[9] = {one, zero, zero, zero, one, zero, zero, zero, one};
   T o[3] = {zero, zero, zero};
   for (int k = 0; k < m; ++k) {
     const FastJoint& j = joints[k];
     if (!j.translation_is_zero) {  // joint origin o + M p0
       const double* t = j.origin_translation.data();
+      ISOWRENCH_UNROLL
       for (int r = 0; r < 3; ++r) o[r] = o[r] + (M[r] * t[0] + M[3 + r] * t[1] + M[6 + r] * t[2]);
     }
     if (!j.rotation_is_identity) MultiplyRotation(M, j.origin_rotation);
@@ -233,7 +271,12 @@ ISOWRENCH_INLINE void Kinematics(const FlatChain& d, W& ws, const T* q, const Fa
     const T qk = q[k];
     if (j.revolute) {
       T s, c;
-      SinCos(qk, s, c);
+      if constexpr (kScalar<T>) {
+        s = sin_q[k];
+        c = cos_q[k];
+      } else {
+        SinCos(qk, s, c);
+      }
       if (j.axis_kind == 3) {
         GeneralAxisAndTurn(M, j.axis, c, s, z, true);
       } else {
@@ -251,12 +294,15 @@ ISOWRENCH_INLINE void Kinematics(const FlatChain& d, W& ws, const T* q, const Fa
         case 2: AxisAndTurn<2>(M, j.axis_sign, one, zero, z, false); break;
         default: GeneralAxisAndTurn(M, j.axis, one, zero, z, false); break;
       }
+      ISOWRENCH_UNROLL
       for (int r = 0; r < 3; ++r) o[r] = o[r] + z[r] * qk;
     }
     T* ok = Ptr(ws.origin[k]);
+    ISOWRENCH_UNROLL
     for (int r = 0; r < 3; ++r) ok[r] = o[r];
     if constexpr (kFrames) {
       T* frame = Ptr(ws.frames[k]);
+      ISOWRENCH_UNROLL
       for (int i = 0; i < 9; ++i) frame[i] = M[i];
     }
     while (next_point >= 0 && pts[order[next_point]].frame == k) {  // x = M a + o
@@ -265,9 +311,11 @@ ISOWRENCH_INLINE void Kinematics(const FlatChain& d, W& ws, const T* q, const Fa
       if constexpr (kDynamic) {
         std::memcpy(ws.point_rotation[i].data(), M, sizeof M);
         const double* a = ws.local[i].data();
+        ISOWRENCH_UNROLL
         for (int r = 0; r < 3; ++r) x[r] = (M[r] * a[0] + M[3 + r] * a[1] + M[6 + r] * a[2]) + o[r];
       } else {
         const double* a = pts[i].position.data();
+        ISOWRENCH_UNROLL
         for (int r = 0; r < 3; ++r) x[r] = (M[r] * a[0] + M[3 + r] * a[1] + M[6 + r] * a[2]) + o[r];
       }
     }
@@ -276,21 +324,30 @@ ISOWRENCH_INLINE void Kinematics(const FlatChain& d, W& ws, const T* q, const Fa
   T pe[3];
   {
     const double* e = d.endpoint.data();
+    ISOWRENCH_UNROLL
     for (int r = 0; r < 3; ++r) pe[r] = (M[r] * e[0] + M[3 + r] * e[1] + M[6 + r] * e[2]) + o[r];
   }
-  T Rt[9];
-  if (d.transducer_identity) {
+  T Rt[9];  // the lanes need it only to turn J (their workspace keeps no endpoint or R_W_T)
+  if (!kScalar<T> && !rotate) {
+    ISOWRENCH_UNROLL
+    for (int i = 0; i < 9; ++i) Rt[i] = zero;
+  } else if (d.transducer_identity) {
+    ISOWRENCH_UNROLL
     for (int i = 0; i < 9; ++i) Rt[i] = i % 4 == 0 ? one : zero;
   } else if (d.transducer_in_world) {
+    ISOWRENCH_UNROLL
     for (int i = 0; i < 9; ++i) Rt[i] = zero + d.transducer_rotation.data()[i];
   } else {
+    ISOWRENCH_UNROLL
     for (int i = 0; i < 9; ++i) Rt[i] = M[i];
     MultiplyRotation(Rt, d.transducer_rotation);
   }
-  {
+  if constexpr (kScalar<T>) {
     T* out = ws.EndpointData();
+    ISOWRENCH_UNROLL
     for (int r = 0; r < 3; ++r) out[r] = pe[r];
     out = ws.TransducerData();
+    ISOWRENCH_UNROLL
     for (int i = 0; i < 9; ++i) out[i] = Rt[i];
   }
   ws.Resize(d.n);
@@ -316,6 +373,7 @@ ISOWRENCH_INLINE void Kinematics(const FlatChain& d, W& ws, const T* q, const Fa
       const T u[3] = {s0 * inv, s1 * inv, s2 * inv};
       total_length += length;
       T* g = Ptr(ws.pulls[i - 1]);
+      ISOWRENCH_UNROLL
       for (int c = 0; c < 3; ++c) {
         g[c] = before[c] - u[c];
         before[c] = u[c];
@@ -323,6 +381,7 @@ ISOWRENCH_INLINE void Kinematics(const FlatChain& d, W& ws, const T* q, const Fa
     }
     if (n > 0) {
       T* g = Ptr(ws.pulls[n - 1]);
+      ISOWRENCH_UNROLL
       for (int c = 0; c < 3; ++c) g[c] = before[c];
     }
   }
@@ -346,6 +405,7 @@ ISOWRENCH_INLINE void Kinematics(const FlatChain& d, W& ws, const T* q, const Fa
       const int i = order[next++];
       const T* x = Ptr(ws.points[i]);
       const T* g = Ptr(ws.pulls[i]);
+      ISOWRENCH_UNROLL
       for (int c = 0; c < 3; ++c) ps[c] += g[c];
       ms[0] += x[1] * g[2] - x[2] * g[1];
       ms[1] += x[2] * g[0] - x[0] * g[2];
@@ -360,12 +420,14 @@ ISOWRENCH_INLINE void Kinematics(const FlatChain& d, W& ws, const T* q, const Fa
       v[0] = z[1] * d2 - z[2] * d1;
       v[1] = z[2] * d0 - z[0] * d2;
       v[2] = z[0] * d1 - z[1] * d0;
+      ISOWRENCH_UNROLL
       for (int r = 0; r < 3; ++r) w[r] = z[r];
       const T w0 = ms[0] - (ok[1] * ps[2] - ok[2] * ps[1]);
       const T w1 = ms[1] - (ok[2] * ps[0] - ok[0] * ps[2]);
       const T w2 = ms[2] - (ok[0] * ps[1] - ok[1] * ps[0]);
       dl = z[0] * w0 + z[1] * w1 + z[2] * w2;
     } else {
+      ISOWRENCH_UNROLL
       for (int r = 0; r < 3; ++r) {
         v[r] = z[r];
         w[r] = zero;
@@ -374,6 +436,7 @@ ISOWRENCH_INLINE void Kinematics(const FlatChain& d, W& ws, const T* q, const Fa
     }
     if (rotate) {  // R_W_T^T v, R_W_T^T w
       const T v0 = v[0], v1 = v[1], v2 = v[2], w0 = w[0], w1 = w[1], w2 = w[2];
+      ISOWRENCH_UNROLL
       for (int r = 0; r < 3; ++r) {
         v[r] = Rt[3 * r] * v0 + Rt[3 * r + 1] * v1 + Rt[3 * r + 2] * v2;
         w[r] = Rt[3 * r] * w0 + Rt[3 * r + 1] * w1 + Rt[3 * r + 2] * w2;
@@ -383,6 +446,7 @@ ISOWRENCH_INLINE void Kinematics(const FlatChain& d, W& ws, const T* q, const Fa
       const int c = d.coordinate[k];
       const T f = ws.dq_joint[k];
       T* col = J + 6 * c;
+      ISOWRENCH_UNROLL
       for (int r = 0; r < 3; ++r) {
         col[r] += f * v[r];
         col[3 + r] += f * w[r];
@@ -390,6 +454,7 @@ ISOWRENCH_INLINE void Kinematics(const FlatChain& d, W& ws, const T* q, const Fa
       dL[c] += f * dl;
     } else {
       T* col = J + 6 * k;
+      ISOWRENCH_UNROLL
       for (int r = 0; r < 3; ++r) {
         col[r] = v[r];
         col[3 + r] = w[r];

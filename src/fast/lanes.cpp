@@ -43,8 +43,6 @@ struct LaneWorkspace::Impl {
   V J[kMaxDofs][6];  // column k: [v; w] in transducer axes
   V dL[kMaxDofs];
   V tau[kMaxDofs];
-  V endpoint[3];
-  V R_W_T[9];
   V length;
   V K[kMaxDofs * kMaxDofs];  // statics (kernel::Cholesky)
   V U[kMaxDofs * kMaxDofs];
@@ -52,8 +50,6 @@ struct LaneWorkspace::Impl {
   V* JacobianData() { return J[0]; }
   V* DlData() { return dL; }
   V* TauData() { return tau; }
-  V* EndpointData() { return endpoint; }
-  V* TransducerData() { return R_W_T; }
   void Resize(int) {}
 };
 

@@ -203,6 +203,34 @@ TEST(FastPath, JacobianTorqueAndWrenchEqualKdlOnRandomPostures) {
   }
 }
 
+// The one-posture sin/cos (four joints per vector, joints beyond the reduction's range one by
+// one with std::sin / std::cos): quadrant boundaries, negative and huge angles, mixed within
+// one vector, against KDL.
+TEST(FastPath, JacobianEqualsKdlAtQuadrantBoundariesAndHugeAngles) {
+  const std::vector<double> angles = {0.0, kPi / 4,  kPi / 2, -kPi / 2,   kPi - 1e-9, -kPi,
+                                      7.0, -123.456, 99999.5, 1e5 + 0.25, -2.5e6,     1e12};
+  for (const Case& c : AllModels()) {
+    SCOPED_TRACE(c.label);
+    const Model& model = c.model;
+    Data ws(model);
+    isowrench::Data kdl(model);
+    for (size_t a = 0; a < angles.size(); ++a) {
+      Eigen::VectorXd q(model.dof_count());
+      for (int i = 0; i < model.dof_count(); ++i) {
+        q[i] = model.joint(i).type == isowrench::JointType::kPrismatic
+                   ? 0.001 * static_cast<double>(i)
+                   : angles[(a + static_cast<size_t>(3 * i)) % angles.size()];
+      }
+      SCOPED_TRACE("first angle " + std::to_string(angles[a]));
+      ASSERT_TRUE(isowrench::ComputeKinematics(model, ws, q, 0, 1.0));
+      EXPECT_TRUE(Near(ws.jacobian(), isowrench::EndpointJacobian(model, kdl, q), kKinematicsRelTol,
+                       "J_T_E"));
+      EXPECT_TRUE(Near(ws.endpoint_position(), isowrench::EndpointPose(model, kdl, q).translation(),
+                       kKinematicsRelTol, "endpoint"));
+    }
+  }
+}
+
 TEST(FastPath, ReportsSelfMotionLikeTheReferenceForPlanar4rWithoutJointStiffness) {
   // Four parallel revolute axes seen by a transducer that restrains only x and y (planar_4r
   // releases z rx ry rz): with S_p = 0, K = J^T S_t J has rank 2 of 4, and the flexor
@@ -419,7 +447,11 @@ TEST(FastPath, BatchLanesEqualSingleOnEveryModelIncludingUndecidedLanes) {
     for (int threads : {1, 2}) {
       isowrench::BatchOptions options;
       options.threads = threads;
-      std::vector<WrenchResult> batch;
+      // A reused output full of stale results: EvaluateBatch must write every entry.
+      WrenchResult stale;
+      stale.wrench.setConstant(std::nan(""));
+      stale.status = StaticsStatus::kOk;
+      std::vector<WrenchResult> batch(static_cast<size_t>(kPostures) * sets.size(), stale);
       isowrench::EvaluateBatch(model, postures, 0, sets, batch, 0.7, options);
       EXPECT_TRUE(BatchMatchesSingle(model, postures, sets, batch, 0.7, "postures x sets"));
       for (const WrenchResult& w : batch) {
@@ -436,7 +468,10 @@ TEST(FastPath, BatchLanesEqualSingleOnEveryModelIncludingUndecidedLanes) {
       many.push_back(s);
     }
     many[7] = negative;
-    std::vector<WrenchResult> batch;
+    WrenchResult stale;
+    stale.wrench.setConstant(std::nan(""));
+    stale.status = StaticsStatus::kOk;
+    std::vector<WrenchResult> batch(many.size(), stale);
     isowrench::EvaluateBatch(model, postures.leftCols(1), 0, many, batch, 1.0);
     EXPECT_TRUE(
         BatchMatchesSingle(model, postures.leftCols(1), many, batch, 1.0, "one posture x sets"));
@@ -475,7 +510,20 @@ TEST(FastPath, BatchRejectsBadInputNamingIt) {
   Eigen::MatrixXd nan_postures = Eigen::MatrixXd::Zero(2, 4);
   nan_postures(1, 2) = std::numeric_limits<double>::quiet_NaN();
   EXPECT_THAT([&] { isowrench::EvaluateBatch(model, nan_postures, 0, sets, out); },
-              ::testing::ThrowsMessage<isowrench::Error>(HasSubstr("non-finite")));
+              ::testing::ThrowsMessage<isowrench::Error>(HasSubstr("posture 2 has a non-finite")));
+  // Infinities of either sign, the largest finite number (accepted), and postures that are a
+  // block of a taller matrix (columns not contiguous).
+  Eigen::MatrixXd tall = Eigen::MatrixXd::Zero(5, 4);
+  tall(1, 3) = -std::numeric_limits<double>::infinity();
+  EXPECT_THAT([&] { isowrench::EvaluateBatch(model, tall.topRows(2), 0, sets, out); },
+              ::testing::ThrowsMessage<isowrench::Error>(HasSubstr("posture 3 has a non-finite")));
+  tall(1, 3) = std::numeric_limits<double>::max();
+  tall(4, 0) = std::numeric_limits<double>::infinity();  // outside the block
+  EXPECT_NO_THROW(isowrench::EvaluateBatch(model, tall.topRows(2), 0, sets, out));
+  Eigen::MatrixXd inf_postures = Eigen::MatrixXd::Zero(2, 4);
+  inf_postures(0, 1) = std::numeric_limits<double>::infinity();
+  EXPECT_THAT([&] { isowrench::EvaluateBatch(model, inf_postures, 0, sets, out); },
+              ::testing::ThrowsMessage<isowrench::Error>(HasSubstr("posture 1 has a non-finite")));
   EXPECT_THAT([] { Data ws(0); },
               ::testing::ThrowsMessage<isowrench::Error>(HasSubstr("dof count 0")));
 }
