@@ -20,12 +20,16 @@ namespace {
 // The eigen-solve used when the Cholesky pivots say K is (nearly) singular: the same rank and
 // excitation decisions as SolveStatics, on the workspace's fixed-size buffers.
 WrenchResult SolveByEigen(Data::Impl& ws, int m, const double* J, const double* s_t,
-                          const double* tau, const SolveOptions& options) {
+                          const double* s_p, const double* tau, const SolveOptions& options) {
   WrenchResult out;
   JointMatrix& K = ws.K_full;
   K.resize(m, m);
   for (int i = 0; i < m; ++i) {
-    for (int j = 0; j <= i; ++j) K(i, j) = K(j, i) = ws.K[j * kMaxDofs + i];  // upper triangle
+    for (int j = 0; j <= i; ++j) {
+      double sum = i == j ? s_p[i] : 0.0;
+      for (int r = 0; r < 6; ++r) sum += s_t[r] * J[6 * i + r] * J[6 * j + r];
+      K(i, j) = K(j, i) = sum;
+    }
   }
   ws.eigen.compute(K);
   const auto& lambda = ws.eigen.eigenvalues();
@@ -106,9 +110,9 @@ ISOWRENCH_INLINE WrenchResult SolveWith(Data::Impl& ws, const double* J, const d
   WrenchResult out;
   ws.dtheta.resize(m);
   bool undecided;
-  kernel::Cholesky<N>(m, J, s_t, s_p, tau, options.cholesky_pivot_tolerance, ws.K, ws.U,
+  kernel::Cholesky<N>(m, J, s_t, s_p, tau, options.cholesky_pivot_tolerance, ws.U,
                       ws.dtheta.data(), out.wrench.data(), undecided);
-  if (undecided) return SolveByEigen(ws, m, J, s_t, tau, options);
+  if (undecided) return SolveByEigen(ws, m, J, s_t, s_p, tau, options);
   out.status = StaticsStatus::kOk;
   ws.self_motion.resize(m, 0);
   return out;
@@ -162,7 +166,6 @@ Data::Impl::Impl(int dofs) : m(dofs), eigen(dofs) {
   dtheta.setZero(m);
   K_full.setZero(m, m);
   self_motion.resize(m, 0);
-  for (double& v : K) v = 0.0;
   for (double& v : U) v = 0.0;
 }
 

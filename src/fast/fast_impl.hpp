@@ -49,8 +49,7 @@ struct Data::Impl {
     tau.resize(columns);
   }
   // Statics.
-  double K[kMaxDofs * kMaxDofs];  // upper triangle by rows: K_ij (j >= i) at i * 16 + j
-  double U[kMaxDofs * kMaxDofs];  // its Cholesky factor, K = U^T U (upper triangle by rows)
+  double U[kMaxDofs * kMaxDofs];  // Cholesky factor of K, K = U^T U (upper triangle by rows)
   JointVector dtheta;
   JointMatrix K_full;
   Eigen::SelfAdjointEigenSolver<JointMatrix> eigen;

@@ -468,61 +468,52 @@ ISOWRENCH_INLINE void Kinematics(const FlatChain& d, W& ws, const T* q, const Fa
   }
 }
 
-/// The statics for one lane type: K = J^T S_t J + S_p (kept in K as its upper triangle by rows,
-/// K_ij at K[i * kMaxDofs + j], j >= i), the Cholesky factor U (K = U^T U, row k of U at
-/// U[k * kMaxDofs + i], i >= k), dtheta = K^-1 tau into x and W = S_t J dtheta into wrench.
+/// The statics for one lane type: K = J^T S_t J + S_p, its Cholesky factor U (K = U^T U, row k
+/// of U at U[k * kMaxDofs + i], i >= k), dtheta = K^-1 tau into x and W = S_t J dtheta into
+/// wrench. Row j of K is formed just before row j of U needs it (K itself is never stored).
 /// J: 6 numbers per column. N > 0 fixes m at compile time (loops unroll). Sets `undecided` on
 /// the lanes it cannot decide: K not clearly positive definite (a pivot at or below
-/// options.cholesky_pivot_tolerance times the largest diagonal entry; the scalar path returns
-/// at the first such pivot, leaving U, x and wrench unwritten) or a non-finite W.
+/// pivot_tolerance times the largest diagonal entry of K; the scalar path then returns before
+/// the substitutions, leaving x and wrench unwritten) or a non-finite W.
 template <int N, class T>
 ISOWRENCH_INLINE void Cholesky(int m_runtime, const T* J, const T* s_t, const T* s_p, const T* tau,
-                               double pivot_tolerance, T* K, T* U, T* x, T* wrench,
-                               Mask<T>& undecided) {
+                               double pivot_tolerance, T* U, T* x, T* wrench, Mask<T>& undecided) {
   constexpr int S = kMaxDofs;
   const int m = N > 0 ? N : std::min(m_runtime, S);
-  T max_diag = T{};
-  ISOWRENCH_UNROLL
-  for (int i = 0; i < m; ++i) {
-    T sj[6];
-    ISOWRENCH_UNROLL
-    for (int r = 0; r < 6; ++r) sj[r] = s_t[r] * J[6 * i + r];
-    ISOWRENCH_UNROLL
-    for (int j = 0; j <= i; ++j) {
-      T sum = sj[0] * J[6 * j];
-      ISOWRENCH_UNROLL
-      for (int r = 1; r < 6; ++r) sum += sj[r] * J[6 * j + r];
-      K[j * S + i] = sum;
-    }
-    K[i * S + i] += s_p[i];
-    max_diag = K[i * S + i] > max_diag ? K[i * S + i] : max_diag;
-  }
-  const T pivot_floor = pivot_tolerance * max_diag;
-  undecided = (max_diag > 0.0) == 0;
-  if constexpr (kScalar<T>) {
-    if (undecided) return;
-  }
+  T max_diag = T{}, min_pivot = T{};
   T inv_diag[S];
   ISOWRENCH_UNROLL
   for (int j = 0; j < m; ++j) {
-    T dj = K[j * S + j];
+    T sj[6];
+    ISOWRENCH_UNROLL
+    for (int r = 0; r < 6; ++r) sj[r] = s_t[r] * J[6 * j + r];
+    T k_jj = s_p[j];
+    ISOWRENCH_UNROLL
+    for (int r = 0; r < 6; ++r) k_jj += sj[r] * J[6 * j + r];
+    T dj = k_jj;
     ISOWRENCH_UNROLL
     for (int k = 0; k < j; ++k) dj -= U[k * S + j] * U[k * S + j];
-    undecided |= (dj > pivot_floor) == 0;
-    if constexpr (kScalar<T>) {
-      if (undecided) return;
-    }
+    // Pivots are judged once K's largest diagonal entry is known (below); a pivot <= 0 makes
+    // the rest of this factor NaN or inf, which only the undecided lanes see.
+    max_diag = j == 0 ? k_jj : (k_jj > max_diag ? k_jj : max_diag);
+    min_pivot = j == 0 ? dj : (dj < min_pivot ? dj : min_pivot);
     T root;
     Sqrt(dj, root);
     const T inv = 1.0 / root;
     inv_diag[j] = inv;
     ISOWRENCH_UNROLL
     for (int i = j + 1; i < m; ++i) {
-      T v = K[j * S + i];
+      T v = sj[0] * J[6 * i];
+      ISOWRENCH_UNROLL
+      for (int r = 1; r < 6; ++r) v += sj[r] * J[6 * i + r];
       ISOWRENCH_UNROLL
       for (int k = 0; k < j; ++k) v -= U[k * S + i] * U[k * S + j];
       U[j * S + i] = v * inv;
     }
+  }
+  undecided = (min_pivot > pivot_tolerance * max_diag) == 0;
+  if constexpr (kScalar<T>) {
+    if (undecided) return;
   }
   T y[S];
   SolveWithFactor<N>(m, U, inv_diag, tau, y, x);

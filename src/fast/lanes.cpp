@@ -44,8 +44,7 @@ struct LaneWorkspace::Impl {
   V dL[kMaxDofs];
   V tau[kMaxDofs];
   V length;
-  V K[kMaxDofs * kMaxDofs];  // statics (kernel::Cholesky)
-  V U[kMaxDofs * kMaxDofs];
+  V U[kMaxDofs * kMaxDofs];  // statics (kernel::Cholesky)
   V x[kMaxDofs];  // dtheta
   V* JacobianData() { return J[0]; }
   V* DlData() { return dL; }
@@ -105,7 +104,7 @@ namespace {
 template <int N>
 ISOWRENCH_INLINE void LaneCholesky(LaneWorkspace::Impl& ws, int m, const V* s_t, const V* s_p,
                                    double tolerance, V* wrench, VI& undecided) {
-  kernel::Cholesky<N>(m, ws.J[0], s_t, s_p, ws.tau, tolerance, ws.K, ws.U, ws.x, wrench, undecided);
+  kernel::Cholesky<N>(m, ws.J[0], s_t, s_p, ws.tau, tolerance, ws.U, ws.x, wrench, undecided);
 }
 
 }  // namespace
