@@ -110,8 +110,8 @@ ISOWRENCH_INLINE WrenchResult SolveWith(Data::Impl& ws, const double* J, const d
   WrenchResult out;
   ws.dtheta.resize(m);
   bool undecided;
-  kernel::Cholesky<N>(m, J, s_t, s_p, tau, options.cholesky_pivot_tolerance, ws.U,
-                      ws.dtheta.data(), out.wrench.data(), undecided);
+  kernel::Cholesky<N>(m, J, s_t, s_p, tau, options.cholesky_pivot_tolerance, ws.U, ws.dtheta.data(),
+                      out.wrench.data(), undecided);
   if (undecided) return SolveByEigen(ws, m, J, s_t, s_p, tau, options);
   out.status = StaticsStatus::kOk;
   ws.self_motion.resize(m, 0);

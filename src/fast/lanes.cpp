@@ -45,7 +45,7 @@ struct LaneWorkspace::Impl {
   V tau[kMaxDofs];
   V length;
   V U[kMaxDofs * kMaxDofs];  // statics (kernel::Cholesky)
-  V x[kMaxDofs];  // dtheta
+  V x[kMaxDofs];             // dtheta
   V* JacobianData() { return J[0]; }
   V* DlData() { return dL; }
   V* TauData() { return tau; }

@@ -27,9 +27,10 @@
 // Full unrolling of loops whose trip count is a compile-time constant (the statics kernels'
 // N > 0, the 3- and 9-element loops over vectors and frames of the kinematics): straight-line
 // code early enough for GCC to keep such small arrays in registers (measured: 2,714 -> 2,601
-// instructions per one-posture evaluation, 852 -> 812 per batched one). GCC only: clang's "#pragma unroll"
-// on the same template with N = 0 (a run-time trip count) fails with -Wpass-failed under
-// -Werror, and clang's own unroller already unrolls the constant-count loops at -O2.
+// instructions per one-posture evaluation, 852 -> 812 per batched one). GCC only: clang's
+// "#pragma unroll" on the same template with N = 0 (a run-time trip count) fails with
+// -Wpass-failed under -Werror, and clang's own unroller already unrolls the constant-count
+// loops at -O2.
 #if defined(__GNUC__) && !defined(__clang__)
 #define ISOWRENCH_UNROLL _Pragma("GCC unroll 16")
 #else
