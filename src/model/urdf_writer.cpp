@@ -60,8 +60,46 @@ std::string CoordinateTag(const std::string& name, JointRole role, double stiffn
   return tag + "/>\n";
 }
 
+/// Length of the well-formed UTF-8 sequence (RFC 3629: no overlong forms, no surrogates, at
+/// most U+10FFFF) starting at text[i], or 0 when there is none.
+size_t Utf8SequenceLength(const std::string& text, size_t i) {
+  const auto byte = [&](size_t k) { return static_cast<unsigned char>(text[k]); };
+  const unsigned char lead = byte(i);
+  if (lead < 0x80) return 1;
+  size_t length = 0;
+  unsigned char low = 0x80, high = 0xBF;  // the range of the second byte
+  if (lead >= 0xC2 && lead <= 0xDF) {
+    length = 2;
+  } else if (lead >= 0xE0 && lead <= 0xEF) {
+    length = 3;
+    if (lead == 0xE0) low = 0xA0;   // overlong
+    if (lead == 0xED) high = 0x9F;  // surrogates
+  } else if (lead >= 0xF0 && lead <= 0xF4) {
+    length = 4;
+    if (lead == 0xF0) low = 0x90;   // overlong
+    if (lead == 0xF4) high = 0x8F;  // beyond U+10FFFF
+  } else {
+    return 0;
+  }
+  if (i + length > text.size() || byte(i + 1) < low || byte(i + 1) > high) return 0;
+  for (size_t k = 2; k < length; ++k) {
+    if (byte(i + k) < 0x80 || byte(i + k) > 0xBF) return 0;
+  }
+  return length;
+}
+
+bool IsUtf8(const std::string& text) {
+  for (size_t i = 0; i < text.size();) {
+    const size_t length = Utf8SequenceLength(text, i);
+    if (length == 0) return false;
+    i += length;
+  }
+  return true;
+}
+
 // Names are written into XML attributes verbatim: refuse one that XML would change or reject
-// (an OpenSim file read leniently can carry a raw '&'; found by fuzz/osim_import_fuzzer.cpp).
+// (an OpenSim file read leniently can carry a raw '&' or a byte that is not UTF-8; found by
+// fuzz/osim_import_fuzzer.cpp).
 void CheckXmlName(const char* what, const std::string& name) {
   for (const char c : name) {
     if (c == '&' || c == '<' || c == '>' || c == '"' || c == '\'' ||
@@ -70,6 +108,23 @@ void CheckXmlName(const char* what, const std::string& name) {
                   "' contains a character XML attribute values cannot hold as is (& < > \" ' or a "
                   "control character); rename it");
     }
+  }
+  if (!IsUtf8(name)) {
+    std::string shown;  // the name with its bytes that are not UTF-8 as \xHH
+    for (size_t i = 0; i < name.size();) {
+      const size_t length = Utf8SequenceLength(name, i);
+      if (length > 0) {
+        shown += name.substr(i, length);
+        i += length;
+      } else {
+        static const char kHex[] = "0123456789ABCDEF";
+        const unsigned char b = static_cast<unsigned char>(name[i++]);
+        shown += std::string("\\x") + kHex[b >> 4] + kHex[b & 15];
+      }
+    }
+    throw Error(std::string("cannot write URDF: ") + what + " name '" + shown +
+                "' is not UTF-8 text (its file saved in another encoding, e.g. Latin-1?); "
+                "rename it in that file or save the file as UTF-8");
   }
 }
 
@@ -89,7 +144,11 @@ std::string WriteUrdfString(const LimbDescription& description) {
   std::ostringstream o;
   o << "<?xml version=\"1.0\"?>\n";
   o << "<!-- Written by isowrench";
-  if (!d.source.empty()) o << " from " << d.source;
+  // The source path goes into a comment only when a comment can hold it.
+  if (!d.source.empty() && IsUtf8(d.source) && d.source.find("--") == std::string::npos &&
+      d.source.back() != '-') {
+    o << " from " << d.source;
+  }
   o << ". Extension tags: docs/urdf-extensions.md -->\n";
   o << "<robot name=\"" << d.name << "\" xmlns:isowrench=\"urn:isowrench:urdf:1\">\n";
   for (const std::string& link : d.links) o << "  <link name=\"" << link << "\"/>\n";

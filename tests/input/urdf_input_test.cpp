@@ -87,6 +87,48 @@ TEST(UrdfWriter, NameThatXmlCannotHoldIsRefusedNamingIt) {
   EXPECT_THROW(isowrench::WriteUrdfString(d), Error);
 }
 
+// Found by fuzz/osim_import_fuzzer.cpp (seed fuzz/corpus/osim/latin1_model_name.osim): an
+// OpenSim model whose name held a byte that is not UTF-8 (0xED, from a file saved as Latin-1)
+// was written into a URDF that tinyxml2 then refused ("Error reading Attributes"). The writer
+// refuses names that are not well-formed UTF-8 (RFC 3629) and shows the bytes; UTF-8 names,
+// multi-byte ones included, are written and read back.
+TEST(UrdfWriter, NameThatIsNotUtf8IsRefusedShowingTheBytes) {
+  isowrench::LimbDescription d = isowrench::ReadUrdfString(Rat5Text(), "rat.urdf");
+  for (const std::string good : {"f\xC3\xA9mur", "\xE8\x85\xBF", "leg\xF0\x9F\xA6\xB5"}) {
+    d.name = good;  // é, a CJK character, an emoji (2, 3 and 4 bytes)
+    const std::string urdf = isowrench::WriteUrdfString(d);
+    EXPECT_EQ(isowrench::ReadUrdfString(urdf, "back.urdf").name, good);
+  }
+  d.name =
+      "fixture_hindli\xED"
+      "b";
+  EXPECT_THAT([&] { isowrench::WriteUrdfString(d); },
+              ThrowsMessage<Error>(
+                  AllOf(HasSubstr("model name 'fixture_hindli\\xEDb'"), HasSubstr("not UTF-8"))));
+  d.name = "rat";
+  // Overlong '/', a UTF-16 surrogate, a truncated 3-byte sequence, beyond U+10FFFF, a lone
+  // continuation byte.
+  for (const std::string bad : {"a\xC0\xAF", "a\xED\xA0\x80", "a\xE2\x82", "a\xF4\x90\x80\x80",
+                                "a\x80"
+                                "b"}) {
+    d.muscles.front().name = bad;
+    EXPECT_THAT([&] { isowrench::WriteUrdfString(d); },
+                ThrowsMessage<Error>(AllOf(HasSubstr("muscle name"), HasSubstr("not UTF-8"))));
+  }
+}
+
+// The source path goes into the file's first comment only when a comment can hold it.
+TEST(UrdfWriter, SourcePathThatACommentCannotHoldIsLeftOut) {
+  isowrench::LimbDescription d = isowrench::ReadUrdfString(Rat5Text(), "rat.urdf");
+  d.source = "/data/rat--left.osim";
+  std::string urdf = isowrench::WriteUrdfString(d);
+  EXPECT_THAT(urdf, Not(HasSubstr("rat--left")));
+  EXPECT_NO_THROW(isowrench::ReadUrdfString(urdf, "back.urdf"));
+  d.source = "/data/rat_left.osim";
+  urdf = isowrench::WriteUrdfString(d);
+  EXPECT_THAT(urdf, HasSubstr("from /data/rat_left.osim"));
+}
+
 TEST(UrdfAttributes, MisspeltTransducerStiffnessSuggestsTheName) {
   std::string xml = Replace(Rat5Text(), R"(stiffness="1e7 1e7 1e7 1e7 1e7 1e7")",
                             R"(stifness="1e3 1e3 1e3 1 1 1")");
