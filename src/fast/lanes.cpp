@@ -66,7 +66,11 @@ ISOWRENCH_CLONES unsigned LaneKinematics(const Model& model, LaneWorkspace& work
   // for the kernel's fold), and whether every revolute angle is within the lane sin/cos range.
   VI out_of_range = VI{0, 0, 0, 0};
   for (int k = 0; k < d.m; ++k) {
-    if (d.coupled) {
+    if (d.coupled && d.identity[k]) {  // a joint that is its own coordinate
+      const int c = d.coordinate[k];
+      ws.q[k] = V{q[0][c], q[1][c], q[2][c], q[3][c]};
+      ws.dq_joint[k] = ISOWRENCH_V4_SPLAT(1.0);
+    } else if (d.coupled) {
       const int c = d.coordinate[k];
       for (int l = 0; l < kLanes; ++l) {
         double q_joint, dq_joint;
