@@ -18,8 +18,9 @@
 namespace isowrench {
 namespace {
 // The eigen-solve used when the Cholesky pivots say K is (nearly) singular: the same rank and
-// excitation decisions as SolveStatics, on the workspace's fixed-size buffers.
-WrenchResult SolveByEigen(Data::Impl& ws, int m, const double* J, const double* s_t,
+// excitation decisions as SolveStatics, on the workspace's fixed-size buffers. J: row-major,
+// 6 x m, row r at J + r * js.
+WrenchResult SolveByEigen(Data::Impl& ws, int m, const double* J, int js, const double* s_t,
                           const double* s_p, const double* tau, const SolveOptions& options) {
   WrenchResult out;
   JointMatrix& K = ws.K_full;
@@ -27,7 +28,7 @@ WrenchResult SolveByEigen(Data::Impl& ws, int m, const double* J, const double* 
   for (int i = 0; i < m; ++i) {
     for (int j = 0; j <= i; ++j) {
       double sum = i == j ? s_p[i] : 0.0;
-      for (int r = 0; r < 6; ++r) sum += s_t[r] * J[6 * i + r] * J[6 * j + r];
+      for (int r = 0; r < 6; ++r) sum += s_t[r] * J[r * js + i] * J[r * js + j];
       K(i, j) = K(j, i) = sum;
     }
   }
@@ -69,7 +70,7 @@ WrenchResult SolveByEigen(Data::Impl& ws, int m, const double* J, const double* 
   }
   for (int r = 0; r < 6; ++r) {
     double v = 0.0;
-    for (int j = 0; j < m; ++j) v += J[j * 6 + r] * ws.dtheta[j];
+    for (int j = 0; j < m; ++j) v += J[r * js + j] * ws.dtheta[j];
     out.wrench[r] = s_t[r] * v;
   }
   out.status = nulls == 0 ? StaticsStatus::kOk : StaticsStatus::kSelfMotionHeld;
@@ -79,14 +80,19 @@ WrenchResult SolveByEigen(Data::Impl& ws, int m, const double* J, const double* 
 // Inputs of a solve are checked, not trusted: negative or non-finite values give kInvalidInput.
 // Branch-free so it vectorises: 0 * v is 0 for finite v and NaN for inf/NaN, so the sum of
 // those is 0 exactly when every entry is finite; the minimum catches negative stiffness.
-ISOWRENCH_INLINE bool ValidSolveInput(int m, const double* s_t, const double* s_p,
+// N > 0 fixes m at compile time (the loops unroll).
+template <int N>
+ISOWRENCH_INLINE bool ValidSolveInput(int m_runtime, const double* s_t, const double* s_p,
                                       const double* tau) {
+  const int m = N > 0 ? N : m_runtime;
   double nonfinite = 0.0;
   double lowest = 0.0;
+  ISOWRENCH_UNROLL
   for (int r = 0; r < 6; ++r) {
     nonfinite += 0.0 * s_t[r];
     lowest = std::min(lowest, s_t[r]);
   }
+  ISOWRENCH_UNROLL
   for (int i = 0; i < m; ++i) {
     nonfinite += 0.0 * s_p[i] + 0.0 * tau[i];
     lowest = std::min(lowest, s_p[i]);
@@ -100,19 +106,35 @@ WrenchResult Invalid(Data::Impl& ws) {
   return WrenchResult{};
 }
 
-// The statics of one evaluation: the kernel's Cholesky (m fixed at compile time up to 10), the
-// eigen-solve when it cannot decide.
+// The statics of one evaluation (inputs checked first): the kernel's Cholesky (m fixed at
+// compile time up to 10) on J and S_t J, the eigen-solve when it cannot decide. J: row-major,
+// row stride kMaxDofs (Data::Impl::Jr).
 template <int N>
 ISOWRENCH_INLINE WrenchResult SolveWith(Data::Impl& ws, const double* J, const double* s_t,
                                         const double* s_p, const double* tau,
                                         const SolveOptions& options) {
-  const int m = ws.m;
+  const int m = N > 0 ? N : ws.m;
+  if (!ValidSolveInput<N>(m, s_t, s_p, tau)) return Invalid(ws);
+  // S_t J, four columns per vector (up to the next multiple of 4: the Cholesky reads whole
+  // vectors).
+  alignas(32) double sJ[6 * kMaxDofs];
+  ISOWRENCH_UNROLL
+  for (int r = 0; r < 6; ++r) {
+    const V4 scale = ISOWRENCH_V4_SPLAT(s_t[r]);
+    ISOWRENCH_UNROLL
+    for (int c = 0; c < (m + 3) / 4; ++c) {
+      V4 v;
+      std::memcpy(&v, J + r * kMaxDofs + 4 * c, sizeof v);
+      v *= scale;
+      std::memcpy(sJ + r * kMaxDofs + 4 * c, &v, sizeof v);
+    }
+  }
   WrenchResult out;
   ws.dtheta.resize(m);
   bool undecided;
-  kernel::Cholesky<N>(m, J, s_t, s_p, tau, options.cholesky_pivot_tolerance, ws.U, ws.dtheta.data(),
-                      out.wrench.data(), undecided);
-  if (undecided) return SolveByEigen(ws, m, J, s_t, s_p, tau, options);
+  kernel::Cholesky<N, true>(m, J, sJ, kMaxDofs, s_t, s_p, tau, options.cholesky_pivot_tolerance,
+                            ws.U, ws.dtheta.data(), out.wrench.data(), undecided);
+  if (undecided) return SolveByEigen(ws, m, J, kMaxDofs, s_t, s_p, tau, options);
   out.status = StaticsStatus::kOk;
   ws.self_motion.resize(m, 0);
   return out;
@@ -121,7 +143,6 @@ ISOWRENCH_INLINE WrenchResult SolveWith(Data::Impl& ws, const double* J, const d
 ISOWRENCH_CLONES WrenchResult SolveDispatch(Data::Impl& ws, const double* J, const double* s_t,
                                             const double* s_p, const double* tau,
                                             const SolveOptions& options) {
-  if (!ValidSolveInput(ws.m, s_t, s_p, tau)) return Invalid(ws);
   switch (ws.m) {
     case 1: return SolveWith<1>(ws, J, s_t, s_p, tau, options);
     case 2: return SolveWith<2>(ws, J, s_t, s_p, tau, options);
@@ -160,6 +181,8 @@ std::string StatusMessage(const WrenchResult& result) {
 // ---- Data --------------------------------------------------------------------------
 
 Data::Impl::Impl(int dofs) : m(dofs), eigen(dofs) {
+  for (double& v : Jr) v = 0.0;
+  columns = m;
   J.setZero(6, m);
   dL.setZero(m);
   tau.setZero(m);
@@ -183,7 +206,7 @@ Data::~Data() = default;
 Data::Data(Data&&) noexcept = default;
 Data& Data::operator=(Data&&) noexcept = default;
 
-const JacobianBuffer& Data::jacobian() const { return impl_->J; }
+const JacobianBuffer& Data::jacobian() const { return impl_->Jacobian(); }
 const JointVector& Data::tau() const { return impl_->tau; }
 const JointVector& Data::muscle_length_gradient() const { return impl_->dL; }
 double Data::muscle_length() const { return impl_->length; }
@@ -250,13 +273,13 @@ ISOWRENCH_INLINE bool AnyKinematics(const FlatChain& d, Data::Impl& ws, const do
 // to 0 and their S_p entry to a stiffness on the scale of K (the largest S_t or S_p entry, at
 // least 1), so that K has an isolated diagonal there and dtheta is exactly 0 on them; the
 // other entries of dtheta and W are those of the statics without the locked columns. The
-// reported J and tau (ws.J, ws.tau) keep every column.
+// reported J and tau (ws.Jr, ws.tau) keep every column.
 ISOWRENCH_NOINLINE WrenchResult SolveLocked(const FlatChain& d, Data::Impl& ws,
                                             const StiffnessSet& stiffness,
                                             const SolveOptions& options) {
   constexpr int S = kMaxDofs;
   const int n = d.n;
-  double J[6 * S];
+  alignas(32) double J[6 * S] = {};  // row-major, row stride S (as Data::Impl::Jr)
   double tau[S];
   double s_p[S];
   double scale = 1.0;
@@ -265,7 +288,7 @@ ISOWRENCH_NOINLINE WrenchResult SolveLocked(const FlatChain& d, Data::Impl& ws,
   for (int c = 0; c < n; ++c) {
     const bool locked = d.locked[c];
     for (int r = 0; r < 6; ++r) {
-      J[6 * c + r] = locked ? 0.0 : ws.J(r, c);
+      J[r * S + c] = locked ? 0.0 : ws.Jr[r * S + c];
     }
     tau[c] = locked ? 0.0 : ws.tau[c];
     s_p[c] = locked ? scale : stiffness.s_p[c];
@@ -296,7 +319,7 @@ WrenchResult SolveStatics(const Model& model, Data& workspace, const StiffnessSe
   if (stiffness.s_p.size() != m) return Invalid(ws);
   const FlatChain& d = model.impl().flat;
   if (d.any_locked) return SolveLocked(d, ws, stiffness, options);
-  return SolveDispatch(ws, ws.J.data(), stiffness.s_t.data(), stiffness.s_p.data(), ws.tau.data(),
+  return SolveDispatch(ws, ws.Jr, stiffness.s_t.data(), stiffness.s_p.data(), ws.tau.data(),
                        options);
 }
 
@@ -314,11 +337,11 @@ WrenchResult SolveStatics(Data& workspace, const Eigen::Ref<const Matrix6Xd>& J,
   Data::Impl& ws = workspace.impl();
   const int m = ws.m;
   if (J.cols() != m || s_p.size() != m || tau.size() != m || !J.allFinite()) return Invalid(ws);
-  ws.J = J;
+  ws.SetJacobian(J);
   ws.tau = tau;
   double s_p_copy[kMaxDofs];
   for (int i = 0; i < m; ++i) s_p_copy[i] = s_p[i];
-  return SolveDispatch(ws, ws.J.data(), s_t.data(), s_p_copy, ws.tau.data(), options);
+  return SolveDispatch(ws, ws.Jr, s_t.data(), s_p_copy, ws.tau.data(), options);
 }
 
 }  // namespace isowrench

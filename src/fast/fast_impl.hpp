@@ -34,20 +34,42 @@ struct Data::Impl {
   double dq_joint[kMaxDofs];
   Eigen::Vector3d endpoint = Eigen::Vector3d::Zero();
   Eigen::Matrix3d R_W_T = Eigen::Matrix3d::Identity();
-  JacobianBuffer J;
+  /// The endpoint Jacobian as the kernel writes it: row-major with a fixed row stride (row r at
+  /// Jr + r * kMaxDofs, columns 0 .. columns - 1), the layout the statics reads rows of; the
+  /// unused entries stay 0.
+  alignas(32) double Jr[6 * kMaxDofs];
+  int columns = 0;
   JointVector dL;
   JointVector tau;
   double length = 0.0;
-  double* JacobianData() { return J.data(); }
+  double* JacobianData() { return Jr; }
+  static constexpr int JacobianStride() { return kMaxDofs; }
   double* DlData() { return dL.data(); }
   double* TauData() { return tau.data(); }
   double* EndpointData() { return endpoint.data(); }
   double* TransducerData() { return R_W_T.data(); }
-  void Resize(int columns) {
-    J.resize(6, columns);
-    dL.resize(columns);
-    tau.resize(columns);
+  void Resize(int n) {
+    columns = n;
+    dL.resize(n);
+    tau.resize(n);
   }
+  /// J (6 x columns) as a matrix: Data::jacobian(), copied from Jr on each call.
+  const JacobianBuffer& Jacobian() const {
+    J.resize(6, columns);
+    for (int c = 0; c < columns; ++c) {
+      for (int r = 0; r < 6; ++r) J(r, c) = Jr[r * kMaxDofs + c];
+    }
+    return J;
+  }
+  /// Sets J (6 x columns): Jr from a matrix.
+  template <class Matrix>
+  void SetJacobian(const Matrix& jacobian) {
+    columns = static_cast<int>(jacobian.cols());
+    for (int c = 0; c < columns; ++c) {
+      for (int r = 0; r < 6; ++r) Jr[r * kMaxDofs + c] = jacobian(r, c);
+    }
+  }
+  mutable JacobianBuffer J;  // Jacobian()'s copy
   // Statics.
   double U[kMaxDofs * kMaxDofs];  // Cholesky factor of K, K = U^T U (upper triangle by rows)
   JointVector dtheta;

@@ -21,10 +21,10 @@
 //
 // A workspace W provides: `using Scalar = T`; arrays origin, axis (kMaxDofs x 3), points,
 // pulls (kFastMaxPathPoints x 3), q_joint, dq_joint (kMaxDofs) and frames (kMaxDofs x 9,
-// column-major; only for kFrames), reached through Ptr(); T length; JacobianData() (6 per
-// column, column-major), DlData(), TauData(), for T = double also EndpointData() and
-// TransducerData() (3 x 3 column-major R_W_T), and Resize(columns) before J, dL and tau are
-// written.
+// column-major; only for kFrames), reached through Ptr(); T length; JacobianData() (row-major,
+// row r at JacobianData() + r * JacobianStride()), DlData(), TauData(), for T = double also
+// EndpointData() and TransducerData() (3 x 3 column-major R_W_T), and Resize(columns) before J, dL
+// and tau are written.
 
 #include <Eigen/Core>
 #include <algorithm>
@@ -168,15 +168,16 @@ ISOWRENCH_NOINLINE void GeneralAxisAndTurnOutOfLine(T* M, const Eigen::Vector3d&
   ISOWRENCH_UNROLL
   for (int i = 0; i < 9; ++i) M[i] = out[i];
 }
-// M goes through a copy so that the caller's frame never has its address taken and stays in
-// registers.
+// M, c and s go through copies so that the caller's frame and angle never have their address
+// taken and stay in registers.
 template <class T>
 ISOWRENCH_INLINE void GeneralAxisAndTurn(T* M, const Eigen::Vector3d& a, const T& c, const T& s,
                                          T* z, bool turn) {
   T copy[9];
   ISOWRENCH_UNROLL
   for (int i = 0; i < 9; ++i) copy[i] = M[i];
-  GeneralAxisAndTurnOutOfLine(copy, a, c, s, z, turn);
+  const T cs[2] = {c, s};
+  GeneralAxisAndTurnOutOfLine(copy, a, cs[0], cs[1], z, turn);
   ISOWRENCH_UNROLL
   for (int i = 0; i < 9; ++i) M[i] = copy[i];
 }
@@ -203,6 +204,9 @@ ISOWRENCH_INLINE void JointSinCos(const FlatChain& d, const double* q, double* s
     }
   }
 }
+/// sweep_end of a muscle without path points (FastMuscle::sweep_end), for any chain.
+inline constexpr int kNoSweepPoints[kMaxDofs + 1] = {};
+
 /// Coupled chains: the position q_joint = f_k(x) of movable joint k and dq_joint/dx, at the value
 /// x of its coordinate (both evaluation paths call this for every joint, lane by lane).
 ISOWRENCH_INLINE void CoupleJoint(const FlatChain& d, int k, double x, double& q_joint,
@@ -233,12 +237,14 @@ ISOWRENCH_INLINE void Kinematics(const FlatChain& d, W& ws, const T* q, const Fa
   const int n = static_cast<int>(mu.points.size());
   const FastPathPoint* pts = mu.points.data();
   const int* order = mu.sweep_order.data();  // points by decreasing frame, ground ones left out
-  const int sweep_count = static_cast<int>(mu.sweep_order.size());
+  // The points of frame k: order[sweep_end[k + 1] .. sweep_end[k]). A muscle of the public
+  // kinematics functions' "no muscle" has no sweep_end: every frame has no point.
+  const int* sweep_end = mu.sweep_end.empty() ? kNoSweepPoints : mu.sweep_end.data();
   const T zero = T{};
   const T one = T{} + 1.0;
 
   // Path points on ground are fixed in world; the others are placed as soon as their frame is
-  // known (walking sweep_order from its end: increasing frames), so that no frame is stored.
+  // known, so that no frame is stored.
   for (int i = 0; i < n; ++i) {
     if (pts[i].frame >= 0) continue;
     T* x = Ptr(ws.points[i]);
@@ -251,7 +257,6 @@ ISOWRENCH_INLINE void Kinematics(const FlatChain& d, W& ws, const T* q, const Fa
       for (int c = 0; c < 3; ++c) x[c] = zero + pts[i].position[c];
     }
   }
-  int next_point = sweep_count - 1;
 
   // The current frame lives in locals (registers): rotation M column-major (M[3 c + r]) and
   // origin o; it starts as the world frame.
@@ -305,8 +310,8 @@ ISOWRENCH_INLINE void Kinematics(const FlatChain& d, W& ws, const T* q, const Fa
       ISOWRENCH_UNROLL
       for (int i = 0; i < 9; ++i) frame[i] = M[i];
     }
-    while (next_point >= 0 && pts[order[next_point]].frame == k) {  // x = M a + o
-      const int i = order[next_point--];
+    for (int slot = sweep_end[k + 1]; slot < sweep_end[k]; ++slot) {  // x = M a + o
+      const int i = order[slot];
       T* x = Ptr(ws.points[i]);
       if constexpr (kDynamic) {
         std::memcpy(ws.point_rotation[i].data(), M, sizeof M);
@@ -390,19 +395,19 @@ ISOWRENCH_INLINE void Kinematics(const FlatChain& d, W& ws, const T* q, const Fa
   // Backward sweep over the joints: the Jacobian column and dL/dtheta_k of each joint.
   T ps[3] = {zero, zero, zero};  // sum of pulls distal to joint k
   T ms[3] = {zero, zero, zero};  // sum of their moments about the world origin
-  int next = 0;
-  T* J = ws.JacobianData();
+  T* J = ws.JacobianData();      // row-major: row r at J + r * js
+  const int js = ws.JacobianStride();
   T* dL = ws.DlData();
   T* tau = ws.TauData();
   if (d.coupled) {  // columns accumulate their joints' contributions
     for (int c = 0; c < d.n; ++c) {
       dL[c] = zero;
-      for (int r = 0; r < 6; ++r) J[6 * c + r] = zero;
+      for (int r = 0; r < 6; ++r) J[r * js + c] = zero;
     }
   }
   for (int k = m - 1; k >= 0; --k) {
-    while (next < sweep_count && pts[order[next]].frame == k) {
-      const int i = order[next++];
+    for (int slot = sweep_end[k + 1]; slot < sweep_end[k]; ++slot) {
+      const int i = order[slot];
       const T* x = Ptr(ws.points[i]);
       const T* g = Ptr(ws.pulls[i]);
       ISOWRENCH_UNROLL
@@ -445,19 +450,19 @@ ISOWRENCH_INLINE void Kinematics(const FlatChain& d, W& ws, const T* q, const Fa
     if (d.coupled) {  // J[:, c] += J_joint[:, k] dq_joint_k/dq_c, the same for dL/dq
       const int c = d.coordinate[k];
       const T f = ws.dq_joint[k];
-      T* col = J + 6 * c;
+      T* col = J + c;
       ISOWRENCH_UNROLL
       for (int r = 0; r < 3; ++r) {
-        col[r] += f * v[r];
-        col[3 + r] += f * w[r];
+        col[r * js] += f * v[r];
+        col[(3 + r) * js] += f * w[r];
       }
       dL[c] += f * dl;
     } else {
-      T* col = J + 6 * k;
+      T* col = J + k;
       ISOWRENCH_UNROLL
       for (int r = 0; r < 3; ++r) {
-        col[r] = v[r];
-        col[3 + r] = w[r];
+        col[r * js] = v[r];
+        col[(3 + r) * js] = w[r];
       }
       dL[k] = dl;
       tau[k] = minus_force * dl;
@@ -468,31 +473,111 @@ ISOWRENCH_INLINE void Kinematics(const FlatChain& d, W& ws, const T* q, const Fa
   }
 }
 
+/// One row of the statics (entries 0 .. N - 1, N > 0; N = 0: kMaxDofs entries, the first m
+/// used), for the row-by-row Cholesky below. The lanes (T = V4) hold one lane vector per entry;
+/// one posture (T = double) holds four entries per V4, so that a row update is one vector
+/// multiply-add per four entries. Operations act on the entries i >= from (for T = double from
+/// the start of the V4 holding entry `from`: the entries below it in that vector are computed
+/// too and never read). Rows read from memory (J, U) are stored with consecutive entries; for
+/// T = double a row may be read up to the next multiple of 4 past m (the callers' buffers hold
+/// those entries; their values are never used).
+template <int N, class T, bool kVectorised = kScalar<T>>
+struct Row {
+  static constexpr int kEntries = N > 0 ? N : kMaxDofs;
+  T e[kEntries];
+  ISOWRENCH_INLINE void Zero(int from, int m) {
+    ISOWRENCH_UNROLL
+    for (int i = from; i < m; ++i) e[i] = T{};
+  }
+  /// e_i += a x_i.
+  ISOWRENCH_INLINE void Axpy(const T& a, const T* x, int from, int m) {
+    ISOWRENCH_UNROLL
+    for (int i = from; i < m; ++i) e[i] += a * x[i];
+  }
+  /// e_i -= a x_i.
+  ISOWRENCH_INLINE void Axmy(const T& a, const T* x, int from, int m) {
+    ISOWRENCH_UNROLL
+    for (int i = from; i < m; ++i) e[i] -= a * x[i];
+  }
+  ISOWRENCH_INLINE void Get(int i, T& out) const { out = e[i]; }
+  /// out_i = s e_i.
+  ISOWRENCH_INLINE void StoreScaled(T* out, const T& s, int from, int m) const {
+    ISOWRENCH_UNROLL
+    for (int i = from; i < m; ++i) out[i] = e[i] * s;
+  }
+};
+
+template <int N>
+struct Row<N, double, true> {
+  static constexpr int kChunks = (N > 0 ? N + 3 : kMaxDofs) / 4;
+  V4 e[kChunks];
+  ISOWRENCH_INLINE void Zero(int from, int m) {
+    ISOWRENCH_UNROLL
+    for (int c = from / 4; c < (m + 3) / 4; ++c) e[c] = ISOWRENCH_V4_SPLAT(0.0);
+  }
+  ISOWRENCH_INLINE void Axpy(double a, const double* x, int from, int m) {
+    const V4 av = ISOWRENCH_V4_SPLAT(a);
+    ISOWRENCH_UNROLL
+    for (int c = from / 4; c < (m + 3) / 4; ++c) {
+      V4 xv;
+      std::memcpy(&xv, x + 4 * c, sizeof xv);
+      e[c] += av * xv;
+    }
+  }
+  ISOWRENCH_INLINE void Axmy(double a, const double* x, int from, int m) {
+    const V4 av = ISOWRENCH_V4_SPLAT(a);
+    ISOWRENCH_UNROLL
+    for (int c = from / 4; c < (m + 3) / 4; ++c) {
+      V4 xv;
+      std::memcpy(&xv, x + 4 * c, sizeof xv);
+      e[c] -= av * xv;
+    }
+  }
+  ISOWRENCH_INLINE void Get(int i, double& out) const { out = e[i / 4][i % 4]; }
+  ISOWRENCH_INLINE void StoreScaled(double* out, double s, int from, int m) const {
+    const V4 sv = ISOWRENCH_V4_SPLAT(s);
+    ISOWRENCH_UNROLL
+    for (int c = from / 4; c < (m + 3) / 4; ++c) {
+      const V4 v = e[c] * sv;
+      std::memcpy(out + 4 * c, &v, sizeof v);
+    }
+  }
+};
+
 /// The statics for one lane type: K = J^T S_t J + S_p, its Cholesky factor U (K = U^T U, row k
 /// of U at U[k * kMaxDofs + i], i >= k), dtheta = K^-1 tau into x and W = S_t J dtheta into
-/// wrench. Row j of K is formed just before row j of U needs it (K itself is never stored).
-/// J: 6 numbers per column. N > 0 fixes m at compile time (loops unroll). Sets `undecided` on
-/// the lanes it cannot decide: K not clearly positive definite (a pivot at or below
-/// pivot_tolerance times the largest diagonal entry of K; the scalar path then returns before
-/// the substitutions, leaving x and wrench unwritten) or a non-finite W.
-template <int N, class T>
-ISOWRENCH_INLINE void Cholesky(int m_runtime, const T* J, const T* s_t, const T* s_p, const T* tau,
-                               double pivot_tolerance, T* U, T* x, T* wrench, Mask<T>& undecided) {
+/// wrench. Row j of K is formed just before row j of U needs it (K itself is never stored), as
+/// one Row: K_j = sum_r (s_t,r J_rj) J_r (rows J_r of J), then K_j - sum_{k<j} U_kj U_k.
+/// J: row-major, row r at J + r * js (js >= m; for T = double the buffer must hold
+/// 4 ceil(m / 4) entries past the start of the last row). kScaled: sJ holds S_t J in the same
+/// layout (one posture: each coefficient s_t,r J_rj is then one broadcast from memory); else
+/// sJ is not read. N > 0 fixes m at compile time (loops unroll). Sets `undecided` on the lanes it
+/// cannot decide: K not clearly positive definite (a pivot at or below pivot_tolerance times the
+/// largest diagonal entry of K; the scalar path then returns before the substitutions, leaving x
+/// and wrench unwritten) or a non-finite W.
+template <int N, bool kScaled, class T>
+ISOWRENCH_INLINE void Cholesky(int m_runtime, const T* J, const T* sJ, int js, const T* s_t,
+                               const T* s_p, const T* tau, double pivot_tolerance, T* U, T* x,
+                               T* wrench, Mask<T>& undecided) {
   constexpr int S = kMaxDofs;
   const int m = N > 0 ? N : std::min(m_runtime, S);
   T max_diag = T{}, min_pivot = T{};
   T inv_diag[S];
   ISOWRENCH_UNROLL
   for (int j = 0; j < m; ++j) {
-    T sj[6];
+    Row<N, T> row;
+    row.Zero(j, m);
     ISOWRENCH_UNROLL
-    for (int r = 0; r < 6; ++r) sj[r] = s_t[r] * J[6 * j + r];
-    T k_jj = s_p[j];
+    for (int r = 0; r < 6; ++r) {
+      row.Axpy(kScaled ? sJ[r * js + j] : s_t[r] * J[r * js + j], J + r * js, j, m);
+    }
+    T k_jj, dj;
+    row.Get(j, k_jj);
+    k_jj += s_p[j];
     ISOWRENCH_UNROLL
-    for (int r = 0; r < 6; ++r) k_jj += sj[r] * J[6 * j + r];
-    T dj = k_jj;
-    ISOWRENCH_UNROLL
-    for (int k = 0; k < j; ++k) dj -= U[k * S + j] * U[k * S + j];
+    for (int k = 0; k < j; ++k) row.Axmy(U[k * S + j], U + k * S, j, m);
+    row.Get(j, dj);
+    dj += s_p[j];
     // Pivots are judged once K's largest diagonal entry is known (below); a pivot <= 0 makes
     // the rest of this factor NaN or inf, which only the undecided lanes see.
     max_diag = j == 0 ? k_jj : (k_jj > max_diag ? k_jj : max_diag);
@@ -501,15 +586,9 @@ ISOWRENCH_INLINE void Cholesky(int m_runtime, const T* J, const T* s_t, const T*
     Sqrt(dj, root);
     const T inv = 1.0 / root;
     inv_diag[j] = inv;
-    ISOWRENCH_UNROLL
-    for (int i = j + 1; i < m; ++i) {
-      T v = sj[0] * J[6 * i];
-      ISOWRENCH_UNROLL
-      for (int r = 1; r < 6; ++r) v += sj[r] * J[6 * i + r];
-      ISOWRENCH_UNROLL
-      for (int k = 0; k < j; ++k) v -= U[k * S + i] * U[k * S + j];
-      U[j * S + i] = v * inv;
-    }
+    // U_jj is written too (without s_p: not the factor's diagonal) but never read: the
+    // substitutions use inv_diag.
+    row.StoreScaled(U + j * S, inv, j, m);
   }
   undecided = (min_pivot > pivot_tolerance * max_diag) == 0;
   if constexpr (kScalar<T>) {
@@ -519,10 +598,11 @@ ISOWRENCH_INLINE void Cholesky(int m_runtime, const T* J, const T* s_t, const T*
   SolveWithFactor<N>(m, U, inv_diag, tau, y, x);
   ISOWRENCH_UNROLL
   for (int r = 0; r < 6; ++r) {
-    T v = J[r] * x[0];
+    const T* Jr = (kScaled ? sJ : J) + r * js;
+    T v = Jr[0] * x[0];
     ISOWRENCH_UNROLL
-    for (int j = 1; j < m; ++j) v += J[6 * j + r] * x[j];
-    wrench[r] = s_t[r] * v;
+    for (int j = 1; j < m; ++j) v += Jr[j] * x[j];
+    wrench[r] = kScaled ? v : s_t[r] * v;
     undecided |= (wrench[r] - wrench[r]) != 0.0;  // inf or NaN
   }
 }

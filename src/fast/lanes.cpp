@@ -40,13 +40,14 @@ struct LaneWorkspace::Impl {
   V axis[kMaxDofs][3];
   V points[kFastMaxPathPoints][3];
   V pulls[kFastMaxPathPoints][3];
-  V J[kMaxDofs][6];  // column k: [v; w] in transducer axes
+  V J[6][kMaxDofs];  // row-major: column k is [v; w] in transducer axes
   V dL[kMaxDofs];
   V tau[kMaxDofs];
   V length;
   V U[kMaxDofs * kMaxDofs];  // statics (kernel::Cholesky)
   V x[kMaxDofs];             // dtheta
   V* JacobianData() { return J[0]; }
+  static int JacobianStride() { return kMaxDofs; }
   V* DlData() { return dL; }
   V* TauData() { return tau; }
   void Resize(int) {}
@@ -97,7 +98,7 @@ ISOWRENCH_CLONES void LaneBroadcast(const Data& scalar, LaneWorkspace& workspace
   LaneWorkspace::Impl& ws = workspace.impl();
   const Data::Impl& s = scalar.impl();
   for (int k = 0; k < ws.m; ++k) {
-    for (int r = 0; r < 6; ++r) ws.J[k][r] = ISOWRENCH_V4_SPLAT(s.J(r, k));
+    for (int r = 0; r < 6; ++r) ws.J[r][k] = ISOWRENCH_V4_SPLAT(s.Jr[r * kMaxDofs + k]);
     ws.tau[k] = ISOWRENCH_V4_SPLAT(s.tau[k]);
   }
 }
@@ -108,7 +109,8 @@ namespace {
 template <int N>
 ISOWRENCH_INLINE void LaneCholesky(LaneWorkspace::Impl& ws, int m, const V* s_t, const V* s_p,
                                    double tolerance, V* wrench, VI& undecided) {
-  kernel::Cholesky<N>(m, ws.J[0], s_t, s_p, ws.tau, tolerance, ws.U, ws.x, wrench, undecided);
+  kernel::Cholesky<N, false>(m, ws.J[0], static_cast<const V*>(nullptr), kMaxDofs, s_t, s_p, ws.tau,
+                             tolerance, ws.U, ws.x, wrench, undecided);
 }
 
 }  // namespace

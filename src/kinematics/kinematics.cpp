@@ -65,7 +65,7 @@ Eigen::Isometry3d EndpointPose(const Model& model, Data& ws, const Eigen::Vector
 }
 
 Matrix6Xd EndpointJacobianWorld(const Model& model, Data& ws, const Eigen::VectorXd& q) {
-  return RunKinematics(model, ws, q, -1, 1.0, true).J;
+  return RunKinematics(model, ws, q, -1, 1.0, true).Jacobian();
 }
 
 Eigen::Matrix3d TransducerRotation(const Model& model, Data& ws, const Eigen::VectorXd& q) {
@@ -75,7 +75,7 @@ Eigen::Matrix3d TransducerRotation(const Model& model, Data& ws, const Eigen::Ve
 }
 
 Matrix6Xd EndpointJacobian(const Model& model, Data& ws, const Eigen::VectorXd& q) {
-  return RunKinematics(model, ws, q, -1, 1.0, false).J;
+  return RunKinematics(model, ws, q, -1, 1.0, false).Jacobian();
 }
 
 Eigen::Vector3d PointPosition(const Model& model, Data& ws, const Eigen::VectorXd& q,

@@ -262,10 +262,12 @@ FlatChain Compile(const LimbDescription& d) {
       muscle.dynamic = muscle.dynamic || !p.moving.empty() || point.active_column >= 0;
       muscle.points.push_back(point);
     }
+    muscle.sweep_end.assign(static_cast<size_t>(flat.m) + 1, 0);
     for (int f = flat.m - 1; f >= 0; --f) {
       for (size_t k = 0; k < muscle.points.size(); ++k) {
         if (muscle.points[k].frame == f) muscle.sweep_order.push_back(static_cast<int>(k));
       }
+      muscle.sweep_end[static_cast<size_t>(f)] = static_cast<int>(muscle.sweep_order.size());
     }
     flat.muscles.push_back(std::move(muscle));
   }

@@ -58,6 +58,9 @@ struct FastMuscle {
   /// Point indices ordered by decreasing frame (ground points left out): the order of the
   /// backward torque sweep.
   std::vector<int> sweep_order;
+  /// sweep_end[k]: how many entries of sweep_order have frame >= k (k = 0 .. m; sweep_end[m] =
+  /// 0): the points of frame k are sweep_order[sweep_end[k + 1] .. sweep_end[k]).
+  std::vector<int> sweep_end;
   /// Moving components of its points; `dynamic`: some point moves or is conditional, and each
   /// evaluation first runs PreparePathPoints (src/fast/path_points.cpp).
   std::vector<FastMovingComponent> moving;

@@ -34,7 +34,7 @@ WrenchEvaluation EvaluateWrench(const Model& model, Data& ws, const Eigen::Vecto
   // One run of the kinematics kernel: J in transducer axes, R_W_T and the muscle torque.
   const Data::Impl& k = RunKinematics(model, ws, q, muscle_index, activation, false);
   e.R_W_T = k.R_W_T;
-  e.jacobian = k.J;
+  e.jacobian = k.Jacobian();
   e.muscle_length = k.length;
   e.muscle_force = activation * model.muscle(muscle_index).max_force;
   e.tau = k.tau;
