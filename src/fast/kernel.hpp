@@ -565,6 +565,9 @@ ISOWRENCH_INLINE void Cholesky(int m_runtime, const T* J, const T* sJ, int js, c
   T inv_diag[S];
   ISOWRENCH_UNROLL
   for (int j = 0; j < m; ++j) {
+    // Lanes: J and U are read from memory again for each row (a compiler barrier): otherwise
+    // GCC keeps every entry of J it loaded live across the unrolled rows and spills them all.
+    if constexpr (!kScalar<T>) asm volatile("" ::: "memory");
     Row<N, T> row;
     row.Zero(j, m);
     ISOWRENCH_UNROLL
