@@ -70,6 +70,33 @@ class TrialReader {
   std::unique_ptr<Impl> impl_;
 };
 
+/// A uniform random sample of at most `capacity` trials from a stream of trials of unknown
+/// length (reservoir sampling, Vitter's Algorithm R): after n trials were added each of them is
+/// in the sample with probability min(1, capacity / n), and every subset of that size is equally
+/// likely. The random numbers come from isowrench's splitmix64 generator (as SimulateTrials),
+/// so a seed gives the same sample on every platform. Memory: `capacity` trials, whatever the
+/// number added. FitEffects and FitEffectsCsv (isowrench/trial_csv.hpp) choose the trials they
+/// fit with it (FitOptions::max_fit_trials).
+class TrialReservoir {
+ public:
+  /// `capacity` 0 keeps every trial. @throws Error for a negative capacity.
+  TrialReservoir(long capacity, unsigned long long seed);
+  /// Offer the next trial of the stream.
+  void Add(const Trial& trial);
+  /// Trials offered so far.
+  long seen() const { return seen_; }
+  /// The sample, in the order the trials were added (all of them while seen() <= capacity);
+  /// leaves the reservoir empty.
+  std::vector<Trial> Take();
+
+ private:
+  long capacity_;
+  unsigned long long state_;  ///< splitmix64 state
+  long seen_ = 0;
+  std::vector<Trial> kept_;
+  std::vector<long> order_;  ///< position in the stream of each kept trial
+};
+
 /// Read a whole CSV file into trials (TrialReader over a file).
 /// @throws Error if the file cannot be opened, has no trials, or as TrialReader.
 std::vector<Trial> ReadTrialsCsv(const Model& model, const std::string& path);
@@ -342,6 +369,17 @@ struct FitOptions {
   /// candidates", ...), for progress on long fits; empty = silent.
   std::function<void(const std::string&)> progress;
   unsigned long long cv_seed = 7;  ///< fold assignment
+  /// Scale: fit at most this many trials (0 = every trial; must be >= 0). With more trials a
+  /// uniform random sample of max_fit_trials of them is fitted (TrialReservoir with
+  /// sample_seed, kept in the trials' order): screening, rounds, cross-validation, verdict,
+  /// outliers, trace and the per-trial rows of the report use the sample only, and a second
+  /// pass predicts every trial (4096 at a time) for FitReport::before / after. The fit's memory
+  /// and time then do not grow with the number of trials (FitEffectsCsv also reads the file in
+  /// bounded memory). The standard errors are those of the sample: about
+  /// sqrt(trials / max_fit_trials) times those of a fit of every trial. With no more trials than
+  /// max_fit_trials the report is exactly that of a fit of every trial.
+  int max_fit_trials = 20000;
+  unsigned long long sample_seed = 1;  ///< seed of the sample (TrialReservoir)
 };
 
 /// Error statistics of a set of residuals, per component [fx fy fz mx my mz].
@@ -424,15 +462,30 @@ struct TrialResidual {
 /// Everything FitEffects found (Ceres-style summary).
 struct FitReport {
   std::string model_name;
-  std::string source;  ///< data file, if known
-  int trial_count = 0;
+  std::string source;   ///< data file, if known
+  int trial_count = 0;  ///< trials given (every row of the file)
+  /// Trials fitted: trial_count, or FitOptions::max_fit_trials when the fit used a sample.
+  int fitted_trial_count = 0;
+  unsigned long long sample_seed = 0;  ///< FitOptions::sample_seed of the sample (if sampled)
+  /// How the fitted trials were chosen, one sentence: "every trial fitted", or "20000 of
+  /// 1000000 trials fitted: a uniform random sample (reservoir sampling, seed 1); ...".
+  std::string sampling;
+  /// True when a sample was fitted (fitted_trial_count < trial_count).
+  bool sampled() const { return fitted_trial_count < trial_count; }
   bool sd_stated = false;  ///< every trial had sd columns
-  ResidualStats before;    ///< nominal model
-  ResidualStats after;     ///< augmented model
+  ResidualStats before;    ///< nominal model, over every trial
+  ResidualStats after;     ///< augmented model, over every trial
+  /// The same over the fitted trials (what the rounds and the verdict used); equal to before /
+  /// after when every trial was fitted.
+  ResidualStats fitted_before;
+  ResidualStats fitted_after;
+  /// Trials (of all of them) whose |weighted residual| / sqrt(6) after the fit exceeds
+  /// FitOptions::outlier_threshold (counted whatever the loss; outlier_rows names the fitted ones).
+  long beyond_threshold_count = 0;
   std::vector<FitRound> rounds;
   std::vector<AppliedEffect> chosen;      ///< effects added, in order
   std::vector<CandidateFit> chosen_fits;  ///< the accepted fit of each (values, SE, ...)
-  std::vector<TrialResidual> trials;
+  std::vector<TrialResidual> trials;      ///< the fitted trials, in their order
   FitVerdict verdict = FitVerdict::kNominalFits;
   std::string verdict_message;
   /// False when the verdict is kUnexplained: the effects in `chosen` then reduce the residual
@@ -444,7 +497,7 @@ struct FitReport {
   AugmentedModel augmented;  ///< nominal + chosen effects (write with WriteAugmentedUrdf)
   /// Other remarks, e.g. "base_per_axis simplified to base_isotropic" after the rounds.
   std::vector<std::string> notes;
-  double seconds = 0.0;  ///< wall time of the fit
+  double seconds = 0.0;  ///< wall time of the fit (FitEffectsCsv: both passes over the file)
 
   /// Robust loss used, and the CSV line numbers of the rows flagged as outliers.
   RobustLoss loss = RobustLoss::kHuber;
@@ -454,8 +507,8 @@ struct FitReport {
   std::vector<std::string> correlation_labels;
   Eigen::MatrixXd correlations;
   std::vector<std::string> confounded;
-  /// trial_force: the per-trial factors (one per trial, in trial order), the spread (sd of ln
-  /// factor) and the lines of trials whose factor is far from the rest (> 3 robust sd).
+  /// trial_force: the per-trial factors (one per fitted trial, in trial order), the spread (sd of
+  /// ln factor) and the lines of trials whose factor is far from the rest (> 3 robust sd).
   std::vector<double> trial_factors;
   double trial_force_spread = 0.0;
   std::vector<long> trial_force_outliers;
@@ -487,7 +540,11 @@ CandidateFit FitCandidate(const AugmentedModel& current, const Effect& effect,
                           const std::vector<Trial>& trials, const FitOptions& options = {});
 
 /// The whole loop: nominal residual, rounds of candidate fits and decisions, final report.
-/// @throws Error for empty trials or unknown candidate ids; numerical outcomes are in the report.
+/// More trials than FitOptions::max_fit_trials: a sample is fitted and every trial predicted
+/// (see there). FitEffectsCsv (isowrench/trial_csv.hpp) does the same from a file in bounded
+/// memory.
+/// @throws Error for empty trials, unknown candidate ids or max_fit_trials < 0; numerical
+///         outcomes are in the report.
 FitReport FitEffects(const Model& nominal, const std::vector<Trial>& trials,
                      const FitOptions& options = {});
 

@@ -49,6 +49,23 @@ void ForEachSimulatedTrial(const Model& nominal, const AugmentedModel& truth,
                            const std::function<void(const Trial&)>& on_trial,
                            const TrialProgress& progress = {}, int chunk = 4096);
 
+/// FitEffects on a trial CSV file in memory that does not grow with its number of rows. The
+/// first pass reads and checks every row and keeps a uniform random sample of
+/// options.max_fit_trials of them (TrialReservoir, options.sample_seed; all rows when there are
+/// no more, or when max_fit_trials is 0); the sample is fitted (FitEffects); when rows were left
+/// out, a second pass predicts every row with the nominal and the augmented model, 4096 rows at a
+/// time, for FitReport::before / after and beyond_threshold_count. With no more rows than
+/// max_fit_trials the report equals FitEffects(nominal, ReadTrialsCsv(nominal, path), options)
+/// exactly (source and seconds aside). `read_progress` and `check_progress` report the two passes
+/// as ForEachTrial does; `fitted`, when given, receives the fitted trials (the order of
+/// FitReport::trials, for WriteFitReportHtml).
+/// @throws Error as ForEachTrial and FitEffects, or when the file's row count changes between
+///         the passes.
+FitReport FitEffectsCsv(const Model& nominal, const std::string& path,
+                        const FitOptions& options = {}, const TrialProgress& read_progress = {},
+                        const TrialProgress& check_progress = {},
+                        std::vector<Trial>* fitted = nullptr);
+
 /// Streaming writer of the CSV format TrialReader reads: the header on construction, then one
 /// row per Write (bounded memory, for simulations of any size).
 class TrialCsvWriter {

@@ -27,6 +27,7 @@
 #include "isowrench/opensim.hpp"
 #include "isowrench/posture.hpp"
 #include "isowrench/statics.hpp"
+#include "isowrench/trial_csv.hpp"
 
 namespace py = pybind11;
 
@@ -432,12 +433,16 @@ std::string Simulate(const PyModel& m, const std::string& output,
   return output;
 }
 
-py::dict Fit(const PyModel& m, const std::string& csv) {
+py::dict Fit(const PyModel& m, const std::string& csv, int max_fit_trials,
+             unsigned long long sample_seed) {
   if (!std::filesystem::exists(csv)) ThrowFileNotFound(csv);
   FitReport report;
   {
     py::gil_scoped_release release;
-    report = FitEffects(m.model, ReadTrialsCsv(m.model, csv));
+    FitOptions options;
+    options.max_fit_trials = max_fit_trials;
+    options.sample_seed = sample_seed;
+    report = FitEffectsCsv(m.model, csv, options);
   }
   py::dict out;
   out["verdict"] = FitVerdictName(report.verdict);
@@ -461,6 +466,8 @@ py::dict Fit(const PyModel& m, const std::string& csv) {
   }
   out["chosen"] = chosen;
   out["trial_count"] = report.trial_count;
+  out["fitted_trial_count"] = report.fitted_trial_count;
+  out["sampling"] = report.sampling;
   out["rms_before"] = Array(Eigen::VectorXd(report.before.rms));
   out["rms_after"] = Array(Eigen::VectorXd(report.after.rms));
   out["normalized_before"] = Array(Eigen::VectorXd(report.before.normalized));
@@ -695,12 +702,17 @@ PYBIND11_MODULE(_core, mod) {
           "fit` read). "
           "Returns path. Same seed, same data.");
   mod.def("fit", &Fit, py::arg("model"), py::arg("csv"),
-          "fit(model, csv) -> dict\n\n"
-          "FitEffects on a trial CSV (as `isowrench fit`): which unmodelled effects explain the "
-          "measured wrenches. "
+          py::arg("max_fit_trials") = FitOptions().max_fit_trials,
+          py::arg("sample_seed") = FitOptions().sample_seed,
+          "fit(model, csv, max_fit_trials=20000, sample_seed=1) -> dict\n\n"
+          "FitEffectsCsv on a trial CSV (as `isowrench fit`): which unmodelled effects explain the "
+          "measured wrenches. With more rows than max_fit_trials (0 = no limit) a uniform random "
+          "sample of that many is fitted (reservoir sampling, sample_seed) and every row is "
+          "predicted for rms_before / rms_after, in memory that does not grow with the rows. "
           "Returns {'verdict', 'verdict_message', 'effects_claimed', 'chosen': [{'id', "
           "'parameters': [{'name', "
-          "'value', 'standard_error', 'unit'}]}], 'trial_count', 'rms_before', 'rms_after' (6,) N "
+          "'value', 'standard_error', 'unit'}]}], 'trial_count', 'fitted_trial_count', "
+          "'sampling' (text), 'rms_before', 'rms_after' (6,) N "
           "and N·m, "
           "'normalized_before', 'normalized_after' (noise multiples), 'indistinguishable', "
           "'notes', 'report' (text), "

@@ -39,3 +39,17 @@ def test_fit_errors(rat, tmp_path):
         isowrench.fit(rat, str(bad))
     with pytest.raises(ValueError, match="no_such_effect"):
         isowrench.simulate(rat, str(tmp_path / "x.csv"), effects=["no_such_effect=1"])
+
+
+def test_fit_a_sample_of_the_rows(rat, tmp_path):
+    path = isowrench.simulate(rat, str(tmp_path / "data.csv"), effects=["base_isotropic=2e5"], n=120, seed=7)
+    fit = isowrench.fit(rat, path, max_fit_trials=40, sample_seed=3)
+    assert fit["trial_count"] == 120 and fit["fitted_trial_count"] == 40
+    assert "40 of 120 trials fitted" in fit["sampling"] and "seed 3" in fit["sampling"]
+    assert [c["id"] for c in fit["chosen"]] == ["base_isotropic"]
+    # rms_after covers all 120 rows: at the noise, although only 40 were fitted.
+    np.testing.assert_array_less(fit["rms_after"], [0.004] * 3 + [1e-4] * 3)
+    every = isowrench.fit(rat, path, max_fit_trials=0)
+    assert every["fitted_trial_count"] == 120 and every["sampling"] == "every trial fitted"
+    with pytest.raises(ValueError, match="max_fit_trials"):
+        isowrench.fit(rat, path, max_fit_trials=-1)

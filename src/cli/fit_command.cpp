@@ -2,8 +2,10 @@
 
 #include <unistd.h>
 
+#include <cerrno>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <iostream>
 
 #include "cli/command.hpp"
@@ -28,6 +30,8 @@ struct FitCommandOptions {
   int folds = 5;
   int screen = 8;
   int rows = 20;
+  int max_fit_trials = FitOptions().max_fit_trials;
+  unsigned long long sample_seed = FitOptions().sample_seed;
   std::string loss = "huber";
   bool progress = false;
   double loss_scale = 2.0;
@@ -164,12 +168,20 @@ nlohmann::json ReportJson(const FitReport& r, const std::string& urdf, const std
           {"urdf", urdf},
           {"data", data},
           {"trials_count", r.trial_count},
+          {"fitted_trials_count", r.fitted_trial_count},
+          {"sampling",
+           {{"method", r.sampled() ? "uniform random sample (reservoir sampling)" : "every trial"},
+            {"seed", r.sampled() ? nlohmann::json(r.sample_seed) : nlohmann::json(nullptr)},
+            {"description", r.sampling}}},
           {"sd_stated", r.sd_stated},
           {"verdict", FitVerdictName(r.verdict)},
           {"verdict_message", r.verdict_message},
           {"effects_claimed", r.effects_claimed},
           {"before", StatsJson(r.before)},
           {"after", StatsJson(r.after)},
+          {"fitted_before", StatsJson(r.fitted_before)},
+          {"fitted_after", StatsJson(r.fitted_after)},
+          {"beyond_threshold_count", r.beyond_threshold_count},
           {"chosen", chosen},
           {"sensor_offset", WrenchJson(r.augmented.sensor_offset)},
           {"rounds", rounds},
@@ -181,6 +193,7 @@ nlohmann::json ReportJson(const FitReport& r, const std::string& urdf, const std
           {"indistinguishable", r.indistinguishable},
           {"notes", r.notes},
           {"trials", trials},
+          {"trials_note", r.sampled() ? "the fitted trials only (the sample)" : "every trial"},
           {"residual_sign", "measured - predicted, transducer axes, moment about the endpoint"},
           {"augmented_urdf", output.empty() ? nlohmann::json(nullptr) : nlohmann::json(output)},
           {"seconds", r.seconds}};
@@ -196,11 +209,17 @@ void PrintReport(const FitReport& r, const FitCommandOptions& o) {
   const int w = 24;
   std::cout << "isowrench fit: " << r.model_name << " (" << o.model.urdf << ") against " << o.data
             << "\n"
-            << "  trials       " << r.trial_count
-            << ", stated noise (sd columns): " << (r.sd_stated ? "yes" : "no") << "\n"
+            << "  trials       " << r.trial_count;
+  if (r.sampled()) {
+    std::cout << " read, " << r.fitted_trial_count
+              << " fitted (a uniform random sample: reservoir sampling, seed " << r.sample_seed
+              << "; --max-fit-trials, --sample-seed)";
+  }
+  std::cout << ", stated noise (sd columns): " << (r.sd_stated ? "yes" : "no") << "\n"
             << "  verdict      " << FitVerdictName(r.verdict) << ": " << r.verdict_message << "\n";
-  std::cout << "\nError before (nominal model) and after (with the chosen effects); residual = "
-               "measured - predicted,\n"
+  std::cout << "\nError before (nominal model) and after (with the chosen effects)"
+            << (r.sampled() ? " over all " + std::to_string(r.trial_count) + " trials" : "")
+            << "; residual = measured - predicted,\n"
             << "transducer axes, moment about the endpoint:\n"
             << WrenchHeader(w) << "\n"
             << WrenchRow("RMS before", r.before.rms, w) << "\n"
@@ -215,6 +234,15 @@ void PrintReport(const FitReport& r, const FitCommandOptions& o) {
             << WrenchRow("R^2 after", r.after.r2, w) << "\n";
   std::cout << "  reduced chi^2: " << util::FormatNumber(r.before.reduced_chi2, 4) << " before, "
             << util::FormatNumber(r.after.reduced_chi2, 4) << " after (1 = at the noise)\n";
+  if (r.sampled()) {
+    std::cout << "  the " << r.fitted_trial_count << " fitted trials: reduced chi^2 "
+              << util::FormatNumber(r.fitted_before.reduced_chi2, 4) << " before, "
+              << util::FormatNumber(r.fitted_after.reduced_chi2, 4)
+              << " after (the rounds and the verdict use these)\n"
+              << "  rows beyond " << util::FormatNumber(FitOptions().outlier_threshold, 3)
+              << " x noise after the fit: " << r.beyond_threshold_count << " of " << r.trial_count
+              << "\n";
+  }
 
   for (const FitRound& round : r.rounds) {
     std::cout << "\nRound " << round.index << ": " << round.summary << "\n"
@@ -287,8 +315,8 @@ void PrintReport(const FitReport& r, const FitCommandOptions& o) {
     std::cout << "\nEffects wrench data cannot tell apart at these postures:\n";
     for (const std::string& s : r.indistinguishable) std::cout << "  " << s << "\n";
   }
-  std::cout << "\nPer-trial residuals after the fit (N, N·m) and |weighted residual| in noise "
-               "multiples:\n"
+  std::cout << "\nPer-trial residuals after the fit" << (r.sampled() ? " (fitted trials)" : "")
+            << " (N, N·m) and |weighted residual| in noise multiples:\n"
             << "  line  muscle  activ.   x noise before  x noise after  " << WrenchHeader(0)
             << "\n";
   size_t shown = 0;
@@ -346,6 +374,25 @@ const bool kFitRegistered = RegisterCommand(
        app.add_flag("--progress", o->progress,
                     "Report reading and fitting progress on stderr even when it is not a "
                     "terminal (it is reported on a terminal anyway)");
+       app.add_option("--max-fit-trials", o->max_fit_trials,
+                      "Fit at most N trials: with more rows, a uniform random sample of N "
+                      "(reservoir sampling) is fitted and every row is predicted in a second "
+                      "pass for the error before/after; memory does not grow with the rows "
+                      "(default 20000, 0 = fit every row)")
+           ->check(CLI::Validator(
+               [](std::string& v) -> std::string {
+                 char* end = nullptr;
+                 errno = 0;
+                 const long n = std::strtol(v.c_str(), &end, 10);
+                 if (v.empty() || *end != '\0' || errno != 0 || n < 0 || n > 2147483647L) {
+                   return "expected a whole number of trials >= 0 (0 = fit every row), got '" + v +
+                          "'";
+                 }
+                 return std::string();
+               },
+               "N >= 0"));
+       app.add_option("--sample-seed", o->sample_seed,
+                      "Seed of the --max-fit-trials sample (default 1; same seed, same sample)");
        app.add_option("--rows", o->rows, "Per-trial rows in the table (default 20, 0 = all)");
        app.add_flag("--list-effects", o->list_effects,
                     "List the candidate effects for the model and exit");
@@ -382,13 +429,10 @@ const bool kFitRegistered = RegisterCommand(
            throw Error("fit: missing <data.csv> (measured wrenches; see docs/identification.md)");
          if (o->rounds < 0) throw Error("fit: --rounds must be >= 0");
          if (o->screen < 0) throw Error("fit: --screen must be >= 0 (0 = fit every candidate)");
-         // Streamed: rows are parsed one at a time (no copy of the file's text is kept).
          const bool progress = o->progress || isatty(fileno(stderr));
-         std::vector<Trial> trials;
-         ForEachTrial(
-             model, o->data, [&](const Trial& t) { trials.push_back(t); },
-             TerminalProgress("reading " + o->data, o->progress));
          FitOptions options;
+         options.max_fit_trials = o->max_fit_trials;
+         options.sample_seed = o->sample_seed;
          options.max_rounds = o->rounds;
          options.folds = o->folds;
          options.screen_keep = o->screen;
@@ -400,8 +444,12 @@ const bool kFitRegistered = RegisterCommand(
              std::cerr << "fit: " << stage << "\n" << std::flush;
            };
          }
-         FitReport report = FitEffects(model, trials, options);
-         report.source = o->data;
+         // Streamed twice in bounded memory: the first pass reads and checks every row and keeps
+         // the sample, the second (only when rows were left out) predicts every row.
+         std::vector<Trial> trials;  // the fitted trials
+         FitReport report = FitEffectsCsv(
+             model, o->data, options, TerminalProgress("reading " + o->data, o->progress),
+             TerminalProgress("predicting every row of " + o->data, o->progress), &trials);
          if (!o->output.empty()) WriteAugmentedUrdf(report, o->output);
          FitReportOptions report_options;
          report_options.trials = &trials;

@@ -22,6 +22,7 @@
 #include "identification/effect_type.hpp"
 #include "identification/identification_impl.hpp"
 #include "isowrench/error.hpp"
+#include "isowrench/trial_csv.hpp"
 #include "util/atomic_file.hpp"
 #include "util/eigen_instantiations.hpp"
 #include "util/text.hpp"
@@ -1459,8 +1460,9 @@ void ReportVerdict(const std::vector<Trial>& trials, const Current& current,
     std::vector<std::string> ids;
     for (const AppliedEffect& a : report->chosen) ids.push_back(a.effect.id);
     m << "explained by " << util::Join(ids, " + ") << ": residual from "
-      << util::FormatNumber(
-             std::sqrt(report->before.chi2 / std::max(1, report->before.residual_count)), 3)
+      << util::FormatNumber(std::sqrt(report->fitted_before.chi2 /
+                                      std::max(1, report->fitted_before.residual_count)),
+                            3)
       << " x noise to " << util::FormatNumber(multiple, 3) << " x noise" << outliers;
   }
   report->verdict_message = m.str();
@@ -1527,8 +1529,11 @@ CandidateFit FitCandidate(const AugmentedModel& current, const Effect& effect,
   return f;
 }
 
-FitReport FitEffects(const Model& nominal, const std::vector<Trial>& trials,
-                     const FitOptions& options) {
+namespace {
+
+/// The fit of every trial given (FitEffects without a sample).
+FitReport FitEvery(const Model& nominal, const std::vector<Trial>& trials,
+                   const FitOptions& options) {
   auto clock_start = std::chrono::steady_clock::now();
   if (trials.empty()) throw Error("fit: no trials");
   if (options.loss != RobustLoss::kNone &&
@@ -1540,6 +1545,8 @@ FitReport FitEffects(const Model& nominal, const std::vector<Trial>& trials,
   report.model_name = nominal.name();
   report.source = nominal.description().source;
   report.trial_count = static_cast<int>(trials.size());
+  report.fitted_trial_count = report.trial_count;
+  report.sampling = "every trial fitted";
   report.sd_stated = AllSd(trials);
   report.loss = options.loss;
 
@@ -1556,6 +1563,7 @@ FitReport FitEffects(const Model& nominal, const std::vector<Trial>& trials,
     throw Error("fit: the nominal model cannot predict the trials: " + nominal_prediction.message);
   }
   report.before = ComputeResidualStats(trials, nominal_prediction.wrench, 0, options);
+  report.fitted_before = report.before;
   Current current = MakeCurrent(nominal.description(), {}, {}, trials, options);
 
   for (int round = 1; round <= options.max_rounds; ++round) {
@@ -1591,7 +1599,11 @@ FitReport FitEffects(const Model& nominal, const std::vector<Trial>& trials,
   for (CandidateFit& f : report.chosen_fits) GuardFinite(&f);
   report.augmented = current.augmented;
   report.after = ComputeResidualStats(trials, current.prediction, current.parameters, options);
+  report.fitted_after = report.after;
   ReportTrials(trials, nominal_prediction, current, options, &report);
+  for (const TrialResidual& t : report.trials) {
+    if (t.normalized_after > options.outlier_threshold) ++report.beyond_threshold_count;
+  }
   ReportCorrelations(nominal, trials, current, options, &report);
   ReportVerdict(trials, current, options, &report);
   if (report.verdict == FitVerdict::kUnexplained) {
@@ -1603,9 +1615,190 @@ FitReport FitEffects(const Model& nominal, const std::vector<Trial>& trials,
   return report;
 }
 
+/// Residual statistics accumulated one trial at a time in O(1) memory: ComputeResidualStats's
+/// numbers up to rounding (the sum of squares about the measured mean by Welford's update).
+class StatsAccumulator {
+ public:
+  void Add(const Trial& t, const Vector6d& predicted, const FitOptions& options) {
+    ++n_;
+    const Vector6d r = t.wrench - predicted;
+    sum_ += r;
+    const Vector6d d = t.wrench - mean_measured_;
+    mean_measured_ += d / static_cast<double>(n_);
+    for (int c = 0; c < 6; ++c) {
+      ss_res_[c] += r[c] * r[c];
+      ss_tot_[c] += d[c] * (t.wrench[c] - mean_measured_[c]);
+      const double w = ident::Weight(t, c, options) * r[c];
+      ss_norm_[c] += w * w;
+    }
+  }
+  ResidualStats Result(int parameter_count) const {
+    ResidualStats s;
+    s.parameter_count = parameter_count;
+    if (n_ == 0) return s;
+    const double n = static_cast<double>(n_);
+    s.mean = sum_ / n;
+    for (int c = 0; c < 6; ++c) {
+      s.rms[c] = std::sqrt(ss_res_[c] / n);
+      s.normalized[c] = std::sqrt(ss_norm_[c] / n);
+      s.r2[c] = ss_tot_[c] > 0 ? 1.0 - ss_res_[c] / ss_tot_[c] : 0.0;
+      s.chi2 += ss_norm_[c];
+    }
+    s.residual_count = static_cast<int>(std::min<long>(6 * n_, std::numeric_limits<int>::max()));
+    const double dof = 6.0 * n - parameter_count;
+    s.reduced_chi2 = dof > 0 ? s.chi2 / dof : 0.0;
+    return s;
+  }
+  long count() const { return n_; }
+
+ private:
+  long n_ = 0;
+  Vector6d sum_ = Vector6d::Zero(), mean_measured_ = Vector6d::Zero();
+  Vector6d ss_res_ = Vector6d::Zero(), ss_tot_ = Vector6d::Zero(), ss_norm_ = Vector6d::Zero();
+};
+
+/// The second pass of a sampled fit: every trial predicted by the nominal and the augmented
+/// model, kChunk trials at a time, into the report's before / after (memory: one chunk).
+class EveryTrialPass {
+ public:
+  static constexpr size_t kChunk = 4096;
+  EveryTrialPass(const Model& nominal, const FitReport& report, const FitOptions& options)
+      : nominal_(nominal), augmented_(report.augmented), options_(options) {
+    chunk_.resize(kChunk);
+    for (const AppliedEffect& a : report.chosen) {
+      if (a.effect.per_trial) {
+        per_trial_ = true;
+      } else {
+        fixed_parameters_ += static_cast<int>(a.effect.parameters.size());
+      }
+    }
+  }
+  void Add(const Trial& t) {
+    chunk_[used_++] = t;
+    if (used_ == kChunk) Flush();
+  }
+  /// Fill the report's whole-data statistics. @returns the trials seen.
+  long Finish(FitReport* report) {
+    Flush();
+    const long n = before_.count();
+    const long parameters = fixed_parameters_ + (per_trial_ ? n : 0);
+    report->before = before_.Result(0);
+    report->after = after_.Result(
+        static_cast<int>(std::min<long>(parameters, std::numeric_limits<int>::max())));
+    report->beyond_threshold_count = beyond_;
+    return n;
+  }
+
+ private:
+  void Flush() {
+    if (used_ == 0) return;
+    chunk_.resize(used_);
+    const Prediction a = PredictTrials(nominal_, chunk_);
+    if (a.failed) throw Error("fit: the nominal model cannot predict the trials: " + a.message);
+    const Prediction b = PredictTrials(augmented_, chunk_);
+    if (b.failed) {
+      throw Error("fit: the model with the chosen effects cannot predict the trials: " + b.message);
+    }
+    for (size_t k = 0; k < used_; ++k) {
+      before_.Add(chunk_[k], a.wrench[k], options_);
+      after_.Add(chunk_[k], b.wrench[k], options_);
+      double chi2 = 0;
+      for (int c = 0; c < 6; ++c) {
+        chi2 += std::pow(
+            ident::Weight(chunk_[k], c, options_) * (chunk_[k].wrench[c] - b.wrench[k][c]), 2);
+      }
+      if (std::sqrt(chi2 / 6) > options_.outlier_threshold) ++beyond_;
+    }
+    chunk_.resize(kChunk);
+    used_ = 0;
+  }
+
+  const Model& nominal_;
+  AugmentedModel augmented_;
+  const FitOptions& options_;
+  std::vector<Trial> chunk_;
+  size_t used_ = 0;
+  StatsAccumulator before_, after_;
+  long beyond_ = 0;
+  int fixed_parameters_ = 0;
+  bool per_trial_ = false;
+};
+
+void CheckSampleOptions(const FitOptions& options) {
+  if (options.max_fit_trials < 0) {
+    throw Error("fit: max_fit_trials (--max-fit-trials) must be >= 0 (0 = fit every trial), got " +
+                std::to_string(options.max_fit_trials));
+  }
+}
+
+/// Mark a report as the fit of a sample of `total` trials.
+void DescribeSample(long total, const FitOptions& options, FitReport* report) {
+  report->trial_count = static_cast<int>(std::min<long>(total, std::numeric_limits<int>::max()));
+  report->sample_seed = options.sample_seed;
+  report->sampling = std::to_string(report->fitted_trial_count) + " of " + std::to_string(total) +
+                     " trials fitted: a uniform random sample (reservoir sampling, seed " +
+                     std::to_string(options.sample_seed) +
+                     "); the error before and after covers every trial";
+}
+
+}  // namespace
+
+FitReport FitEffects(const Model& nominal, const std::vector<Trial>& trials,
+                     const FitOptions& options) {
+  CheckSampleOptions(options);
+  const size_t max = static_cast<size_t>(options.max_fit_trials);
+  if (max == 0 || trials.size() <= max) return FitEvery(nominal, trials, options);
+  auto clock_start = std::chrono::steady_clock::now();
+  TrialReservoir reservoir(options.max_fit_trials, options.sample_seed);
+  for (const Trial& t : trials) reservoir.Add(t);
+  FitReport report = FitEvery(nominal, reservoir.Take(), options);
+  if (options.progress) options.progress("predicting every trial with the chosen effects");
+  EveryTrialPass pass(nominal, report, options);
+  for (const Trial& t : trials) pass.Add(t);
+  DescribeSample(pass.Finish(&report), options, &report);
+  report.seconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - clock_start).count();
+  return report;
+}
+
+FitReport FitEffectsCsv(const Model& nominal, const std::string& path, const FitOptions& options,
+                        const TrialProgress& read_progress, const TrialProgress& check_progress,
+                        std::vector<Trial>* fitted) {
+  CheckSampleOptions(options);
+  auto clock_start = std::chrono::steady_clock::now();
+  TrialReservoir reservoir(options.max_fit_trials, options.sample_seed);
+  const long rows = ForEachTrial(
+      nominal, path, [&](const Trial& t) { reservoir.Add(t); }, read_progress);
+  std::vector<Trial> sample = reservoir.Take();
+  if (options.progress && static_cast<long>(sample.size()) < rows) {
+    options.progress("fitting a uniform random sample of " + std::to_string(sample.size()) +
+                     " of " + std::to_string(rows) + " trials (seed " +
+                     std::to_string(options.sample_seed) + ")");
+  }
+  FitReport report = FitEvery(nominal, sample, options);
+  if (static_cast<long>(sample.size()) < rows) {
+    if (options.progress) options.progress("predicting every row with the chosen effects");
+    EveryTrialPass pass(nominal, report, options);
+    ForEachTrial(
+        nominal, path, [&](const Trial& t) { pass.Add(t); }, check_progress);
+    const long again = pass.Finish(&report);
+    if (again != rows) {
+      throw Error("fit: " + path + " changed while it was read: " + std::to_string(rows) +
+                  " rows in the first pass, " + std::to_string(again) + " in the second");
+    }
+    DescribeSample(rows, options, &report);
+  }
+  report.source = path;
+  if (fitted) *fitted = std::move(sample);
+  report.seconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - clock_start).count();
+  return report;
+}
+
 std::string FitReport::BriefReport() const {
   std::ostringstream o;
   o << "verdict: " << FitVerdictName(verdict) << ": " << verdict_message << "\n";
+  if (sampled()) o << "sample: " << sampling << "\n";
   for (size_t i = 0; i < chosen_fits.size(); ++i) {
     const CandidateFit& f = chosen_fits[i];
     o << (effects_claimed ? "effect " : "tentative, not claimed: ") << i + 1 << ": " << f.effect.id

@@ -7,6 +7,7 @@
 
 #include <unistd.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <fstream>
@@ -402,6 +403,46 @@ bool TrialReader::Next(Trial* trial) {
   }
   *trial = std::move(t);
   return true;
+}
+
+TrialReservoir::TrialReservoir(long capacity, unsigned long long seed)
+    : capacity_(capacity), state_(seed) {
+  if (capacity < 0) {
+    throw Error("trial sample: the capacity must be >= 0 (0 = keep every trial), got " +
+                std::to_string(capacity));
+  }
+}
+
+void TrialReservoir::Add(const Trial& trial) {
+  const long index = seen_++;
+  if (capacity_ == 0 || index < capacity_) {
+    kept_.push_back(trial);
+    order_.push_back(index);
+    return;
+  }
+  // Algorithm R: trial `index` (0-based) replaces a uniformly chosen slot with probability
+  // capacity / (index + 1). j uniform in [0, index] from 53 random bits (bias < index / 2^53).
+  ident::Random random(state_);  // splitmix64: the state advances by a constant per number
+  const double u = random.Uniform();
+  state_ += 0x9E3779B97F4A7C15ULL;
+  const long j = std::min(index, static_cast<long>(u * static_cast<double>(index + 1)));
+  if (j < capacity_) {
+    kept_[j] = trial;
+    order_[j] = index;
+  }
+}
+
+std::vector<Trial> TrialReservoir::Take() {
+  std::vector<size_t> by_order(kept_.size());
+  for (size_t i = 0; i < by_order.size(); ++i) by_order[i] = i;
+  std::sort(by_order.begin(), by_order.end(),
+            [this](size_t a, size_t b) { return order_[a] < order_[b]; });
+  std::vector<Trial> out;
+  out.reserve(kept_.size());
+  for (size_t i : by_order) out.push_back(std::move(kept_[i]));
+  kept_.clear();
+  order_.clear();
+  return out;
 }
 
 std::vector<Trial> ReadTrialsCsv(const Model& model, const std::string& path) {

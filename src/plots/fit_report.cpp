@@ -349,6 +349,7 @@ std::vector<std::string> SummaryLines(const FitReport& r) {
                   (r.sd_stated ? ", standard deviations stated per trial"
                                : ", no standard deviations stated (default weights)") +
                   "; fit took " + util::FormatNumber(r.seconds, 3) + " s.");
+  if (r.sampled()) lines.push_back("Sample: " + r.sampling + ".");
   std::vector<std::string> ids;
   for (const AppliedEffect& a : r.chosen) ids.push_back(a.effect.id);
   if (ids.empty() || r.effects_claimed) {
