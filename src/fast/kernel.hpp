@@ -219,6 +219,48 @@ ISOWRENCH_INLINE void CoupleJoint(const FlatChain& d, int k, double x, double& q
   }
 }
 
+/// One movable joint of the forward kinematics, compiled for its kind OP (FastJoint::op):
+/// the frame (M, o) moves to the joint (fixed transform), z = its world axis, and the joint
+/// turns M (revolute) or moves o along z (prismatic). One posture reads sin q and cos q from
+/// sc[0] and sc[kMaxDofs + 4] (JointSinCos); the lanes compute them.
+template <int OP, class T>
+ISOWRENCH_INLINE void JointStep(const FastJoint& j, T* M, T* o, T* z, const T& qk,
+                                const double* sc) {
+  constexpr bool kRevolute = (OP & 1) != 0;
+  constexpr int kAxis = (OP >> 1) & 3;  // 0/1/2: +-x/y/z, 3: general
+  if constexpr ((OP & 8) != 0) {        // joint origin o + M p0
+    const double* t = j.origin_translation.data();
+    ISOWRENCH_UNROLL
+    for (int r = 0; r < 3; ++r) o[r] = o[r] + (M[r] * t[0] + M[3 + r] * t[1] + M[6 + r] * t[2]);
+  }
+  if constexpr ((OP & 16) != 0) MultiplyRotation(M, j.origin_rotation);
+  const T zero = T{};
+  if constexpr (kRevolute) {
+    T s, c;
+    if constexpr (kScalar<T>) {
+      s = sc[0];
+      c = sc[kMaxDofs + 4];
+    } else {
+      SinCos(qk, s, c);
+    }
+    if constexpr (kAxis == 3) {
+      GeneralAxisAndTurn(M, j.axis, c, s, z, true);
+    } else {
+      s *= j.axis_sign;
+      AxisAndTurn<kAxis>(M, j.axis_sign, c, s, z, true);
+    }
+  } else {
+    const T one = zero + 1.0;
+    if constexpr (kAxis == 3) {
+      GeneralAxisAndTurn(M, j.axis, one, zero, z, false);
+    } else {
+      AxisAndTurn<kAxis>(M, j.axis_sign, one, zero, z, false);
+    }
+    ISOWRENCH_UNROLL
+    for (int r = 0; r < 3; ++r) o[r] = o[r] + z[r] * qk;
+  }
+}
+
 /// Forward kinematics, the endpoint Jacobian (world axes, turned into transducer axes when
 /// `rotate`) and the length, dL/dq and tau = minus_force dL/dq of muscle `mu`, at joint
 /// positions q (d.m entries; on a coupled chain ws.dq_joint holds dq_joint/dq). Sets
@@ -260,47 +302,51 @@ ISOWRENCH_INLINE void Kinematics(const FlatChain& d, W& ws, const T* q, const Fa
 
   // The current frame lives in locals (registers): rotation M column-major (M[3 c + r]) and
   // origin o; it starts as the world frame.
-  double sin_q[kMaxDofs + 4], cos_q[kMaxDofs + 4];  // + 4: JointSinCos writes whole vectors
-  if constexpr (kScalar<T>) JointSinCos(d, q, sin_q, cos_q);
+  // One posture: sin q_k at sin_q[k], cos q_k at sin_q[kMaxDofs + 4 + k] (+ 4: JointSinCos
+  // writes whole vectors).
+  double sin_q[2 * (kMaxDofs + 4)];
+  if constexpr (kScalar<T>) JointSinCos(d, q, sin_q, sin_q + kMaxDofs + 4);
   T M[9] = {one, zero, zero, zero, one, zero, zero, zero, one};
   T o[3] = {zero, zero, zero};
   for (int k = 0; k < m; ++k) {
     const FastJoint& j = joints[k];
-    if (!j.translation_is_zero) {  // joint origin o + M p0
-      const double* t = j.origin_translation.data();
-      ISOWRENCH_UNROLL
-      for (int r = 0; r < 3; ++r) o[r] = o[r] + (M[r] * t[0] + M[3 + r] * t[1] + M[6 + r] * t[2]);
-    }
-    if (!j.rotation_is_identity) MultiplyRotation(M, j.origin_rotation);
     T* z = Ptr(ws.axis[k]);
     const T qk = q[k];
-    if (j.revolute) {
-      T s, c;
-      if constexpr (kScalar<T>) {
-        s = sin_q[k];
-        c = cos_q[k];
-      } else {
-        SinCos(qk, s, c);
-      }
-      if (j.axis_kind == 3) {
-        GeneralAxisAndTurn(M, j.axis, c, s, z, true);
-      } else {
-        s *= j.axis_sign;
-        switch (j.axis_kind) {
-          case 0: AxisAndTurn<0>(M, j.axis_sign, c, s, z, true); break;
-          case 1: AxisAndTurn<1>(M, j.axis_sign, c, s, z, true); break;
-          default: AxisAndTurn<2>(M, j.axis_sign, c, s, z, true); break;
-        }
-      }
-    } else {
-      switch (j.axis_kind) {
-        case 0: AxisAndTurn<0>(M, j.axis_sign, one, zero, z, false); break;
-        case 1: AxisAndTurn<1>(M, j.axis_sign, one, zero, z, false); break;
-        case 2: AxisAndTurn<2>(M, j.axis_sign, one, zero, z, false); break;
-        default: GeneralAxisAndTurn(M, j.axis, one, zero, z, false); break;
-      }
-      ISOWRENCH_UNROLL
-      for (int r = 0; r < 3; ++r) o[r] = o[r] + z[r] * qk;
+    const double* sc = sin_q + k;  // one posture: sin q_k, and cos q_k at sc[kMaxDofs + 4]
+    switch (j.op) {  // one jump per joint to the step compiled for its kind (JointStep)
+      case 0: JointStep<0>(j, M, o, z, qk, sc); break;
+      case 1: JointStep<1>(j, M, o, z, qk, sc); break;
+      case 2: JointStep<2>(j, M, o, z, qk, sc); break;
+      case 3: JointStep<3>(j, M, o, z, qk, sc); break;
+      case 4: JointStep<4>(j, M, o, z, qk, sc); break;
+      case 5: JointStep<5>(j, M, o, z, qk, sc); break;
+      case 6: JointStep<6>(j, M, o, z, qk, sc); break;
+      case 7: JointStep<7>(j, M, o, z, qk, sc); break;
+      case 8: JointStep<8>(j, M, o, z, qk, sc); break;
+      case 9: JointStep<9>(j, M, o, z, qk, sc); break;
+      case 10: JointStep<10>(j, M, o, z, qk, sc); break;
+      case 11: JointStep<11>(j, M, o, z, qk, sc); break;
+      case 12: JointStep<12>(j, M, o, z, qk, sc); break;
+      case 13: JointStep<13>(j, M, o, z, qk, sc); break;
+      case 14: JointStep<14>(j, M, o, z, qk, sc); break;
+      case 15: JointStep<15>(j, M, o, z, qk, sc); break;
+      case 16: JointStep<16>(j, M, o, z, qk, sc); break;
+      case 17: JointStep<17>(j, M, o, z, qk, sc); break;
+      case 18: JointStep<18>(j, M, o, z, qk, sc); break;
+      case 19: JointStep<19>(j, M, o, z, qk, sc); break;
+      case 20: JointStep<20>(j, M, o, z, qk, sc); break;
+      case 21: JointStep<21>(j, M, o, z, qk, sc); break;
+      case 22: JointStep<22>(j, M, o, z, qk, sc); break;
+      case 23: JointStep<23>(j, M, o, z, qk, sc); break;
+      case 24: JointStep<24>(j, M, o, z, qk, sc); break;
+      case 25: JointStep<25>(j, M, o, z, qk, sc); break;
+      case 26: JointStep<26>(j, M, o, z, qk, sc); break;
+      case 27: JointStep<27>(j, M, o, z, qk, sc); break;
+      case 28: JointStep<28>(j, M, o, z, qk, sc); break;
+      case 29: JointStep<29>(j, M, o, z, qk, sc); break;
+      case 30: JointStep<30>(j, M, o, z, qk, sc); break;
+      case 31: JointStep<31>(j, M, o, z, qk, sc); break;
+      default: __builtin_unreachable();
     }
     T* ok = Ptr(ws.origin[k]);
     ISOWRENCH_UNROLL
@@ -399,74 +445,100 @@ ISOWRENCH_INLINE void Kinematics(const FlatChain& d, W& ws, const T* q, const Fa
   const int js = ws.JacobianStride();
   T* dL = ws.DlData();
   T* tau = ws.TauData();
-  if (d.coupled) {  // columns accumulate their joints' contributions
-    for (int c = 0; c < d.n; ++c) {
+  if (d.coupled) {  // columns accumulate their joints' contributions; those of none are 0
+    for (const int c : d.undriven_columns) {
       dL[c] = zero;
       for (int r = 0; r < 6; ++r) J[r * js + c] = zero;
     }
   }
-  for (int k = m - 1; k >= 0; --k) {
-    for (int slot = sweep_end[k + 1]; slot < sweep_end[k]; ++slot) {
-      const int i = order[slot];
-      const T* x = Ptr(ws.points[i]);
-      const T* g = Ptr(ws.pulls[i]);
-      ISOWRENCH_UNROLL
-      for (int c = 0; c < 3; ++c) ps[c] += g[c];
-      ms[0] += x[1] * g[2] - x[2] * g[1];
-      ms[1] += x[2] * g[0] - x[0] * g[2];
-      ms[2] += x[0] * g[1] - x[1] * g[0];
+  // The sweep compiled once for each combination of the two choices that are the same for every
+  // joint: J turned into transducer axes, and coupled columns.
+  auto sweep = [&](auto rotate_tag, auto coupled_tag) ISOWRENCH_LAMBDA_INLINE {
+    constexpr bool kRotate = decltype(rotate_tag)::value;
+    constexpr bool kCoupled = decltype(coupled_tag)::value;
+    for (int k = m - 1; k >= 0; --k) {
+      for (int slot = sweep_end[k + 1]; slot < sweep_end[k]; ++slot) {
+        const int i = order[slot];
+        const T* x = Ptr(ws.points[i]);
+        const T* g = Ptr(ws.pulls[i]);
+        ISOWRENCH_UNROLL
+        for (int c = 0; c < 3; ++c) ps[c] += g[c];
+        ms[0] += x[1] * g[2] - x[2] * g[1];
+        ms[1] += x[2] * g[0] - x[0] * g[2];
+        ms[2] += x[0] * g[1] - x[1] * g[0];
+      }
+      const T* z = Ptr(ws.axis[k]);
+      T v[3], w[3];
+      T dl;
+      if (joints[k].revolute) {
+        const T* ok = Ptr(ws.origin[k]);
+        const T d0 = pe[0] - ok[0], d1 = pe[1] - ok[1], d2 = pe[2] - ok[2];
+        v[0] = z[1] * d2 - z[2] * d1;
+        v[1] = z[2] * d0 - z[0] * d2;
+        v[2] = z[0] * d1 - z[1] * d0;
+        ISOWRENCH_UNROLL
+        for (int r = 0; r < 3; ++r) w[r] = z[r];
+        const T w0 = ms[0] - (ok[1] * ps[2] - ok[2] * ps[1]);
+        const T w1 = ms[1] - (ok[2] * ps[0] - ok[0] * ps[2]);
+        const T w2 = ms[2] - (ok[0] * ps[1] - ok[1] * ps[0]);
+        dl = z[0] * w0 + z[1] * w1 + z[2] * w2;
+      } else {
+        ISOWRENCH_UNROLL
+        for (int r = 0; r < 3; ++r) {
+          v[r] = z[r];
+          w[r] = zero;
+        }
+        dl = z[0] * ps[0] + z[1] * ps[1] + z[2] * ps[2];
+      }
+      if constexpr (kRotate) {  // R_W_T^T v, R_W_T^T w
+        const T v0 = v[0], v1 = v[1], v2 = v[2], w0 = w[0], w1 = w[1], w2 = w[2];
+        ISOWRENCH_UNROLL
+        for (int r = 0; r < 3; ++r) {
+          v[r] = Rt[3 * r] * v0 + Rt[3 * r + 1] * v1 + Rt[3 * r + 2] * v2;
+          w[r] = Rt[3 * r] * w0 + Rt[3 * r + 1] * w1 + Rt[3 * r + 2] * w2;
+        }
+      }
+      if constexpr (kCoupled) {  // J[:, c] += J_joint[:, k] dq_joint_k/dq_c, the same for dL/dq
+        const int c = d.coordinate[k];
+        const T f = ws.dq_joint[k];
+        T* col = J + c;
+        if (d.first_in_column[k]) {
+          ISOWRENCH_UNROLL
+          for (int r = 0; r < 3; ++r) {
+            col[r * js] = f * v[r];
+            col[(3 + r) * js] = f * w[r];
+          }
+          dL[c] = f * dl;
+        } else {
+          ISOWRENCH_UNROLL
+          for (int r = 0; r < 3; ++r) {
+            col[r * js] += f * v[r];
+            col[(3 + r) * js] += f * w[r];
+          }
+          dL[c] += f * dl;
+        }
+      } else {
+        T* col = J + k;
+        ISOWRENCH_UNROLL
+        for (int r = 0; r < 3; ++r) {
+          col[r * js] = v[r];
+          col[(3 + r) * js] = w[r];
+        }
+        dL[k] = dl;
+        tau[k] = minus_force * dl;
+      }
     }
-    const T* z = Ptr(ws.axis[k]);
-    T v[3], w[3];
-    T dl;
-    if (joints[k].revolute) {
-      const T* ok = Ptr(ws.origin[k]);
-      const T d0 = pe[0] - ok[0], d1 = pe[1] - ok[1], d2 = pe[2] - ok[2];
-      v[0] = z[1] * d2 - z[2] * d1;
-      v[1] = z[2] * d0 - z[0] * d2;
-      v[2] = z[0] * d1 - z[1] * d0;
-      ISOWRENCH_UNROLL
-      for (int r = 0; r < 3; ++r) w[r] = z[r];
-      const T w0 = ms[0] - (ok[1] * ps[2] - ok[2] * ps[1]);
-      const T w1 = ms[1] - (ok[2] * ps[0] - ok[0] * ps[2]);
-      const T w2 = ms[2] - (ok[0] * ps[1] - ok[1] * ps[0]);
-      dl = z[0] * w0 + z[1] * w1 + z[2] * w2;
+  };
+  if (rotate) {
+    if (d.coupled) {
+      sweep(std::true_type{}, std::true_type{});
     } else {
-      ISOWRENCH_UNROLL
-      for (int r = 0; r < 3; ++r) {
-        v[r] = z[r];
-        w[r] = zero;
-      }
-      dl = z[0] * ps[0] + z[1] * ps[1] + z[2] * ps[2];
+      sweep(std::true_type{}, std::false_type{});
     }
-    if (rotate) {  // R_W_T^T v, R_W_T^T w
-      const T v0 = v[0], v1 = v[1], v2 = v[2], w0 = w[0], w1 = w[1], w2 = w[2];
-      ISOWRENCH_UNROLL
-      for (int r = 0; r < 3; ++r) {
-        v[r] = Rt[3 * r] * v0 + Rt[3 * r + 1] * v1 + Rt[3 * r + 2] * v2;
-        w[r] = Rt[3 * r] * w0 + Rt[3 * r + 1] * w1 + Rt[3 * r + 2] * w2;
-      }
-    }
-    if (d.coupled) {  // J[:, c] += J_joint[:, k] dq_joint_k/dq_c, the same for dL/dq
-      const int c = d.coordinate[k];
-      const T f = ws.dq_joint[k];
-      T* col = J + c;
-      ISOWRENCH_UNROLL
-      for (int r = 0; r < 3; ++r) {
-        col[r * js] += f * v[r];
-        col[(3 + r) * js] += f * w[r];
-      }
-      dL[c] += f * dl;
-    } else {
-      T* col = J + k;
-      ISOWRENCH_UNROLL
-      for (int r = 0; r < 3; ++r) {
-        col[r * js] = v[r];
-        col[(3 + r) * js] = w[r];
-      }
-      dL[k] = dl;
-      tau[k] = minus_force * dl;
-    }
+  } else if (d.coupled) {
+    sweep(std::false_type{}, std::true_type{});
+  } else {
+    sweep(std::false_type{}, std::false_type{});
   }
   if (d.coupled) {
     for (int c = 0; c < d.n; ++c) tau[c] = minus_force * dL[c];

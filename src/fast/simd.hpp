@@ -18,9 +18,11 @@
 
 #if defined(__GNUC__)
 #define ISOWRENCH_INLINE inline __attribute__((always_inline))
+#define ISOWRENCH_LAMBDA_INLINE __attribute__((always_inline))
 #define ISOWRENCH_NOINLINE __attribute__((noinline))
 #else
 #define ISOWRENCH_INLINE inline
+#define ISOWRENCH_LAMBDA_INLINE
 #define ISOWRENCH_NOINLINE
 #endif
 

@@ -199,6 +199,8 @@ FlatChain Compile(const LimbDescription& d) {
     fj.axis = j.axis;
     fj.revolute = j.type == JointType::kRevolute;
     SetAxisKind(fj);
+    fj.op = (fj.revolute ? 1 : 0) | fj.axis_kind << 1 | (fj.translation_is_zero ? 0 : 8) |
+            (fj.rotation_is_identity ? 0 : 16);
     flat.joints.push_back(fj);
     ++frame;
     since_last = Eigen::Isometry3d::Identity();
@@ -226,6 +228,18 @@ FlatChain Compile(const LimbDescription& d) {
     flat.coupling.push_back(j.coupling);
     flat.identity.push_back(j.coupling.is_identity());
     flat.coupled = flat.coupled || c != k || !j.coupling.is_identity();
+  }
+  // The backward sweep meets joints from the last to the first: the first it meets of each
+  // column sets that column, the others add to it; columns no joint drives stay 0.
+  std::vector<char> met(static_cast<size_t>(flat.n), 0);
+  flat.first_in_column.assign(flat.coordinate.size(), 0);
+  for (int k = flat.m - 1; k >= 0; --k) {
+    char& seen = met[static_cast<size_t>(flat.coordinate[k])];
+    flat.first_in_column[k] = !seen;
+    seen = 1;
+  }
+  for (int c = 0; c < flat.n; ++c) {
+    if (!met[static_cast<size_t>(c)]) flat.undriven_columns.push_back(c);
   }
   const TransducerSpec& t = d.transducer;
   flat.endpoint = since_last * t.endpoint;

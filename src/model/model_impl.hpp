@@ -28,6 +28,9 @@ struct FastJoint {
   int axis_kind = 3;
   double axis_sign = 1.0;
   bool revolute = true;
+  /// The flags above as one code, the case of the kernel's joint step (JointOp):
+  /// revolute | axis_kind << 1 | !translation_is_zero << 3 | !rotation_is_identity << 4.
+  int op = 0;
 };
 
 /// A muscle path point in the frame after movable joint `frame` (-1 = world).
@@ -85,6 +88,10 @@ struct FlatChain {
   std::vector<int> coordinate;
   std::vector<Function> coupling;
   std::vector<char> identity;  ///< coupling is the identity (no function call)
+  /// Per movable joint: no later joint drives its column (the backward sweep sets the column
+  /// there instead of adding to it); and the columns no joint drives (J and dL/dq are 0 there).
+  std::vector<char> first_in_column;
+  std::vector<int> undriven_columns;
   /// False when every movable joint k carries column k with the identity (n == m): the kernel
   /// skips the coupling step. True: q_joint and dq_joint/dq come first, and the joint columns
   /// of J and dL/dq are folded into coordinate columns, J = J_joints C, C = dq_joint/dq.

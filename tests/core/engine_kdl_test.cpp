@@ -13,6 +13,7 @@
 #include <kdl/jntarray.hpp>
 #include <map>
 #include <random>
+#include <sstream>
 
 #include "model/model_impl.hpp"
 #include "test_models.hpp"
@@ -103,8 +104,8 @@ Eigen::Isometry3d ToEigen(const KDL::Frame& f) {
 
 class EngineVsKdl : public ::testing::TestWithParam<std::string> {};
 
-TEST_P(EngineVsKdl, EndpointPoseAndJacobianEqualKdlOnRandomPostures) {
-  const Model model = LoadModel(GetParam());
+// The checks, for any model; `name` labels failures.
+void ExpectPoseAndJacobianEqualKdl(const Model& model, const std::string& name) {
   Data ws(model);
   KdlReference kdl(model);
   std::mt19937 rng(12);
@@ -126,11 +127,10 @@ TEST_P(EngineVsKdl, EndpointPoseAndJacobianEqualKdlOnRandomPostures) {
     worst =
         std::max(worst, (isowrench::EndpointJacobian(model, ws, q) - J_T).cwiseAbs().maxCoeff());
   }
-  EXPECT_LE(worst, kKdlTol) << GetParam();
+  EXPECT_LE(worst, kKdlTol) << name;
 }
 
-TEST_P(EngineVsKdl, PointPositionsAndJacobiansOnEveryLinkEqualKdl) {
-  const Model model = LoadModel(GetParam());
+void ExpectPointsEqualKdl(const Model& model, const std::string& name) {
   Data ws(model);
   KdlReference kdl(model);
   std::mt19937 rng(13);
@@ -149,13 +149,12 @@ TEST_P(EngineVsKdl, PointPositionsAndJacobiansOnEveryLinkEqualKdl) {
                      .maxCoeff());
     }
   }
-  EXPECT_LE(worst, kKdlTol) << GetParam();
+  EXPECT_LE(worst, kKdlTol) << name;
 }
 
 // dL/dq against central differences of KDL muscle lengths. Step 1e-6: truncation
 // h^2/6 |L'''| <= 1e-12 * 0.6 / 6 ~ 1e-13, rounding eps |L| / h ~ 1.3e-10; 1e-8 is 75x that.
-TEST_P(EngineVsKdl, MuscleLengthAndGradientEqualKdlDifferences) {
-  const Model model = LoadModel(GetParam());
+void ExpectMuscleGradientEqualKdlDifferences(const Model& model, const std::string& name) {
   Data ws(model);
   KdlReference kdl(model);
   std::mt19937 rng(14);
@@ -175,9 +174,87 @@ TEST_P(EngineVsKdl, MuscleLengthAndGradientEqualKdlDifferences) {
         const double lp = kdl.MuscleLength(spec);
         kdl.Set(qm);
         const double lm = kdl.MuscleLength(spec);
-        EXPECT_NEAR(mt.dL_dq[i], (lp - lm) / (2 * h), 1e-8) << spec.name << " joint " << i;
+        EXPECT_NEAR(mt.dL_dq[i], (lp - lm) / (2 * h), 1e-8)
+            << name << " " << spec.name << " joint " << i;
         EXPECT_NEAR(mt.tau[i], -0.5 * spec.max_force * mt.dL_dq[i], 1e-15 * spec.max_force);
       }
+    }
+  }
+}
+
+TEST_P(EngineVsKdl, EndpointPoseAndJacobianEqualKdlOnRandomPostures) {
+  ExpectPoseAndJacobianEqualKdl(LoadModel(GetParam()), GetParam());
+}
+
+TEST_P(EngineVsKdl, PointPositionsAndJacobiansOnEveryLinkEqualKdl) {
+  ExpectPointsEqualKdl(LoadModel(GetParam()), GetParam());
+}
+
+TEST_P(EngineVsKdl, MuscleLengthAndGradientEqualKdlDifferences) {
+  ExpectMuscleGradientEqualKdlDifferences(LoadModel(GetParam()), GetParam());
+}
+
+// A chain with one movable joint of each kind the kernel compiles a step for (FastJoint::op:
+// revolute or prismatic; axis +-x, +-y, +-z or general; with or without a fixed translation and
+// rotation before it), kinds [first, first + 16), a transducer turning with the last link and a
+// muscle from ground over the middle of the chain to the last link.
+Model EveryJointKindModel(int first) {
+  std::ostringstream x;
+  x << "<robot name=\"kinds_" << first << "\" xmlns:isowrench=\"urn:isowrench:urdf:1\">\n"
+    << "<link name=\"l0\"/>\n";
+  const char* axes[4][2] = {{"1 0 0", "-1 0 0"},
+                            {"0 1 0", "0 -1 0"},
+                            {"0 0 1", "0 0 -1"},
+                            {"0.48 -0.6 0.64", "-0.6 0.64 0.48"}};
+  for (int i = 0; i < 16; ++i) {
+    const int op = first + i;
+    const bool revolute = (op & 1) != 0;
+    x << "<link name=\"l" << i + 1 << "\"/>\n"
+      << "<joint name=\"j" << i << "\" type=\"" << (revolute ? "continuous" : "prismatic")
+      << "\"><parent link=\"l" << i << "\"/><child link=\"l" << i + 1 << "\"/>"
+      << "<origin xyz=\"" << ((op & 8) != 0 ? "0.01 -0.02 0.015" : "0 0 0") << "\" rpy=\""
+      << ((op & 16) != 0 ? "0.3 -0.2 0.5" : "0 0 0") << "\"/><axis xyz=\""
+      << axes[(op >> 1) & 3][i % 2] << "\"/>"
+      << (revolute ? "" : "<limit lower=\"-0.01\" upper=\"0.01\" effort=\"1\" velocity=\"1\"/>")
+      << "</joint>\n";
+  }
+  x << "<isowrench:transducer link=\"l16\" xyz=\"0.02 0.01 -0.01\" rpy=\"0.1 0.2 0.3\" "
+       "axes=\"link\" stiffness=\"1e6 1e6 1e6 100 100 100\" released=\"\"/>\n"
+    << "<isowrench:muscle name=\"m\" max_force=\"10\">"
+    << "<isowrench:point link=\"l0\" xyz=\"0.05 0.04 0.03\"/>"
+    << "<isowrench:point link=\"l8\" xyz=\"-0.03 0.02 0.01\"/>"
+    << "<isowrench:point link=\"l16\" xyz=\"0.01 -0.03 0.02\"/></isowrench:muscle>\n"
+    << "</robot>\n";
+  return Model(isowrench::ReadUrdfString(x.str(), "kinds_" + std::to_string(first) + ".urdf"));
+}
+
+TEST(EngineVsKdlKinds, EveryCompiledJointKindEqualsKdl) {
+  for (const int first : {0, 16}) {
+    const Model model = EveryJointKindModel(first);
+    // The chain really holds the 16 kinds [first, first + 16), in order.
+    const isowrench::FlatChain& chain = model.impl().flat;
+    ASSERT_EQ(chain.m, 16);
+    for (int k = 0; k < 16; ++k) EXPECT_EQ(chain.joints[k].op, first + k) << "joint " << k;
+    const std::string name =
+        "joint kinds " + std::to_string(first) + ".." + std::to_string(first + 15);
+    ExpectPoseAndJacobianEqualKdl(model, name);
+    ExpectPointsEqualKdl(model, name);
+    ExpectMuscleGradientEqualKdlDifferences(model, name);
+    // The SIMD lanes run the same steps: the batch equals one evaluation at a time.
+    std::mt19937 rng(15);
+    Eigen::MatrixXd postures(16, 64);
+    for (int p = 0; p < postures.cols(); ++p) postures.col(p) = RandomPosture(model, rng);
+    const std::vector<isowrench::StiffnessSet> sets = {model.model_stiffness()};
+    std::vector<isowrench::WrenchResult> batch;
+    isowrench::EvaluateBatch(model, postures, 0, sets, batch);
+    Data ws(model);
+    for (int p = 0; p < postures.cols(); ++p) {
+      const isowrench::WrenchResult one =
+          isowrench::Evaluate(model, ws, postures.col(p), 0, sets[0]);
+      ASSERT_EQ(batch[p].status, one.status) << name << " posture " << p;
+      EXPECT_LE((batch[p].wrench - one.wrench).cwiseAbs().maxCoeff(),
+                1e-12 * (1.0 + one.wrench.cwiseAbs().maxCoeff()))
+          << name << " posture " << p;
     }
   }
 }
