@@ -10,6 +10,7 @@
 
 #include "fast/fast_impl.hpp"
 #include "fast/lanes.hpp"
+#include "fast/simd.hpp"
 #include "isowrench/error.hpp"
 
 namespace isowrench {
@@ -24,6 +25,19 @@ constexpr long kMaxPostureBlock = 256;
 constexpr long kUnitsPerThread = 8;
 
 long RoundUpToLanes(long n) { return (n + kLanes - 1) / kLanes * kLanes; }
+
+// The OR over q[0 .. count) of each entry's exponent field plus one (high word): bit 31 is set
+// exactly when some entry is inf or NaN (its exponent bits all set carry into the sign bit).
+// AVX2 where the CPU has it (eight high words per step).
+ISOWRENCH_CLONES std::uint32_t NonFiniteCarries(const double* q, long count) {
+  std::uint32_t carries = 0;
+  for (long i = 0; i < count; ++i) {
+    std::uint64_t bits;
+    std::memcpy(&bits, q + i, sizeof bits);
+    carries |= (static_cast<std::uint32_t>(bits >> 32) & 0x7ff00000u) + 0x00100000u;
+  }
+  return carries;
+}
 
 // A set the solve accepts: finite, non-negative compliances (the scalar path's input check;
 // the torque is finite because postures and activation are).
@@ -168,17 +182,12 @@ void EvaluateBatch(const Model& model, const Eigen::Ref<const Eigen::MatrixXd>& 
     // over the high words, the whole matrix at once when its columns are contiguous, then a
     // search for the culprit only if there is one.
     std::uint32_t carries = 0;
-    auto scan = [&](const double* q, long count) {
-      for (long i = 0; i < count; ++i) {
-        std::uint64_t bits;
-        std::memcpy(&bits, q + i, sizeof bits);
-        carries |= (static_cast<std::uint32_t>(bits >> 32) & 0x7ff00000u) + 0x00100000u;
-      }
-    };
     if (postures.outerStride() == m) {
-      scan(postures.data(), static_cast<long>(m) * static_cast<long>(postures.cols()));
+      carries = NonFiniteCarries(postures.data(),
+                                 static_cast<long>(m) * static_cast<long>(postures.cols()));
     } else {
-      for (Eigen::Index p = 0; p < postures.cols(); ++p) scan(postures.col(p).data(), m);
+      for (Eigen::Index p = 0; p < postures.cols(); ++p)
+        carries |= NonFiniteCarries(postures.col(p).data(), m);
     }
     if (carries & 0x80000000u) {
       for (Eigen::Index p = 0; p < postures.cols(); ++p) {

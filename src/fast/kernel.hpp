@@ -557,9 +557,10 @@ template <int N, class T, bool kVectorised = kScalar<T>>
 struct Row {
   static constexpr int kEntries = N > 0 ? N : kMaxDofs;
   T e[kEntries];
-  ISOWRENCH_INLINE void Zero(int from, int m) {
+  /// e_i = a x_i.
+  ISOWRENCH_INLINE void Set(const T& a, const T* x, int from, int m) {
     ISOWRENCH_UNROLL
-    for (int i = from; i < m; ++i) e[i] = T{};
+    for (int i = from; i < m; ++i) e[i] = a * x[i];
   }
   /// e_i += a x_i.
   ISOWRENCH_INLINE void Axpy(const T& a, const T* x, int from, int m) {
@@ -583,9 +584,14 @@ template <int N>
 struct Row<N, double, true> {
   static constexpr int kChunks = (N > 0 ? N + 3 : kMaxDofs) / 4;
   V4 e[kChunks];
-  ISOWRENCH_INLINE void Zero(int from, int m) {
+  ISOWRENCH_INLINE void Set(double a, const double* x, int from, int m) {
+    const V4 av = ISOWRENCH_V4_SPLAT(a);
     ISOWRENCH_UNROLL
-    for (int c = from / 4; c < (m + 3) / 4; ++c) e[c] = ISOWRENCH_V4_SPLAT(0.0);
+    for (int c = from / 4; c < (m + 3) / 4; ++c) {
+      V4 xv;
+      std::memcpy(&xv, x + 4 * c, sizeof xv);
+      e[c] = av * xv;
+    }
   }
   ISOWRENCH_INLINE void Axpy(double a, const double* x, int from, int m) {
     const V4 av = ISOWRENCH_V4_SPLAT(a);
@@ -640,10 +646,10 @@ ISOWRENCH_INLINE void Cholesky(int m_runtime, const T* J, const T* sJ, int js, c
     // Lanes: J and U are read from memory again for each row (a compiler barrier): otherwise
     // GCC keeps every entry of J it loaded live across the unrolled rows and spills them all.
     if constexpr (!kScalar<T>) asm volatile("" ::: "memory");
-    Row<N, T> row;
-    row.Zero(j, m);
+    Row<N, T> row{};  // (entries below j are never read; {} for GCC's -Wmaybe-uninitialized)
+    row.Set(kScaled ? sJ[j] : s_t[0] * J[j], J, j, m);
     ISOWRENCH_UNROLL
-    for (int r = 0; r < 6; ++r) {
+    for (int r = 1; r < 6; ++r) {
       row.Axpy(kScaled ? sJ[r * js + j] : s_t[r] * J[r * js + j], J + r * js, j, m);
     }
     T k_jj, dj;
