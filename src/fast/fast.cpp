@@ -78,26 +78,40 @@ WrenchResult SolveByEigen(Data::Impl& ws, int m, const double* J, int js, const 
 }
 
 // Inputs of a solve are checked, not trusted: negative or non-finite values give kInvalidInput.
-// Branch-free so it vectorises: 0 * v is 0 for finite v and NaN for inf/NaN, so the sum of
-// those is 0 exactly when every entry is finite; the minimum catches negative stiffness.
-// N > 0 fixes m at compile time (the loops unroll).
+// Branch-free: 0 * v is 0 for finite v and NaN for inf/NaN, so the sum of those is 0 exactly
+// when every entry is finite; the minimum catches negative stiffness. Four entries per vector
+// (whole vectors only: the arrays hold exactly their entries), the rest one by one. N > 0
+// fixes m at compile time (the loops unroll).
 template <int N>
 ISOWRENCH_INLINE bool ValidSolveInput(int m_runtime, const double* s_t, const double* s_p,
                                       const double* tau) {
   const int m = N > 0 ? N : m_runtime;
-  double nonfinite = 0.0;
-  double lowest = 0.0;
+  V4 nonfinite = ISOWRENCH_V4_SPLAT(0.0);
+  V4 lowest = ISOWRENCH_V4_SPLAT(0.0);
+  auto add = [&](const double* v, bool stiffness) ISOWRENCH_LAMBDA_INLINE {
+    V4 x;
+    std::memcpy(&x, v, sizeof x);
+    nonfinite += 0.0 * x;
+    if (stiffness) lowest = x < lowest ? x : lowest;
+  };
+  add(s_t, true);
+  double tail_nonfinite = 0.0 * s_t[4] + 0.0 * s_t[5];
+  double tail_lowest = std::min(s_t[4], s_t[5]);
   ISOWRENCH_UNROLL
-  for (int r = 0; r < 6; ++r) {
-    nonfinite += 0.0 * s_t[r];
-    lowest = std::min(lowest, s_t[r]);
+  for (int i = 0; i + 4 <= m; i += 4) {
+    add(s_p + i, true);
+    add(tau + i, false);
   }
   ISOWRENCH_UNROLL
-  for (int i = 0; i < m; ++i) {
-    nonfinite += 0.0 * s_p[i] + 0.0 * tau[i];
-    lowest = std::min(lowest, s_p[i]);
+  for (int i = m / 4 * 4; i < m; ++i) {
+    tail_nonfinite += 0.0 * s_p[i] + 0.0 * tau[i];
+    tail_lowest = std::min(tail_lowest, s_p[i]);
   }
-  return nonfinite == 0.0 && lowest >= 0.0;
+  const double sum =
+      ((nonfinite[0] + nonfinite[1]) + (nonfinite[2] + nonfinite[3])) + tail_nonfinite;
+  const double low = std::min(
+      std::min(std::min(lowest[0], lowest[1]), std::min(lowest[2], lowest[3])), tail_lowest);
+  return sum == 0.0 && low >= 0.0;
 }
 
 WrenchResult Invalid(Data::Impl& ws) {

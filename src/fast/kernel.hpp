@@ -675,6 +675,9 @@ ISOWRENCH_INLINE void Cholesky(int m_runtime, const T* J, const T* sJ, int js, c
   if constexpr (kScalar<T>) {
     if (undecided) return;
   }
+  // The substitutions read U from memory (a compiler barrier): one posture otherwise extracts
+  // its entries from the row vectors still in registers, two or three instructions each.
+  if constexpr (kScalar<T>) asm volatile("" ::: "memory");
   T y[S];
   SolveWithFactor<N>(m, U, inv_diag, tau, y, x);
   ISOWRENCH_UNROLL

@@ -344,6 +344,48 @@ TEST(FastPath, RawMatrixSolveSeparatesHeldAndExcitedSelfMotion) {
             StaticsStatus::kInvalidInput);
 }
 
+// The solve's input check reads four entries per vector and the rest one by one: every dof
+// count up to kMaxDofs, a bad value at every position of s_t, s_p and tau (NaN, +inf, -inf;
+// a negative stiffness), each alone, is kInvalidInput; the untouched input is solved.
+TEST(FastPath, EveryBadSolveInputEntryIsInvalidForEveryDofCount) {
+  std::mt19937 rng(21);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  const double inf = std::numeric_limits<double>::infinity();
+  for (int m = 1; m <= isowrench::kMaxDofs; ++m) {
+    Data ws(m);
+    isowrench::Matrix6Xd J(6, m);
+    for (int c = 0; c < m; ++c)
+      for (int r = 0; r < 6; ++r) J(r, c) = u(rng);
+    isowrench::Vector6d s_t;
+    s_t << 1e4, 2e4, 3e4, 10, 20, 30;
+    Eigen::VectorXd s_p = Eigen::VectorXd::Constant(m, 5.0);
+    Eigen::VectorXd tau(m);
+    for (int i = 0; i < m; ++i) tau[i] = u(rng);
+    ASSERT_NE(isowrench::SolveStatics(ws, J, s_t, s_p, tau).status, StaticsStatus::kInvalidInput)
+        << "m = " << m;
+    for (const double bad : {nan, inf, -inf, -1.0}) {
+      for (int r = 0; r < 6; ++r) {
+        isowrench::Vector6d t = s_t;
+        t[r] = bad;
+        EXPECT_EQ(isowrench::SolveStatics(ws, J, t, s_p, tau).status, StaticsStatus::kInvalidInput)
+            << "m = " << m << ", s_t[" << r << "] = " << bad;
+      }
+      for (int i = 0; i < m; ++i) {
+        Eigen::VectorXd p = s_p;
+        p[i] = bad;
+        EXPECT_EQ(isowrench::SolveStatics(ws, J, s_t, p, tau).status, StaticsStatus::kInvalidInput)
+            << "m = " << m << ", s_p[" << i << "] = " << bad;
+        if (bad == -1.0) continue;  // a negative torque is fine
+        Eigen::VectorXd t = tau;
+        t[i] = bad;
+        EXPECT_EQ(isowrench::SolveStatics(ws, J, s_t, s_p, t).status, StaticsStatus::kInvalidInput)
+            << "m = " << m << ", tau[" << i << "] = " << bad;
+      }
+    }
+  }
+}
+
 // The batch runs the lane kernel (four evaluations per SIMD register), which sums in the same
 // order as the scalar path but may fuse multiply-adds differently. Statuses and self-motion
 // counts must be identical. Wrenches must agree to the accuracy a backward-stable solve of K
