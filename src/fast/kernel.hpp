@@ -124,9 +124,15 @@ ISOWRENCH_INLINE void MultiplyRotation(T* M, const Eigen::Matrix3d& R0) {
 // s = sign * sin q.
 template <int K, class T>
 ISOWRENCH_INLINE void AxisAndTurn(T* M, double sign, const T& c, const T& s, T* z, bool turn) {
-  z[0] = sign * M[3 * K];
-  z[1] = sign * M[3 * K + 1];
-  z[2] = sign * M[3 * K + 2];
+  if (sign > 0.0) {  // a constant where the caller's sign is one (JointStep: no multiply)
+    z[0] = M[3 * K];
+    z[1] = M[3 * K + 1];
+    z[2] = M[3 * K + 2];
+  } else {
+    z[0] = -M[3 * K];
+    z[1] = -M[3 * K + 1];
+    z[2] = -M[3 * K + 2];
+  }
   if (!turn) return;
   constexpr int A = 3 * ((K + 1) % 3), B = 3 * ((K + 2) % 3);  // the two columns that turn
   ISOWRENCH_UNROLL
@@ -219,7 +225,8 @@ ISOWRENCH_INLINE void CoupleJoint(const FlatChain& d, int k, double x, double& q
   }
 }
 
-/// One movable joint of the forward kinematics, compiled for its kind OP (FastJoint::op):
+/// One movable joint of the forward kinematics, compiled for its kind OP (FastJoint::op, 64
+/// kinds):
 /// the frame (M, o) moves to the joint (fixed transform), z = its world axis, and the joint
 /// turns M (revolute) or moves o along z (prismatic). One posture reads sin q and cos q from
 /// sc[0] and sc[kMaxDofs + 4] (JointSinCos); the lanes compute them.
@@ -227,8 +234,9 @@ template <int OP, class T>
 ISOWRENCH_INLINE void JointStep(const FastJoint& j, T* M, T* o, T* z, const T& qk,
                                 const double* sc) {
   constexpr bool kRevolute = (OP & 1) != 0;
-  constexpr int kAxis = (OP >> 1) & 3;  // 0/1/2: +-x/y/z, 3: general
-  if constexpr ((OP & 8) != 0) {        // joint origin o + M p0
+  constexpr int kAxis = (OP >> 1) & 3;        // 0/1/2: x/y/z, 3: general
+  constexpr bool kNegative = (OP & 32) != 0;  // -x/-y/-z
+  if constexpr ((OP & 8) != 0) {              // joint origin o + M p0
     const double* t = j.origin_translation.data();
     ISOWRENCH_UNROLL
     for (int r = 0; r < 3; ++r) o[r] = o[r] + (M[r] * t[0] + M[3 + r] * t[1] + M[6 + r] * t[2]);
@@ -246,15 +254,15 @@ ISOWRENCH_INLINE void JointStep(const FastJoint& j, T* M, T* o, T* z, const T& q
     if constexpr (kAxis == 3) {
       GeneralAxisAndTurn(M, j.axis, c, s, z, true);
     } else {
-      s *= j.axis_sign;
-      AxisAndTurn<kAxis>(M, j.axis_sign, c, s, z, true);
+      if constexpr (kNegative) s = -s;
+      AxisAndTurn<kAxis>(M, kNegative ? -1.0 : 1.0, c, s, z, true);
     }
   } else {
     const T one = zero + 1.0;
     if constexpr (kAxis == 3) {
       GeneralAxisAndTurn(M, j.axis, one, zero, z, false);
     } else {
-      AxisAndTurn<kAxis>(M, j.axis_sign, one, zero, z, false);
+      AxisAndTurn<kAxis>(M, kNegative ? -1.0 : 1.0, one, zero, z, false);
     }
     ISOWRENCH_UNROLL
     for (int r = 0; r < 3; ++r) o[r] = o[r] + z[r] * qk;
@@ -346,6 +354,38 @@ ISOWRENCH_INLINE void Kinematics(const FlatChain& d, W& ws, const T* q, const Fa
       case 29: JointStep<29>(j, M, o, z, qk, sc); break;
       case 30: JointStep<30>(j, M, o, z, qk, sc); break;
       case 31: JointStep<31>(j, M, o, z, qk, sc); break;
+      case 32: JointStep<32>(j, M, o, z, qk, sc); break;
+      case 33: JointStep<33>(j, M, o, z, qk, sc); break;
+      case 34: JointStep<34>(j, M, o, z, qk, sc); break;
+      case 35: JointStep<35>(j, M, o, z, qk, sc); break;
+      case 36: JointStep<36>(j, M, o, z, qk, sc); break;
+      case 37: JointStep<37>(j, M, o, z, qk, sc); break;
+      case 38: JointStep<38>(j, M, o, z, qk, sc); break;
+      case 39: JointStep<39>(j, M, o, z, qk, sc); break;
+      case 40: JointStep<40>(j, M, o, z, qk, sc); break;
+      case 41: JointStep<41>(j, M, o, z, qk, sc); break;
+      case 42: JointStep<42>(j, M, o, z, qk, sc); break;
+      case 43: JointStep<43>(j, M, o, z, qk, sc); break;
+      case 44: JointStep<44>(j, M, o, z, qk, sc); break;
+      case 45: JointStep<45>(j, M, o, z, qk, sc); break;
+      case 46: JointStep<46>(j, M, o, z, qk, sc); break;
+      case 47: JointStep<47>(j, M, o, z, qk, sc); break;
+      case 48: JointStep<48>(j, M, o, z, qk, sc); break;
+      case 49: JointStep<49>(j, M, o, z, qk, sc); break;
+      case 50: JointStep<50>(j, M, o, z, qk, sc); break;
+      case 51: JointStep<51>(j, M, o, z, qk, sc); break;
+      case 52: JointStep<52>(j, M, o, z, qk, sc); break;
+      case 53: JointStep<53>(j, M, o, z, qk, sc); break;
+      case 54: JointStep<54>(j, M, o, z, qk, sc); break;
+      case 55: JointStep<55>(j, M, o, z, qk, sc); break;
+      case 56: JointStep<56>(j, M, o, z, qk, sc); break;
+      case 57: JointStep<57>(j, M, o, z, qk, sc); break;
+      case 58: JointStep<58>(j, M, o, z, qk, sc); break;
+      case 59: JointStep<59>(j, M, o, z, qk, sc); break;
+      case 60: JointStep<60>(j, M, o, z, qk, sc); break;
+      case 61: JointStep<61>(j, M, o, z, qk, sc); break;
+      case 62: JointStep<62>(j, M, o, z, qk, sc); break;
+      case 63: JointStep<63>(j, M, o, z, qk, sc); break;
       default: __builtin_unreachable();
     }
     T* ok = Ptr(ws.origin[k]);

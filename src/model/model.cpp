@@ -200,7 +200,7 @@ FlatChain Compile(const LimbDescription& d) {
     fj.revolute = j.type == JointType::kRevolute;
     SetAxisKind(fj);
     fj.op = (fj.revolute ? 1 : 0) | fj.axis_kind << 1 | (fj.translation_is_zero ? 0 : 8) |
-            (fj.rotation_is_identity ? 0 : 16);
+            (fj.rotation_is_identity ? 0 : 16) | (fj.axis_kind < 3 && fj.axis_sign < 0 ? 32 : 0);
     flat.joints.push_back(fj);
     ++frame;
     since_last = Eigen::Isometry3d::Identity();

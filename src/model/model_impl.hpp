@@ -28,8 +28,9 @@ struct FastJoint {
   int axis_kind = 3;
   double axis_sign = 1.0;
   bool revolute = true;
-  /// The flags above as one code, the case of the kernel's joint step (JointOp):
-  /// revolute | axis_kind << 1 | !translation_is_zero << 3 | !rotation_is_identity << 4.
+  /// The flags above as one code, the case of the kernel's joint step (JointStep):
+  /// revolute | axis_kind << 1 | !translation_is_zero << 3 | !rotation_is_identity << 4 |
+  /// (axis_sign < 0) << 5.
   int op = 0;
 };
 

@@ -14,6 +14,7 @@
 #include <map>
 #include <random>
 #include <sstream>
+#include <vector>
 
 #include "model/model_impl.hpp"
 #include "test_models.hpp"
@@ -194,55 +195,63 @@ TEST_P(EngineVsKdl, MuscleLengthAndGradientEqualKdlDifferences) {
   ExpectMuscleGradientEqualKdlDifferences(LoadModel(GetParam()), GetParam());
 }
 
-// A chain with one movable joint of each kind the kernel compiles a step for (FastJoint::op:
-// revolute or prismatic; axis +-x, +-y, +-z or general; with or without a fixed translation and
-// rotation before it), kinds [first, first + 16), a transducer turning with the last link and a
+// A chain with movable joints of the given kinds, each one the kernel compiles a step for
+// (FastJoint::op: revolute or prismatic; axis +x, -x, +y, -y, +z, -z or general; with or without
+// a fixed translation and rotation before it), a transducer turning with the last link and a
 // muscle from ground over the middle of the chain to the last link.
-Model EveryJointKindModel(int first) {
+Model JointKindsModel(const std::vector<int>& ops) {
+  const int n = static_cast<int>(ops.size());
   std::ostringstream x;
-  x << "<robot name=\"kinds_" << first << "\" xmlns:isowrench=\"urn:isowrench:urdf:1\">\n"
-    << "<link name=\"l0\"/>\n";
-  const char* axes[4][2] = {{"1 0 0", "-1 0 0"},
-                            {"0 1 0", "0 -1 0"},
-                            {"0 0 1", "0 0 -1"},
-                            {"0.48 -0.6 0.64", "-0.6 0.64 0.48"}};
-  for (int i = 0; i < 16; ++i) {
-    const int op = first + i;
+  x << "<robot name=\"kinds\" xmlns:isowrench=\"urn:isowrench:urdf:1\">\n<link name=\"l0\"/>\n";
+  const char* axes[3][2] = {{"1 0 0", "-1 0 0"}, {"0 1 0", "0 -1 0"}, {"0 0 1", "0 0 -1"}};
+  const char* general[2] = {"0.48 -0.6 0.64", "-0.6 0.64 0.48"};
+  for (int i = 0; i < n; ++i) {
+    const int op = ops[static_cast<size_t>(i)];
     const bool revolute = (op & 1) != 0;
+    const int kind = (op >> 1) & 3;
     x << "<link name=\"l" << i + 1 << "\"/>\n"
       << "<joint name=\"j" << i << "\" type=\"" << (revolute ? "continuous" : "prismatic")
       << "\"><parent link=\"l" << i << "\"/><child link=\"l" << i + 1 << "\"/>"
       << "<origin xyz=\"" << ((op & 8) != 0 ? "0.01 -0.02 0.015" : "0 0 0") << "\" rpy=\""
       << ((op & 16) != 0 ? "0.3 -0.2 0.5" : "0 0 0") << "\"/><axis xyz=\""
-      << axes[(op >> 1) & 3][i % 2] << "\"/>"
+      << (kind == 3 ? general[i % 2] : axes[kind][(op & 32) != 0 ? 1 : 0]) << "\"/>"
       << (revolute ? "" : "<limit lower=\"-0.01\" upper=\"0.01\" effort=\"1\" velocity=\"1\"/>")
       << "</joint>\n";
   }
-  x << "<isowrench:transducer link=\"l16\" xyz=\"0.02 0.01 -0.01\" rpy=\"0.1 0.2 0.3\" "
+  x << "<isowrench:transducer link=\"l" << n
+    << "\" xyz=\"0.02 0.01 -0.01\" rpy=\"0.1 0.2 0.3\" "
        "axes=\"link\" stiffness=\"1e6 1e6 1e6 100 100 100\" released=\"\"/>\n"
     << "<isowrench:muscle name=\"m\" max_force=\"10\">"
     << "<isowrench:point link=\"l0\" xyz=\"0.05 0.04 0.03\"/>"
-    << "<isowrench:point link=\"l8\" xyz=\"-0.03 0.02 0.01\"/>"
-    << "<isowrench:point link=\"l16\" xyz=\"0.01 -0.03 0.02\"/></isowrench:muscle>\n"
+    << "<isowrench:point link=\"l" << n / 2 << "\" xyz=\"-0.03 0.02 0.01\"/>"
+    << "<isowrench:point link=\"l" << n << "\" xyz=\"0.01 -0.03 0.02\"/></isowrench:muscle>\n"
     << "</robot>\n";
-  return Model(isowrench::ReadUrdfString(x.str(), "kinds_" + std::to_string(first) + ".urdf"));
+  return Model(isowrench::ReadUrdfString(x.str(), "kinds.urdf"));
 }
 
 TEST(EngineVsKdlKinds, EveryCompiledJointKindEqualsKdl) {
-  for (const int first : {0, 16}) {
-    const Model model = EveryJointKindModel(first);
-    // The chain really holds the 16 kinds [first, first + 16), in order.
+  // The 56 kinds a model can have (a general axis has no sign), 14 per chain.
+  std::vector<int> kinds;
+  for (int op = 0; op < 64; ++op) {
+    if (!((op & 32) != 0 && ((op >> 1) & 3) == 3)) kinds.push_back(op);
+  }
+  ASSERT_EQ(kinds.size(), 56u);
+  for (size_t first = 0; first < kinds.size(); first += 14) {
+    const std::vector<int> ops(kinds.begin() + static_cast<long>(first),
+                               kinds.begin() + static_cast<long>(first) + 14);
+    const Model model = JointKindsModel(ops);
+    // The chain really holds these kinds, in order.
     const isowrench::FlatChain& chain = model.impl().flat;
-    ASSERT_EQ(chain.m, 16);
-    for (int k = 0; k < 16; ++k) EXPECT_EQ(chain.joints[k].op, first + k) << "joint " << k;
+    ASSERT_EQ(chain.m, 14);
+    for (int k = 0; k < 14; ++k) EXPECT_EQ(chain.joints[k].op, ops[k]) << "joint " << k;
     const std::string name =
-        "joint kinds " + std::to_string(first) + ".." + std::to_string(first + 15);
+        "joint kinds " + std::to_string(ops.front()) + ".." + std::to_string(ops.back());
     ExpectPoseAndJacobianEqualKdl(model, name);
     ExpectPointsEqualKdl(model, name);
     ExpectMuscleGradientEqualKdlDifferences(model, name);
     // The SIMD lanes run the same steps: the batch equals one evaluation at a time.
     std::mt19937 rng(15);
-    Eigen::MatrixXd postures(16, 64);
+    Eigen::MatrixXd postures(14, 64);
     for (int p = 0; p < postures.cols(); ++p) postures.col(p) = RandomPosture(model, rng);
     const std::vector<isowrench::StiffnessSet> sets = {model.model_stiffness()};
     std::vector<isowrench::WrenchResult> batch;
