@@ -14,6 +14,18 @@
 #include "isowrench/error.hpp"
 
 namespace isowrench {
+
+namespace sincos {
+// Defined here, away from the kernels that use it (simd.hpp: kLaneConstants).
+alignas(32) const V4 kLaneConstants[kConstantCount] = {
+    kKnownLaneConstants[kS1],      kKnownLaneConstants[kS2],      kKnownLaneConstants[kS3],
+    kKnownLaneConstants[kS4],      kKnownLaneConstants[kS5],      kKnownLaneConstants[kS6],
+    kKnownLaneConstants[kC1],      kKnownLaneConstants[kC2],      kKnownLaneConstants[kC3],
+    kKnownLaneConstants[kC4],      kKnownLaneConstants[kC5],      kKnownLaneConstants[kC6],
+    kKnownLaneConstants[kReduce1], kKnownLaneConstants[kReduce2], kKnownLaneConstants[kReduce3],
+    kKnownLaneConstants[kHalf],    kKnownLaneConstants[kOne]};
+}  // namespace sincos
+
 namespace {
 
 // Work is cut into units of (a block of postures) x (a block of stiffness sets), handed out
@@ -26,17 +38,19 @@ constexpr long kUnitsPerThread = 8;
 
 long RoundUpToLanes(long n) { return (n + kLanes - 1) / kLanes * kLanes; }
 
-// The OR over q[0 .. count) of each entry's exponent field plus one (high word): bit 31 is set
-// exactly when some entry is inf or NaN (its exponent bits all set carry into the sign bit).
-// AVX2 where the CPU has it (eight high words per step).
-ISOWRENCH_CLONES std::uint32_t NonFiniteCarries(const double* q, long count) {
-  std::uint32_t carries = 0;
-  for (long i = 0; i < count; ++i) {
-    std::uint64_t bits;
-    std::memcpy(&bits, q + i, sizeof bits);
-    carries |= (static_cast<std::uint32_t>(bits >> 32) & 0x7ff00000u) + 0x00100000u;
+// Whether q[0 .. count) holds an inf or NaN: the sum of 0 * q_i is 0 exactly when every entry
+// is finite (NaN otherwise), four entries per vector multiply-add (AVX2 where the CPU has it).
+ISOWRENCH_CLONES bool AnyNonFinite(const double* q, long count) {
+  V4 sum = ISOWRENCH_V4_SPLAT(0.0);
+  long i = 0;
+  for (; i + 4 <= count; i += 4) {
+    V4 x;
+    std::memcpy(&x, q + i, sizeof x);
+    sum += 0.0 * x;
   }
-  return carries;
+  double tail = 0.0;
+  for (; i < count; ++i) tail += 0.0 * q[i];
+  return ((sum[0] + sum[1]) + (sum[2] + sum[3])) + tail != 0.0;
 }
 
 // A set the solve accepts: finite, non-negative compliances (the scalar path's input check;
@@ -177,19 +191,17 @@ void EvaluateBatch(const Model& model, const Eigen::Ref<const Eigen::MatrixXd>& 
                 " rows; model '" + model.name() + "' has " + std::to_string(m) + " joints");
   }
   {
-    // An entry is inf or NaN when its exponent bits are all set, that is when adding 1 to the
-    // exponent field carries into the sign bit: one vectorisable pass of ANDs, adds and ORs
-    // over the high words, the whole matrix at once when its columns are contiguous, then a
-    // search for the culprit only if there is one.
-    std::uint32_t carries = 0;
+    // One vectorised pass over the whole matrix when its columns are contiguous, then a search
+    // for the culprit only if there is one.
+    bool any = false;
     if (postures.outerStride() == m) {
-      carries = NonFiniteCarries(postures.data(),
-                                 static_cast<long>(m) * static_cast<long>(postures.cols()));
+      any =
+          AnyNonFinite(postures.data(), static_cast<long>(m) * static_cast<long>(postures.cols()));
     } else {
       for (Eigen::Index p = 0; p < postures.cols(); ++p)
-        carries |= NonFiniteCarries(postures.col(p).data(), m);
+        any |= AnyNonFinite(postures.col(p).data(), m);
     }
-    if (carries & 0x80000000u) {
+    if (any) {
       for (Eigen::Index p = 0; p < postures.cols(); ++p) {
         if (!postures.col(p).allFinite()) {
           throw Error("EvaluateBatch: posture " + std::to_string(p) + " has a non-finite entry");

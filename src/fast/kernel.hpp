@@ -91,12 +91,13 @@ ISOWRENCH_INLINE void SinCos(double x, double& sin_x, double& cos_x) {
 // mantissa holds round(x 2/pi), two's complement modulo 4) and applied by selects and sign-bit
 // flips. Valid for |x| < sincos::kMaxReduced: LaneKinematics hands lanes with larger angles to
 // the scalar path.
+template <bool kOpaque = true>
 ISOWRENCH_INLINE void SinCos(const V4& x, V4& sin_x, V4& cos_x) {
   const V4 shifted = x * sincos::kTwoOverPi + sincos::kRound;
   const V4i n = (V4i)shifted;  // GCC vector casts keep the bits
   const V4 k = shifted - sincos::kRound;
   V4 sin_r, cos_r;
-  sincos::Kernel(x, k, sin_r, cos_r);
+  sincos::Kernel<kOpaque>(x, k, sin_r, cos_r);
   const V4i swap = (n & 1) != 0;
   const V4 s = swap ? cos_r : sin_r;
   const V4 c = swap ? sin_r : cos_r;
@@ -202,7 +203,7 @@ ISOWRENCH_INLINE void JointSinCos(const FlatChain& d, const double* q, double* s
     std::memcpy(&x, padded + k0, sizeof x);
     const V4 magnitude = (V4)((V4i)x & 0x7fffffffffffffff);
     const V4i reduced = magnitude < sincos::kMaxReduced;
-    SinCos(x, s, c);
+    SinCos<false>(x, s, c);
     std::memcpy(sin_q + k0, &s, sizeof s);
     std::memcpy(cos_q + k0, &c, sizeof c);
     if (!(reduced[0] & reduced[1] & reduced[2] & reduced[3])) {
@@ -314,7 +315,9 @@ ISOWRENCH_INLINE void Kinematics(const FlatChain& d, W& ws, const T* q, const Fa
   // writes whole vectors).
   double sin_q[2 * (kMaxDofs + 4)];
   if constexpr (kScalar<T>) JointSinCos(d, q, sin_q, sin_q + kMaxDofs + 4);
-  T M[9] = {one, zero, zero, zero, one, zero, zero, zero, one};
+  T M[9];
+  ISOWRENCH_UNROLL
+  for (int i = 0; i < 9; ++i) M[i] = i % 4 == 0 ? one : zero;
   T o[3] = {zero, zero, zero};
   for (int k = 0; k < m; ++k) {
     const FastJoint& j = joints[k];

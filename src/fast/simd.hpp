@@ -3,6 +3,7 @@
 // arithmetic both write once for a scalar and for a 4-lane vector.
 
 #include <cstdint>
+#include <type_traits>
 
 #include "isowrench/engine.hpp"
 
@@ -72,22 +73,98 @@ constexpr double kRound = 6755399441055744.0;           // 1.5 * 2^52: x + kRoun
 /// std::sin / std::cos.
 constexpr double kMaxReduced = 1e5;
 
+// The polynomial and reduction constants, by index: a table of doubles for one posture and one
+// of whole vectors for the lanes. The vector table is defined in another translation unit
+// (batch.cpp), so the compiler does not see its values: each multiply-add then reads its
+// constant as a memory operand instead of first broadcasting a known scalar (one instruction
+// fewer per constant per lane group).
+enum Constant : int {
+  kS1,
+  kS2,
+  kS3,
+  kS4,
+  kS5,
+  kS6,
+  kC1,
+  kC2,
+  kC3,
+  kC4,
+  kC5,
+  kC6,
+  kReduce1,
+  kReduce2,
+  kReduce3,
+  kHalf,
+  kOne,
+  kConstantCount
+};
+inline constexpr double kScalarConstants[kConstantCount] = {-1.66666666666666324348e-01,
+                                                            8.33333333332248946124e-03,
+                                                            -1.98412698298579493134e-04,
+                                                            2.75573137070700676789e-06,
+                                                            -2.50507602534068634195e-08,
+                                                            1.58969099521155010221e-10,
+                                                            4.16666666666666019037e-02,
+                                                            -1.38888888888741095749e-03,
+                                                            2.48015872894767294178e-05,
+                                                            -2.75573143513906633035e-07,
+                                                            2.08757232129817482790e-09,
+                                                            -1.13596475577881948265e-11,
+                                                            kPio2_1,
+                                                            kPio2_2,
+                                                            kPio2_3,
+                                                            0.5,
+                                                            1.0};
+extern const V4 kLaneConstants[kConstantCount];  // the same, splatted (batch.cpp)
+
+inline constexpr V4 kKnownLaneConstants[kConstantCount] = {
+#define ISOWRENCH_SPLAT_CONSTANT(i) ISOWRENCH_V4_SPLAT(kScalarConstants[i])
+    ISOWRENCH_SPLAT_CONSTANT(kS1),      ISOWRENCH_SPLAT_CONSTANT(kS2),
+    ISOWRENCH_SPLAT_CONSTANT(kS3),      ISOWRENCH_SPLAT_CONSTANT(kS4),
+    ISOWRENCH_SPLAT_CONSTANT(kS5),      ISOWRENCH_SPLAT_CONSTANT(kS6),
+    ISOWRENCH_SPLAT_CONSTANT(kC1),      ISOWRENCH_SPLAT_CONSTANT(kC2),
+    ISOWRENCH_SPLAT_CONSTANT(kC3),      ISOWRENCH_SPLAT_CONSTANT(kC4),
+    ISOWRENCH_SPLAT_CONSTANT(kC5),      ISOWRENCH_SPLAT_CONSTANT(kC6),
+    ISOWRENCH_SPLAT_CONSTANT(kReduce1), ISOWRENCH_SPLAT_CONSTANT(kReduce2),
+    ISOWRENCH_SPLAT_CONSTANT(kReduce3), ISOWRENCH_SPLAT_CONSTANT(kHalf),
+    ISOWRENCH_SPLAT_CONSTANT(kOne)};
+#undef ISOWRENCH_SPLAT_CONSTANT
+
+/// Constant i as a T: the lanes (kOpaque) read the vector table of batch.cpp; one posture, whose
+/// vector sin/cos of four joints at once keeps the constants in registers across its two or
+/// three calls, uses the known values.
+template <class T, bool kOpaque>
+ISOWRENCH_INLINE const T& Get(Constant i) {
+  if constexpr (std::is_same_v<T, double>) {
+    return kScalarConstants[i];
+  } else if constexpr (kOpaque) {
+    return kLaneConstants[i];
+  } else {
+    return kKnownLaneConstants[i];
+  }
+}
+
 /// sin and cos of r = x - k pi/2 (|r| <= pi/4).
-template <class T>
+template <bool kOpaque = false, class T>
 ISOWRENCH_INLINE void Kernel(const T& x, const T& k, T& sin_r, T& cos_r) {
-  constexpr double S1 = -1.66666666666666324348e-01, S2 = 8.33333333332248946124e-03,
-                   S3 = -1.98412698298579493134e-04, S4 = 2.75573137070700676789e-06,
-                   S5 = -2.50507602534068634195e-08, S6 = 1.58969099521155010221e-10;
-  constexpr double C1 = 4.16666666666666019037e-02, C2 = -1.38888888888741095749e-03,
-                   C3 = 2.48015872894767294178e-05, C4 = -2.75573143513906633035e-07,
-                   C5 = 2.08757232129817482790e-09, C6 = -1.13596475577881948265e-11;
-  const T r = ((x - k * kPio2_1) - k * kPio2_2) - k * kPio2_3;
+  const T r = ((x - k * Get<T, kOpaque>(kReduce1)) - k * Get<T, kOpaque>(kReduce2)) -
+              k * Get<T, kOpaque>(kReduce3);
   const T z = r * r;
-  sin_r = r + r * z * (S1 + z * (S2 + z * (S3 + z * (S4 + z * (S5 + z * S6)))));
-  const T hz = 0.5 * z;
-  const T w = 1.0 - hz;
-  cos_r =
-      w + (((1.0 - w) - hz) + z * z * (C1 + z * (C2 + z * (C3 + z * (C4 + z * (C5 + z * C6))))));
+  sin_r = r + r * z *
+                  (Get<T, kOpaque>(kS1) +
+                   z * (Get<T, kOpaque>(kS2) +
+                        z * (Get<T, kOpaque>(kS3) +
+                             z * (Get<T, kOpaque>(kS4) +
+                                  z * (Get<T, kOpaque>(kS5) + z * Get<T, kOpaque>(kS6))))));
+  const T hz = Get<T, kOpaque>(kHalf) * z;
+  const T w = Get<T, kOpaque>(kOne) - hz;
+  cos_r = w + (((Get<T, kOpaque>(kOne) - w) - hz) +
+               z * z *
+                   (Get<T, kOpaque>(kC1) +
+                    z * (Get<T, kOpaque>(kC2) +
+                         z * (Get<T, kOpaque>(kC3) +
+                              z * (Get<T, kOpaque>(kC4) +
+                                   z * (Get<T, kOpaque>(kC5) + z * Get<T, kOpaque>(kC6)))))));
 }
 }  // namespace sincos
 
