@@ -596,24 +596,29 @@ ISOWRENCH_INLINE void Kinematics(const FlatChain& d, W& ws, const T* q, const Fa
 /// too and never read). Rows read from memory (J, U) are stored with consecutive entries; for
 /// T = double a row may be read up to the next multiple of 4 past m (the callers' buffers hold
 /// those entries; their values are never used).
+/// How a Row update combines a x_i with entry i: e_i = a x_i, e_i += a x_i or e_i -= a x_i.
+enum class RowUpdate { kSet, kAdd, kSubtract };
+
+template <RowUpdate kHow, class V>
+ISOWRENCH_INLINE void Combine(V& e, const V& product) {
+  if constexpr (kHow == RowUpdate::kSet) {
+    e = product;
+  } else if constexpr (kHow == RowUpdate::kAdd) {
+    e += product;
+  } else {
+    e -= product;
+  }
+}
+
 template <int N, class T, bool kVectorised = kScalar<T>>
 struct Row {
   static constexpr int kEntries = N > 0 ? N : kMaxDofs;
   T e[kEntries];
-  /// e_i = a x_i.
-  ISOWRENCH_INLINE void Set(const T& a, const T* x, int from, int m) {
+  /// e_i (=, +=, -=) a x_i for i in [from, m).
+  template <RowUpdate kHow>
+  ISOWRENCH_INLINE void Update(const T& a, const T* x, int from, int m) {
     ISOWRENCH_UNROLL
-    for (int i = from; i < m; ++i) e[i] = a * x[i];
-  }
-  /// e_i += a x_i.
-  ISOWRENCH_INLINE void Axpy(const T& a, const T* x, int from, int m) {
-    ISOWRENCH_UNROLL
-    for (int i = from; i < m; ++i) e[i] += a * x[i];
-  }
-  /// e_i -= a x_i.
-  ISOWRENCH_INLINE void Axmy(const T& a, const T* x, int from, int m) {
-    ISOWRENCH_UNROLL
-    for (int i = from; i < m; ++i) e[i] -= a * x[i];
+    for (int i = from; i < m; ++i) Combine<kHow>(e[i], a * x[i]);
   }
   ISOWRENCH_INLINE void Get(int i, T& out) const { out = e[i]; }
   /// out_i = s e_i.
@@ -627,31 +632,14 @@ template <int N>
 struct Row<N, double, true> {
   static constexpr int kChunks = (N > 0 ? N + 3 : kMaxDofs) / 4;
   V4 e[kChunks];
-  ISOWRENCH_INLINE void Set(double a, const double* x, int from, int m) {
+  template <RowUpdate kHow>
+  ISOWRENCH_INLINE void Update(double a, const double* x, int from, int m) {
     const V4 av = ISOWRENCH_V4_SPLAT(a);
     ISOWRENCH_UNROLL
     for (int c = from / 4; c < (m + 3) / 4; ++c) {
       V4 xv;
       std::memcpy(&xv, x + 4 * c, sizeof xv);
-      e[c] = av * xv;
-    }
-  }
-  ISOWRENCH_INLINE void Axpy(double a, const double* x, int from, int m) {
-    const V4 av = ISOWRENCH_V4_SPLAT(a);
-    ISOWRENCH_UNROLL
-    for (int c = from / 4; c < (m + 3) / 4; ++c) {
-      V4 xv;
-      std::memcpy(&xv, x + 4 * c, sizeof xv);
-      e[c] += av * xv;
-    }
-  }
-  ISOWRENCH_INLINE void Axmy(double a, const double* x, int from, int m) {
-    const V4 av = ISOWRENCH_V4_SPLAT(a);
-    ISOWRENCH_UNROLL
-    for (int c = from / 4; c < (m + 3) / 4; ++c) {
-      V4 xv;
-      std::memcpy(&xv, x + 4 * c, sizeof xv);
-      e[c] -= av * xv;
+      Combine<kHow>(e[c], av * xv);
     }
   }
   ISOWRENCH_INLINE void Get(int i, double& out) const { out = e[i / 4][i % 4]; }
@@ -690,16 +678,18 @@ ISOWRENCH_INLINE void Cholesky(int m_runtime, const T* J, const T* sJ, int js, c
     // GCC keeps every entry of J it loaded live across the unrolled rows and spills them all.
     if constexpr (!kScalar<T>) asm volatile("" ::: "memory");
     Row<N, T> row{};  // (entries below j are never read; {} for GCC's -Wmaybe-uninitialized)
-    row.Set(kScaled ? sJ[j] : s_t[0] * J[j], J, j, m);
+    row.template Update<RowUpdate::kSet>(kScaled ? sJ[j] : s_t[0] * J[j], J, j, m);
     ISOWRENCH_UNROLL
     for (int r = 1; r < 6; ++r) {
-      row.Axpy(kScaled ? sJ[r * js + j] : s_t[r] * J[r * js + j], J + r * js, j, m);
+      row.template Update<RowUpdate::kAdd>(kScaled ? sJ[r * js + j] : s_t[r] * J[r * js + j],
+                                           J + r * js, j, m);
     }
     T k_jj, dj;
     row.Get(j, k_jj);
     k_jj += s_p[j];
     ISOWRENCH_UNROLL
-    for (int k = 0; k < j; ++k) row.Axmy(U[k * S + j], U + k * S, j, m);
+    for (int k = 0; k < j; ++k)
+      row.template Update<RowUpdate::kSubtract>(U[k * S + j], U + k * S, j, m);
     row.Get(j, dj);
     dj += s_p[j];
     // Pivots are judged once K's largest diagonal entry is known (below); a pivot <= 0 makes
