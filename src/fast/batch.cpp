@@ -102,19 +102,25 @@ class UnitEvaluator {
   // Postures p .. p + lanes - 1 in lanes 0 .. lanes - 1 (the last repeated in padding lanes).
   void PostureLanes(long p, int lanes, long s0, long s1) {
     const double* q[kLanes];
-    for (int l = 0; l < kLanes; ++l) q[l] = postures_.col(p + std::min(l, lanes - 1)).data();
+    const double* first = postures_.data() + p * postures_.outerStride();
+    for (int l = 0; l < kLanes; ++l)
+      q[l] = first + std::min(l, lanes - 1) * postures_.outerStride();
     const unsigned scalar_lanes = LaneKinematics(model_, lanes_, q, muscle_, activation_);
     bool scalar_ready[kLanes] = {false, false, false, false};
     WrenchResult* out[kLanes];
+    const long sets_per_posture = static_cast<long>(stiffness_.size());
     for (long s = s0; s < s1; ++s) {
       if (!valid_[static_cast<size_t>(s)]) {
         for (int l = 0; l < lanes; ++l) Result(p + l, s) = WrenchResult{};
         continue;
       }
-      const StiffnessSet* sets[kLanes] = {&stiffness_[s], &stiffness_[s], &stiffness_[s],
-                                          &stiffness_[s]};
-      for (int l = 0; l < kLanes; ++l) out[l] = l < lanes ? &Result(p + l, s) : &padding_;
+      const StiffnessSet* set = &stiffness_[static_cast<size_t>(s)];
+      const StiffnessSet* sets[kLanes] = {set, set, set, set};
+      WrenchResult* result = &Result(p, s);
+      for (int l = 0; l < kLanes; ++l)
+        out[l] = l < lanes ? result + l * sets_per_posture : &padding_;
       const unsigned undecided = LaneSolve(model_, lanes_, sets, options_, out) & ~scalar_lanes;
+      if (undecided == 0) continue;
       for (int l = 0; l < lanes; ++l) {
         if (undecided & (1u << l)) {
           if (!scalar_ready[l]) {
@@ -126,6 +132,7 @@ class UnitEvaluator {
       }
     }
     // Lanes the kinematics handed back (last: SetLanes reuses the lane workspace).
+    if (scalar_lanes == 0) return;
     for (int l = 0; l < lanes; ++l) {
       if (scalar_lanes & (1u << l)) SetLanes(p + l, s0, s1);
     }

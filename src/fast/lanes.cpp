@@ -46,6 +46,11 @@ struct LaneWorkspace::Impl {
   V length;
   V U[kMaxDofs * kMaxDofs];  // statics (kernel::Cholesky)
   V x[kMaxDofs];             // dtheta
+  // The stiffness sets in the lanes (LaneSolve); `splatted`: the one set in every lane, if so.
+  // Sets are not changed during a batch, so the same pointer means the same numbers.
+  V s_t[6];
+  V s_p[kMaxDofs];
+  const StiffnessSet* splatted = nullptr;
   V* JacobianData() { return J[0]; }
   static int JacobianStride() { return kMaxDofs; }
   V* DlData() { return dL; }
@@ -122,16 +127,20 @@ ISOWRENCH_CLONES unsigned LaneSolve(const Model& model, LaneWorkspace& workspace
   const int m = model.dof_count();
   // Locked coordinates: the scalar path's SolveLocked decides every lane.
   if (model.impl().flat.any_locked) return (1u << kLanes) - 1;
-  V s_t[6];
-  V s_p[kMaxDofs];
+  V* s_t = ws.s_t;
+  V* s_p = ws.s_p;
   if (sets[0] == sets[1] && sets[0] == sets[2] && sets[0] == sets[3]) {  // four postures, one set
-    for (int r = 0; r < 6; ++r) s_t[r] = ISOWRENCH_V4_SPLAT(sets[0]->s_t[r]);
-    for (int i = 0; i < m; ++i) s_p[i] = ISOWRENCH_V4_SPLAT(sets[0]->s_p[i]);
+    if (ws.splatted != sets[0]) {  // the same set as the last call: already in the lanes
+      for (int r = 0; r < 6; ++r) s_t[r] = ISOWRENCH_V4_SPLAT(sets[0]->s_t[r]);
+      for (int i = 0; i < m; ++i) s_p[i] = ISOWRENCH_V4_SPLAT(sets[0]->s_p[i]);
+      ws.splatted = sets[0];
+    }
   } else {
     for (int r = 0; r < 6; ++r)
       s_t[r] = V{sets[0]->s_t[r], sets[1]->s_t[r], sets[2]->s_t[r], sets[3]->s_t[r]};
     for (int i = 0; i < m; ++i)
       s_p[i] = V{sets[0]->s_p[i], sets[1]->s_p[i], sets[2]->s_p[i], sets[3]->s_p[i]};
+    ws.splatted = nullptr;
   }
   V wrench[6];
   const double tolerance = options.cholesky_pivot_tolerance;

@@ -44,7 +44,9 @@ void LaneBroadcast(const Data& scalar, LaneWorkspace& ws);
 /// entries finite and >= 0), writing *out[l] with status kOk. Returns the bitmask of lanes left
 /// undecided (a Cholesky pivot at or below SolveOptions::cholesky_pivot_tolerance, or a
 /// non-finite result); their *out[l] is not written and the caller solves them on the scalar
-/// path.
+/// path. When every lane has the same set, the workspace keeps it splatted and reuses it while
+/// the next calls pass the same pointer: a set must not change while a workspace uses it (one
+/// EvaluateBatch call).
 unsigned LaneSolve(const Model& model, LaneWorkspace& ws, const StiffnessSet* const sets[kLanes],
                    const SolveOptions& options, WrenchResult* const out[kLanes]);
 
