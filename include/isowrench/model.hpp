@@ -386,7 +386,8 @@ class Data {
   /// J_T_E (6 x m) of the last ComputeKinematics: rows [v; w] in transducer axes,
   /// reference point the endpoint origin (m/rad, m/m, rad/rad). The engine keeps J row by row;
   /// this is a column-major copy made on each call, so a reference kept across the next
-  /// evaluation still shows the old J: call jacobian() again.
+  /// evaluation still shows the old J: call jacobian() again. Like every use of a Data (one per
+  /// thread), not to be called from two threads at once.
   const JacobianBuffer& jacobian() const;
   /// Muscle torque tau = -F (dL/dtheta)^T of the last kinematics (N·m or N per joint).
   const JointVector& tau() const;

@@ -71,7 +71,10 @@ struct Data::Impl {
   }
   mutable JacobianBuffer J;  // Jacobian()'s copy
   // Statics.
-  double U[kMaxDofs * kMaxDofs];  // Cholesky factor of K, K = U^T U (upper triangle by rows)
+  // Cholesky factor of K, K = U^T U: row k at U + k * kMaxDofs, its strict upper part U_ki
+  // (i > k) read; the entries from 4 floor(k / 4) to k hold leftovers of the vector row updates
+  // (U_kk included: the reciprocal diagonal is kept apart) and are never read.
+  double U[kMaxDofs * kMaxDofs];
   JointVector dtheta;
   JointMatrix K_full;
   Eigen::SelfAdjointEigenSolver<JointMatrix> eigen;

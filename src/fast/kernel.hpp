@@ -40,6 +40,10 @@
 namespace isowrench {
 namespace kernel {
 
+// The one-posture statics reads rows of J, S_t J and U four entries at a time up to the next
+// multiple of 4 past m; with m <= kMaxDofs that stays inside each row of kMaxDofs entries.
+static_assert(kMaxDofs % 4 == 0, "rows are read in whole 4-double vectors");
+
 /// The result of a comparison: bool for double, a lane mask (all bits set where true) for V4.
 template <class T>
 struct MaskOf {
@@ -588,14 +592,6 @@ ISOWRENCH_INLINE void Kinematics(const FlatChain& d, W& ws, const T* q, const Fa
   }
 }
 
-/// One row of the statics (entries 0 .. N - 1, N > 0; N = 0: kMaxDofs entries, the first m
-/// used), for the row-by-row Cholesky below. The lanes (T = V4) hold one lane vector per entry;
-/// one posture (T = double) holds four entries per V4, so that a row update is one vector
-/// multiply-add per four entries. Operations act on the entries i >= from (for T = double from
-/// the start of the V4 holding entry `from`: the entries below it in that vector are computed
-/// too and never read). Rows read from memory (J, U) are stored with consecutive entries; for
-/// T = double a row may be read up to the next multiple of 4 past m (the callers' buffers hold
-/// those entries; their values are never used).
 /// How a Row update combines a x_i with entry i: e_i = a x_i, e_i += a x_i or e_i -= a x_i.
 enum class RowUpdate { kSet, kAdd, kSubtract };
 
@@ -610,6 +606,14 @@ ISOWRENCH_INLINE void Combine(V& e, const V& product) {
   }
 }
 
+/// One row of the statics (entries 0 .. N - 1, N > 0; N = 0: kMaxDofs entries, the first m
+/// used), for the row-by-row Cholesky below. The lanes (T = V4) hold one lane vector per entry;
+/// one posture (T = double) holds four entries per V4, so that a row update is one vector
+/// multiply-add per four entries. Operations act on the entries i >= from (for T = double from
+/// the start of the V4 holding entry `from`: the entries below it in that vector are computed
+/// too and never read). Rows read from memory (J, U) are stored with consecutive entries; for
+/// T = double a row may be read up to the next multiple of 4 past m (the callers' buffers hold
+/// those entries; their values are never used).
 template <int N, class T, bool kVectorised = kScalar<T>>
 struct Row {
   static constexpr int kEntries = N > 0 ? N : kMaxDofs;
@@ -676,7 +680,7 @@ ISOWRENCH_INLINE void Cholesky(int m_runtime, const T* J, const T* sJ, int js, c
   for (int j = 0; j < m; ++j) {
     // Lanes: J and U are read from memory again for each row (a compiler barrier): otherwise
     // GCC keeps every entry of J it loaded live across the unrolled rows and spills them all.
-    if constexpr (!kScalar<T>) asm volatile("" ::: "memory");
+    if constexpr (!kScalar<T>) ISOWRENCH_COMPILER_BARRIER();
     Row<N, T> row{};  // (entries below j are never read; {} for GCC's -Wmaybe-uninitialized)
     row.template Update<RowUpdate::kSet>(kScaled ? sJ[j] : s_t[0] * J[j], J, j, m);
     ISOWRENCH_UNROLL
@@ -710,7 +714,7 @@ ISOWRENCH_INLINE void Cholesky(int m_runtime, const T* J, const T* sJ, int js, c
   }
   // The substitutions read U from memory (a compiler barrier): one posture otherwise extracts
   // its entries from the row vectors still in registers, two or three instructions each.
-  if constexpr (kScalar<T>) asm volatile("" ::: "memory");
+  if constexpr (kScalar<T>) ISOWRENCH_COMPILER_BARRIER();
   T y[S];
   SolveWithFactor<N>(m, U, inv_diag, tau, y, x);
   ISOWRENCH_UNROLL

@@ -44,6 +44,17 @@
 #error "isowrench's fast path needs GCC or Clang vector extensions (vector_size)"
 #endif
 
+// The checks for inf and NaN (the solve's inputs, the batch's postures) add 0 * x, which is NaN
+// exactly for inf or NaN x: finite-math optimisation would fold it to 0 and let them through.
+#if defined(__FAST_MATH__) || (defined(__FINITE_MATH_ONLY__) && __FINITE_MATH_ONLY__)
+#error \
+    "isowrench's fast path needs IEEE inf/NaN semantics: build without -ffast-math / -ffinite-math-only"
+#endif
+
+// A compiler barrier: memory may have changed, so values are loaded again after it (used where
+// GCC would otherwise keep loaded values live and spill them, or extract them from registers).
+#define ISOWRENCH_COMPILER_BARRIER() asm volatile("" ::: "memory")
+
 namespace isowrench {
 
 // 4 doubles / 4 64-bit integers (GCC/Clang vector extensions): one AVX register in the
