@@ -571,7 +571,7 @@ ISOWRENCH_INLINE void Kinematics(const FlatChain& d, W& ws, const T* q, const Fa
           col[r * js] = v[r];
           col[(3 + r) * js] = w[r];
         }
-        dL[k] = dl;
+        if constexpr (kScalar<T>) dL[k] = dl;  // reported by Data; the lanes need only tau
         tau[k] = minus_force * dl;
       }
     }

@@ -71,12 +71,46 @@ ISOWRENCH_CLONES unsigned LaneKinematics(const Model& model, LaneWorkspace& work
   // Joint positions (on a coupled chain q_joint = f(q_c), lane by lane, with the derivatives
   // for the kernel's fold), and whether every revolute angle is within the lane sin/cos range.
   VI out_of_range = VI{0, 0, 0, 0};
-  for (int k = 0; k < d.m; ++k) {
-    if (d.coupled && d.identity[k]) {  // a joint that is its own coordinate
+  constexpr std::int64_t kMagnitude = 0x7fffffffffffffff;  // all bits but the sign
+  if (!d.coupled) {  // joint k is coordinate k: four joints of the four postures, transposed
+    const int m = d.m;
+    int k = 0;
+    for (; k + 4 <= m; k += 4) {
+      V a0, a1, a2, a3;  // al = q[l][k .. k + 3]
+      std::memcpy(&a0, q[0] + k, sizeof a0);
+      std::memcpy(&a1, q[1] + k, sizeof a1);
+      std::memcpy(&a2, q[2] + k, sizeof a2);
+      std::memcpy(&a3, q[3] + k, sizeof a3);
+      const V t0 = __builtin_shufflevector(a0, a1, 0, 4, 2, 6);
+      const V t1 = __builtin_shufflevector(a0, a1, 1, 5, 3, 7);
+      const V t2 = __builtin_shufflevector(a2, a3, 0, 4, 2, 6);
+      const V t3 = __builtin_shufflevector(a2, a3, 1, 5, 3, 7);
+      const V j0 = __builtin_shufflevector(t0, t2, 0, 1, 4, 5);
+      const V j1 = __builtin_shufflevector(t1, t3, 0, 1, 4, 5);
+      const V j2 = __builtin_shufflevector(t0, t2, 2, 3, 6, 7);
+      const V j3 = __builtin_shufflevector(t1, t3, 2, 3, 6, 7);
+      ws.q[k] = j0;
+      ws.q[k + 1] = j1;
+      ws.q[k + 2] = j2;
+      ws.q[k + 3] = j3;
+      // Every coordinate, not only the angles: a prismatic one beyond 1e5 (m) only sends its
+      // lane to the scalar path too.
+      out_of_range |= ((V)((VI)j0 & kMagnitude) >= sincos::kMaxReduced) |
+                      ((V)((VI)j1 & kMagnitude) >= sincos::kMaxReduced) |
+                      ((V)((VI)j2 & kMagnitude) >= sincos::kMaxReduced) |
+                      ((V)((VI)j3 & kMagnitude) >= sincos::kMaxReduced);
+    }
+    for (; k < m; ++k) {
+      ws.q[k] = V{q[0][k], q[1][k], q[2][k], q[3][k]};
+      out_of_range |= (V)((VI)ws.q[k] & kMagnitude) >= sincos::kMaxReduced;
+    }
+  }
+  for (int k = 0; d.coupled && k < d.m; ++k) {
+    if (d.identity[k]) {  // a joint that is its own coordinate
       const int c = d.coordinate[k];
       ws.q[k] = V{q[0][c], q[1][c], q[2][c], q[3][c]};
       ws.dq_joint[k] = ISOWRENCH_V4_SPLAT(1.0);
-    } else if (d.coupled) {
+    } else {
       const int c = d.coordinate[k];
       for (int l = 0; l < kLanes; ++l) {
         double q_joint, dq_joint;
@@ -84,8 +118,6 @@ ISOWRENCH_CLONES unsigned LaneKinematics(const Model& model, LaneWorkspace& work
         ws.q[k][l] = q_joint;
         ws.dq_joint[k][l] = dq_joint;
       }
-    } else {
-      ws.q[k] = V{q[0][k], q[1][k], q[2][k], q[3][k]};
     }
     if (d.joints[k].revolute) {
       const V magnitude = (V)((VI)ws.q[k] & 0x7fffffffffffffff);
@@ -124,7 +156,7 @@ ISOWRENCH_CLONES unsigned LaneSolve(const Model& model, LaneWorkspace& workspace
                                     const StiffnessSet* const sets[kLanes],
                                     const SolveOptions& options, WrenchResult* const out[kLanes]) {
   LaneWorkspace::Impl& ws = workspace.impl();
-  const int m = model.dof_count();
+  const int m = ws.m;  // the model's dof count
   // Locked coordinates: the scalar path's SolveLocked decides every lane.
   if (model.impl().flat.any_locked) return (1u << kLanes) - 1;
   V* s_t = ws.s_t;
