@@ -125,19 +125,12 @@ ISOWRENCH_INLINE void MultiplyRotation(T* M, const Eigen::Matrix3d& R0) {
   for (int i = 0; i < 9; ++i) M[i] = P[i];
 }
 
-// World axis z = sign * column K of M, then (turn) M <- M Rot(e_K, q) given c = cos q and
-// s = sign * sin q.
-template <int K, class T>
-ISOWRENCH_INLINE void AxisAndTurn(T* M, double sign, const T& c, const T& s, T* z, bool turn) {
-  if (sign > 0.0) {  // a constant where the caller's sign is one (JointStep: no multiply)
-    z[0] = M[3 * K];
-    z[1] = M[3 * K + 1];
-    z[2] = M[3 * K + 2];
-  } else {
-    z[0] = -M[3 * K];
-    z[1] = -M[3 * K + 1];
-    z[2] = -M[3 * K + 2];
-  }
+// World axis z = +-column K of M (kNegative: the joint's axis is -e_K), then (turn)
+// M <- M Rot(e_K, +-q) given c = cos q and s = +-sin q.
+template <int K, bool kNegative, class T>
+ISOWRENCH_INLINE void AxisAndTurn(T* M, const T& c, const T& s, T* z, bool turn) {
+  ISOWRENCH_UNROLL
+  for (int r = 0; r < 3; ++r) z[r] = kNegative ? -M[3 * K + r] : M[3 * K + r];
   if (!turn) return;
   constexpr int A = 3 * ((K + 1) % 3), B = 3 * ((K + 2) % 3);  // the two columns that turn
   ISOWRENCH_UNROLL
@@ -260,14 +253,14 @@ ISOWRENCH_INLINE void JointStep(const FastJoint& j, T* M, T* o, T* z, const T& q
       GeneralAxisAndTurn(M, j.axis, c, s, z, true);
     } else {
       if constexpr (kNegative) s = -s;
-      AxisAndTurn<kAxis>(M, kNegative ? -1.0 : 1.0, c, s, z, true);
+      AxisAndTurn<kAxis, kNegative>(M, c, s, z, true);
     }
   } else {
     const T one = zero + 1.0;
     if constexpr (kAxis == 3) {
       GeneralAxisAndTurn(M, j.axis, one, zero, z, false);
     } else {
-      AxisAndTurn<kAxis>(M, kNegative ? -1.0 : 1.0, one, zero, z, false);
+      AxisAndTurn<kAxis, kNegative>(M, one, zero, z, false);
     }
     ISOWRENCH_UNROLL
     for (int r = 0; r < 3; ++r) o[r] = o[r] + z[r] * qk;

@@ -1615,48 +1615,6 @@ FitReport FitEvery(const Model& nominal, const std::vector<Trial>& trials,
   return report;
 }
 
-/// Residual statistics accumulated one trial at a time in O(1) memory: ComputeResidualStats's
-/// numbers up to rounding (the sum of squares about the measured mean by Welford's update).
-class StatsAccumulator {
- public:
-  void Add(const Trial& t, const Vector6d& predicted, const FitOptions& options) {
-    ++n_;
-    const Vector6d r = t.wrench - predicted;
-    sum_ += r;
-    const Vector6d d = t.wrench - mean_measured_;
-    mean_measured_ += d / static_cast<double>(n_);
-    for (int c = 0; c < 6; ++c) {
-      ss_res_[c] += r[c] * r[c];
-      ss_tot_[c] += d[c] * (t.wrench[c] - mean_measured_[c]);
-      const double w = ident::Weight(t, c, options) * r[c];
-      ss_norm_[c] += w * w;
-    }
-  }
-  ResidualStats Result(int parameter_count) const {
-    ResidualStats s;
-    s.parameter_count = parameter_count;
-    if (n_ == 0) return s;
-    const double n = static_cast<double>(n_);
-    s.mean = sum_ / n;
-    for (int c = 0; c < 6; ++c) {
-      s.rms[c] = std::sqrt(ss_res_[c] / n);
-      s.normalized[c] = std::sqrt(ss_norm_[c] / n);
-      s.r2[c] = ss_tot_[c] > 0 ? 1.0 - ss_res_[c] / ss_tot_[c] : 0.0;
-      s.chi2 += ss_norm_[c];
-    }
-    s.residual_count = static_cast<int>(std::min<long>(6 * n_, std::numeric_limits<int>::max()));
-    const double dof = 6.0 * n - parameter_count;
-    s.reduced_chi2 = dof > 0 ? s.chi2 / dof : 0.0;
-    return s;
-  }
-  long count() const { return n_; }
-
- private:
-  long n_ = 0;
-  Vector6d sum_ = Vector6d::Zero(), mean_measured_ = Vector6d::Zero();
-  Vector6d ss_res_ = Vector6d::Zero(), ss_tot_ = Vector6d::Zero(), ss_norm_ = Vector6d::Zero();
-};
-
 /// The second pass of a sampled fit: every trial predicted by the nominal and the augmented
 /// model, kChunk trials at a time, into the report's before / after (memory: one chunk).
 class EveryTrialPass {
@@ -1701,13 +1659,7 @@ class EveryTrialPass {
     }
     for (size_t k = 0; k < used_; ++k) {
       before_.Add(chunk_[k], a.wrench[k], options_);
-      after_.Add(chunk_[k], b.wrench[k], options_);
-      double chi2 = 0;
-      for (int c = 0; c < 6; ++c) {
-        chi2 += std::pow(
-            ident::Weight(chunk_[k], c, options_) * (chunk_[k].wrench[c] - b.wrench[k][c]), 2);
-      }
-      if (std::sqrt(chi2 / 6) > options_.outlier_threshold) ++beyond_;
+      if (after_.Add(chunk_[k], b.wrench[k], options_) > options_.outlier_threshold) ++beyond_;
     }
     chunk_.resize(kChunk);
     used_ = 0;
@@ -1718,7 +1670,7 @@ class EveryTrialPass {
   const FitOptions& options_;
   std::vector<Trial> chunk_;
   size_t used_ = 0;
-  StatsAccumulator before_, after_;
+  ident::ResidualAccumulator before_, after_;
   long beyond_ = 0;
   int fixed_parameters_ = 0;
   bool per_trial_ = false;

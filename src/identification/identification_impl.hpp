@@ -34,6 +34,23 @@ double ToUser(const EffectParameter& p, double internal);
 /// Weight (1/sd) of component c of a trial.
 double Weight(const Trial& trial, int c, const FitOptions& options);
 
+/// Residual statistics (ResidualStats, the residual measured - predicted) accumulated one
+/// trial at a time in O(1) memory; ComputeResidualStats over a vector and the streaming second
+/// pass of a sampled fit both use it. The spread of the measured wrench for R^2 is summed about
+/// the running mean (Welford's update).
+class ResidualAccumulator {
+ public:
+  /// Adds one trial; returns its |weighted residual| / sqrt(6) (the fit's outlier measure).
+  double Add(const Trial& trial, const Vector6d& predicted, const FitOptions& options);
+  ResidualStats Result(int parameter_count) const;
+  long count() const { return n_; }
+
+ private:
+  long n_ = 0;
+  Vector6d sum_ = Vector6d::Zero(), mean_measured_ = Vector6d::Zero();
+  Vector6d ss_res_ = Vector6d::Zero(), ss_tot_ = Vector6d::Zero(), ss_norm_ = Vector6d::Zero();
+};
+
 /// Map a trial's joint names onto a model's columns (index per trial entry, -1 = absent).
 std::vector<int> JointMap(const Model& model, const std::vector<std::string>& names);
 

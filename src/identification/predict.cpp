@@ -278,6 +278,42 @@ std::vector<double> MuscleLengths(const Model& model, const std::string& muscle,
   return out;
 }
 
+double ResidualAccumulator::Add(const Trial& trial, const Vector6d& predicted,
+                                const FitOptions& options) {
+  ++n_;
+  const Vector6d r = trial.wrench - predicted;
+  sum_ += r;
+  const Vector6d d = trial.wrench - mean_measured_;
+  mean_measured_ += d / static_cast<double>(n_);
+  double norm2 = 0.0;
+  for (int c = 0; c < 6; ++c) {
+    ss_res_[c] += r[c] * r[c];
+    ss_tot_[c] += d[c] * (trial.wrench[c] - mean_measured_[c]);
+    const double w = Weight(trial, c, options) * r[c];
+    ss_norm_[c] += w * w;
+    norm2 += w * w;
+  }
+  return std::sqrt(norm2 / 6);
+}
+
+ResidualStats ResidualAccumulator::Result(int parameter_count) const {
+  ResidualStats s;
+  s.parameter_count = parameter_count;
+  if (n_ == 0) return s;
+  const double n = static_cast<double>(n_);
+  s.mean = sum_ / n;
+  for (int c = 0; c < 6; ++c) {
+    s.rms[c] = std::sqrt(ss_res_[c] / n);
+    s.normalized[c] = std::sqrt(ss_norm_[c] / n);
+    s.r2[c] = ss_tot_[c] > 0 ? 1.0 - ss_res_[c] / ss_tot_[c] : 0.0;
+    s.chi2 += ss_norm_[c];
+  }
+  s.residual_count = static_cast<int>(std::min<long>(6 * n_, std::numeric_limits<int>::max()));
+  const double dof = 6.0 * n - parameter_count;
+  s.reduced_chi2 = dof > 0 ? s.chi2 / dof : 0.0;
+  return s;
+}
+
 }  // namespace ident
 
 Prediction PredictTrials(const Model& model, const std::vector<Trial>& trials,
@@ -433,36 +469,14 @@ std::vector<Trial> SimulateTrials(const Model& nominal, const AugmentedModel& tr
 ResidualStats ComputeResidualStats(const std::vector<Trial>& trials,
                                    const std::vector<Vector6d>& predicted, int parameter_count,
                                    const FitOptions& options) {
-  ResidualStats s;
-  s.parameter_count = parameter_count;
-  const size_t n = trials.size();
-  if (n == 0 || predicted.size() != n) return s;
-  Vector6d mean_measured = Vector6d::Zero();
-  for (const Trial& t : trials) mean_measured += t.wrench;
-  mean_measured /= static_cast<double>(n);
-  Vector6d ss_res = Vector6d::Zero(), ss_tot = Vector6d::Zero(), ss_norm = Vector6d::Zero();
-  for (size_t k = 0; k < n; ++k) {
-    Vector6d r = trials[k].wrench - predicted[k];
-    s.mean += r;
-    for (int c = 0; c < 6; ++c) {
-      ss_res[c] += r[c] * r[c];
-      double d = trials[k].wrench[c] - mean_measured[c];
-      ss_tot[c] += d * d;
-      double w = ident::Weight(trials[k], c, options) * r[c];
-      ss_norm[c] += w * w;
-    }
+  if (trials.empty() || predicted.size() != trials.size()) {
+    ResidualStats s;
+    s.parameter_count = parameter_count;
+    return s;
   }
-  s.mean /= static_cast<double>(n);
-  for (int c = 0; c < 6; ++c) {
-    s.rms[c] = std::sqrt(ss_res[c] / n);
-    s.normalized[c] = std::sqrt(ss_norm[c] / n);
-    s.r2[c] = ss_tot[c] > 0 ? 1.0 - ss_res[c] / ss_tot[c] : 0.0;
-    s.chi2 += ss_norm[c];
-  }
-  s.residual_count = static_cast<int>(6 * n);
-  int dof = s.residual_count - parameter_count;
-  s.reduced_chi2 = dof > 0 ? s.chi2 / dof : 0.0;
-  return s;
+  ident::ResidualAccumulator accumulator;
+  for (size_t k = 0; k < trials.size(); ++k) accumulator.Add(trials[k], predicted[k], options);
+  return accumulator.Result(parameter_count);
 }
 
 }  // namespace isowrench

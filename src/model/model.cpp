@@ -164,17 +164,17 @@ KDL::Chain BuildKdlChain(const LimbDescription& d) {
 
 namespace {
 
-void SetAxisKind(FastJoint& joint) {
-  const Eigen::Vector3d& a = joint.axis;
+// FastJoint::op of a joint with these fixed transform, axis and type.
+int JointOp(const Eigen::Isometry3d& origin, const Eigen::Vector3d& a, bool revolute) {
+  int op = (revolute ? 1 : 0) | (origin.translation() == Eigen::Vector3d::Zero() ? 0 : 8) |
+           (origin.linear() == Eigen::Matrix3d::Identity() ? 0 : 16);
   for (int k = 0; k < 3; ++k) {
     const int k1 = (k + 1) % 3, k2 = (k + 2) % 3;
     if (a[k1] == 0.0 && a[k2] == 0.0 && std::abs(a[k]) == 1.0) {
-      joint.axis_kind = k;
-      joint.axis_sign = a[k];
-      return;
+      return op | k << 1 | (a[k] < 0 ? 32 : 0);
     }
   }
-  joint.axis_kind = 3;
+  return op | 3 << 1;
 }
 
 // Walk the chain, folding fixed joints into the next movable joint (or the endpoint).
@@ -194,13 +194,9 @@ FlatChain Compile(const LimbDescription& d) {
     FastJoint fj;
     fj.origin_rotation = origin.linear();
     fj.origin_translation = origin.translation();
-    fj.rotation_is_identity = fj.origin_rotation == Eigen::Matrix3d::Identity();
-    fj.translation_is_zero = fj.origin_translation == Eigen::Vector3d::Zero();
     fj.axis = j.axis;
     fj.revolute = j.type == JointType::kRevolute;
-    SetAxisKind(fj);
-    fj.op = (fj.revolute ? 1 : 0) | fj.axis_kind << 1 | (fj.translation_is_zero ? 0 : 8) |
-            (fj.rotation_is_identity ? 0 : 16) | (fj.axis_kind < 3 && fj.axis_sign < 0 ? 32 : 0);
+    fj.op = JointOp(origin, fj.axis, fj.revolute);
     flat.joints.push_back(fj);
     ++frame;
     since_last = Eigen::Isometry3d::Identity();

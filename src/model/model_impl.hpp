@@ -21,16 +21,11 @@ inline constexpr int kFastMaxPathPoints = 64;
 struct FastJoint {
   Eigen::Matrix3d origin_rotation = Eigen::Matrix3d::Identity();
   Eigen::Vector3d origin_translation = Eigen::Vector3d::Zero();
-  bool rotation_is_identity = true;
-  bool translation_is_zero = true;
   Eigen::Vector3d axis = Eigen::Vector3d::UnitZ();  ///< unit, in the joint frame
-  /// 0/1/2: axis = axis_sign * unit x/y/z (specialised rotation); 3: general axis.
-  int axis_kind = 3;
-  double axis_sign = 1.0;
   bool revolute = true;
-  /// The flags above as one code, the case of the kernel's joint step (JointStep):
-  /// revolute | axis_kind << 1 | !translation_is_zero << 3 | !rotation_is_identity << 4 |
-  /// (axis_sign < 0) << 5.
+  /// The joint's kind, the case of the kernel's joint step (JointStep): revolute (1) | axis
+  /// kind << 1 (0/1/2: +-x/y/z, a specialised rotation; 3: a general axis) | a fixed translation
+  /// before it (8) | a fixed rotation before it (16) | a negative coordinate axis (32).
   int op = 0;
 };
 
