@@ -154,9 +154,9 @@ ISOWRENCH_INLINE WrenchResult SolveWith(Data::Impl& ws, const double* J, const d
   return out;
 }
 
-ISOWRENCH_CLONES WrenchResult SolveDispatch(Data::Impl& ws, const double* J, const double* s_t,
-                                            const double* s_p, const double* tau,
-                                            const SolveOptions& options) {
+ISOWRENCH_INLINE WrenchResult SolveAnyM(Data::Impl& ws, const double* J, const double* s_t,
+                                        const double* s_p, const double* tau,
+                                        const SolveOptions& options) {
   switch (ws.m) {
     case 1: return SolveWith<1>(ws, J, s_t, s_p, tau, options);
     case 2: return SolveWith<2>(ws, J, s_t, s_p, tau, options);
@@ -170,6 +170,12 @@ ISOWRENCH_CLONES WrenchResult SolveDispatch(Data::Impl& ws, const double* J, con
     case 10: return SolveWith<10>(ws, J, s_t, s_p, tau, options);
     default: return SolveWith<0>(ws, J, s_t, s_p, tau, options);
   }
+}
+
+ISOWRENCH_CLONES WrenchResult SolveDispatch(Data::Impl& ws, const double* J, const double* s_t,
+                                            const double* s_p, const double* tau,
+                                            const SolveOptions& options) {
+  return SolveAnyM(ws, J, s_t, s_p, tau, options);
 }
 
 }  // namespace
@@ -224,8 +230,14 @@ const JacobianBuffer& Data::jacobian() const { return impl_->Jacobian(); }
 const JointVector& Data::tau() const { return impl_->tau; }
 const JointVector& Data::muscle_length_gradient() const { return impl_->dL; }
 double Data::muscle_length() const { return impl_->length; }
-const Eigen::Vector3d& Data::endpoint_position() const { return impl_->endpoint; }
-const Eigen::Matrix3d& Data::transducer_rotation() const { return impl_->R_W_T; }
+const Eigen::Vector3d& Data::endpoint_position() const {
+  impl_->endpoint = impl_->Endpoint();
+  return impl_->endpoint;
+}
+const Eigen::Matrix3d& Data::transducer_rotation() const {
+  impl_->R_W_T = impl_->TransducerRotation();
+  return impl_->R_W_T;
+}
 const JointVector& Data::dtheta() const { return impl_->dtheta; }
 const JointMatrix& Data::self_motion() const { return impl_->self_motion; }
 // ---- Evaluation -----------------------------------------------------------------------------
@@ -328,20 +340,27 @@ bool ComputeKinematicsWithFrames(const FlatChain& chain, Data::Impl& ws, const d
 WrenchResult SolveStatics(const Model& model, Data& workspace, const StiffnessSet& stiffness,
                           const SolveOptions& options) {
   Data::Impl& ws = workspace.impl();
-  const int m = model.dof_count();
-  assert(ws.m == m);
-  if (stiffness.s_p.size() != m) return Invalid(ws);
   const FlatChain& d = model.impl().flat;
+  assert(ws.m == d.n);
+  if (stiffness.s_p.size() != d.n) return Invalid(ws);
   if (d.any_locked) return SolveLocked(d, ws, stiffness, options);
   return SolveDispatch(ws, ws.Jr, stiffness.s_t.data(), stiffness.s_p.data(), ws.tau.data(),
                        options);
 }
 
-WrenchResult Evaluate(const Model& model, Data& ws, const Eigen::Ref<const Eigen::VectorXd>& q,
-                      int muscle, const StiffnessSet& stiffness, double activation,
-                      const SolveOptions& options) {
-  if (!ComputeKinematics(model, ws, q, muscle, activation)) return Invalid(ws.impl());
-  return SolveStatics(model, ws, stiffness, options);
+// ComputeKinematics and SolveStatics in one function: one call, and the solve's m-dispatch
+// inlined.
+ISOWRENCH_CLONES WrenchResult Evaluate(const Model& model, Data& workspace,
+                                       const Eigen::Ref<const Eigen::VectorXd>& q, int muscle,
+                                       const StiffnessSet& stiffness, double activation,
+                                       const SolveOptions& options) {
+  const FlatChain& d = model.impl().flat;
+  Data::Impl& ws = workspace.impl();
+  assert(q.size() == d.n && ws.m == d.n);
+  if (!AnyKinematics<false>(d, ws, q.data(), muscle, activation, false)) return Invalid(ws);
+  if (stiffness.s_p.size() != d.n) return Invalid(ws);
+  if (d.any_locked) return SolveLocked(d, ws, stiffness, options);
+  return SolveAnyM(ws, ws.Jr, stiffness.s_t.data(), stiffness.s_p.data(), ws.tau.data(), options);
 }
 
 WrenchResult SolveStatics(Data& workspace, const Eigen::Ref<const Matrix6Xd>& J,

@@ -6,6 +6,7 @@
 #include <utility>
 #include <vector>
 
+#include "fast/vec3.hpp"
 #include "isowrench/engine.hpp"
 #include "model/model_impl.hpp"
 
@@ -19,21 +20,37 @@ struct Data::Impl {
   using Scalar = double;
   explicit Impl(int dofs);
   int m = 0;
-  // Kinematics of the last posture: per movable joint its world axis and origin (a point on
-  // the axis); per path point of the muscle its world position and pull dL/dx (a sum of unit
-  // segment directions).
-  std::array<Eigen::Vector3d, kMaxDofs> origin;
-  std::array<Eigen::Vector3d, kMaxDofs> axis;
-  std::array<Eigen::Vector3d, kFastMaxPathPoints> points;
-  std::array<Eigen::Vector3d, kFastMaxPathPoints> pulls;
-  /// World rotation of the frame after each movable joint; written only by the kernel with
-  /// frames (the public kinematics functions), not by the evaluation path.
-  std::array<Eigen::Matrix3d, kMaxDofs> frames;
+  // Kinematics of the last posture (Vec3: x, y, z in one SIMD vector, fast/vec3.hpp): per
+  // movable joint its world axis and origin (a point on the axis); per path point of the
+  // muscle its world position and pull dL/dx (a sum of unit segment directions).
+  std::array<Vec3<double>, kMaxDofs> origin;
+  std::array<Vec3<double>, kMaxDofs> axis;
+  std::array<Vec3<double>, kFastMaxPathPoints> points;
+  std::array<Vec3<double>, kFastMaxPathPoints> pulls;
+  /// World rotation (three columns) of the frame after each movable joint; written only by the
+  /// kernel with frames (the public kinematics functions), not by the evaluation path.
+  std::array<std::array<Vec3<double>, 3>, kMaxDofs> frames;
   /// Coupled chains only: each movable joint's position q_joint = f(q_c) and dq_joint/dq_c.
   double q_joint[kMaxDofs];
   double dq_joint[kMaxDofs];
-  Eigen::Vector3d endpoint = Eigen::Vector3d::Zero();
-  Eigen::Matrix3d R_W_T = Eigen::Matrix3d::Identity();
+  /// The endpoint (pose[0]) and the columns of R_W_T (pose[1 .. 3]), as the kernel stores them.
+  Vec3<double> pose[4] = {};
+  void SetPose(const Vec3<double>& endpoint, const Vec3<double>* R_W_T) {
+    pose[0] = endpoint;
+    for (int c = 0; c < 3; ++c) pose[1 + c] = R_W_T[c];
+  }
+  Eigen::Vector3d Endpoint() const { return ToEigen(pose[0]); }
+  Eigen::Matrix3d TransducerRotation() const { return ToEigen(pose + 1); }
+  Eigen::Matrix3d Frame(int k) const { return ToEigen(frames[k].data()); }
+  /// Data::endpoint_position() and Data::transducer_rotation(): copies made on each call.
+  mutable Eigen::Vector3d endpoint = Eigen::Vector3d::Zero();
+  mutable Eigen::Matrix3d R_W_T = Eigen::Matrix3d::Identity();
+  /// One posture stages the Jacobian columns [v; w] (world axes) and the x, y, z terms of
+  /// dL/dq_c here; kernel::FinishColumns moves them into Jr, dL and tau, four columns at a time
+  /// (columns past the dof count stay 0).
+  Vec3<double> Jv[kMaxDofs] = {};
+  Vec3<double> Jw[kMaxDofs] = {};
+  Vec3<double> Jp[kMaxDofs] = {};
   /// The endpoint Jacobian as the kernel writes it: row-major with a fixed row stride (row r at
   /// Jr + r * kMaxDofs, columns 0 .. columns - 1), the layout the statics reads rows of; the
   /// unused entries stay 0.
@@ -46,8 +63,6 @@ struct Data::Impl {
   static constexpr int JacobianStride() { return kMaxDofs; }
   double* DlData() { return dL.data(); }
   double* TauData() { return tau.data(); }
-  double* EndpointData() { return endpoint.data(); }
-  double* TransducerData() { return R_W_T.data(); }
   void Resize(int n) {
     columns = n;
     dL.resize(n);
@@ -84,7 +99,7 @@ struct Data::Impl {
   /// component df/dq (0 where the coordinate is clamped); the kernel adds each point's frame
   /// rotation in world.
   std::array<Eigen::Vector3d, kFastMaxPathPoints> local;
-  std::array<Eigen::Matrix3d, kFastMaxPathPoints> point_rotation;
+  std::array<std::array<Vec3<double>, 3>, kFastMaxPathPoints> point_rotation;
   std::array<int, kFastMaxPathPoints> active;
   int active_count = 0;
   std::array<double, 3 * kFastMaxPathPoints> moving_slope;

@@ -19,12 +19,15 @@
 // Statics: K = J^T S_t J + S_p, Cholesky K = U^T U, two triangular solves, W = S_t J dtheta
 // (Cholesky).
 //
-// A workspace W provides: `using Scalar = T`; arrays origin, axis (kMaxDofs x 3), points,
-// pulls (kFastMaxPathPoints x 3), q_joint, dq_joint (kMaxDofs) and frames (kMaxDofs x 9,
-// column-major; only for kFrames), reached through Ptr(); T length; JacobianData() (row-major,
-// row r at JacobianData() + r * JacobianStride()), DlData(), TauData(), for T = double also
-// EndpointData() and TransducerData() (3 x 3 column-major R_W_T), and Resize(columns) before J, dL
-// and tau are written.
+// Vectors and frames are Vec3<T> (fast/vec3.hpp): for one posture x, y, z share one SIMD
+// register, for the lanes each component is a lane vector.
+//
+// A workspace W provides: `using Scalar = T`; Vec3<T> arrays origin, axis (kMaxDofs), points,
+// pulls (kFastMaxPathPoints), T arrays q_joint, dq_joint (kMaxDofs), frames (kMaxDofs x 3
+// columns; only for kFrames); T length; JacobianData() (row-major, row r at JacobianData() + r *
+// JacobianStride()), DlData(), TauData(), and Resize(columns) before J, dL and tau are written.
+// For T = double also SetPose(endpoint, R_W_T columns) and the column staging Jv, Jw, Jp
+// (kMaxDofs rounded up to whole groups of 4; FinishColumns).
 
 #include <Eigen/Core>
 #include <algorithm>
@@ -35,6 +38,7 @@
 
 #include "fast/fast_impl.hpp"
 #include "fast/simd.hpp"
+#include "fast/vec3.hpp"
 #include "model/model_impl.hpp"
 
 namespace isowrench {
@@ -58,12 +62,6 @@ using Mask = typename MaskOf<T>::type;
 
 template <class T>
 inline constexpr bool kScalar = std::is_same_v<T, double>;
-
-// Raw pointers to the 3 (or 9) numbers of a vector (frame) of either workspace.
-ISOWRENCH_INLINE double* Ptr(Eigen::Vector3d& v) { return v.data(); }
-ISOWRENCH_INLINE double* Ptr(Eigen::Matrix3d& m) { return m.data(); }
-ISOWRENCH_INLINE V4* Ptr(V4 (&v)[3]) { return v; }
-ISOWRENCH_INLINE V4* Ptr(V4 (&m)[9]) { return m; }
 
 ISOWRENCH_INLINE void Sqrt(double x, double& out) { out = std::sqrt(x); }
 ISOWRENCH_INLINE void Sqrt(const V4& x, V4& out) {
@@ -111,79 +109,45 @@ ISOWRENCH_INLINE void SinCos(const V4& x, V4& sin_x, V4& cos_x) {
   cos_x = (V4)((V4i)c ^ sign_cos);
 }
 
-// M <- M R0 for a 3 x 3 column-major frame M and a constant rotation R0.
-template <class T>
-ISOWRENCH_INLINE void MultiplyRotation(T* M, const Eigen::Matrix3d& R0) {
-  T P[9];
-  ISOWRENCH_UNROLL
-  for (int c = 0; c < 3; ++c) {
-    ISOWRENCH_UNROLL
-    for (int r = 0; r < 3; ++r)
-      P[3 * c + r] = M[r] * R0(0, c) + M[3 + r] * R0(1, c) + M[6 + r] * R0(2, c);
-  }
-  ISOWRENCH_UNROLL
-  for (int i = 0; i < 9; ++i) M[i] = P[i];
-}
-
-// World axis z = +-column K of M (kNegative: the joint's axis is -e_K), then (turn)
-// M <- M Rot(e_K, +-q) given c = cos q and s = +-sin q.
+// The joint's turn M <- M Rot(e_K, q) about coordinate axis K of its frame, given c = cos q and
+// s = sin q (kNegative: the axis is -e_K, so the turn is by -q): the two other columns turn.
 template <int K, bool kNegative, class T>
-ISOWRENCH_INLINE void AxisAndTurn(T* M, const T& c, const T& s, T* z, bool turn) {
-  ISOWRENCH_UNROLL
-  for (int r = 0; r < 3; ++r) z[r] = kNegative ? -M[3 * K + r] : M[3 * K + r];
-  if (!turn) return;
-  constexpr int A = 3 * ((K + 1) % 3), B = 3 * ((K + 2) % 3);  // the two columns that turn
-  ISOWRENCH_UNROLL
-  for (int r = 0; r < 3; ++r) {
-    const T a = M[A + r], b = M[B + r];
-    M[A + r] = c * a + s * b;
-    M[B + r] = c * b - s * a;
+ISOWRENCH_INLINE void Turn(Vec3<T>* M, const T& c, const T& s) {
+  constexpr int A = (K + 1) % 3, B = (K + 2) % 3;
+  const Vec3<T> a = M[A], b = M[B];
+  if constexpr (kNegative) {
+    M[A] = a * c - b * s;
+    M[B] = b * c + a * s;
+  } else {
+    M[A] = a * c + b * s;
+    M[B] = b * c - a * s;
   }
 }
 
-// The same for a general unit axis a (Rodrigues: Rot = c I + s [a]x + (1 - c) a a^T, with s
-// the plain sine here), out of the hot path: no shipped chain has one.
+// The same for a general unit axis a (Rodrigues: Rot = c I + s [a]x + (1 - c) a a^T, column j
+// of M Rot = c M_j + s M (a x e_j) + (1 - c) a_j M a), out of the hot path: no shipped chain
+// has one.
 template <class T>
-ISOWRENCH_NOINLINE void GeneralAxisAndTurnOutOfLine(T* M, const Eigen::Vector3d& a, const T& c,
-                                                    const T& s, T* z, bool turn) {
-  ISOWRENCH_UNROLL
-  for (int r = 0; r < 3; ++r) z[r] = M[r] * a[0] + M[3 + r] * a[1] + M[6 + r] * a[2];
-  if (!turn) return;
-  const T t = 1.0 - c;
-  T rot[9];  // column-major
-  for (int col = 0; col < 3; ++col) {
-    ISOWRENCH_UNROLL
-    for (int r = 0; r < 3; ++r) rot[3 * col + r] = t * (a[r] * a[col]);
-    rot[4 * col] += c;
+ISOWRENCH_NOINLINE void GeneralTurnOutOfLine(Vec3<T>* M, const Eigen::Vector3d& a, const T& c,
+                                             const T& s) {
+  const Vec3<T> z = Transform(M, a.data());
+  const T one_minus_c = 1.0 - c;
+  Vec3<T> out[3];
+  for (int j = 0; j < 3; ++j) {
+    const Eigen::Vector3d a_cross_e = a.cross(Eigen::Vector3d::Unit(j));
+    out[j] = M[j] * c + Transform(M, a_cross_e.data()) * s + z * (one_minus_c * a[j]);
   }
-  rot[5] += s * a[0];  // (2, 1)
-  rot[7] -= s * a[0];  // (1, 2)
-  rot[6] += s * a[1];  // (0, 2)
-  rot[2] -= s * a[1];  // (2, 0)
-  rot[1] += s * a[2];  // (1, 0)
-  rot[3] -= s * a[2];  // (0, 1)
-  T out[9];
-  for (int col = 0; col < 3; ++col) {
-    ISOWRENCH_UNROLL
-    for (int r = 0; r < 3; ++r)
-      out[3 * col + r] =
-          M[r] * rot[3 * col] + M[3 + r] * rot[3 * col + 1] + M[6 + r] * rot[3 * col + 2];
-  }
-  ISOWRENCH_UNROLL
-  for (int i = 0; i < 9; ++i) M[i] = out[i];
+  for (int j = 0; j < 3; ++j) M[j] = out[j];
 }
 // M, c and s go through copies so that the caller's frame and angle never have their address
 // taken and stay in registers.
 template <class T>
-ISOWRENCH_INLINE void GeneralAxisAndTurn(T* M, const Eigen::Vector3d& a, const T& c, const T& s,
-                                         T* z, bool turn) {
-  T copy[9];
-  ISOWRENCH_UNROLL
-  for (int i = 0; i < 9; ++i) copy[i] = M[i];
+ISOWRENCH_INLINE void GeneralTurn(Vec3<T>* M, const Eigen::Vector3d& a, const T& c, const T& s) {
+  Vec3<T> copy[3] = {M[0], M[1], M[2]};
   const T cs[2] = {c, s};
-  GeneralAxisAndTurnOutOfLine(copy, a, cs[0], cs[1], z, turn);
+  GeneralTurnOutOfLine(copy, a, cs[0], cs[1]);
   ISOWRENCH_UNROLL
-  for (int i = 0; i < 9; ++i) M[i] = copy[i];
+  for (int j = 0; j < 3; ++j) M[j] = copy[j];
 }
 
 // One posture: sin and cos of every joint position q[k] (k < d.m; meaningful for the revolute
@@ -192,12 +156,15 @@ ISOWRENCH_INLINE void GeneralAxisAndTurn(T* M, const Eigen::Vector3d& a, const T
 ISOWRENCH_INLINE void JointSinCos(const FlatChain& d, const double* q, double* sin_q,
                                   double* cos_q) {
   const int m = d.m;
-  double padded[kMaxDofs + 4];
-  std::memcpy(padded, q, sizeof(double) * static_cast<size_t>(m));
-  for (int k = m; k < m + 3; ++k) padded[k] = 0.0;
   for (int k0 = 0; k0 < m; k0 += 4) {
     V4 x, s, c;
-    std::memcpy(&x, padded + k0, sizeof x);
+    if (k0 + 4 <= m) {
+      std::memcpy(&x, q + k0, sizeof x);
+    } else {  // the last 1 to 3 joints, padded with zeros
+      double tail[4] = {0.0, 0.0, 0.0, 0.0};
+      for (int k = k0; k < m; ++k) tail[k - k0] = q[k];
+      std::memcpy(&x, tail, sizeof x);
+    }
     const V4 magnitude = (V4)((V4i)x & 0x7fffffffffffffff);
     const V4i reduced = magnitude < sincos::kMaxReduced;
     SinCos<false>(x, s, c);
@@ -224,23 +191,24 @@ ISOWRENCH_INLINE void CoupleJoint(const FlatChain& d, int k, double x, double& q
 }
 
 /// One movable joint of the forward kinematics, compiled for its kind OP (FastJoint::op, 64
-/// kinds):
-/// the frame (M, o) moves to the joint (fixed transform), z = its world axis, and the joint
-/// turns M (revolute) or moves o along z (prismatic). One posture reads sin q and cos q from
-/// sc[0] and sc[kMaxDofs + 4] (JointSinCos); the lanes compute them.
+/// kinds): the frame (M, o) moves to the joint (fixed transform), z = its world axis, and the
+/// joint turns M (revolute) or moves o along z (prismatic). One posture reads sin q and cos q
+/// from sc[0] and sc[kMaxDofs + 4] (JointSinCos); the lanes compute them.
 template <int OP, class T>
-ISOWRENCH_INLINE void JointStep(const FastJoint& j, T* M, T* o, T* z, const T& qk,
+ISOWRENCH_INLINE void JointStep(const FastJoint& j, Vec3<T>* M, Vec3<T>& o, Vec3<T>& z, const T& qk,
                                 const double* sc) {
   constexpr bool kRevolute = (OP & 1) != 0;
   constexpr int kAxis = (OP >> 1) & 3;        // 0/1/2: x/y/z, 3: general
   constexpr bool kNegative = (OP & 32) != 0;  // -x/-y/-z
-  if constexpr ((OP & 8) != 0) {              // joint origin o + M p0
-    const double* t = j.origin_translation.data();
-    ISOWRENCH_UNROLL
-    for (int r = 0; r < 3; ++r) o[r] = o[r] + (M[r] * t[0] + M[3 + r] * t[1] + M[6 + r] * t[2]);
-  }
+  if constexpr ((OP & 8) != 0) o = o + Transform(M, j.origin_translation.data());
   if constexpr ((OP & 16) != 0) MultiplyRotation(M, j.origin_rotation);
-  const T zero = T{};
+  if constexpr (kAxis == 3) {
+    z = Transform(M, j.axis.data());
+  } else if constexpr (kNegative) {
+    z = -M[kAxis];
+  } else {
+    z = M[kAxis];
+  }
   if constexpr (kRevolute) {
     T s, c;
     if constexpr (kScalar<T>) {
@@ -250,20 +218,57 @@ ISOWRENCH_INLINE void JointStep(const FastJoint& j, T* M, T* o, T* z, const T& q
       SinCos(qk, s, c);
     }
     if constexpr (kAxis == 3) {
-      GeneralAxisAndTurn(M, j.axis, c, s, z, true);
+      GeneralTurn(M, j.axis, c, s);
     } else {
-      if constexpr (kNegative) s = -s;
-      AxisAndTurn<kAxis, kNegative>(M, c, s, z, true);
+      Turn<kAxis, kNegative>(M, c, s);
     }
   } else {
-    const T one = zero + 1.0;
-    if constexpr (kAxis == 3) {
-      GeneralAxisAndTurn(M, j.axis, one, zero, z, false);
-    } else {
-      AxisAndTurn<kAxis, kNegative>(M, one, zero, z, false);
+    o = o + z * qk;
+  }
+}
+
+/// One posture: the columns the backward sweep staged (ws.Jv, ws.Jw: the columns' v and w in
+/// world axes, ws.Jp: x, y and z terms of dL/dq) moved into J (row-major, turned into
+/// transducer axes when `rotate`), dL/dq and tau, four columns per step: a 4 x 4 transpose of
+/// the staged vectors gives four entries of a row at once.
+ISOWRENCH_INLINE void FinishColumns(Data::Impl& ws, int n, const V4* Rt, bool rotate,
+                                    double minus_force) {
+  // Rows x, y, z (lanes: columns c0 .. c0 + 3) of four staged vectors.
+  auto rows = [](const V4* s, V4* out) ISOWRENCH_LAMBDA_INLINE {
+    const V4 t0 = __builtin_shufflevector(s[0], s[1], 0, 4, 2, 6);
+    const V4 t1 = __builtin_shufflevector(s[0], s[1], 1, 5, 3, 7);
+    const V4 t2 = __builtin_shufflevector(s[2], s[3], 0, 4, 2, 6);
+    const V4 t3 = __builtin_shufflevector(s[2], s[3], 1, 5, 3, 7);
+    out[0] = __builtin_shufflevector(t0, t2, 0, 1, 4, 5);
+    out[1] = __builtin_shufflevector(t1, t3, 0, 1, 4, 5);
+    out[2] = __builtin_shufflevector(t0, t2, 2, 3, 6, 7);
+  };
+  constexpr int S = kMaxDofs;
+  double* J = ws.Jr;
+  double* dL = ws.dL.data();
+  double* tau = ws.tau.data();
+  for (int c0 = 0; c0 < n; c0 += 4) {
+    V4 r[6], p[3];
+    rows(ws.Jv + c0, r);
+    rows(ws.Jw + c0, r + 3);
+    rows(ws.Jp + c0, p);
+    if (rotate) {  // rows of R_W_T^T [v; w]: row i = sum_k R_ki (row k)
+      V4 t[6];
+      ISOWRENCH_UNROLL
+      for (int i = 0; i < 3; ++i) {
+        const V4& R_i = Rt[i];  // column i of R_W_T
+        t[i] = (r[0] * R_i[0] + r[1] * R_i[1]) + r[2] * R_i[2];
+        t[3 + i] = (r[3] * R_i[0] + r[4] * R_i[1]) + r[5] * R_i[2];
+      }
+      ISOWRENCH_UNROLL
+      for (int i = 0; i < 6; ++i) r[i] = t[i];
     }
     ISOWRENCH_UNROLL
-    for (int r = 0; r < 3; ++r) o[r] = o[r] + z[r] * qk;
+    for (int i = 0; i < 6; ++i) std::memcpy(J + i * S + c0, &r[i], sizeof(V4));
+    const V4 dl = (p[0] + p[1]) + p[2];
+    const V4 t = dl * minus_force;
+    std::memcpy(dL + c0, &dl, sizeof dl);
+    std::memcpy(tau + c0, &t, sizeof t);
   }
 }
 
@@ -280,6 +285,7 @@ template <bool kFrames, bool kDynamic, class W, class T = typename W::Scalar>
 ISOWRENCH_INLINE void Kinematics(const FlatChain& d, W& ws, const T* q, const FastMuscle& mu,
                                  double minus_force, bool rotate, Mask<T>& coincident) {
   static_assert(kScalar<T> || (!kFrames && !kDynamic), "frames and moving points: scalar only");
+  using V3 = Vec3<T>;
   const int m = d.m;
   const FastJoint* joints = d.joints.data();
   const int n = static_cast<int>(mu.points.size());
@@ -289,36 +295,32 @@ ISOWRENCH_INLINE void Kinematics(const FlatChain& d, W& ws, const T* q, const Fa
   // kinematics functions' "no muscle" has no sweep_end: every frame has no point.
   const int* sweep_end = mu.sweep_end.empty() ? kNoSweepPoints : mu.sweep_end.data();
   const T zero = T{};
-  const T one = T{} + 1.0;
 
   // Path points on ground are fixed in world; the others are placed as soon as their frame is
   // known, so that no frame is stored.
   for (int i = 0; i < n; ++i) {
     if (pts[i].frame >= 0) continue;
-    T* x = Ptr(ws.points[i]);
     if constexpr (kDynamic) {
-      ws.point_rotation[i].setIdentity();
-      ISOWRENCH_UNROLL
-      for (int c = 0; c < 3; ++c) x[c] = ws.local[i][c];
+      ws.point_rotation[i][0] = Unit3<T>(0);
+      ws.point_rotation[i][1] = Unit3<T>(1);
+      ws.point_rotation[i][2] = Unit3<T>(2);
+      ws.points[i] = Constant3<T>(ws.local[i].data());
     } else {
-      ISOWRENCH_UNROLL
-      for (int c = 0; c < 3; ++c) x[c] = zero + pts[i].position[c];
+      ws.points[i] = Constant3<T>(pts[i].position.data());
     }
   }
 
-  // The current frame lives in locals (registers): rotation M column-major (M[3 c + r]) and
-  // origin o; it starts as the world frame.
+  // The current frame lives in locals (registers): rotation M (three columns) and origin o; it
+  // starts as the world frame.
   // One posture: sin q_k at sin_q[k], cos q_k at sin_q[kMaxDofs + 4 + k] (+ 4: JointSinCos
   // writes whole vectors).
   double sin_q[2 * (kMaxDofs + 4)];
   if constexpr (kScalar<T>) JointSinCos(d, q, sin_q, sin_q + kMaxDofs + 4);
-  T M[9];
-  ISOWRENCH_UNROLL
-  for (int i = 0; i < 9; ++i) M[i] = i % 4 == 0 ? one : zero;
-  T o[3] = {zero, zero, zero};
+  V3 M[3] = {Unit3<T>(0), Unit3<T>(1), Unit3<T>(2)};
+  V3 o = Zero3<T>();
   for (int k = 0; k < m; ++k) {
     const FastJoint& j = joints[k];
-    T* z = Ptr(ws.axis[k]);
+    V3& z = ws.axis[k];
     const T qk = q[k];
     const double* sc = sin_q + k;  // one posture: sin q_k, and cos q_k at sc[kMaxDofs + 4]
     switch (j.op) {  // one jump per joint to the step compiled for its kind (JointStep)
@@ -388,59 +390,39 @@ ISOWRENCH_INLINE void Kinematics(const FlatChain& d, W& ws, const T* q, const Fa
       case 63: JointStep<63>(j, M, o, z, qk, sc); break;
       default: __builtin_unreachable();
     }
-    T* ok = Ptr(ws.origin[k]);
-    ISOWRENCH_UNROLL
-    for (int r = 0; r < 3; ++r) ok[r] = o[r];
+    ws.origin[k] = o;
     if constexpr (kFrames) {
-      T* frame = Ptr(ws.frames[k]);
       ISOWRENCH_UNROLL
-      for (int i = 0; i < 9; ++i) frame[i] = M[i];
+      for (int c = 0; c < 3; ++c) ws.frames[k][c] = M[c];
     }
     for (int slot = sweep_end[k + 1]; slot < sweep_end[k]; ++slot) {  // x = M a + o
       const int i = order[slot];
-      T* x = Ptr(ws.points[i]);
       if constexpr (kDynamic) {
-        std::memcpy(ws.point_rotation[i].data(), M, sizeof M);
-        const double* a = ws.local[i].data();
         ISOWRENCH_UNROLL
-        for (int r = 0; r < 3; ++r) x[r] = (M[r] * a[0] + M[3 + r] * a[1] + M[6 + r] * a[2]) + o[r];
+        for (int c = 0; c < 3; ++c) ws.point_rotation[i][c] = M[c];
+        ws.points[i] = Transform(M, ws.local[i].data()) + o;
       } else {
-        const double* a = pts[i].position.data();
-        ISOWRENCH_UNROLL
-        for (int r = 0; r < 3; ++r) x[r] = (M[r] * a[0] + M[3 + r] * a[1] + M[6 + r] * a[2]) + o[r];
+        ws.points[i] = Transform(M, pts[i].position.data()) + o;
       }
     }
   }
-  // Endpoint and R_W_T (column-major) in locals: the stores below cannot alias them.
-  T pe[3];
-  {
-    const double* e = d.endpoint.data();
-    ISOWRENCH_UNROLL
-    for (int r = 0; r < 3; ++r) pe[r] = (M[r] * e[0] + M[3 + r] * e[1] + M[6 + r] * e[2]) + o[r];
-  }
-  T Rt[9];  // the lanes need it only to turn J (their workspace keeps no endpoint or R_W_T)
+  // Endpoint and R_W_T in locals: the stores below cannot alias them.
+  const V3 pe = Transform(M, d.endpoint.data()) + o;
+  V3 Rt[3];  // the lanes need it only to turn J (their workspace keeps no endpoint or R_W_T)
   if (!kScalar<T> && !rotate) {
-    ISOWRENCH_UNROLL
-    for (int i = 0; i < 9; ++i) Rt[i] = zero;
+    Rt[0] = Rt[1] = Rt[2] = Zero3<T>();
   } else if (d.transducer_identity) {
     ISOWRENCH_UNROLL
-    for (int i = 0; i < 9; ++i) Rt[i] = i % 4 == 0 ? one : zero;
+    for (int c = 0; c < 3; ++c) Rt[c] = Unit3<T>(c);
   } else if (d.transducer_in_world) {
     ISOWRENCH_UNROLL
-    for (int i = 0; i < 9; ++i) Rt[i] = zero + d.transducer_rotation.data()[i];
+    for (int c = 0; c < 3; ++c) Rt[c] = Constant3<T>(d.transducer_rotation.data() + 3 * c);
   } else {
     ISOWRENCH_UNROLL
-    for (int i = 0; i < 9; ++i) Rt[i] = M[i];
+    for (int c = 0; c < 3; ++c) Rt[c] = M[c];
     MultiplyRotation(Rt, d.transducer_rotation);
   }
-  if constexpr (kScalar<T>) {
-    T* out = ws.EndpointData();
-    ISOWRENCH_UNROLL
-    for (int r = 0; r < 3; ++r) out[r] = pe[r];
-    out = ws.TransducerData();
-    ISOWRENCH_UNROLL
-    for (int i = 0; i < 9; ++i) out[i] = Rt[i];
-  }
+  if constexpr (kScalar<T>) ws.SetPose(pe, Rt);
   ws.Resize(d.n);
 
   // Muscle: unit segment directions and pulls (over the active points only for a muscle with
@@ -452,45 +434,45 @@ ISOWRENCH_INLINE void Kinematics(const FlatChain& d, W& ws, const T* q, const Fa
     coincident = !ActivePathPulls(ws, &length);
     total_length = length;
   } else {
-    T before[3] = {zero, zero, zero};  // u_{i-1}; zero before the origin
+    V3 before = Zero3<T>();  // u_{i-1}; zero before the origin
     for (int i = 1; i < n; ++i) {
-      const T* a = Ptr(ws.points[i - 1]);
-      const T* b = Ptr(ws.points[i]);
-      const T s0 = b[0] - a[0], s1 = b[1] - a[1], s2 = b[2] - a[2];
-      T length;
-      Sqrt(s0 * s0 + s1 * s1 + s2 * s2, length);
+      const V3 s = ws.points[i] - ws.points[i - 1];
+      T length_squared, length;
+      Dot(s, s, length_squared);
+      Sqrt(length_squared, length);
       coincident |= (length >= kFastMinSegmentLength) == 0;
       const T inv = 1.0 / length;
-      const T u[3] = {s0 * inv, s1 * inv, s2 * inv};
+      const V3 u = s * inv;
       total_length += length;
-      T* g = Ptr(ws.pulls[i - 1]);
-      ISOWRENCH_UNROLL
-      for (int c = 0; c < 3; ++c) {
-        g[c] = before[c] - u[c];
-        before[c] = u[c];
-      }
+      ws.pulls[i - 1] = before - u;
+      before = u;
     }
-    if (n > 0) {
-      T* g = Ptr(ws.pulls[n - 1]);
-      ISOWRENCH_UNROLL
-      for (int c = 0; c < 3; ++c) g[c] = before[c];
-    }
+    if (n > 0) ws.pulls[n - 1] = before;
   }
   ws.length = total_length;
 
-  // Backward sweep over the joints: the Jacobian column and dL/dtheta_k of each joint.
-  T ps[3] = {zero, zero, zero};  // sum of pulls distal to joint k
-  T ms[3] = {zero, zero, zero};  // sum of their moments about the world origin
-  T* J = ws.JacobianData();      // row-major: row r at J + r * js
+  // Backward sweep over the joints: the Jacobian column and dL/dtheta_k of each joint. One
+  // posture stages each column in world axes (ws.Jv, Jw, and Jp: the terms of the dot product
+  // dL/dq) and FinishColumns moves them into J, dL and tau four columns at a time; the lanes
+  // write them directly.
+  V3 ps = Zero3<T>();        // sum of pulls distal to joint k
+  V3 ms = Zero3<T>();        // sum of their moments about the world origin
+  T* J = ws.JacobianData();  // lanes: row-major, row r at J + r * js
   const int js = ws.JacobianStride();
   T* dL = ws.DlData();
   T* tau = ws.TauData();
   if (d.coupled) {  // columns accumulate their joints' contributions; those of none are 0
     for (const int c : d.undriven_columns) {
-      dL[c] = zero;
-      for (int r = 0; r < 6; ++r) J[r * js + c] = zero;
+      if constexpr (kScalar<T>) {
+        ws.Jv[c] = ws.Jw[c] = ws.Jp[c] = Zero3<T>();
+      } else {
+        dL[c] = zero;
+        for (int r = 0; r < 6; ++r) J[r * js + c] = zero;
+      }
     }
   }
+  V3 RtT[3];  // the lanes turn each column: R_W_T^T v = RtT v
+  Transpose(Rt, RtT);
   // The sweep compiled once for each combination of the two choices that are the same for every
   // joint: J turned into transducer axes, and coupled columns.
   auto sweep = [&](auto rotate_tag, auto coupled_tag) ISOWRENCH_LAMBDA_INLINE {
@@ -499,73 +481,75 @@ ISOWRENCH_INLINE void Kinematics(const FlatChain& d, W& ws, const T* q, const Fa
     for (int k = m - 1; k >= 0; --k) {
       for (int slot = sweep_end[k + 1]; slot < sweep_end[k]; ++slot) {
         const int i = order[slot];
-        const T* x = Ptr(ws.points[i]);
-        const T* g = Ptr(ws.pulls[i]);
-        ISOWRENCH_UNROLL
-        for (int c = 0; c < 3; ++c) ps[c] += g[c];
-        ms[0] += x[1] * g[2] - x[2] * g[1];
-        ms[1] += x[2] * g[0] - x[0] * g[2];
-        ms[2] += x[0] * g[1] - x[1] * g[0];
+        const V3& g = ws.pulls[i];
+        ps += g;
+        ms += Cross(ws.points[i], g);
       }
-      const T* z = Ptr(ws.axis[k]);
-      T v[3], w[3];
-      T dl;
+      const V3 z = ws.axis[k];
+      V3 v, w, b;  // column [v; w]; dL/dtheta_k = z . b
       if (joints[k].revolute) {
-        const T* ok = Ptr(ws.origin[k]);
-        const T d0 = pe[0] - ok[0], d1 = pe[1] - ok[1], d2 = pe[2] - ok[2];
-        v[0] = z[1] * d2 - z[2] * d1;
-        v[1] = z[2] * d0 - z[0] * d2;
-        v[2] = z[0] * d1 - z[1] * d0;
-        ISOWRENCH_UNROLL
-        for (int r = 0; r < 3; ++r) w[r] = z[r];
-        const T w0 = ms[0] - (ok[1] * ps[2] - ok[2] * ps[1]);
-        const T w1 = ms[1] - (ok[2] * ps[0] - ok[0] * ps[2]);
-        const T w2 = ms[2] - (ok[0] * ps[1] - ok[1] * ps[0]);
-        dl = z[0] * w0 + z[1] * w1 + z[2] * w2;
+        const V3 ok = ws.origin[k];
+        v = Cross(z, pe - ok);
+        w = z;
+        b = ms - Cross(ok, ps);
       } else {
-        ISOWRENCH_UNROLL
-        for (int r = 0; r < 3; ++r) {
-          v[r] = z[r];
-          w[r] = zero;
-        }
-        dl = z[0] * ps[0] + z[1] * ps[1] + z[2] * ps[2];
+        v = z;
+        w = Zero3<T>();
+        b = ps;
       }
-      if constexpr (kRotate) {  // R_W_T^T v, R_W_T^T w
-        const T v0 = v[0], v1 = v[1], v2 = v[2], w0 = w[0], w1 = w[1], w2 = w[2];
-        ISOWRENCH_UNROLL
-        for (int r = 0; r < 3; ++r) {
-          v[r] = Rt[3 * r] * v0 + Rt[3 * r + 1] * v1 + Rt[3 * r + 2] * v2;
-          w[r] = Rt[3 * r] * w0 + Rt[3 * r + 1] * w1 + Rt[3 * r + 2] * w2;
-        }
-      }
-      if constexpr (kCoupled) {  // J[:, c] += J_joint[:, k] dq_joint_k/dq_c, the same for dL/dq
-        const int c = d.coordinate[k];
-        const T f = ws.dq_joint[k];
-        T* col = J + c;
-        if (d.first_in_column[k]) {
-          ISOWRENCH_UNROLL
-          for (int r = 0; r < 3; ++r) {
-            col[r * js] = f * v[r];
-            col[(3 + r) * js] = f * w[r];
+      if constexpr (kScalar<T>) {  // staged in world axes; FinishColumns turns them
+        if constexpr (kCoupled) {  // column c += the joint's column dq_joint_k/dq_c
+          const int c = d.coordinate[k];
+          const double f = ws.dq_joint[k];
+          if (d.first_in_column[k]) {
+            ws.Jv[c] = v * f;
+            ws.Jw[c] = w * f;
+            ws.Jp[c] = Hadamard(z, b) * f;
+          } else {
+            ws.Jv[c] += v * f;
+            ws.Jw[c] += w * f;
+            ws.Jp[c] += Hadamard(z, b) * f;
           }
-          dL[c] = f * dl;
         } else {
-          ISOWRENCH_UNROLL
-          for (int r = 0; r < 3; ++r) {
-            col[r * js] += f * v[r];
-            col[(3 + r) * js] += f * w[r];
-          }
-          dL[c] += f * dl;
+          ws.Jv[k] = v;
+          ws.Jw[k] = w;
+          ws.Jp[k] = Hadamard(z, b);
         }
       } else {
-        T* col = J + k;
-        ISOWRENCH_UNROLL
-        for (int r = 0; r < 3; ++r) {
-          col[r * js] = v[r];
-          col[(3 + r) * js] = w[r];
+        if constexpr (kRotate) {
+          v = Rotate(RtT, v);
+          w = Rotate(RtT, w);
         }
-        if constexpr (kScalar<T>) dL[k] = dl;  // reported by Data; the lanes need only tau
-        tau[k] = minus_force * dl;
+        T dl;
+        Dot(z, b, dl);
+        if constexpr (kCoupled) {  // J[:, c] += J_joint[:, k] dq_joint_k/dq_c, the same for dL
+          const int c = d.coordinate[k];
+          const T f = ws.dq_joint[k];
+          T* col = J + c;
+          if (d.first_in_column[k]) {
+            ISOWRENCH_UNROLL
+            for (int r = 0; r < 3; ++r) {
+              col[r * js] = f * Component(v, r);
+              col[(3 + r) * js] = f * Component(w, r);
+            }
+            dL[c] = f * dl;
+          } else {
+            ISOWRENCH_UNROLL
+            for (int r = 0; r < 3; ++r) {
+              col[r * js] += f * Component(v, r);
+              col[(3 + r) * js] += f * Component(w, r);
+            }
+            dL[c] += f * dl;
+          }
+        } else {
+          T* col = J + k;
+          ISOWRENCH_UNROLL
+          for (int r = 0; r < 3; ++r) {
+            col[r * js] = Component(v, r);
+            col[(3 + r) * js] = Component(w, r);
+          }
+          tau[k] = minus_force * dl;
+        }
       }
     }
   };
@@ -580,7 +564,9 @@ ISOWRENCH_INLINE void Kinematics(const FlatChain& d, W& ws, const T* q, const Fa
   } else {
     sweep(std::false_type{}, std::false_type{});
   }
-  if (d.coupled) {
+  if constexpr (kScalar<T>) {
+    FinishColumns(ws, d.n, Rt, rotate, minus_force);
+  } else if (d.coupled) {
     for (int c = 0; c < d.n; ++c) tau[c] = minus_force * dL[c];
   }
 }

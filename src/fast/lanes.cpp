@@ -36,10 +36,10 @@ struct LaneWorkspace::Impl {
   V q[kMaxDofs];  // joint positions
   V q_joint[kMaxDofs];
   V dq_joint[kMaxDofs];
-  V origin[kMaxDofs][3];
-  V axis[kMaxDofs][3];
-  V points[kFastMaxPathPoints][3];
-  V pulls[kFastMaxPathPoints][3];
+  Vec3<V> origin[kMaxDofs];
+  Vec3<V> axis[kMaxDofs];
+  Vec3<V> points[kFastMaxPathPoints];
+  Vec3<V> pulls[kFastMaxPathPoints];
   V J[6][kMaxDofs];  // row-major: column k is [v; w] in transducer axes
   V dL[kMaxDofs];
   V tau[kMaxDofs];

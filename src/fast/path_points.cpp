@@ -31,7 +31,7 @@ void PreparePathPoints(const FastMuscle& muscle, const double* q, Data::Impl& ws
         (q[p.active_column] >= p.active_lower && q[p.active_column] <= p.active_upper)) {
       ws.active[ws.active_count++] = i;
     } else {
-      ws.pulls[i].setZero();
+      ws.pulls[i] = Zero3<double>();
     }
   }
 }
@@ -40,7 +40,7 @@ bool ActivePathPulls(Data::Impl& ws, double* length) {
   double total = 0.0;
   Eigen::Vector3d before = Eigen::Vector3d::Zero();  // u of the previous segment
   for (int j = 1; j < ws.active_count; ++j) {
-    const Eigen::Vector3d segment = ws.points[ws.active[j]] - ws.points[ws.active[j - 1]];
+    const Eigen::Vector3d segment = ToEigen(ws.points[ws.active[j]] - ws.points[ws.active[j - 1]]);
     const double l = segment.norm();
     if (!(l >= kFastMinSegmentLength)) {
       *length = total;
@@ -48,10 +48,10 @@ bool ActivePathPulls(Data::Impl& ws, double* length) {
     }
     const Eigen::Vector3d u = segment / l;
     total += l;
-    ws.pulls[ws.active[j - 1]] = before - u;
+    ws.pulls[ws.active[j - 1]] = FromEigen(before - u);
     before = u;
   }
-  ws.pulls[ws.active[ws.active_count - 1]] = before;
+  ws.pulls[ws.active[ws.active_count - 1]] = FromEigen(before);
   *length = total;
   return true;
 }
@@ -61,7 +61,8 @@ void AddMovingPointTerms(const FastMuscle& muscle, Data::Impl& ws, double minus_
     const FastMovingComponent& c = muscle.moving[j];
     if (ws.moving_slope[j] == 0.0) continue;  // clamped, constant, or an inactive point's pull 0
     const double term =
-        ws.pulls[c.point].dot(ws.point_rotation[c.point] * c.direction) * ws.moving_slope[j];
+        ToEigen(ws.pulls[c.point]).dot(ToEigen(ws.point_rotation[c.point].data()) * c.direction) *
+        ws.moving_slope[j];
     ws.dL[c.column] += term;
     ws.tau[c.column] = minus_force * ws.dL[c.column];
   }

@@ -47,7 +47,7 @@ Data::Impl& RunKinematics(const Model& model, Data& ws, const Eigen::VectorXd& q
     }
     size_t i = 1;
     while (i + 1 < path.size() &&
-           (b.points[path[i]] - b.points[path[i - 1]]).norm() >= kFastMinSegmentLength)
+           ToEigen(b.points[path[i]] - b.points[path[i - 1]]).norm() >= kFastMinSegmentLength)
       ++i;
     throw Error("muscle '" + spec.name + "': path points " + std::to_string(path[i - 1]) + " and " +
                 std::to_string(path[i]) + " coincide at this posture");
@@ -59,8 +59,8 @@ Eigen::Isometry3d EndpointPose(const Model& model, Data& ws, const Eigen::Vector
   const Data::Impl& b = RunKinematics(model, ws, q, -1, 1.0, true);
   Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
   const FlatChain& chain = model.impl().flat;
-  pose.linear() = b.frames[chain.m - 1] * chain.endpoint_rotation;
-  pose.translation() = b.endpoint;
+  pose.linear() = b.Frame(chain.m - 1) * chain.endpoint_rotation;
+  pose.translation() = b.Endpoint();
   return pose;
 }
 
@@ -71,7 +71,7 @@ Matrix6Xd EndpointJacobianWorld(const Model& model, Data& ws, const Eigen::Vecto
 Eigen::Matrix3d TransducerRotation(const Model& model, Data& ws, const Eigen::VectorXd& q) {
   const TransducerSpec& t = model.transducer();
   if (t.axes_in_world) return t.rotation;
-  return RunKinematics(model, ws, q, -1, 1.0, false).R_W_T;
+  return RunKinematics(model, ws, q, -1, 1.0, false).TransducerRotation();
 }
 
 Matrix6Xd EndpointJacobian(const Model& model, Data& ws, const Eigen::VectorXd& q) {
@@ -84,7 +84,7 @@ Eigen::Vector3d PointPosition(const Model& model, Data& ws, const Eigen::VectorX
   const Data::Impl& b = RunKinematics(model, ws, q, -1, 1.0, true);
   const Eigen::Vector3d p = frame.offset * p_link;
   if (frame.frame < 0) return p;
-  return b.frames[frame.frame] * p + b.origin[frame.frame];
+  return b.Frame(frame.frame) * p + ToEigen(b.origin[frame.frame]);
 }
 
 std::vector<Eigen::Vector3d> MusclePathPoints(const Model& model, Data& ws,
@@ -102,7 +102,7 @@ std::vector<Eigen::Vector3d> MusclePathPoints(const Model& model, Data& ws,
     const int i = mu.dynamic ? b.active[k] : k;
     const Eigen::Vector3d& local = mu.dynamic ? b.local[i] : mu.points[i].position;
     const int f = mu.points[i].frame;
-    out.push_back(f < 0 ? local : Eigen::Vector3d(b.frames[f] * local + b.origin[f]));
+    out.push_back(f < 0 ? local : Eigen::Vector3d(b.Frame(f) * local + ToEigen(b.origin[f])));
   }
   return out;
 }
@@ -113,14 +113,16 @@ Eigen::Matrix3Xd PointJacobian(const Model& model, Data& ws, const Eigen::Vector
   const Data::Impl& b = RunKinematics(model, ws, q, -1, 1.0, true);
   Eigen::Matrix3Xd J = Eigen::Matrix3Xd::Zero(3, model.dof_count());
   if (frame.frame < 0) return J;
-  const Eigen::Vector3d x = b.frames[frame.frame] * (frame.offset * p_link) + b.origin[frame.frame];
+  const Eigen::Vector3d x =
+      b.Frame(frame.frame) * (frame.offset * p_link) + ToEigen(b.origin[frame.frame]);
   // Joint k's column of a point on the frame after joint f (k <= f): z_k x (x - o_k) for a
   // revolute joint, z_k for a prismatic one (the endpoint Jacobian's formula with x for p_E);
   // on a coupled chain it adds to its coordinate's column times dq_joint_k/dq_c.
   const FlatChain& chain = model.impl().flat;
   for (int k = 0; k <= frame.frame; ++k) {
+    const Eigen::Vector3d z = ToEigen(b.axis[k]);
     const Eigen::Vector3d column =
-        chain.joints[k].revolute ? Eigen::Vector3d(b.axis[k].cross(x - b.origin[k])) : b.axis[k];
+        chain.joints[k].revolute ? Eigen::Vector3d(z.cross(x - ToEigen(b.origin[k]))) : z;
     if (chain.coupled) {
       J.col(chain.coordinate[k]) += b.dq_joint[k] * column;
     } else {
