@@ -28,7 +28,31 @@
 #include "util/text.hpp"
 
 namespace isowrench {
+
+double ident::Bic(double chi2, int n, int k, bool sd_stated) {
+  double fit = sd_stated ? chi2 : n * std::log(std::max(chi2, 1e-300) / n);
+  return fit + k * std::log(static_cast<double>(n));
+}
+
+double ident::LinearisedDeltaBic(const Eigen::MatrixXd& D, const Eigen::VectorXd& r, int n,
+                                 bool sd_stated) {
+  const double cost = r.squaredNorm();
+  if (D.cols() == 0) return 0.0;
+  const Eigen::ColPivHouseholderQR<Eigen::MatrixXd> qr(D);
+  // Sensitivities that are all exactly 0 (an effect with no influence at its neutral value)
+  // reduce nothing; the solve would divide 0 by 0.
+  if (qr.rank() == 0)
+    return ident::Bic(cost, n, 0, sd_stated) -
+           ident::Bic(cost, n, static_cast<int>(D.cols()), sd_stated);
+  const Eigen::VectorXd projected = D * qr.solve(r);
+  const double reduction = std::min(projected.squaredNorm(), cost);
+  return ident::Bic(cost, n, 0, sd_stated) -
+         ident::Bic(std::max(cost - reduction, 1e-300), n, static_cast<int>(D.cols()), sd_stated);
+}
+
 namespace {
+
+using ident::Bic;
 
 /// A parameter on its search limit: within this fraction of the (internal) range.
 constexpr double kAtBoundFraction = 1e-4;
@@ -329,11 +353,6 @@ SolveResult SolveWithStarts(const Context& c, const std::vector<double>& x0) {
     if (r.usable && (!best.usable || r.cost < best.cost)) best = r;
   }
   return best;
-}
-
-double Bic(double chi2, int n, int k, bool sd_stated) {
-  double fit = sd_stated ? chi2 : n * std::log(std::max(chi2, 1e-300) / n);
-  return fit + k * std::log(static_cast<double>(n));
 }
 
 double Aicc(double chi2, int n, int k, bool sd_stated) {
@@ -758,16 +777,12 @@ std::vector<double> ScreenScores(const LimbDescription& nominal, const Current& 
       (*why)[i] = "cannot be evaluated near its neutral value: " + message;
       return;
     }
-    const double cost = r.squaredNorm();
     if (D.cols() == 0) return;  // no parameter: nothing to gain (score 0)
     if (Q.cols() > 0) {
       D -= Q * (Q.transpose() * D);
       r -= Q * (Q.transpose() * r);
     }
-    const Eigen::VectorXd projected = D * D.colPivHouseholderQr().solve(r);
-    const double reduction = std::min(projected.squaredNorm(), cost);
-    score[i] = Bic(cost, n, 0, sd_stated) -
-               Bic(std::max(cost - reduction, 1e-300), n, static_cast<int>(step.size()), sd_stated);
+    score[i] = ident::LinearisedDeltaBic(D, r, n, sd_stated);
   });
   return score;
 }
@@ -995,6 +1010,11 @@ FitRound RunRound(int index, const Model& nominal, const std::vector<Effect>& li
     stage("screening " + std::to_string(screened.size()) +
           " candidates (linearised ΔBIC at the current model)");
     score = ScreenScores(nominal.description(), current, screened, trials, options, &why);
+    // A score that is not a number ranks last (a NaN in the comparison would break the
+    // ordering the sort needs, and with it which candidates are fitted).
+    for (double& s : score) {
+      if (std::isnan(s)) s = -std::numeric_limits<double>::infinity();
+    }
     std::stable_sort(order.begin(), order.end(),
                      [&](size_t a, size_t b) { return score[a] > score[b]; });
   }

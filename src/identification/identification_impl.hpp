@@ -1,6 +1,7 @@
 #pragma once
 // Private helpers shared by the identification sources.
 
+#include <Eigen/Core>
 #include <cstdint>
 #include <map>
 #include <string>
@@ -26,6 +27,17 @@ class Random {
   bool has_spare_ = false;
   double spare_ = 0.0;
 };
+
+/// Bayesian information criterion of a fit with k parameters to n residuals: chi2 + k ln n
+/// when every trial states its noise, else n ln(chi2 / n) + k ln n.
+double Bic(double chi2, int n, int k, bool sd_stated);
+
+/// Linearised BIC gain of adding the parameters whose residual sensitivities are the columns of
+/// D to a fit with residual r (a score test: the cost falls by the part of r in the span of D).
+/// Columns that are all exactly 0 (no influence) gain nothing and cost their BIC penalty: the
+/// result is always a number.
+double LinearisedDeltaBic(const Eigen::MatrixXd& D, const Eigen::VectorXd& r, int n,
+                          bool sd_stated);
 
 /// Internal (least-squares) value of a parameter from its user value and back.
 double ToInternal(const EffectParameter& p, double user);

@@ -12,6 +12,7 @@
 #include <random>
 #include <set>
 
+#include "identification/identification_impl.hpp"
 #include "isowrench/error.hpp"
 #include "isowrench/identification.hpp"
 #include "isowrench/trial_csv.hpp"
@@ -175,6 +176,30 @@ TEST(NewEffects, RegistryListsEveryKindOnceWithDocumentation) {
   }
   EXPECT_EQ(ParseRobustLoss("cauchy"), RobustLoss::kCauchy);
   EXPECT_THAT([] { ParseRobustLoss("l1"); }, ::testing::ThrowsMessage<Error>(HasSubstr("huber")));
+}
+
+// ---- screening
+
+TEST(Screening, AnEffectWithoutInfluenceScoresItsBicPenaltyNotNaN) {
+  // Sensitivities that are all exactly 0 (an effect that changes nothing at its neutral value,
+  // such as a very stiff extra joint): the linearised gain is the BIC penalty of the two
+  // parameters, -2 ln n. Before, the least-squares solve divided 0 by 0, the NaN score broke the
+  // ranking of the candidates, and a round-trip fit dropped the true effect from the fitted set.
+  const int n = 12;
+  Eigen::VectorXd r(n);
+  for (int i = 0; i < n; ++i) r[i] = 0.1 * (i + 1) * (i % 2 ? -1.0 : 1.0);
+  const Eigen::MatrixXd none = Eigen::MatrixXd::Zero(n, 2);
+  EXPECT_DOUBLE_EQ(ident::LinearisedDeltaBic(none, r, n, true), -2.0 * std::log(double{n}));
+  EXPECT_DOUBLE_EQ(ident::LinearisedDeltaBic(none, r, n, false), -2.0 * std::log(double{n}));
+  // One column along r explains all of it (cost r.r, one parameter); one orthogonal to r explains
+  // nothing.
+  Eigen::MatrixXd along = 3.0 * r;
+  EXPECT_NEAR(ident::LinearisedDeltaBic(along, r, n, true), r.squaredNorm() - std::log(double{n}),
+              1e-12);
+  Eigen::MatrixXd orthogonal = Eigen::MatrixXd::Zero(n, 1);
+  orthogonal(0, 0) = r[1];
+  orthogonal(1, 0) = -r[0];
+  EXPECT_NEAR(ident::LinearisedDeltaBic(orthogonal, r, n, true), -std::log(double{n}), 1e-12);
 }
 
 // ---- round trips
