@@ -210,6 +210,7 @@ Data::Impl::Impl(int dofs) : m(dofs), eigen(dofs) {
   K_full.setZero(m, m);
   self_motion.resize(m, 0);
   for (double& v : U) v = 0.0;
+  for (int c = m; c < (m + 3) / 4 * 4; ++c) Jv[c] = Jw[c] = Jp[c] = ISOWRENCH_V4_SPLAT(0.0);
 }
 
 Data::Data(const Model& model) : impl_(std::make_unique<Impl>(model.dof_count())) {}

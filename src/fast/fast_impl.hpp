@@ -47,10 +47,10 @@ struct Data::Impl {
   mutable Eigen::Matrix3d R_W_T = Eigen::Matrix3d::Identity();
   /// One posture stages the Jacobian columns [v; w] (world axes) and the x, y, z terms of
   /// dL/dq_c here; kernel::FinishColumns moves them into Jr, dL and tau, four columns at a time
-  /// (columns past the dof count stay 0).
-  Vec3<double> Jv[kMaxDofs] = {};
-  Vec3<double> Jw[kMaxDofs] = {};
-  Vec3<double> Jp[kMaxDofs] = {};
+  /// (the columns from m to the next multiple of 4 are 0 from construction on).
+  Vec3<double> Jv[kMaxDofs];
+  Vec3<double> Jw[kMaxDofs];
+  Vec3<double> Jp[kMaxDofs];
   /// The endpoint Jacobian as the kernel writes it: row-major with a fixed row stride (row r at
   /// Jr + r * kMaxDofs, columns 0 .. columns - 1), the layout the statics reads rows of; the
   /// unused entries stay 0.

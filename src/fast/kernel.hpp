@@ -445,7 +445,7 @@ ISOWRENCH_INLINE void Kinematics(const FlatChain& d, W& ws, const T* q, const Fa
       const V3 u = s * inv;
       total_length += length;
       ws.pulls[i - 1] = before - u;
-      before = u;
+      Set(before, u);
     }
     if (n > 0) ws.pulls[n - 1] = before;
   }
@@ -471,13 +471,13 @@ ISOWRENCH_INLINE void Kinematics(const FlatChain& d, W& ws, const T* q, const Fa
       }
     }
   }
-  V3 RtT[3];  // the lanes turn each column: R_W_T^T v = RtT v
-  Transpose(Rt, RtT);
   // The sweep compiled once for each combination of the two choices that are the same for every
   // joint: J turned into transducer axes, and coupled columns.
   auto sweep = [&](auto rotate_tag, auto coupled_tag) ISOWRENCH_LAMBDA_INLINE {
     constexpr bool kRotate = decltype(rotate_tag)::value;
     constexpr bool kCoupled = decltype(coupled_tag)::value;
+    V3 RtT[3];  // the lanes turn each column: R_W_T^T v = RtT v
+    if constexpr (kRotate && !kScalar<T>) Transpose(Rt, RtT);
     for (int k = m - 1; k >= 0; --k) {
       for (int slot = sweep_end[k + 1]; slot < sweep_end[k]; ++slot) {
         const int i = order[slot];
@@ -485,71 +485,81 @@ ISOWRENCH_INLINE void Kinematics(const FlatChain& d, W& ws, const T* q, const Fa
         ps += g;
         ms += Cross(ws.points[i], g);
       }
-      const V3 z = ws.axis[k];
-      V3 v, w, b;  // column [v; w]; dL/dtheta_k = z . b
+      // Vectors of the lanes' workspace are read through references: a local copy of a Lanes3
+      // (96 bytes, no vector mode) is made through the stack.
+      const V3& z = ws.axis[k];
+      // Joint k's column [v; w] (world axes) and dL/dtheta_k = z . b into J, dL and tau (the
+      // lanes) or the staging (one posture); called in each branch below, so that no value is
+      // merged.
+      auto put = [&](const V3& v, const V3& w, const V3& b,
+                     auto revolute_tag) ISOWRENCH_LAMBDA_INLINE {
+        constexpr bool kRevolute = decltype(revolute_tag)::value;
+        if constexpr (kScalar<T>) {  // staged in world axes; FinishColumns turns them
+          if constexpr (kCoupled) {  // column c += the joint's column dq_joint_k/dq_c
+            const int c = d.coordinate[k];
+            const double f = ws.dq_joint[k];
+            if (d.first_in_column[k]) {
+              ws.Jv[c] = v * f;
+              ws.Jw[c] = w * f;
+              ws.Jp[c] = Hadamard(z, b) * f;
+            } else {
+              ws.Jv[c] += v * f;
+              ws.Jw[c] += w * f;
+              ws.Jp[c] += Hadamard(z, b) * f;
+            }
+          } else {
+            ws.Jv[k] = v;
+            ws.Jw[k] = w;
+            ws.Jp[k] = Hadamard(z, b);
+          }
+        } else {
+          T dl;
+          Dot(z, b, dl);
+          // [v; w] (in transducer axes) into column c, set or added to times f.
+          auto store = [&](const V3& vt, const V3& wt) ISOWRENCH_LAMBDA_INLINE {
+            if constexpr (kCoupled) {  // J[:, c] += J_joint[:, k] dq_joint_k/dq_c, also dL
+              const int c = d.coordinate[k];
+              const T f = ws.dq_joint[k];
+              T* col = J + c;
+              if (d.first_in_column[k]) {
+                ISOWRENCH_UNROLL
+                for (int r = 0; r < 3; ++r) {
+                  col[r * js] = f * Component(vt, r);
+                  col[(3 + r) * js] = f * Component(wt, r);
+                }
+                dL[c] = f * dl;
+              } else {
+                ISOWRENCH_UNROLL
+                for (int r = 0; r < 3; ++r) {
+                  col[r * js] += f * Component(vt, r);
+                  col[(3 + r) * js] += f * Component(wt, r);
+                }
+                dL[c] += f * dl;
+              }
+            } else {
+              // A prismatic column's angular rows are 0: the lane workspace has them 0 from
+              // construction on (on a chain without couplings column k is always joint k).
+              T* col = J + k;
+              ISOWRENCH_UNROLL
+              for (int r = 0; r < 3; ++r) {
+                col[r * js] = Component(vt, r);
+                if constexpr (kRevolute) col[(3 + r) * js] = Component(wt, r);
+              }
+              tau[k] = minus_force * dl;
+            }
+          };
+          if constexpr (kRotate) {
+            store(Rotate(RtT, v), Rotate(RtT, w));
+          } else {
+            store(v, w);
+          }
+        }
+      };
       if (joints[k].revolute) {
-        const V3 ok = ws.origin[k];
-        v = Cross(z, pe - ok);
-        w = z;
-        b = ms - Cross(ok, ps);
+        const V3& ok = ws.origin[k];
+        put(Cross(z, pe - ok), z, ms - Cross(ok, ps), std::true_type{});
       } else {
-        v = z;
-        w = Zero3<T>();
-        b = ps;
-      }
-      if constexpr (kScalar<T>) {  // staged in world axes; FinishColumns turns them
-        if constexpr (kCoupled) {  // column c += the joint's column dq_joint_k/dq_c
-          const int c = d.coordinate[k];
-          const double f = ws.dq_joint[k];
-          if (d.first_in_column[k]) {
-            ws.Jv[c] = v * f;
-            ws.Jw[c] = w * f;
-            ws.Jp[c] = Hadamard(z, b) * f;
-          } else {
-            ws.Jv[c] += v * f;
-            ws.Jw[c] += w * f;
-            ws.Jp[c] += Hadamard(z, b) * f;
-          }
-        } else {
-          ws.Jv[k] = v;
-          ws.Jw[k] = w;
-          ws.Jp[k] = Hadamard(z, b);
-        }
-      } else {
-        if constexpr (kRotate) {
-          v = Rotate(RtT, v);
-          w = Rotate(RtT, w);
-        }
-        T dl;
-        Dot(z, b, dl);
-        if constexpr (kCoupled) {  // J[:, c] += J_joint[:, k] dq_joint_k/dq_c, the same for dL
-          const int c = d.coordinate[k];
-          const T f = ws.dq_joint[k];
-          T* col = J + c;
-          if (d.first_in_column[k]) {
-            ISOWRENCH_UNROLL
-            for (int r = 0; r < 3; ++r) {
-              col[r * js] = f * Component(v, r);
-              col[(3 + r) * js] = f * Component(w, r);
-            }
-            dL[c] = f * dl;
-          } else {
-            ISOWRENCH_UNROLL
-            for (int r = 0; r < 3; ++r) {
-              col[r * js] += f * Component(v, r);
-              col[(3 + r) * js] += f * Component(w, r);
-            }
-            dL[c] += f * dl;
-          }
-        } else {
-          T* col = J + k;
-          ISOWRENCH_UNROLL
-          for (int r = 0; r < 3; ++r) {
-            col[r * js] = Component(v, r);
-            col[(3 + r) * js] = Component(w, r);
-          }
-          tau[k] = minus_force * dl;
-        }
+        put(z, Zero3<T>(), ps, std::false_type{});
       }
     }
   };
@@ -636,14 +646,58 @@ struct Row<N, double, true> {
   }
 };
 
+/// One posture: wrench_r = sum_j sJ_rj x_j for the 6 rows of S_t J (row r at sJ + r * js), four
+/// entries per vector product and the six sums reduced together (two 4 x 4 partial transposes);
+/// x is read in whole vectors up to 4 ceil(m / 4) (entries from m on are set to 0 first).
+/// `undecided` is set when a sum is not finite.
+template <int N>
+ISOWRENCH_INLINE void ScaledRowsTimes(int m_runtime, const double* sJ, int js, double* x,
+                                      double* wrench, bool& undecided) {
+  const int m = N > 0 ? N : m_runtime;
+  const int chunks = (m + 3) / 4;
+  ISOWRENCH_UNROLL
+  for (int j = m; j < 4 * chunks; ++j) x[j] = 0.0;
+  V4 p[6];
+  ISOWRENCH_UNROLL
+  for (int r = 0; r < 6; ++r) {
+    V4 a, b;
+    std::memcpy(&a, sJ + r * js, sizeof a);
+    std::memcpy(&b, x, sizeof b);
+    p[r] = a * b;
+    ISOWRENCH_UNROLL
+    for (int c = 1; c < chunks; ++c) {
+      std::memcpy(&a, sJ + r * js + 4 * c, sizeof a);
+      std::memcpy(&b, x + 4 * c, sizeof b);
+      p[r] += a * b;
+    }
+  }
+  // Pairwise sums of rows (0, 1), (2, 3), (4, 5), then the halves: lanes of w0123 = W_0 .. W_3,
+  // lanes 0 and 1 of w45 = W_4, W_5.
+  const V4 h01 = __builtin_shufflevector(p[0], p[1], 0, 4, 2, 6) +
+                 __builtin_shufflevector(p[0], p[1], 1, 5, 3, 7);
+  const V4 h23 = __builtin_shufflevector(p[2], p[3], 0, 4, 2, 6) +
+                 __builtin_shufflevector(p[2], p[3], 1, 5, 3, 7);
+  const V4 h45 = __builtin_shufflevector(p[4], p[5], 0, 4, 2, 6) +
+                 __builtin_shufflevector(p[4], p[5], 1, 5, 3, 7);
+  const V4 w0123 =
+      __builtin_shufflevector(h01, h23, 0, 1, 4, 5) + __builtin_shufflevector(h01, h23, 2, 3, 6, 7);
+  const V4 w45 = h45 + __builtin_shufflevector(h45, h45, 2, 3, 0, 1);
+  std::memcpy(wrench, &w0123, sizeof w0123);
+  wrench[4] = w45[0];
+  wrench[5] = w45[1];
+  const V4 nonfinite = 0.0 * w0123 + 0.0 * w45;  // 0 where finite, NaN where not
+  undecided |= ((nonfinite[0] + nonfinite[1]) + (nonfinite[2] + nonfinite[3])) != 0.0;
+}
+
 /// The statics for one lane type: K = J^T S_t J + S_p, its Cholesky factor U (K = U^T U, row k
 /// of U at U[k * kMaxDofs + i], i >= k), dtheta = K^-1 tau into x and W = S_t J dtheta into
 /// wrench. Row j of K is formed just before row j of U needs it (K itself is never stored), as
 /// one Row: K_j = sum_r (s_t,r J_rj) J_r (rows J_r of J), then K_j - sum_{k<j} U_kj U_k.
 /// J: row-major, row r at J + r * js (js >= m; for T = double the buffer must hold
-/// 4 ceil(m / 4) entries past the start of the last row). kScaled: sJ holds S_t J in the same
-/// layout (one posture: each coefficient s_t,r J_rj is then one broadcast from memory); else
-/// sJ is not read. N > 0 fixes m at compile time (loops unroll). Sets `undecided` on the lanes it
+/// 4 ceil(m / 4) entries past the start of the last row, and so must x). kScaled: sJ holds S_t J
+/// in the same layout (one posture: each coefficient s_t,r J_rj is then one broadcast from
+/// memory, and W is formed four entries of a row at a time by ScaledRowsTimes); else sJ is not
+/// read. N > 0 fixes m at compile time (loops unroll). Sets `undecided` on the lanes it
 /// cannot decide: K not clearly positive definite (a pivot at or below pivot_tolerance times the
 /// largest diagonal entry of K; the scalar path then returns before the substitutions, leaving x
 /// and wrench unwritten) or a non-finite W.
@@ -696,14 +750,18 @@ ISOWRENCH_INLINE void Cholesky(int m_runtime, const T* J, const T* sJ, int js, c
   if constexpr (kScalar<T>) ISOWRENCH_COMPILER_BARRIER();
   T y[S];
   SolveWithFactor<N>(m, U, inv_diag, tau, y, x);
-  ISOWRENCH_UNROLL
-  for (int r = 0; r < 6; ++r) {
-    const T* Jr = (kScaled ? sJ : J) + r * js;
-    T v = Jr[0] * x[0];
+  if constexpr (kScalar<T> && kScaled) {
+    ScaledRowsTimes<N>(m, sJ, js, x, wrench, undecided);
+  } else {
     ISOWRENCH_UNROLL
-    for (int j = 1; j < m; ++j) v += Jr[j] * x[j];
-    wrench[r] = kScaled ? v : s_t[r] * v;
-    undecided |= (wrench[r] - wrench[r]) != 0.0;  // inf or NaN
+    for (int r = 0; r < 6; ++r) {
+      const T* Jr = (kScaled ? sJ : J) + r * js;
+      T v = Jr[0] * x[0];
+      ISOWRENCH_UNROLL
+      for (int j = 1; j < m; ++j) v += Jr[j] * x[j];
+      wrench[r] = kScaled ? v : s_t[r] * v;
+      undecided |= (wrench[r] - wrench[r]) != 0.0;  // inf or NaN
+    }
   }
 }
 

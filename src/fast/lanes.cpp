@@ -20,11 +20,12 @@ namespace {
 using V = V4;
 using VI = V4i;
 
-// Lane mask (all bits set where true) to a bitmask, bit l for lane l.
+// Lane mask (all bits set where true, 0 where false) to a bitmask, bit l for lane l: lane l
+// keeps bit l, and the lanes are or-ed together in the vector.
 ISOWRENCH_INLINE unsigned Bits(const VI& mask) {
-  unsigned bits = 0;
-  for (int l = 0; l < kLanes; ++l) bits |= mask[l] != 0 ? 1u << l : 0u;
-  return bits;
+  const VI b = mask & VI{1, 2, 4, 8};
+  const VI pairs = b | __builtin_shufflevector(b, b, 2, 3, 0, 1);
+  return static_cast<unsigned>((pairs | __builtin_shufflevector(pairs, pairs, 1, 0, 3, 2))[0]);
 }
 
 }  // namespace
@@ -58,8 +59,14 @@ struct LaneWorkspace::Impl {
   void Resize(int) {}
 };
 
-// The buffers are written before they are read.
-LaneWorkspace::LaneWorkspace(const Model& model) : impl_(new Impl) { impl_->m = model.dof_count(); }
+// The buffers are written before they are read, except J: the kernel never writes the angular
+// rows of a prismatic joint's column on a chain without couplings, which stay 0 from here on.
+LaneWorkspace::LaneWorkspace(const Model& model) : impl_(new Impl) {
+  impl_->m = model.dof_count();
+  for (auto& row : impl_->J) {
+    for (V& entry : row) entry = ISOWRENCH_V4_SPLAT(0.0);
+  }
+}
 
 LaneWorkspace::~LaneWorkspace() = default;
 

@@ -59,7 +59,8 @@ ISOWRENCH_INLINE Vec3<T> Constant3(const double* p) {
   }
 }
 /// Unit vector along axis `axis` (0, 1, 2).
-inline constexpr double kUnit3[3][4] = {{1.0, 0.0, 0.0, 0.0}, {0.0, 1.0, 0.0, 0.0}, {0.0, 0.0, 1.0, 0.0}};
+inline constexpr double kUnit3[3][4] = {
+    {1.0, 0.0, 0.0, 0.0}, {0.0, 1.0, 0.0, 0.0}, {0.0, 0.0, 1.0, 0.0}};
 template <class T>
 ISOWRENCH_INLINE Vec3<T> Unit3(int axis) {
   if constexpr (std::is_same_v<T, double>) {  // one load (GCC builds {1, 0, 0, 0} lane by lane)
@@ -87,6 +88,14 @@ ISOWRENCH_INLINE Lanes3 operator*(const Lanes3& a, const V4& s) {
 ISOWRENCH_INLINE Lanes3& operator+=(Lanes3& a, const Lanes3& b) {
   a = a + b;
   return a;
+}
+/// dst = src, component by component: GCC keeps a loop-carried Lanes3 in registers only when it
+/// is assigned field by field (a whole-struct copy goes through the stack).
+ISOWRENCH_INLINE void Set(V4& dst, const V4& src) { dst = src; }
+ISOWRENCH_INLINE void Set(Lanes3& dst, const Lanes3& src) {
+  dst.c[0] = src.c[0];
+  dst.c[1] = src.c[1];
+  dst.c[2] = src.c[2];
 }
 /// (a_x b_x, a_y b_y, a_z b_z).
 ISOWRENCH_INLINE V4 Hadamard(const V4& a, const V4& b) { return a * b; }
