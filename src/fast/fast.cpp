@@ -122,13 +122,17 @@ WrenchResult Invalid(Data::Impl& ws) {
 
 // The statics of one evaluation (inputs checked first): the kernel's Cholesky (m fixed at
 // compile time up to 10) on J and S_t J, the eigen-solve when it cannot decide. J: row-major,
-// row stride kMaxDofs (Data::Impl::Jr).
+// row stride kMaxDofs (Data::Impl::Jr). The result goes to `out`, which holds a default
+// WrenchResult (invalid input) on entry: written in place, the caller's result is not copied.
 template <int N>
-ISOWRENCH_INLINE WrenchResult SolveWith(Data::Impl& ws, const double* J, const double* s_t,
-                                        const double* s_p, const double* tau,
-                                        const SolveOptions& options) {
+ISOWRENCH_INLINE void SolveWith(Data::Impl& ws, const double* J, const double* s_t,
+                                const double* s_p, const double* tau, const SolveOptions& options,
+                                WrenchResult& out) {
   const int m = N > 0 ? N : ws.m;
-  if (!ValidSolveInput<N>(m, s_t, s_p, tau)) return Invalid(ws);
+  if (!ValidSolveInput<N>(m, s_t, s_p, tau)) {
+    Invalid(ws);
+    return;
+  }
   // S_t J, four columns per vector (up to the next multiple of 4: the Cholesky reads whole
   // vectors).
   alignas(32) double sJ[6 * kMaxDofs];
@@ -143,39 +147,41 @@ ISOWRENCH_INLINE WrenchResult SolveWith(Data::Impl& ws, const double* J, const d
       std::memcpy(sJ + r * kMaxDofs + 4 * c, &v, sizeof v);
     }
   }
-  WrenchResult out;
-  ws.dtheta.resize(m);
-  bool undecided;
+  bool undecided;  // (dtheta has m entries from construction on)
   kernel::Cholesky<N, true>(m, J, sJ, kMaxDofs, s_t, s_p, tau, options.cholesky_pivot_tolerance,
                             ws.U, ws.dtheta.data(), out.wrench.data(), undecided);
-  if (undecided) return SolveByEigen(ws, m, J, kMaxDofs, s_t, s_p, tau, options);
+  if (undecided) {
+    out = SolveByEigen(ws, m, J, kMaxDofs, s_t, s_p, tau, options);
+    return;
+  }
   out.status = StaticsStatus::kOk;
   ws.self_motion.resize(m, 0);
-  return out;
 }
 
-ISOWRENCH_INLINE WrenchResult SolveAnyM(Data::Impl& ws, const double* J, const double* s_t,
-                                        const double* s_p, const double* tau,
-                                        const SolveOptions& options) {
+ISOWRENCH_INLINE void SolveAnyM(Data::Impl& ws, const double* J, const double* s_t,
+                                const double* s_p, const double* tau, const SolveOptions& options,
+                                WrenchResult& out) {
   switch (ws.m) {
-    case 1: return SolveWith<1>(ws, J, s_t, s_p, tau, options);
-    case 2: return SolveWith<2>(ws, J, s_t, s_p, tau, options);
-    case 3: return SolveWith<3>(ws, J, s_t, s_p, tau, options);
-    case 4: return SolveWith<4>(ws, J, s_t, s_p, tau, options);
-    case 5: return SolveWith<5>(ws, J, s_t, s_p, tau, options);
-    case 6: return SolveWith<6>(ws, J, s_t, s_p, tau, options);
-    case 7: return SolveWith<7>(ws, J, s_t, s_p, tau, options);
-    case 8: return SolveWith<8>(ws, J, s_t, s_p, tau, options);
-    case 9: return SolveWith<9>(ws, J, s_t, s_p, tau, options);
-    case 10: return SolveWith<10>(ws, J, s_t, s_p, tau, options);
-    default: return SolveWith<0>(ws, J, s_t, s_p, tau, options);
+    case 1: return SolveWith<1>(ws, J, s_t, s_p, tau, options, out);
+    case 2: return SolveWith<2>(ws, J, s_t, s_p, tau, options, out);
+    case 3: return SolveWith<3>(ws, J, s_t, s_p, tau, options, out);
+    case 4: return SolveWith<4>(ws, J, s_t, s_p, tau, options, out);
+    case 5: return SolveWith<5>(ws, J, s_t, s_p, tau, options, out);
+    case 6: return SolveWith<6>(ws, J, s_t, s_p, tau, options, out);
+    case 7: return SolveWith<7>(ws, J, s_t, s_p, tau, options, out);
+    case 8: return SolveWith<8>(ws, J, s_t, s_p, tau, options, out);
+    case 9: return SolveWith<9>(ws, J, s_t, s_p, tau, options, out);
+    case 10: return SolveWith<10>(ws, J, s_t, s_p, tau, options, out);
+    default: return SolveWith<0>(ws, J, s_t, s_p, tau, options, out);
   }
 }
 
 ISOWRENCH_CLONES WrenchResult SolveDispatch(Data::Impl& ws, const double* J, const double* s_t,
                                             const double* s_p, const double* tau,
                                             const SolveOptions& options) {
-  return SolveAnyM(ws, J, s_t, s_p, tau, options);
+  WrenchResult out;
+  SolveAnyM(ws, J, s_t, s_p, tau, options, out);
+  return out;
 }
 
 }  // namespace
@@ -202,7 +208,6 @@ std::string StatusMessage(const WrenchResult& result) {
 
 Data::Impl::Impl(int dofs) : m(dofs), eigen(dofs) {
   for (double& v : Jr) v = 0.0;
-  columns = m;
   J.setZero(6, m);
   dL.setZero(m);
   tau.setZero(m);
@@ -247,10 +252,15 @@ namespace {
 
 const FastMuscle kNoMuscle{};  // the muscle of a kinematics call without one
 
-// Coupled chains: q_joint_k = f_k(q[c_k]) and its derivative for every movable joint.
-ISOWRENCH_NOINLINE void Couple(const FlatChain& d, Data::Impl& ws, const double* q) {
-  for (int k = 0; k < d.m; ++k)
-    kernel::CoupleJoint(d, k, q[d.coordinate[k]], ws.q_joint[k], ws.dq_joint[k]);
+// Coupled chains: q_joint_k = f_k(q[c_k]) and its derivative for every movable joint: each
+// joint first takes its coordinate's value with derivative 1, then the joints whose coupling is
+// not the identity evaluate it.
+ISOWRENCH_INLINE void Couple(const FlatChain& d, Data::Impl& ws, const double* q) {
+  const int* coordinate = d.coordinate.data();
+  for (int k = 0; k < d.m; ++k) ws.q_joint[k] = q[coordinate[k]];
+  for (double& v : ws.dq_joint) v = 1.0;
+  for (const int k : d.coupled_joints)
+    d.coupling[k].ValueAndDerivative(q[coordinate[k]], &ws.q_joint[k], &ws.dq_joint[k]);
 }
 
 // The kernel on one posture q (coordinates). kFrames: the public kinematics functions (frames
@@ -358,10 +368,16 @@ ISOWRENCH_CLONES WrenchResult Evaluate(const Model& model, Data& workspace,
   const FlatChain& d = model.impl().flat;
   Data::Impl& ws = workspace.impl();
   assert(q.size() == d.n && ws.m == d.n);
-  if (!AnyKinematics<false>(d, ws, q.data(), muscle, activation, false)) return Invalid(ws);
-  if (stiffness.s_p.size() != d.n) return Invalid(ws);
-  if (d.any_locked) return SolveLocked(d, ws, stiffness, options);
-  return SolveAnyM(ws, ws.Jr, stiffness.s_t.data(), stiffness.s_p.data(), ws.tau.data(), options);
+  WrenchResult out;  // every path returns this object (no copy of the result)
+  if (!AnyKinematics<false>(d, ws, q.data(), muscle, activation, false) ||
+      stiffness.s_p.size() != d.n) {
+    Invalid(ws);
+  } else if (d.any_locked) {
+    out = SolveLocked(d, ws, stiffness, options);
+  } else {
+    SolveAnyM(ws, ws.Jr, stiffness.s_t.data(), stiffness.s_p.data(), ws.tau.data(), options, out);
+  }
+  return out;
 }
 
 WrenchResult SolveStatics(Data& workspace, const Eigen::Ref<const Matrix6Xd>& J,

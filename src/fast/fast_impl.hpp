@@ -3,6 +3,7 @@
 
 #include <Eigen/Eigenvalues>
 #include <array>
+#include <cassert>
 #include <utility>
 #include <vector>
 
@@ -52,10 +53,9 @@ struct Data::Impl {
   Vec3<double> Jw[kMaxDofs];
   Vec3<double> Jp[kMaxDofs];
   /// The endpoint Jacobian as the kernel writes it: row-major with a fixed row stride (row r at
-  /// Jr + r * kMaxDofs, columns 0 .. columns - 1), the layout the statics reads rows of; the
+  /// Jr + r * kMaxDofs, columns 0 .. m - 1), the layout the statics reads rows of; the
   /// unused entries stay 0.
   alignas(32) double Jr[6 * kMaxDofs];
-  int columns = 0;
   JointVector dL;
   JointVector tau;
   double length = 0.0;
@@ -63,24 +63,22 @@ struct Data::Impl {
   static constexpr int JacobianStride() { return kMaxDofs; }
   double* DlData() { return dL.data(); }
   double* TauData() { return tau.data(); }
-  void Resize(int n) {
-    columns = n;
-    dL.resize(n);
-    tau.resize(n);
-  }
-  /// J (6 x columns) as a matrix: Data::jacobian(), copied from Jr on each call.
+  /// J, dL and tau have the m columns of the model from construction on (the kernel asks for
+  /// its chain's n, which is m).
+  void Resize([[maybe_unused]] int n) const { assert(n == m); }
+  /// J (6 x m) as a matrix: Data::jacobian(), copied from Jr on each call.
   const JacobianBuffer& Jacobian() const {
-    J.resize(6, columns);
-    for (int c = 0; c < columns; ++c) {
+    J.resize(6, m);
+    for (int c = 0; c < m; ++c) {
       for (int r = 0; r < 6; ++r) J(r, c) = Jr[r * kMaxDofs + c];
     }
     return J;
   }
-  /// Sets J (6 x columns): Jr from a matrix.
+  /// Sets J (6 x m): Jr from a matrix of m columns.
   template <class Matrix>
   void SetJacobian(const Matrix& jacobian) {
-    columns = static_cast<int>(jacobian.cols());
-    for (int c = 0; c < columns; ++c) {
+    assert(jacobian.cols() == m);
+    for (int c = 0; c < m; ++c) {
       for (int r = 0; r < 6; ++r) Jr[r * kMaxDofs + c] = jacobian(r, c);
     }
   }

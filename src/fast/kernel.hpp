@@ -32,6 +32,7 @@
 #include <Eigen/Core>
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <cstring>
 #include <type_traits>
 #include <utility>
@@ -150,45 +151,34 @@ ISOWRENCH_INLINE void GeneralTurn(Vec3<T>* M, const Eigen::Vector3d& a, const T&
   for (int j = 0; j < 3; ++j) M[j] = copy[j];
 }
 
-// One posture: sin and cos of every joint position q[k] (k < d.m; meaningful for the revolute
-// joints) ahead of the joint loop, four joints per vector SinCos (joints with |q| >=
-// sincos::kMaxReduced one by one). The lanes call their vector SinCos inside the joint loop.
+// One posture: sin and cos of the joint positions q[k] of the joints FlatChain::trig_begin ..
+// trig_end - 1 (every revolute joint; for the others the numbers are not used) ahead of the
+// joint loop, four joints per vector SinCos (joints with |q| >= sincos::kMaxReduced one by
+// one). The lanes call their vector SinCos inside the joint loop.
 ISOWRENCH_INLINE void JointSinCos(const FlatChain& d, const double* q, double* sin_q,
                                   double* cos_q) {
-  const int m = d.m;
-  for (int k0 = 0; k0 < m; k0 += 4) {
+  const int end = d.trig_end;
+  for (int k0 = d.trig_begin; k0 < end; k0 += 4) {
     V4 x, s, c;
-    if (k0 + 4 <= m) {
+    if (k0 + 4 <= end) {
       std::memcpy(&x, q + k0, sizeof x);
-    } else {  // the last 1 to 3 joints, padded with zeros
-      double tail[4] = {0.0, 0.0, 0.0, 0.0};
-      for (int k = k0; k < m; ++k) tail[k - k0] = q[k];
-      std::memcpy(&x, tail, sizeof x);
+    } else {  // the last 1 to 3 joints, padded with zeros (element by element: GCC would turn
+              // a copy loop into a call to memcpy)
+      x = V4{q[k0], k0 + 1 < end ? q[k0 + 1] : 0.0, k0 + 2 < end ? q[k0 + 2] : 0.0, 0.0};
     }
     const V4 magnitude = (V4)((V4i)x & 0x7fffffffffffffff);
     const V4i reduced = magnitude < sincos::kMaxReduced;
     SinCos<false>(x, s, c);
     std::memcpy(sin_q + k0, &s, sizeof s);
     std::memcpy(cos_q + k0, &c, sizeof c);
-    if (!(reduced[0] & reduced[1] & reduced[2] & reduced[3])) {
-      for (int k = k0; k < std::min(m, k0 + 4); ++k) SinCos(q[k], sin_q[k], cos_q[k]);
+    const V4i pairs = reduced & __builtin_shufflevector(reduced, reduced, 2, 3, 0, 1);
+    if (!(pairs & __builtin_shufflevector(pairs, pairs, 1, 0, 3, 2))[0]) {  // a lane is not
+      for (int k = k0; k < std::min(end, k0 + 4); ++k) SinCos(q[k], sin_q[k], cos_q[k]);
     }
   }
 }
 /// sweep_end of a muscle without path points (FastMuscle::sweep_end), for any chain.
 inline constexpr int kNoSweepPoints[kMaxDofs + 1] = {};
-
-/// Coupled chains: the position q_joint = f_k(x) of movable joint k and dq_joint/dx, at the value
-/// x of its coordinate (both evaluation paths call this for every joint, lane by lane).
-ISOWRENCH_INLINE void CoupleJoint(const FlatChain& d, int k, double x, double& q_joint,
-                                  double& dq_joint) {
-  if (d.identity[k]) {
-    q_joint = x;
-    dq_joint = 1.0;
-  } else {
-    d.coupling[k].ValueAndDerivative(x, &q_joint, &dq_joint);
-  }
-}
 
 /// One movable joint of the forward kinematics, compiled for its kind OP (FastJoint::op, 64
 /// kinds): the frame (M, o) moves to the joint (fixed transform), z = its world axis, and the
@@ -247,28 +237,37 @@ ISOWRENCH_INLINE void FinishColumns(Data::Impl& ws, int n, const V4* Rt, bool ro
   double* J = ws.Jr;
   double* dL = ws.dL.data();
   double* tau = ws.tau.data();
-  for (int c0 = 0; c0 < n; c0 += 4) {
-    V4 r[6], p[3];
-    rows(ws.Jv + c0, r);
-    rows(ws.Jw + c0, r + 3);
-    rows(ws.Jp + c0, p);
-    if (rotate) {  // rows of R_W_T^T [v; w]: row i = sum_k R_ki (row k)
-      V4 t[6];
-      ISOWRENCH_UNROLL
-      for (int i = 0; i < 3; ++i) {
-        const V4& R_i = Rt[i];  // column i of R_W_T
-        t[i] = (r[0] * R_i[0] + r[1] * R_i[1]) + r[2] * R_i[2];
-        t[3 + i] = (r[3] * R_i[0] + r[4] * R_i[1]) + r[5] * R_i[2];
+  // Compiled once with and once without the turn, so that the turn's setup (R_W_T's entries in
+  // whole vectors) happens only when it is used.
+  auto all_columns = [&](auto rotate_tag) ISOWRENCH_LAMBDA_INLINE {
+    for (int c0 = 0; c0 < n; c0 += 4) {
+      V4 r[6], p[3];
+      rows(ws.Jv + c0, r);
+      rows(ws.Jw + c0, r + 3);
+      rows(ws.Jp + c0, p);
+      if constexpr (decltype(rotate_tag)::value) {  // R_W_T^T [v; w]: row i = sum_k R_ki row k
+        V4 t[6];
+        ISOWRENCH_UNROLL
+        for (int i = 0; i < 3; ++i) {
+          const V4& R_i = Rt[i];  // column i of R_W_T
+          t[i] = (r[0] * R_i[0] + r[1] * R_i[1]) + r[2] * R_i[2];
+          t[3 + i] = (r[3] * R_i[0] + r[4] * R_i[1]) + r[5] * R_i[2];
+        }
+        ISOWRENCH_UNROLL
+        for (int i = 0; i < 6; ++i) r[i] = t[i];
       }
       ISOWRENCH_UNROLL
-      for (int i = 0; i < 6; ++i) r[i] = t[i];
+      for (int i = 0; i < 6; ++i) std::memcpy(J + i * S + c0, &r[i], sizeof(V4));
+      const V4 dl = (p[0] + p[1]) + p[2];
+      const V4 t = dl * minus_force;
+      std::memcpy(dL + c0, &dl, sizeof dl);
+      std::memcpy(tau + c0, &t, sizeof t);
     }
-    ISOWRENCH_UNROLL
-    for (int i = 0; i < 6; ++i) std::memcpy(J + i * S + c0, &r[i], sizeof(V4));
-    const V4 dl = (p[0] + p[1]) + p[2];
-    const V4 t = dl * minus_force;
-    std::memcpy(dL + c0, &dl, sizeof dl);
-    std::memcpy(tau + c0, &t, sizeof t);
+  };
+  if (rotate) {
+    all_columns(std::true_type{});
+  } else {
+    all_columns(std::false_type{});
   }
 }
 
@@ -294,6 +293,11 @@ ISOWRENCH_INLINE void Kinematics(const FlatChain& d, W& ws, const T* q, const Fa
   // The points of frame k: order[sweep_end[k + 1] .. sweep_end[k]). A muscle of the public
   // kinematics functions' "no muscle" has no sweep_end: every frame has no point.
   const int* sweep_end = mu.sweep_end.empty() ? kNoSweepPoints : mu.sweep_end.data();
+  // The frames with points between the sentinels -1 and m (point_frames); "no muscle": none.
+  const int no_points[2] = {-1, m};
+  const int* frames_first = mu.point_frames.empty() ? no_points : mu.point_frames.data();
+  const int* frames_last =
+      frames_first + (mu.point_frames.empty() ? 1 : mu.point_frames.size() - 1);
   const T zero = T{};
 
   // Path points on ground are fixed in world; the others are placed as soon as their frame is
@@ -395,6 +399,8 @@ ISOWRENCH_INLINE void Kinematics(const FlatChain& d, W& ws, const T* q, const Fa
       ISOWRENCH_UNROLL
       for (int c = 0; c < 3; ++c) ws.frames[k][c] = M[c];
     }
+    if (k != frames_first[1]) continue;  // frame k has no points
+    ++frames_first;
     for (int slot = sweep_end[k + 1]; slot < sweep_end[k]; ++slot) {  // x = M a + o
       const int i = order[slot];
       if constexpr (kDynamic) {
@@ -478,8 +484,12 @@ ISOWRENCH_INLINE void Kinematics(const FlatChain& d, W& ws, const T* q, const Fa
     constexpr bool kCoupled = decltype(coupled_tag)::value;
     V3 RtT[3];  // the lanes turn each column: R_W_T^T v = RtT v
     if constexpr (kRotate && !kScalar<T>) Transpose(Rt, RtT);
+    const std::uint32_t revolute_mask = d.revolute_mask;
+    const int* frames = frames_last;  // the sweep meets the frames with points from the last
     for (int k = m - 1; k >= 0; --k) {
-      for (int slot = sweep_end[k + 1]; slot < sweep_end[k]; ++slot) {
+      const bool has_points = k == frames[-1];
+      if (has_points) --frames;
+      for (int slot = sweep_end[k + 1]; has_points && slot < sweep_end[k]; ++slot) {
         const int i = order[slot];
         const V3& g = ws.pulls[i];
         ps += g;
@@ -555,7 +565,7 @@ ISOWRENCH_INLINE void Kinematics(const FlatChain& d, W& ws, const T* q, const Fa
           }
         }
       };
-      if (joints[k].revolute) {
+      if ((revolute_mask >> k) & 1u) {
         const V3& ok = ws.origin[k];
         put(Cross(z, pe - ok), z, ms - Cross(ok, ps), std::true_type{});
       } else {

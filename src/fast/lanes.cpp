@@ -112,22 +112,24 @@ ISOWRENCH_CLONES unsigned LaneKinematics(const Model& model, LaneWorkspace& work
       out_of_range |= (V)((VI)ws.q[k] & kMagnitude) >= sincos::kMaxReduced;
     }
   }
-  for (int k = 0; d.coupled && k < d.m; ++k) {
-    if (d.identity[k]) {  // a joint that is its own coordinate
-      const int c = d.coordinate[k];
+  if (d.coupled) {  // each joint its coordinate's value with derivative 1, then the couplings
+    const int* coordinate = d.coordinate.data();
+    for (int k = 0; k < d.m; ++k) {
+      const int c = coordinate[k];
       ws.q[k] = V{q[0][c], q[1][c], q[2][c], q[3][c]};
       ws.dq_joint[k] = ISOWRENCH_V4_SPLAT(1.0);
-    } else {
-      const int c = d.coordinate[k];
+    }
+    for (const int k : d.coupled_joints) {
       for (int l = 0; l < kLanes; ++l) {
         double q_joint, dq_joint;
-        kernel::CoupleJoint(d, k, q[l][c], q_joint, dq_joint);
+        d.coupling[k].ValueAndDerivative(q[l][coordinate[k]], &q_joint, &dq_joint);
         ws.q[k][l] = q_joint;
         ws.dq_joint[k][l] = dq_joint;
       }
     }
-    if (d.joints[k].revolute) {
-      const V magnitude = (V)((VI)ws.q[k] & 0x7fffffffffffffff);
+    for (int k = 0; k < d.m; ++k) {
+      if (!d.joints[k].revolute) continue;
+      const V magnitude = (V)((VI)ws.q[k] & kMagnitude);
       out_of_range |= (magnitude < sincos::kMaxReduced) == 0;
     }
   }

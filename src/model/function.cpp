@@ -193,7 +193,7 @@ void PiecewiseCoefficients(Function::Impl& s) {
 
 // Interval search of SimmSpline::calcValue / PiecewiseLinearFunction::calcValue (same binary
 // search, so an argument exactly on an interior knot picks the same side as OpenSim).
-int FindInterval(const std::vector<double>& x, double a) {
+inline int FindInterval(const std::vector<double>& x, double a) {
   const int n = static_cast<int>(x.size());
   if (n < 3) return 0;
   int i = 0, j = n, k = 0;
@@ -368,16 +368,49 @@ double Function::Derivative(double x) const { return Evaluate(*impl_, x, 1); }
 double Function::SecondDerivative(double x) const { return Evaluate(*impl_, x, 2); }
 
 void Function::ValueAndDerivative(double x, double* value, double* derivative) const {
-  switch (impl_->kind) {
+  const Impl& s = *impl_;
+  switch (s.kind) {
     case FunctionKind::kSimmSpline:
     case FunctionKind::kNaturalCubicSpline:
     case FunctionKind::kPiecewiseLinear: {
-      const KnotValues v = EvaluateKnots(*impl_, x);
-      *value = v.value;
-      *derivative = v.first;
+      // EvaluateKnots without the second derivative: the same branches, interval and
+      // expressions (every coupled joint of every evaluation comes here).
+      const double* knots = s.x.data();
+      const int n = static_cast<int>(s.x.size());
+      int k;
+      if (x < knots[0]) {
+        *value = s.y[0] + (x - knots[0]) * s.b[0];
+        *derivative = s.b[0];
+        return;
+      }
+      if (x > knots[n - 1]) {
+        *value = s.y[n - 1] + (x - knots[n - 1]) * s.b[n - 1];
+        *derivative = s.b[n - 1];
+        return;
+      }
+      if (std::abs(x - knots[0]) <= kRoundoffError) {
+        k = 0;
+        *value = s.y[k];
+        *derivative = s.b[k];
+        return;
+      }
+      if (std::abs(x - knots[n - 1]) <= kRoundoffError) {
+        k = n - 1;
+        *value = s.y[k];
+        *derivative = s.b[k];
+        return;
+      }
+      k = FindInterval(s.x, x);
+      const double dx = x - knots[k];
+      *value = s.y[k] + dx * (s.b[k] + dx * (s.c[k] + dx * s.d[k]));
+      *derivative = s.b[k] + dx * (2.0 * s.c[k] + 3.0 * dx * s.d[k]);
       return;
     }
-    default: *value = Evaluate(*impl_, x, 0); *derivative = Evaluate(*impl_, x, 1);
+    case FunctionKind::kLinear:
+      *value = s.slope * x + s.intercept;
+      *derivative = s.slope;
+      return;
+    default: *value = Evaluate(s, x, 0); *derivative = Evaluate(s, x, 1);
   }
 }
 

@@ -204,6 +204,15 @@ FlatChain Compile(const LimbDescription& d) {
   }
   flat.m = frame + 1;
   flat.n = static_cast<int>(d.coordinates.size());
+  // The joints whose sin and cos one posture computes: from the first to the last revolute
+  // joint, widened towards the chain's start to whole groups of 4 where the chain allows.
+  for (int k = 0; k < flat.m; ++k) {
+    if (!flat.joints[static_cast<size_t>(k)].revolute) continue;
+    flat.revolute_mask |= 1u << k;
+    if (flat.trig_end == 0) flat.trig_begin = k;
+    flat.trig_end = k + 1;
+  }
+  flat.trig_begin = std::max(0, flat.trig_end - (flat.trig_end - flat.trig_begin + 3) / 4 * 4);
   if (flat.m > kMaxDofs || flat.n > kMaxDofs) {
     throw Error(model + " has " + std::to_string(flat.m) + " movable joints and " +
                 std::to_string(flat.n) + " coordinates; isowrench handles at most " +
@@ -223,6 +232,7 @@ FlatChain Compile(const LimbDescription& d) {
     flat.coordinate.push_back(c);
     flat.coupling.push_back(j.coupling);
     flat.identity.push_back(j.coupling.is_identity());
+    if (!j.coupling.is_identity()) flat.coupled_joints.push_back(k);
     flat.coupled = flat.coupled || c != k || !j.coupling.is_identity();
   }
   // The backward sweep meets joints from the last to the first: the first it meets of each
@@ -279,6 +289,12 @@ FlatChain Compile(const LimbDescription& d) {
       }
       muscle.sweep_end[static_cast<size_t>(f)] = static_cast<int>(muscle.sweep_order.size());
     }
+    muscle.point_frames.push_back(-1);  // the sweep's sentinel
+    for (int f = 0; f < flat.m; ++f) {
+      if (muscle.sweep_end[static_cast<size_t>(f)] > muscle.sweep_end[static_cast<size_t>(f) + 1])
+        muscle.point_frames.push_back(f);
+    }
+    muscle.point_frames.push_back(flat.m);  // the forward loop's sentinel
     flat.muscles.push_back(std::move(muscle));
   }
   return flat;

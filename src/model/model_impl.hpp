@@ -3,6 +3,7 @@
 // the one form every kinematics and statics evaluation runs on (src/fast/fast.cpp for scalars,
 // src/fast/lanes.cpp for the SIMD lanes of the batch).
 
+#include <cstdint>
 #include <kdl/chain.hpp>
 #include <map>
 #include <string>
@@ -60,6 +61,9 @@ struct FastMuscle {
   /// sweep_end[k]: how many entries of sweep_order have frame >= k (k = 0 .. m; sweep_end[m] =
   /// 0): the points of frame k are sweep_order[sweep_end[k + 1] .. sweep_end[k]).
   std::vector<int> sweep_end;
+  /// The frames that have points, ascending, between the sentinels -1 and m: the joint loops
+  /// compare the joint with the next such frame instead of reading sweep_end at every joint.
+  std::vector<int> point_frames;
   /// Moving components of its points; `dynamic`: some point moves or is conditional, and each
   /// evaluation first runs PreparePathPoints (src/fast/path_points.cpp).
   std::vector<FastMovingComponent> moving;
@@ -80,10 +84,17 @@ struct FlatChain {
   int m = 0;  ///< movable joints
   int n = 0;  ///< independent coordinates: the public columns (J, tau, S_p, postures)
   std::vector<FastJoint> joints;
+  /// One posture computes sin and cos of joints trig_begin .. trig_end - 1, four at a time: the
+  /// revolute joints, widened towards the start to whole groups of 4 where possible (empty
+  /// when no joint is revolute).
+  int trig_begin = 0;
+  int trig_end = 0;
+  std::uint32_t revolute_mask = 0;  ///< bit k: movable joint k is revolute
   /// Per movable joint: the column of its coordinate and q_joint = coupling(q_column).
   std::vector<int> coordinate;
   std::vector<Function> coupling;
-  std::vector<char> identity;  ///< coupling is the identity (no function call)
+  std::vector<char> identity;       ///< coupling is the identity (no function call)
+  std::vector<int> coupled_joints;  ///< the joints whose coupling is not the identity
   /// Per movable joint: no later joint drives its column (the backward sweep sets the column
   /// there instead of adding to it); and the columns no joint drives (J and dL/dq are 0 there).
   std::vector<char> first_in_column;
