@@ -95,8 +95,9 @@ ISOWRENCH_INLINE bool ValidSolveInput(int m_runtime, const double* s_t, const do
     if (stiffness) lowest = x < lowest ? x : lowest;
   };
   add(s_t, true);
-  double tail_nonfinite = 0.0 * s_t[4] + 0.0 * s_t[5];
-  double tail_lowest = std::min(s_t[4], s_t[5]);
+  add(s_t + 2, true);  // entries 2 .. 5 (2 and 3 twice)
+  double tail_nonfinite = 0.0;
+  double tail_lowest = 0.0;
   ISOWRENCH_UNROLL
   for (int i = 0; i + 4 <= m; i += 4) {
     add(s_p + i, true);

@@ -177,8 +177,9 @@ ISOWRENCH_INLINE void JointSinCos(const FlatChain& d, const double* q, double* s
     }
   }
 }
-/// sweep_end of a muscle without path points (FastMuscle::sweep_end), for any chain.
+/// sweep_end and point_frames of a muscle without path points (FastMuscle), for any chain.
 inline constexpr int kNoSweepPoints[kMaxDofs + 1] = {};
+inline constexpr int kNoPointFrames[2] = {-1, kMaxDofs + 1};
 
 /// One movable joint of the forward kinematics, compiled for its kind OP (FastJoint::op, 64
 /// kinds): the frame (M, o) moves to the joint (fixed transform), z = its world axis, and the
@@ -294,16 +295,14 @@ ISOWRENCH_INLINE void Kinematics(const FlatChain& d, W& ws, const T* q, const Fa
   // kinematics functions' "no muscle" has no sweep_end: every frame has no point.
   const int* sweep_end = mu.sweep_end.empty() ? kNoSweepPoints : mu.sweep_end.data();
   // The frames with points between the sentinels -1 and m (point_frames); "no muscle": none.
-  const int no_points[2] = {-1, m};
-  const int* frames_first = mu.point_frames.empty() ? no_points : mu.point_frames.data();
+  const int* frames_first = mu.point_frames.empty() ? kNoPointFrames : mu.point_frames.data();
   const int* frames_last =
       frames_first + (mu.point_frames.empty() ? 1 : mu.point_frames.size() - 1);
   const T zero = T{};
 
   // Path points on ground are fixed in world; the others are placed as soon as their frame is
   // known, so that no frame is stored.
-  for (int i = 0; i < n; ++i) {
-    if (pts[i].frame >= 0) continue;
+  for (const int i : mu.ground_points) {
     if constexpr (kDynamic) {
       ws.point_rotation[i][0] = Unit3<T>(0);
       ws.point_rotation[i][1] = Unit3<T>(1);

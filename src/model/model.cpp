@@ -280,6 +280,7 @@ FlatChain Compile(const LimbDescription& d) {
         point.active_upper = p.active_upper + kActiveRangeTolerance;
       }
       muscle.dynamic = muscle.dynamic || !p.moving.empty() || point.active_column >= 0;
+      if (point.frame < 0) muscle.ground_points.push_back(static_cast<int>(muscle.points.size()));
       muscle.points.push_back(point);
     }
     muscle.sweep_end.assign(static_cast<size_t>(flat.m) + 1, 0);

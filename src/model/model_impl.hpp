@@ -55,6 +55,7 @@ struct FastMovingComponent {
 struct FastMuscle {
   double max_force = 0.0;
   std::vector<FastPathPoint> points;  ///< path order
+  std::vector<int> ground_points;     ///< the points on ground (frame -1)
   /// Point indices ordered by decreasing frame (ground points left out): the order of the
   /// backward torque sweep.
   std::vector<int> sweep_order;
