@@ -105,9 +105,10 @@ class Function {
   /// The factor of a Multiplier (1 for other kinds).
   double scale() const;
 
-  struct Impl;  ///< private; defined in src/model/function.cpp
+  struct Impl;  ///< private; defined in src/model/function_impl.hpp
 
  private:
+  friend struct FunctionAccess;  // src/model/function_impl.hpp
   explicit Function(std::shared_ptr<const Impl> impl);
   std::shared_ptr<const Impl> impl_;
 };

@@ -13,6 +13,7 @@
 #include "fast/kernel.hpp"
 #include "fast/simd.hpp"
 #include "isowrench/error.hpp"
+#include "model/function_impl.hpp"
 #include "model/model_impl.hpp"
 
 namespace isowrench {
@@ -256,12 +257,19 @@ const FastMuscle kNoMuscle{};  // the muscle of a kinematics call without one
 // Coupled chains: q_joint_k = f_k(q[c_k]) and its derivative for every movable joint: each
 // joint first takes its coordinate's value with derivative 1, then the joints whose coupling is
 // not the identity evaluate it.
-ISOWRENCH_INLINE void Couple(const FlatChain& d, Data::Impl& ws, const double* q) {
+ISOWRENCH_CLONES ISOWRENCH_NOINLINE void Couple(const FlatChain& d, Data::Impl& ws,
+                                                const double* q) {
   const int* coordinate = d.coordinate.data();
   for (int k = 0; k < d.m; ++k) ws.q_joint[k] = q[coordinate[k]];
   for (double& v : ws.dq_joint) v = 1.0;
-  for (const int k : d.coupled_joints)
-    d.coupling[k].ValueAndDerivative(q[coordinate[k]], &ws.q_joint[k], &ws.dq_joint[k]);
+  for (const int j : d.coupled_joints) {  // a knot function inline, the others by call
+    const Function::Impl& f = FunctionAccess::Of(d.coupling[j]);
+    if (IsKnotFunction(f.kind)) {
+      KnotValueAndSlope(f, q[coordinate[j]], &ws.q_joint[j], &ws.dq_joint[j]);
+    } else {
+      d.coupling[j].ValueAndDerivative(q[coordinate[j]], &ws.q_joint[j], &ws.dq_joint[j]);
+    }
+  }
 }
 
 // The kernel on one posture q (coordinates). kFrames: the public kinematics functions (frames

@@ -13,12 +13,14 @@
 #include "fast/fast_impl.hpp"
 #include "fast/kernel.hpp"
 #include "fast/simd.hpp"
+#include "model/function_impl.hpp"
 
 namespace isowrench {
 namespace {
 
 using V = V4;
 using VI = V4i;
+constexpr std::int64_t kMagnitude = 0x7fffffffffffffff;  // all bits of a double but the sign
 
 // Lane mask (all bits set where true, 0 where false) to a bitmask, bit l for lane l: lane l
 // keeps bit l, and the lanes are or-ed together in the vector.
@@ -26,6 +28,55 @@ ISOWRENCH_INLINE unsigned Bits(const VI& mask) {
   const VI b = mask & VI{1, 2, 4, 8};
   const VI pairs = b | __builtin_shufflevector(b, b, 2, 3, 0, 1);
   return static_cast<unsigned>((pairs | __builtin_shufflevector(pairs, pairs, 1, 0, 3, 2))[0]);
+}
+
+// Value and slope of the knot function f at a[l] in each lane: KnotValueAndSlope with its
+// branches as selects (the last applied wins: below, above, at an end knot, else interval k).
+// Interval k (x[k] < a < x[k+1]) is found by counting the interior knots below a; a lane whose
+// a equals an interior knot gets its bit in `on_knot` and must be evaluated by
+// KnotValueAndSlope (there OpenSim's bisection decides between the two intervals).
+ISOWRENCH_INLINE void KnotLanes(const Function::Impl& f, const V& a, V& value, V& slope,
+                                VI& on_knot) {
+  const double* x = f.x.data();
+  const int n = static_cast<int>(f.x.size());
+  VI count = VI{0, 0, 0, 0};
+  VI equal = VI{0, 0, 0, 0};
+  for (int i = 1; i + 1 < n; ++i) {
+    const V xi = ISOWRENCH_V4_SPLAT(x[i]);
+    count -= (VI)(xi < a);  // a true lane is -1
+    equal |= (VI)(xi == a);
+  }
+  V xk, yk, bk, ck, dk;
+  for (int l = 0; l < kLanes; ++l) {
+    const auto k = static_cast<size_t>(count[l]);
+    xk[l] = x[k];
+    yk[l] = f.y[k];
+    bk[l] = f.b[k];
+    ck[l] = f.c[k];
+    dk[l] = f.d[k];
+  }
+  const V dx = a - xk;
+  V v = yk + dx * (bk + dx * (ck + dx * dk));
+  V s = bk + dx * (2.0 * ck + 3.0 * dx * dk);
+  const V x0 = ISOWRENCH_V4_SPLAT(x[0]), xn = ISOWRENCH_V4_SPLAT(x[n - 1]);
+  const V y0 = ISOWRENCH_V4_SPLAT(f.y[0]), yn = ISOWRENCH_V4_SPLAT(f.y[n - 1]);
+  const V b0 = ISOWRENCH_V4_SPLAT(f.b[0]), bn = ISOWRENCH_V4_SPLAT(f.b[n - 1]);
+  const V roundoff = ISOWRENCH_V4_SPLAT(kKnotRoundoffError);
+  const VI at_end = (V)((VI)(a - xn) & kMagnitude) <= roundoff;
+  const VI at_start = (V)((VI)(a - x0) & kMagnitude) <= roundoff;
+  const VI above = a > xn;
+  const VI below = a < x0;
+  v = at_end ? yn : v;
+  s = at_end ? bn : s;
+  v = at_start ? y0 : v;
+  s = at_start ? b0 : s;
+  v = above ? yn + (a - xn) * bn : v;
+  s = above ? bn : s;
+  v = below ? y0 + (a - x0) * b0 : v;
+  s = below ? b0 : s;
+  value = v;
+  slope = s;
+  on_knot = equal & ~(at_end | at_start | above | below);
 }
 
 }  // namespace
@@ -75,10 +126,9 @@ ISOWRENCH_CLONES unsigned LaneKinematics(const Model& model, LaneWorkspace& work
                                          double activation) {
   const FlatChain& d = model.impl().flat;
   LaneWorkspace::Impl& ws = workspace.impl();
-  // Joint positions (on a coupled chain q_joint = f(q_c), lane by lane, with the derivatives
-  // for the kernel's fold), and whether every revolute angle is within the lane sin/cos range.
+  // Joint positions (on a coupled chain q_joint = f(q_c), with the derivatives for the kernel's
+  // fold), and whether every revolute angle is within the lane sin/cos range.
   VI out_of_range = VI{0, 0, 0, 0};
-  constexpr std::int64_t kMagnitude = 0x7fffffffffffffff;  // all bits but the sign
   if (!d.coupled) {  // joint k is coordinate k: four joints of the four postures, transposed
     const int m = d.m;
     int k = 0;
@@ -112,15 +162,24 @@ ISOWRENCH_CLONES unsigned LaneKinematics(const Model& model, LaneWorkspace& work
       out_of_range |= (V)((VI)ws.q[k] & kMagnitude) >= sincos::kMaxReduced;
     }
   }
-  if (d.coupled) {  // each joint its coordinate's value with derivative 1, then the couplings
+  if (d.coupled) {  // each joint its coordinate's values with derivative 1, then the couplings
     const int* coordinate = d.coordinate.data();
     for (int k = 0; k < d.m; ++k) {
       const int c = coordinate[k];
       ws.q[k] = V{q[0][c], q[1][c], q[2][c], q[3][c]};
       ws.dq_joint[k] = ISOWRENCH_V4_SPLAT(1.0);
     }
-    for (const int k : d.coupled_joints) {
+    for (const int k : d.coupled_joints) {  // ws.q[k] holds the coordinate's values here
+      const Function::Impl& f = FunctionAccess::Of(d.coupling[k]);
+      unsigned one_by_one = (1u << kLanes) - 1;
+      if (IsKnotFunction(f.kind)) {
+        const V a = ws.q[k];
+        VI on_knot;
+        KnotLanes(f, a, ws.q[k], ws.dq_joint[k], on_knot);
+        one_by_one = Bits(on_knot);
+      }
       for (int l = 0; l < kLanes; ++l) {
+        if (!(one_by_one & (1u << l))) continue;
         double q_joint, dq_joint;
         d.coupling[k].ValueAndDerivative(q[l][coordinate[k]], &q_joint, &dq_joint);
         ws.q[k][l] = q_joint;

@@ -15,27 +15,17 @@
 #include <string>
 
 #include "isowrench/error.hpp"
+#include "model/function_impl.hpp"
 #include "util/text.hpp"
 
 namespace isowrench {
-
-struct Function::Impl {
-  FunctionKind kind = FunctionKind::kConstant;
-  double slope = 0.0;                // Linear
-  double intercept = 0.0;            // Linear; the value of a Constant
-  double scale = 1.0;                // Multiplier
-  std::vector<Function> inner;       // Multiplier: exactly one
-  std::vector<double> x, y;          // knots
-  std::vector<double> b, c, d;       // per-knot polynomial coefficients (see the file comment)
-  std::vector<double> coefficients;  // Polynomial, highest order first
-};
 
 namespace {
 
 // OpenSim/Common/SimmMacros.h: TINY_NUMBER bounds knot spacing from below in the coefficient
 // computations, ROUNDOFF_ERROR is the distance within which an argument snaps to an end knot.
 constexpr double kTinyNumber = 0.0000001;
-constexpr double kRoundoffError = 0.0000000000002;
+constexpr double kRoundoffError = kKnotRoundoffError;
 
 std::string Num(double v) { return util::FormatNumber(v, 17); }
 
@@ -193,23 +183,6 @@ void PiecewiseCoefficients(Function::Impl& s) {
 
 // Interval search of SimmSpline::calcValue / PiecewiseLinearFunction::calcValue (same binary
 // search, so an argument exactly on an interior knot picks the same side as OpenSim).
-inline int FindInterval(const std::vector<double>& x, double a) {
-  const int n = static_cast<int>(x.size());
-  if (n < 3) return 0;
-  int i = 0, j = n, k = 0;
-  while (true) {
-    k = (i + j) / 2;
-    if (a < x[k]) {
-      j = k;
-    } else if (a > x[k + 1]) {
-      i = k;
-    } else {
-      break;
-    }
-  }
-  return k;
-}
-
 // Orders 0, 1 and 2 of a knot-based function at a, from one interval search.
 struct KnotValues {
   double value, first, second;
@@ -372,40 +345,7 @@ void Function::ValueAndDerivative(double x, double* value, double* derivative) c
   switch (s.kind) {
     case FunctionKind::kSimmSpline:
     case FunctionKind::kNaturalCubicSpline:
-    case FunctionKind::kPiecewiseLinear: {
-      // EvaluateKnots without the second derivative: the same branches, interval and
-      // expressions (every coupled joint of every evaluation comes here).
-      const double* knots = s.x.data();
-      const int n = static_cast<int>(s.x.size());
-      int k;
-      if (x < knots[0]) {
-        *value = s.y[0] + (x - knots[0]) * s.b[0];
-        *derivative = s.b[0];
-        return;
-      }
-      if (x > knots[n - 1]) {
-        *value = s.y[n - 1] + (x - knots[n - 1]) * s.b[n - 1];
-        *derivative = s.b[n - 1];
-        return;
-      }
-      if (std::abs(x - knots[0]) <= kRoundoffError) {
-        k = 0;
-        *value = s.y[k];
-        *derivative = s.b[k];
-        return;
-      }
-      if (std::abs(x - knots[n - 1]) <= kRoundoffError) {
-        k = n - 1;
-        *value = s.y[k];
-        *derivative = s.b[k];
-        return;
-      }
-      k = FindInterval(s.x, x);
-      const double dx = x - knots[k];
-      *value = s.y[k] + dx * (s.b[k] + dx * (s.c[k] + dx * s.d[k]));
-      *derivative = s.b[k] + dx * (2.0 * s.c[k] + 3.0 * dx * s.d[k]);
-      return;
-    }
+    case FunctionKind::kPiecewiseLinear: KnotValueAndSlope(s, x, value, derivative); return;
     case FunctionKind::kLinear:
       *value = s.slope * x + s.intercept;
       *derivative = s.slope;

@@ -180,6 +180,44 @@ TEST_P(CoupledLeg, FastSingleBatchAndReferenceAgree) {
   }
 }
 
+TEST(CoupledLegKnots, BatchEqualsSingleAtKnotsNearEndKnotsAndBeyondThem) {
+  // The batch evaluates a knot coupling of four postures at once, with OpenSim's branches as
+  // selects and the interval found by counting knots; an argument exactly on an interior knot
+  // goes back to OpenSim's bisection, which decides which interval's polynomial is used. On a
+  // piecewise-linear law that choice changes the slope (the knee_ty column of J), so a wrong
+  // interval shows as an O(1) difference. Arguments: every knot, 1e-14 and 1e-13 from the end
+  // knots (OpenSim snaps within 2e-13), beyond both ends, and between knots.
+  const std::vector<double> knots = {-1, -0.5, 0, 0.5, 1, 1.5, 2, 2.5};
+  std::vector<double> knee = knots;
+  for (double x : {-1 + 1e-14, -1 - 1e-14, -1 + 1e-13, 2.5 - 1e-14, 2.5 + 1e-14, 2.5 - 3e-13, -1.7,
+                   3.1, -0.26, 0.74, 1.99, 2.3})
+    knee.push_back(x);
+  const char* laws[] = {R"(<isowrench:piecewise_linear x="-1 -0.5 0 0.5 1 1.5 2 2.5" )"
+                        R"(y="0.0025 0.001 0.0015 0.0002 0.0005 0.0019 0.0055 0.002"/>)",
+                        kSpline,
+                        R"(<isowrench:natural_cubic_spline x="-1 -0.5 0 0.5 1 1.5 2 2.5" )"
+                        R"(y="0.0025 0.001 0.0015 0.0002 0.0005 0.0019 0.0055 0.002"/>)"};
+  for (const char* law : laws) {
+    const Model model(isowrench::ReadUrdfString(Leg(law), "leg.urdf"));
+    isowrench::Data ws(model);
+    Eigen::MatrixXd Q(2, static_cast<Eigen::Index>(knee.size()));
+    for (size_t p = 0; p < knee.size(); ++p) {
+      Q(0, static_cast<Eigen::Index>(p)) = 0.3 + 0.1 * static_cast<double>(p);
+      Q(1, static_cast<Eigen::Index>(p)) = knee[p];
+    }
+    std::vector<isowrench::StiffnessSet> sets = {model.model_stiffness()};
+    std::vector<isowrench::WrenchResult> batch;
+    isowrench::EvaluateBatch(model, Q, 0, sets, batch);
+    for (size_t p = 0; p < knee.size(); ++p) {
+      const isowrench::WrenchResult single =
+          isowrench::Evaluate(model, ws, Q.col(static_cast<Eigen::Index>(p)), 0, sets[0]);
+      ASSERT_EQ(single.status, batch[p].status) << law << " knee " << knee[p];
+      EXPECT_LE((single.wrench - batch[p].wrench).norm(), 1e-12 * single.wrench.norm())
+          << law << " knee " << knee[p];
+    }
+  }
+}
+
 INSTANTIATE_TEST_SUITE_P(Laws, CoupledLeg, ::testing::Values(0, 1),
                          [](const ::testing::TestParamInfo<int>& info) {
                            return std::string(info.param == 0 ? "Polynomial" : "SimmSpline");
