@@ -395,9 +395,12 @@ class Data {
   const JointVector& muscle_length_gradient() const;
   /// Muscle length (m) of the last kinematics.
   double muscle_length() const;
-  /// Endpoint position in world (m) of the last kinematics.
+  /// Endpoint position in world (m) of the last kinematics. Like jacobian(), a copy made on
+  /// each call (the engine keeps it in its own layout): a reference kept across the next
+  /// evaluation still shows the old position.
   const Eigen::Vector3d& endpoint_position() const;
-  /// R_W_T of the last kinematics: transducer axes in world.
+  /// R_W_T of the last kinematics: transducer axes in world. A copy made on each call, as
+  /// endpoint_position().
   const Eigen::Matrix3d& transducer_rotation() const;
   /// dtheta of the last solve (rad or m per joint); zeros after kSelfMotion / kInvalidInput.
   const JointVector& dtheta() const;

@@ -49,17 +49,9 @@ namespace kernel {
 // multiple of 4 past m; with m <= kMaxDofs that stays inside each row of kMaxDofs entries.
 static_assert(kMaxDofs % 4 == 0, "rows are read in whole 4-double vectors");
 
-/// The result of a comparison: bool for double, a lane mask (all bits set where true) for V4.
+/// The result of a comparison (fast/vec3.hpp: LaneTypes).
 template <class T>
-struct MaskOf {
-  using type = bool;
-};
-template <>
-struct MaskOf<V4> {
-  using type = V4i;
-};
-template <class T>
-using Mask = typename MaskOf<T>::type;
+using Mask = typename LaneTypes<T>::Mask;
 
 template <class T>
 inline constexpr bool kScalar = std::is_same_v<T, double>;
@@ -171,8 +163,10 @@ ISOWRENCH_INLINE void JointSinCos(const FlatChain& d, const double* q, double* s
     SinCos<false>(x, s, c);
     std::memcpy(sin_q + k0, &s, sizeof s);
     std::memcpy(cos_q + k0, &c, sizeof c);
+    // A lane beyond the reduction's range (the four lanes' masks and-ed in the vector): those
+    // four joints one by one.
     const V4i pairs = reduced & __builtin_shufflevector(reduced, reduced, 2, 3, 0, 1);
-    if (!(pairs & __builtin_shufflevector(pairs, pairs, 1, 0, 3, 2))[0]) {  // a lane is not
+    if (!(pairs & __builtin_shufflevector(pairs, pairs, 1, 0, 3, 2))[0]) {
       for (int k = k0; k < std::min(end, k0 + 4); ++k) SinCos(q[k], sin_q[k], cos_q[k]);
     }
   }

@@ -24,19 +24,22 @@ struct Lanes3 {
   V4 c[3];
 };
 
+/// The types of the engine for lane type T: its 3-vector (see above) and the result of a
+/// comparison (bool for one posture, a lane mask with all bits set where true for the lanes).
 template <class T>
-struct Vec3Of;
+struct LaneTypes;
 template <>
-struct Vec3Of<double> {
-  using type = V4;
+struct LaneTypes<double> {
+  using Vec3 = V4;
+  using Mask = bool;
 };
 template <>
-struct Vec3Of<V4> {
-  using type = Lanes3;
+struct LaneTypes<V4> {
+  using Vec3 = Lanes3;
+  using Mask = V4i;
 };
-/// The engine's 3-vector for lane type T (see above).
 template <class T>
-using Vec3 = typename Vec3Of<T>::type;
+using Vec3 = typename LaneTypes<T>::Vec3;
 
 // ---- Making vectors ----
 
