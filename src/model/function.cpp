@@ -23,9 +23,9 @@ namespace isowrench {
 namespace {
 
 // OpenSim/Common/SimmMacros.h: TINY_NUMBER bounds knot spacing from below in the coefficient
-// computations, ROUNDOFF_ERROR is the distance within which an argument snaps to an end knot.
+// computations (ROUNDOFF_ERROR, the distance within which an argument snaps to an end knot, is
+// kKnotRoundoffError of function_impl.hpp).
 constexpr double kTinyNumber = 0.0000001;
-constexpr double kRoundoffError = kKnotRoundoffError;
 
 std::string Num(double v) { return util::FormatNumber(v, 17); }
 
@@ -181,27 +181,6 @@ void PiecewiseCoefficients(Function::Impl& s) {
   s.b[n - 1] = s.b[n - 2];
 }
 
-// Interval search of SimmSpline::calcValue / PiecewiseLinearFunction::calcValue (same binary
-// search, so an argument exactly on an interior knot picks the same side as OpenSim).
-// Orders 0, 1 and 2 of a knot-based function at a, from one interval search.
-struct KnotValues {
-  double value, first, second;
-};
-KnotValues EvaluateKnots(const Function::Impl& s, double a) {
-  const std::vector<double>& x = s.x;
-  const int n = static_cast<int>(x.size());
-  if (a < x[0]) return {s.y[0] + (a - x[0]) * s.b[0], s.b[0], 0.0};
-  if (a > x[n - 1]) return {s.y[n - 1] + (a - x[n - 1]) * s.b[n - 1], s.b[n - 1], 0.0};
-  if (std::abs(a - x[0]) <= kRoundoffError) return {s.y[0], s.b[0], 2.0 * s.c[0]};
-  if (std::abs(a - x[n - 1]) <= kRoundoffError) {
-    return {s.y[n - 1], s.b[n - 1], 2.0 * s.c[n - 1]};
-  }
-  const int k = FindInterval(x, a);
-  const double dx = a - x[k];
-  return {s.y[k] + dx * (s.b[k] + dx * (s.c[k] + dx * s.d[k])),
-          s.b[k] + dx * (2.0 * s.c[k] + 3.0 * dx * s.d[k]), 2.0 * s.c[k] + 6.0 * dx * s.d[k]};
-}
-
 // Horner's rule on coefficients highest order first (SimTK::Function::Polynomial).
 double EvaluatePolynomial(const std::vector<double>& coefficients, double a, int order) {
   const int n = static_cast<int>(coefficients.size());
@@ -223,8 +202,9 @@ double Evaluate(const Function::Impl& s, double a, int order) {
     case FunctionKind::kSimmSpline:
     case FunctionKind::kNaturalCubicSpline:
     case FunctionKind::kPiecewiseLinear: {
-      const KnotValues v = EvaluateKnots(s, a);
-      return order == 0 ? v.value : order == 1 ? v.first : v.second;
+      double v[3];
+      KnotValues(s, a, &v[0], &v[1], &v[2]);
+      return v[order];
     }
     case FunctionKind::kPolynomial: return EvaluatePolynomial(s.coefficients, a, order);
     case FunctionKind::kMultiplier: {

@@ -54,36 +54,38 @@ inline int FindInterval(const std::vector<double>& x, double a) {
   return k;
 }
 
-/// Value and first derivative of a knot function (SimmSpline, natural cubic spline, piecewise
-/// linear) at a, as OpenSim computes them: linear extrapolation outside the knots, an end
-/// knot's value within kKnotRoundoffError of it, else the polynomial of interval k.
-inline void KnotValueAndSlope(const Function::Impl& s, double a, double* value, double* slope) {
+/// Value, first and (when `second` is not null) second derivative of a knot function
+/// (SimmSpline, natural cubic spline, piecewise linear) at a, as OpenSim computes them: linear
+/// extrapolation outside the knots, an end knot's value within kKnotRoundoffError of it, else
+/// the polynomial of interval k (FindInterval).
+inline void KnotValues(const Function::Impl& s, double a, double* value, double* slope,
+                       double* second) {
   const double* x = s.x.data();
   const int n = static_cast<int>(s.x.size());
-  if (a < x[0]) {
-    *value = s.y[0] + (a - x[0]) * s.b[0];
-    *slope = s.b[0];
+  if (a < x[0] || a > x[n - 1]) {
+    const int end = a < x[0] ? 0 : n - 1;
+    *value = s.y[end] + (a - x[end]) * s.b[end];
+    *slope = s.b[end];
+    if (second) *second = 0.0;
     return;
   }
-  if (a > x[n - 1]) {
-    *value = s.y[n - 1] + (a - x[n - 1]) * s.b[n - 1];
-    *slope = s.b[n - 1];
-    return;
-  }
-  if (std::abs(a - x[0]) <= kKnotRoundoffError) {
-    *value = s.y[0];
-    *slope = s.b[0];
-    return;
-  }
-  if (std::abs(a - x[n - 1]) <= kKnotRoundoffError) {
-    *value = s.y[n - 1];
-    *slope = s.b[n - 1];
+  if (std::abs(a - x[0]) <= kKnotRoundoffError || std::abs(a - x[n - 1]) <= kKnotRoundoffError) {
+    const int end = std::abs(a - x[0]) <= kKnotRoundoffError ? 0 : n - 1;
+    *value = s.y[end];
+    *slope = s.b[end];
+    if (second) *second = 2.0 * s.c[end];
     return;
   }
   const int k = FindInterval(s.x, a);
   const double dx = a - x[k];
   *value = s.y[k] + dx * (s.b[k] + dx * (s.c[k] + dx * s.d[k]));
   *slope = s.b[k] + dx * (2.0 * s.c[k] + 3.0 * dx * s.d[k]);
+  if (second) *second = 2.0 * s.c[k] + 6.0 * dx * s.d[k];
+}
+
+/// Value and first derivative of a knot function (KnotValues without the second).
+inline void KnotValueAndSlope(const Function::Impl& s, double a, double* value, double* slope) {
+  KnotValues(s, a, value, slope, nullptr);
 }
 
 }  // namespace isowrench

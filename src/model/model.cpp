@@ -231,7 +231,6 @@ FlatChain Compile(const LimbDescription& d) {
     const int c = column.at(j.coordinate.empty() ? j.name : j.coordinate);
     flat.coordinate.push_back(c);
     flat.coupling.push_back(j.coupling);
-    flat.identity.push_back(j.coupling.is_identity());
     if (!j.coupling.is_identity()) flat.coupled_joints.push_back(k);
     flat.coupled = flat.coupled || c != k || !j.coupling.is_identity();
   }

@@ -94,7 +94,6 @@ struct FlatChain {
   /// Per movable joint: the column of its coordinate and q_joint = coupling(q_column).
   std::vector<int> coordinate;
   std::vector<Function> coupling;
-  std::vector<char> identity;       ///< coupling is the identity (no function call)
   std::vector<int> coupled_joints;  ///< the joints whose coupling is not the identity
   /// Per movable joint: no later joint drives its column (the backward sweep sets the column
   /// there instead of adding to it); and the columns no joint drives (J and dL/dq are 0 there).
