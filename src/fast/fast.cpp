@@ -217,7 +217,9 @@ Data::Impl::Impl(int dofs) : m(dofs), eigen(dofs) {
   K_full.setZero(m, m);
   self_motion.resize(m, 0);
   for (double& v : U) v = 0.0;
-  for (int c = m; c < (m + 3) / 4 * 4; ++c) Jv[c] = Jw[c] = Jp[c] = ISOWRENCH_V4_SPLAT(0.0);
+  for (int c = m; c < (m + 3) / 4 * 4; ++c) {
+    staged[c] = staged[kW + c] = staged[kP + c] = ISOWRENCH_V4_SPLAT(0.0);
+  }
 }
 
 Data::Data(const Model& model) : impl_(std::make_unique<Impl>(model.dof_count())) {}
@@ -254,20 +256,31 @@ namespace {
 
 const FastMuscle kNoMuscle{};  // the muscle of a kinematics call without one
 
-// Coupled chains: q_joint_k = f_k(q[c_k]) and its derivative for every movable joint: each
-// joint first takes its coordinate's value with derivative 1, then the joints whose coupling is
-// not the identity evaluate it.
-ISOWRENCH_CLONES ISOWRENCH_NOINLINE void Couple(const FlatChain& d, Data::Impl& ws,
-                                                const double* q) {
-  const int* coordinate = d.coordinate.data();
-  for (int k = 0; k < d.m; ++k) ws.q_joint[k] = q[coordinate[k]];
-  for (double& v : ws.dq_joint) v = 1.0;
-  for (const int j : d.coupled_joints) {  // a knot function inline, the others by call
-    const Function::Impl& f = FunctionAccess::Of(d.coupling[j]);
-    if (IsKnotFunction(f.kind)) {
-      KnotValueAndSlope(f, q[coordinate[j]], &ws.q_joint[j], &ws.dq_joint[j]);
-    } else {
-      d.coupling[j].ValueAndDerivative(q[coordinate[j]], &ws.q_joint[j], &ws.dq_joint[j]);
+// Coupled chains: the joint positions q_joint_k = f_k(q[c_k]) and, for the driven joints (the
+// ones the folds read), dq_joint_k/dq: joint k first takes coordinate k (four per vector), the
+// owners of FlatChain::moved_positions their coordinates, then the driven joints evaluate their
+// couplings.
+ISOWRENCH_INLINE void Couple(const FlatChain& d, Data::Impl& ws, const double* q) {
+  const int n = d.n;
+  double* q_joint = ws.q_joint;
+  if (n >= 4) {  // whole vectors, the last one ending at n (it may overlap the one before)
+    V4 v;
+    for (int i = 0; i + 4 < n; i += 4) {
+      std::memcpy(&v, q + i, sizeof v);
+      std::memcpy(q_joint + i, &v, sizeof v);
+    }
+    std::memcpy(&v, q + n - 4, sizeof v);
+    std::memcpy(q_joint + n - 4, &v, sizeof v);
+  } else {
+    for (int i = 0; i < n; ++i) q_joint[i] = q[i];
+  }
+  for (const FlatChain::MovedPosition& p : d.moved_positions) q_joint[p.joint] = q[p.column];
+  for (const FlatChain::DrivenJoint& c : d.driven_joints) {  // knot functions inline
+    const double a = q[c.column];
+    double* value = &q_joint[c.joint];
+    double* slope = &ws.dq_joint[c.joint];
+    if (!c.scan.ValueAndSlope(a, value, slope)) {
+      d.coupling[c.joint].ValueAndDerivative(a, value, slope);
     }
   }
 }
@@ -276,21 +289,22 @@ ISOWRENCH_CLONES ISOWRENCH_NOINLINE void Couple(const FlatChain& d, Data::Impl& 
 // stored, muscle < 0 allowed, J in world axes if world_axes); the evaluation path runs
 // kFrames = false. A muscle with moving or conditional points runs the kDynamic
 // instantiation (out of line), the others the one where those steps are compiled out.
-template <bool kFrames, bool kDynamic>
+// kCoupled: any chain (kernel::Kinematics); false: a chain without couplings only.
+template <bool kFrames, bool kDynamic, bool kCoupled>
 ISOWRENCH_INLINE bool Kinematics(const FlatChain& d, Data::Impl& ws, const double* q, int muscle,
                                  double activation, bool world_axes) {
   assert(ws.m == d.n);
   assert(muscle < static_cast<int>(d.muscles.size()) && (kFrames || muscle >= 0));
   const FastMuscle& mu = (kFrames && muscle < 0) ? kNoMuscle : d.muscles[muscle];
   if (kDynamic) PreparePathPoints(mu, q, ws);
-  if (d.coupled) {
+  if (kCoupled && d.coupled) {
     Couple(d, ws, q);
     q = ws.q_joint;
   }
   const double minus_force = -(activation * mu.max_force);
   const bool rotate = !d.transducer_identity && !(kFrames && world_axes);
   bool coincident;
-  kernel::Kinematics<kFrames, kDynamic>(d, ws, q, mu, minus_force, rotate, coincident);
+  kernel::Kinematics<kFrames, kDynamic, kCoupled>(d, ws, q, mu, minus_force, rotate, coincident);
   if (coincident) {
     ws.dL.setZero();
     ws.tau.setZero();
@@ -303,16 +317,32 @@ ISOWRENCH_INLINE bool Kinematics(const FlatChain& d, Data::Impl& ws, const doubl
 template <bool kFrames>
 ISOWRENCH_NOINLINE bool DynamicKinematics(const FlatChain& d, Data::Impl& ws, const double* q,
                                           int muscle, double activation, bool world_axes) {
-  return Kinematics<kFrames, true>(d, ws, q, muscle, activation, world_axes);
+  return Kinematics<kFrames, true, true>(d, ws, q, muscle, activation, world_axes);
 }
 
+// The evaluation path of a chain with couplings (kept apart from the one without, which it
+// would otherwise crowd: one function's registers and stack).
+ISOWRENCH_CLONES ISOWRENCH_NOINLINE bool CoupledKinematics(const FlatChain& d, Data::Impl& ws,
+                                                           const double* q, int muscle,
+                                                           double activation) {
+  return Kinematics<false, false, true>(d, ws, q, muscle, activation, false);
+}
+
+// Muscles with moving or conditional points, the public kinematics functions and chains with
+// couplings run the general kernel; the evaluation of a chain without couplings its own.
 template <bool kFrames>
 ISOWRENCH_INLINE bool AnyKinematics(const FlatChain& d, Data::Impl& ws, const double* q, int muscle,
                                     double activation, bool world_axes) {
   if ((!kFrames || muscle >= 0) && d.muscles[muscle].dynamic) {
     return DynamicKinematics<kFrames>(d, ws, q, muscle, activation, world_axes);
   }
-  return Kinematics<kFrames, false>(d, ws, q, muscle, activation, world_axes);
+  if constexpr (kFrames) {
+    return Kinematics<true, false, true>(d, ws, q, muscle, activation, world_axes);
+  } else if (d.coupled) {
+    return CoupledKinematics(d, ws, q, muscle, activation);
+  } else {
+    return Kinematics<false, false, false>(d, ws, q, muscle, activation, world_axes);
+  }
 }
 
 // Locked coordinates are rigid in the statics: their columns of J and entries of tau are set

@@ -31,7 +31,8 @@ struct Data::Impl {
   /// World rotation (three columns) of the frame after each movable joint; written only by the
   /// kernel with frames (the public kinematics functions), not by the evaluation path.
   std::array<std::array<Vec3<double>, 3>, kMaxDofs> frames;
-  /// Coupled chains only: each movable joint's position q_joint = f(q_c) and dq_joint/dq_c.
+  /// Coupled chains only: each movable joint's position q_joint = f(q_c), and dq_joint/dq_c of
+  /// the driven joints (FlatChain::driven_joints).
   double q_joint[kMaxDofs];
   double dq_joint[kMaxDofs];
   /// The endpoint (pose[0]) and the columns of R_W_T (pose[1 .. 3]), as the kernel stores them.
@@ -47,11 +48,12 @@ struct Data::Impl {
   mutable Eigen::Vector3d endpoint = Eigen::Vector3d::Zero();
   mutable Eigen::Matrix3d R_W_T = Eigen::Matrix3d::Identity();
   /// One posture stages the Jacobian columns [v; w] (world axes) and the x, y, z terms of
-  /// dL/dq_c here; kernel::FinishColumns moves them into Jr, dL and tau, four columns at a time
-  /// (the columns from m to the next multiple of 4 are 0 from construction on).
-  Vec3<double> Jv[kMaxDofs];
-  Vec3<double> Jw[kMaxDofs];
-  Vec3<double> Jp[kMaxDofs];
+  /// dL/dq_c here, column (or FlatChain::slot) s at staged[s] (v), staged[kW + s] (w) and
+  /// staged[kP + s] (the terms of dL/dq); kernel::FinishColumns moves the first m columns into
+  /// Jr, dL and tau, four at a time (the columns from m to the next multiple of 4 are 0 from
+  /// construction on).
+  static constexpr int kW = kMaxSlots, kP = 2 * kMaxSlots;
+  Vec3<double> staged[3 * kMaxSlots];
   /// The endpoint Jacobian as the kernel writes it: row-major with a fixed row stride (row r at
   /// Jr + r * kMaxDofs, columns 0 .. m - 1), the layout the statics reads rows of; the
   /// unused entries stay 0.
@@ -59,10 +61,6 @@ struct Data::Impl {
   JointVector dL;
   JointVector tau;
   double length = 0.0;
-  double* JacobianData() { return Jr; }
-  static constexpr int JacobianStride() { return kMaxDofs; }
-  double* DlData() { return dL.data(); }
-  double* TauData() { return tau.data(); }
   /// J, dL and tau have the m columns of the model from construction on (the kernel asks for
   /// its chain's n, which is m).
   void Resize([[maybe_unused]] int n) const { assert(n == m); }

@@ -14,8 +14,9 @@
 // moments from the distal end (a backward sweep over joints) gives, per joint k,
 //   revolute  dL/dtheta_k = z_k . (sum x_i x g_i - o_k x sum g_i),  prismatic z_k . sum g_i,
 // over the points distal to joint k: O(m + points) instead of one point Jacobian per point.
-// Coupled chains: the joint columns of J and dL/dq are folded into coordinate columns as the
-// sweep computes them, J = J_joints C with C = dq_joint/dq.
+// Coupled chains: the sweep writes each joint's column at its slot (FlatChain::slot: its
+// coordinate's column, or a place past kMaxDofs), and the folds then add the latter into their
+// columns, J = J_joints C with C = dq_joint/dq (and dL/dq = C^T dL/dq_joint).
 // Statics: K = J^T S_t J + S_p, Cholesky K = U^T U, two triangular solves, W = S_t J dtheta
 // (Cholesky).
 //
@@ -23,11 +24,12 @@
 // register, for the lanes each component is a lane vector.
 //
 // A workspace W provides: `using Scalar = T`; Vec3<T> arrays origin, axis (kMaxDofs), points,
-// pulls (kFastMaxPathPoints), T arrays q_joint, dq_joint (kMaxDofs), frames (kMaxDofs x 3
-// columns; only for kFrames); T length; JacobianData() (row-major, row r at JacobianData() + r *
-// JacobianStride()), DlData(), TauData(), and Resize(columns) before J, dL and tau are written.
-// For T = double also SetPose(endpoint, R_W_T columns) and the column staging Jv, Jw, Jp
-// (kMaxDofs rounded up to whole groups of 4; FinishColumns).
+// pulls (kFastMaxPathPoints), T array dq_joint (kMaxDofs; coupled chains), frames (kMaxDofs x 3
+// columns; only for kFrames); T length; and Resize(columns) before J, dL and tau are written.
+// The lanes also JacobianData() (row-major, row r at JacobianData() + r * JacobianStride(),
+// kMaxSlots columns) and TauData() (kMaxSlots entries); one posture SetPose(endpoint, R_W_T
+// columns) and the column staging `staged` (three arrays of kMaxSlots: v at 0, w at kW, the
+// terms of dL/dq at kP; FinishColumns reads the first n rounded up to whole groups of 4).
 
 #include <Eigen/Core>
 #include <algorithm>
@@ -171,9 +173,9 @@ ISOWRENCH_INLINE void JointSinCos(const FlatChain& d, const double* q, double* s
     }
   }
 }
-/// sweep_end and point_frames of a muscle without path points (FastMuscle), for any chain.
-inline constexpr int kNoSweepPoints[kMaxDofs + 1] = {};
-inline constexpr int kNoPointFrames[2] = {-1, kMaxDofs + 1};
+/// The point groups of a muscle without path points (FastMuscle), for any chain: the sentinels.
+inline constexpr int kNoForwardPoints[1] = {kMaxDofs};
+inline constexpr int kNoBackwardPoints[1] = {-1};
 
 /// One movable joint of the forward kinematics, compiled for its kind OP (FastJoint::op, 64
 /// kinds): the frame (M, o) moves to the joint (fixed transform), z = its world axis, and the
@@ -212,8 +214,8 @@ ISOWRENCH_INLINE void JointStep(const FastJoint& j, Vec3<T>* M, Vec3<T>& o, Vec3
   }
 }
 
-/// One posture: the columns the backward sweep staged (ws.Jv, ws.Jw: the columns' v and w in
-/// world axes, ws.Jp: x, y and z terms of dL/dq) moved into J (row-major, turned into
+/// One posture: the columns the backward sweep staged (ws.staged: the columns' v and w in
+/// world axes, and the x, y and z terms of dL/dq) moved into J (row-major, turned into
 /// transducer axes when `rotate`), dL/dq and tau, four columns per step: a 4 x 4 transpose of
 /// the staged vectors gives four entries of a row at once.
 ISOWRENCH_INLINE void FinishColumns(Data::Impl& ws, int n, const V4* Rt, bool rotate,
@@ -237,9 +239,9 @@ ISOWRENCH_INLINE void FinishColumns(Data::Impl& ws, int n, const V4* Rt, bool ro
   auto all_columns = [&](auto rotate_tag) ISOWRENCH_LAMBDA_INLINE {
     for (int c0 = 0; c0 < n; c0 += 4) {
       V4 r[6], p[3];
-      rows(ws.Jv + c0, r);
-      rows(ws.Jw + c0, r + 3);
-      rows(ws.Jp + c0, p);
+      rows(ws.staged + c0, r);
+      rows(ws.staged + Data::Impl::kW + c0, r + 3);
+      rows(ws.staged + Data::Impl::kP + c0, p);
       if constexpr (decltype(rotate_tag)::value) {  // R_W_T^T [v; w]: row i = sum_k R_ki row k
         V4 t[6];
         ISOWRENCH_UNROLL
@@ -275,23 +277,23 @@ ISOWRENCH_INLINE void FinishColumns(Data::Impl& ws, int n, const V4* Rt, bool ro
 /// kFrames: also store each movable joint's world rotation in ws.frames (the public kinematics
 /// functions). kDynamic (scalar only): the muscle has moving or conditional points
 /// (src/fast/path_points.cpp); ws.local and ws.active were prepared by PreparePathPoints.
-template <bool kFrames, bool kDynamic, class W, class T = typename W::Scalar>
+/// kCoupled: any chain, with or without couplings (each joint writes its slot, then the folds;
+/// ws.dq_joint is read); false: only a chain without couplings (!d.coupled: joint k writes
+/// column k), compiled apart so that such chains run none of the coupled steps.
+template <bool kFrames, bool kDynamic, bool kCoupled, class W, class T = typename W::Scalar>
 ISOWRENCH_INLINE void Kinematics(const FlatChain& d, W& ws, const T* q, const FastMuscle& mu,
                                  double minus_force, bool rotate, Mask<T>& coincident) {
   static_assert(kScalar<T> || (!kFrames && !kDynamic), "frames and moving points: scalar only");
+  assert(kCoupled || !d.coupled);
   using V3 = Vec3<T>;
   const int m = d.m;
   const FastJoint* joints = d.joints.data();
   const int n = static_cast<int>(mu.points.size());
   const FastPathPoint* pts = mu.points.data();
-  const int* order = mu.sweep_order.data();  // points by decreasing frame, ground ones left out
-  // The points of frame k: order[sweep_end[k + 1] .. sweep_end[k]). A muscle of the public
-  // kinematics functions' "no muscle" has no sweep_end: every frame has no point.
-  const int* sweep_end = mu.sweep_end.empty() ? kNoSweepPoints : mu.sweep_end.data();
-  // The frames with points between the sentinels -1 and m (point_frames); "no muscle": none.
-  const int* frames_first = mu.point_frames.empty() ? kNoPointFrames : mu.point_frames.data();
-  const int* frames_last =
-      frames_first + (mu.point_frames.empty() ? 1 : mu.point_frames.size() - 1);
+  // The groups of points by frame (FastMuscle::forward_points, backward_points); a muscle of the
+  // public kinematics functions' "no muscle" has none.
+  const int* forward = mu.forward_points.empty() ? kNoForwardPoints : mu.forward_points.data();
+  const int* backward = mu.backward_points.empty() ? kNoBackwardPoints : mu.backward_points.data();
   const T zero = T{};
 
   // Path points on ground are fixed in world; the others are placed as soon as their frame is
@@ -392,10 +394,10 @@ ISOWRENCH_INLINE void Kinematics(const FlatChain& d, W& ws, const T* q, const Fa
       ISOWRENCH_UNROLL
       for (int c = 0; c < 3; ++c) ws.frames[k][c] = M[c];
     }
-    if (k != frames_first[1]) continue;  // frame k has no points
-    ++frames_first;
-    for (int slot = sweep_end[k + 1]; slot < sweep_end[k]; ++slot) {  // x = M a + o
-      const int i = order[slot];
+    if (k != forward[0]) continue;  // frame k has no points
+    const int* group_end = forward + 2 + forward[1];
+    for (const int* point = forward + 2; point < group_end; ++point) {  // x = M a + o
+      const int i = *point;
       if constexpr (kDynamic) {
         ISOWRENCH_UNROLL
         for (int c = 0; c < 3; ++c) ws.point_rotation[i][c] = M[c];
@@ -404,6 +406,7 @@ ISOWRENCH_INLINE void Kinematics(const FlatChain& d, W& ws, const T* q, const Fa
         ws.points[i] = Transform(M, pts[i].position.data()) + o;
       }
     }
+    forward = group_end;
   }
   // Endpoint and R_W_T in locals: the stores below cannot alias them.
   const V3 pe = Transform(M, d.endpoint.data()) + o;
@@ -451,105 +454,71 @@ ISOWRENCH_INLINE void Kinematics(const FlatChain& d, W& ws, const T* q, const Fa
   ws.length = total_length;
 
   // Backward sweep over the joints: the Jacobian column and dL/dtheta_k of each joint. One
-  // posture stages each column in world axes (ws.Jv, Jw, and Jp: the terms of the dot product
+  // posture stages each column in world axes (ws.staged: v, w and the terms of the dot product
   // dL/dq) and FinishColumns moves them into J, dL and tau four columns at a time; the lanes
-  // write them directly.
-  V3 ps = Zero3<T>();        // sum of pulls distal to joint k
-  V3 ms = Zero3<T>();        // sum of their moments about the world origin
-  T* J = ws.JacobianData();  // lanes: row-major, row r at J + r * js
-  const int js = ws.JacobianStride();
-  T* dL = ws.DlData();
-  T* tau = ws.TauData();
-  if (d.coupled) {  // columns accumulate their joints' contributions; those of none are 0
-    for (const int c : d.undriven_columns) {
-      if constexpr (kScalar<T>) {
-        ws.Jv[c] = ws.Jw[c] = ws.Jp[c] = Zero3<T>();
-      } else {
-        dL[c] = zero;
-        for (int r = 0; r < 6; ++r) J[r * js + c] = zero;
-      }
-    }
+  // write them directly. On a coupled chain joint k writes slot d.slot[k] (its column, or a
+  // place past kMaxDofs that a fold adds into its column after the sweep).
+  V3 ps = Zero3<T>();  // sum of pulls distal to joint k
+  V3 ms = Zero3<T>();  // sum of their moments about the world origin
+  T* J = nullptr;      // the lanes' J (row-major, row r at J + r * js) and tau
+  int js = 0;
+  T* tau = nullptr;
+  if constexpr (!kScalar<T>) {
+    J = ws.JacobianData();
+    js = ws.JacobianStride();
+    tau = ws.TauData();
   }
-  // The sweep compiled once for each combination of the two choices that are the same for every
-  // joint: J turned into transducer axes, and coupled columns.
-  auto sweep = [&](auto rotate_tag, auto coupled_tag) ISOWRENCH_LAMBDA_INLINE {
+  // The sweep compiled with and without J turned into transducer axes (the same for every
+  // joint).
+  auto sweep = [&](auto rotate_tag) ISOWRENCH_LAMBDA_INLINE {
     constexpr bool kRotate = decltype(rotate_tag)::value;
-    constexpr bool kCoupled = decltype(coupled_tag)::value;
     V3 RtT[3];  // the lanes turn each column: R_W_T^T v = RtT v
     if constexpr (kRotate && !kScalar<T>) Transpose(Rt, RtT);
     const std::uint32_t revolute_mask = d.revolute_mask;
-    const int* frames = frames_last;  // the sweep meets the frames with points from the last
+    const int* slots = d.slot.data();
     for (int k = m - 1; k >= 0; --k) {
-      const bool has_points = k == frames[-1];
-      if (has_points) --frames;
-      for (int slot = sweep_end[k + 1]; has_points && slot < sweep_end[k]; ++slot) {
-        const int i = order[slot];
-        const V3& g = ws.pulls[i];
-        ps += g;
-        ms += Cross(ws.points[i], g);
+      if (k == backward[0]) {  // the points of frame k
+        const int* group_end = backward + 2 + backward[1];
+        for (const int* point = backward + 2; point < group_end; ++point) {
+          const V3& g = ws.pulls[*point];
+          ps += g;
+          ms += Cross(ws.points[*point], g);
+        }
+        backward = group_end;
       }
       // Vectors of the lanes' workspace are read through references: a local copy of a Lanes3
       // (96 bytes, no vector mode) is made through the stack.
       const V3& z = ws.axis[k];
-      // Joint k's column [v; w] (world axes) and dL/dtheta_k = z . b into J, dL and tau (the
-      // lanes) or the staging (one posture); called in each branch below, so that no value is
-      // merged.
+      const int s = kCoupled ? slots[k] : k;
+      // Joint k's column [v; w] (world axes) and dL/dtheta_k = z . b into slot s of J and tau
+      // (the lanes) or of the staging (one posture); called in each branch below, so that no
+      // value is merged.
       auto put = [&](const V3& v, const V3& w, const V3& b,
                      auto revolute_tag) ISOWRENCH_LAMBDA_INLINE {
         constexpr bool kRevolute = decltype(revolute_tag)::value;
         if constexpr (kScalar<T>) {  // staged in world axes; FinishColumns turns them
-          if constexpr (kCoupled) {  // column c += the joint's column dq_joint_k/dq_c
-            const int c = d.coordinate[k];
-            const double f = ws.dq_joint[k];
-            if (d.first_in_column[k]) {
-              ws.Jv[c] = v * f;
-              ws.Jw[c] = w * f;
-              ws.Jp[c] = Hadamard(z, b) * f;
-            } else {
-              ws.Jv[c] += v * f;
-              ws.Jw[c] += w * f;
-              ws.Jp[c] += Hadamard(z, b) * f;
-            }
-          } else {
-            ws.Jv[k] = v;
-            ws.Jw[k] = w;
-            ws.Jp[k] = Hadamard(z, b);
-          }
+          V3* col = ws.staged + s;
+          col[0] = v;
+          col[W::kW] = w;
+          col[W::kP] = Hadamard(z, b);
         } else {
           T dl;
           Dot(z, b, dl);
-          // [v; w] (in transducer axes) into column c, set or added to times f.
+          // A prismatic column's angular rows are 0: without couplings the lane workspace has
+          // them 0 from construction on (slot k is always joint k); with couplings they are
+          // written, as a fold may have added to an owner's column.
           auto store = [&](const V3& vt, const V3& wt) ISOWRENCH_LAMBDA_INLINE {
-            if constexpr (kCoupled) {  // J[:, c] += J_joint[:, k] dq_joint_k/dq_c, also dL
-              const int c = d.coordinate[k];
-              const T f = ws.dq_joint[k];
-              T* col = J + c;
-              if (d.first_in_column[k]) {
-                ISOWRENCH_UNROLL
-                for (int r = 0; r < 3; ++r) {
-                  col[r * js] = f * Component(vt, r);
-                  col[(3 + r) * js] = f * Component(wt, r);
-                }
-                dL[c] = f * dl;
-              } else {
-                ISOWRENCH_UNROLL
-                for (int r = 0; r < 3; ++r) {
-                  col[r * js] += f * Component(vt, r);
-                  col[(3 + r) * js] += f * Component(wt, r);
-                }
-                dL[c] += f * dl;
+            T* col = J + s;
+            ISOWRENCH_UNROLL
+            for (int r = 0; r < 3; ++r) {
+              col[r * js] = Component(vt, r);
+              if constexpr (kRevolute) {
+                col[(3 + r) * js] = Component(wt, r);
+              } else if constexpr (kCoupled) {
+                col[(3 + r) * js] = zero;
               }
-            } else {
-              // A prismatic column's angular rows are 0: the lane workspace has them 0 from
-              // construction on (on a chain without couplings column k is always joint k).
-              T* col = J + k;
-              ISOWRENCH_UNROLL
-              for (int r = 0; r < 3; ++r) {
-                col[r * js] = Component(vt, r);
-                if constexpr (kRevolute) col[(3 + r) * js] = Component(wt, r);
-              }
-              tau[k] = minus_force * dl;
             }
+            tau[s] = minus_force * dl;
           };
           if constexpr (kRotate) {
             store(Rotate(RtT, v), Rotate(RtT, w));
@@ -567,21 +536,50 @@ ISOWRENCH_INLINE void Kinematics(const FlatChain& d, W& ws, const T* q, const Fa
     }
   };
   if (rotate) {
-    if (d.coupled) {
-      sweep(std::true_type{}, std::true_type{});
-    } else {
-      sweep(std::true_type{}, std::false_type{});
-    }
-  } else if (d.coupled) {
-    sweep(std::false_type{}, std::true_type{});
+    sweep(std::true_type{});
   } else {
-    sweep(std::false_type{}, std::false_type{});
+    sweep(std::false_type{});
   }
-  if constexpr (kScalar<T>) {
-    FinishColumns(ws, d.n, Rt, rotate, minus_force);
-  } else if (d.coupled) {
-    for (int c = 0; c < d.n; ++c) tau[c] = minus_force * dL[c];
+  // Coupled chains: each slot past kMaxDofs into its column, J = J_joints C and the same for
+  // dL/dq (one posture: the staged terms) or tau (the lanes); columns no joint drives are 0.
+  if constexpr (kCoupled) {
+    for (const FlatChain::DrivenJoint& f : d.driven_joints) {
+      const T c = ws.dq_joint[f.joint];
+      if constexpr (kScalar<T>) {
+        const V3* from = ws.staged + f.slot;
+        V3* to = ws.staged + f.column;
+        ISOWRENCH_UNROLL
+        for (const int i : {0, W::kW, W::kP}) {
+          if (f.set) {
+            to[i] = from[i] * c;
+          } else {
+            to[i] += from[i] * c;
+          }
+        }
+      } else {
+        T* to = J + f.column;
+        const T* from = J + f.slot;
+        if (f.set) {
+          ISOWRENCH_UNROLL
+          for (int r = 0; r < 6; ++r) to[r * js] = c * from[r * js];
+          tau[f.column] = c * tau[f.slot];
+        } else {
+          ISOWRENCH_UNROLL
+          for (int r = 0; r < 6; ++r) to[r * js] += c * from[r * js];
+          tau[f.column] += c * tau[f.slot];
+        }
+      }
+    }
+    for (const int c : d.undriven_columns) {
+      if constexpr (kScalar<T>) {
+        ws.staged[c] = ws.staged[W::kW + c] = ws.staged[W::kP + c] = Zero3<T>();
+      } else {
+        tau[c] = zero;
+        for (int r = 0; r < 6; ++r) J[r * js + c] = zero;
+      }
+    }
   }
+  if constexpr (kScalar<T>) FinishColumns(ws, d.n, Rt, rotate, minus_force);
 }
 
 /// How a Row update combines a x_i with entry i: e_i = a x_i, e_i += a x_i or e_i -= a x_i.

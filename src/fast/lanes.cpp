@@ -46,26 +46,41 @@ ISOWRENCH_INLINE void KnotLanes(const Function::Impl& f, const V& a, V& value, V
     count -= (VI)(xi < a);  // a true lane is -1
     equal |= (VI)(xi == a);
   }
-  V xk, yk, bk, ck, dk;
+  // Interval k of each lane: x_k, and y_k, b_k, c_k, d_k as one vector per lane, transposed.
+  V xk, p[kLanes];
+  ISOWRENCH_UNROLL
   for (int l = 0; l < kLanes; ++l) {
     const auto k = static_cast<size_t>(count[l]);
     xk[l] = x[k];
-    yk[l] = f.y[k];
-    bk[l] = f.b[k];
-    ck[l] = f.c[k];
-    dk[l] = f.d[k];
+    std::memcpy(&p[l], f.ybcd.data() + 4 * k, sizeof p[l]);
   }
+  const V t0 = __builtin_shufflevector(p[0], p[1], 0, 4, 2, 6);
+  const V t1 = __builtin_shufflevector(p[0], p[1], 1, 5, 3, 7);
+  const V t2 = __builtin_shufflevector(p[2], p[3], 0, 4, 2, 6);
+  const V t3 = __builtin_shufflevector(p[2], p[3], 1, 5, 3, 7);
+  const V yk = __builtin_shufflevector(t0, t2, 0, 1, 4, 5);
+  const V bk = __builtin_shufflevector(t1, t3, 0, 1, 4, 5);
+  const V ck = __builtin_shufflevector(t0, t2, 2, 3, 6, 7);
+  const V dk = __builtin_shufflevector(t1, t3, 2, 3, 6, 7);
   const V dx = a - xk;
-  V v = yk + dx * (bk + dx * (ck + dx * dk));
-  V s = bk + dx * (2.0 * ck + 3.0 * dx * dk);
+  value = yk + dx * (bk + dx * (ck + dx * dk));
+  slope = bk + dx * (2.0 * ck + 3.0 * dx * dk);
+  on_knot = equal;
+  // Lanes more than kKnotRoundoffError inside both end knots (where a >= x[0], |a - x[0]| is
+  // a - x[0]; likewise at the last knot) keep their interval's cubic: when every lane is, the
+  // selects below change nothing.
   const V x0 = ISOWRENCH_V4_SPLAT(x[0]), xn = ISOWRENCH_V4_SPLAT(x[n - 1]);
-  const V y0 = ISOWRENCH_V4_SPLAT(f.y[0]), yn = ISOWRENCH_V4_SPLAT(f.y[n - 1]);
-  const V b0 = ISOWRENCH_V4_SPLAT(f.b[0]), bn = ISOWRENCH_V4_SPLAT(f.b[n - 1]);
   const V roundoff = ISOWRENCH_V4_SPLAT(kKnotRoundoffError);
+  if (Bits(((a - x0) > roundoff) & ((xn - a) > roundoff)) == (1u << kLanes) - 1) return;
+  const double* first = f.ybcd.data();  // y, b, c, d of the end knots
+  const double* last = first + 4 * (n - 1);
+  const V y0 = ISOWRENCH_V4_SPLAT(first[0]), yn = ISOWRENCH_V4_SPLAT(last[0]);
+  const V b0 = ISOWRENCH_V4_SPLAT(first[1]), bn = ISOWRENCH_V4_SPLAT(last[1]);
   const VI at_end = (V)((VI)(a - xn) & kMagnitude) <= roundoff;
   const VI at_start = (V)((VI)(a - x0) & kMagnitude) <= roundoff;
   const VI above = a > xn;
   const VI below = a < x0;
+  V v = value, s = slope;
   v = at_end ? yn : v;
   s = at_end ? bn : s;
   v = at_start ? y0 : v;
@@ -85,16 +100,15 @@ ISOWRENCH_INLINE void KnotLanes(const Function::Impl& f, const V& a, V& value, V
 struct LaneWorkspace::Impl {
   using Scalar = V;
   int m = 0;
-  V q[kMaxDofs];  // joint positions
-  V q_joint[kMaxDofs];
-  V dq_joint[kMaxDofs];
+  V q[kMaxDofs];         // joint positions q_joint = f(q_c) (= q_c without couplings)
+  V qc[kMaxDofs];        // coupled chains: the postures' coordinates
+  V dq_joint[kMaxDofs];  // and dq_joint/dq_c of the driven joints
   Vec3<V> origin[kMaxDofs];
   Vec3<V> axis[kMaxDofs];
   Vec3<V> points[kFastMaxPathPoints];
   Vec3<V> pulls[kFastMaxPathPoints];
-  V J[6][kMaxDofs];  // row-major: column k is [v; w] in transducer axes
-  V dL[kMaxDofs];
-  V tau[kMaxDofs];
+  V J[6][kMaxSlots];  // row-major: column k is [v; w] in transducer axes (slots: FlatChain::slot)
+  V tau[kMaxSlots];
   V length;
   V U[kMaxDofs * kMaxDofs];  // statics (kernel::Cholesky)
   V x[kMaxDofs];             // dtheta
@@ -104,14 +118,14 @@ struct LaneWorkspace::Impl {
   V s_p[kMaxDofs];
   const StiffnessSet* splatted = nullptr;
   V* JacobianData() { return J[0]; }
-  static int JacobianStride() { return kMaxDofs; }
-  V* DlData() { return dL; }
+  static int JacobianStride() { return kMaxSlots; }
   V* TauData() { return tau; }
   void Resize(int) {}
 };
 
-// The buffers are written before they are read, except J: the kernel never writes the angular
-// rows of a prismatic joint's column on a chain without couplings, which stay 0 from here on.
+// The buffers are written before they are read, except J, whose angular rows of a prismatic
+// joint's column the kernel never writes on a chain without couplings (they stay 0 from here
+// on).
 LaneWorkspace::LaneWorkspace(const Model& model) : impl_(new Impl) {
   impl_->m = model.dof_count();
   for (auto& row : impl_->J) {
@@ -126,76 +140,70 @@ ISOWRENCH_CLONES unsigned LaneKinematics(const Model& model, LaneWorkspace& work
                                          double activation) {
   const FlatChain& d = model.impl().flat;
   LaneWorkspace::Impl& ws = workspace.impl();
-  // Joint positions (on a coupled chain q_joint = f(q_c), with the derivatives for the kernel's
-  // fold), and whether every revolute angle is within the lane sin/cos range.
+  // The coordinates of the four postures, four per step by a 4 x 4 transpose, and whether each
+  // is within the lane sin/cos range (every coordinate, not only the angles: a prismatic one
+  // beyond 1e5 m only sends its lane to the scalar path too). Joint k takes coordinate k: on a
+  // coupled chain the coordinates are also kept apart (ws.qc) for the joints that take another
+  // one and for the couplings.
   VI out_of_range = VI{0, 0, 0, 0};
-  if (!d.coupled) {  // joint k is coordinate k: four joints of the four postures, transposed
-    const int m = d.m;
-    int k = 0;
-    for (; k + 4 <= m; k += 4) {
-      V a0, a1, a2, a3;  // al = q[l][k .. k + 3]
-      std::memcpy(&a0, q[0] + k, sizeof a0);
-      std::memcpy(&a1, q[1] + k, sizeof a1);
-      std::memcpy(&a2, q[2] + k, sizeof a2);
-      std::memcpy(&a3, q[3] + k, sizeof a3);
+  auto coordinates = [&](auto coupled_tag) ISOWRENCH_LAMBDA_INLINE {
+    auto put = [&](int c, const V& value) ISOWRENCH_LAMBDA_INLINE {
+      ws.q[c] = value;
+      if constexpr (decltype(coupled_tag)::value) ws.qc[c] = value;
+      out_of_range |= (V)((VI)value & kMagnitude) >= sincos::kMaxReduced;
+    };
+    const int n = d.n;
+    int c = 0;
+    for (; c + 4 <= n; c += 4) {
+      V a0, a1, a2, a3;  // al = q[l][c .. c + 3]
+      std::memcpy(&a0, q[0] + c, sizeof a0);
+      std::memcpy(&a1, q[1] + c, sizeof a1);
+      std::memcpy(&a2, q[2] + c, sizeof a2);
+      std::memcpy(&a3, q[3] + c, sizeof a3);
       const V t0 = __builtin_shufflevector(a0, a1, 0, 4, 2, 6);
       const V t1 = __builtin_shufflevector(a0, a1, 1, 5, 3, 7);
       const V t2 = __builtin_shufflevector(a2, a3, 0, 4, 2, 6);
       const V t3 = __builtin_shufflevector(a2, a3, 1, 5, 3, 7);
-      const V j0 = __builtin_shufflevector(t0, t2, 0, 1, 4, 5);
-      const V j1 = __builtin_shufflevector(t1, t3, 0, 1, 4, 5);
-      const V j2 = __builtin_shufflevector(t0, t2, 2, 3, 6, 7);
-      const V j3 = __builtin_shufflevector(t1, t3, 2, 3, 6, 7);
-      ws.q[k] = j0;
-      ws.q[k + 1] = j1;
-      ws.q[k + 2] = j2;
-      ws.q[k + 3] = j3;
-      // Every coordinate, not only the angles: a prismatic one beyond 1e5 (m) only sends its
-      // lane to the scalar path too.
-      out_of_range |= ((V)((VI)j0 & kMagnitude) >= sincos::kMaxReduced) |
-                      ((V)((VI)j1 & kMagnitude) >= sincos::kMaxReduced) |
-                      ((V)((VI)j2 & kMagnitude) >= sincos::kMaxReduced) |
-                      ((V)((VI)j3 & kMagnitude) >= sincos::kMaxReduced);
+      put(c, __builtin_shufflevector(t0, t2, 0, 1, 4, 5));
+      put(c + 1, __builtin_shufflevector(t1, t3, 0, 1, 4, 5));
+      put(c + 2, __builtin_shufflevector(t0, t2, 2, 3, 6, 7));
+      put(c + 3, __builtin_shufflevector(t1, t3, 2, 3, 6, 7));
     }
-    for (; k < m; ++k) {
-      ws.q[k] = V{q[0][k], q[1][k], q[2][k], q[3][k]};
-      out_of_range |= (V)((VI)ws.q[k] & kMagnitude) >= sincos::kMaxReduced;
-    }
-  }
-  if (d.coupled) {  // each joint its coordinate's values with derivative 1, then the couplings
-    const int* coordinate = d.coordinate.data();
-    for (int k = 0; k < d.m; ++k) {
-      const int c = coordinate[k];
-      ws.q[k] = V{q[0][c], q[1][c], q[2][c], q[3][c]};
-      ws.dq_joint[k] = ISOWRENCH_V4_SPLAT(1.0);
-    }
-    for (const int k : d.coupled_joints) {  // ws.q[k] holds the coordinate's values here
-      const Function::Impl& f = FunctionAccess::Of(d.coupling[k]);
+    for (; c < n; ++c) put(c, V{q[0][c], q[1][c], q[2][c], q[3][c]});
+  };
+  if (!d.coupled) {
+    coordinates(std::false_type{});
+  } else {
+    coordinates(std::true_type{});
+    for (const FlatChain::MovedPosition& p : d.moved_positions) ws.q[p.joint] = ws.qc[p.column];
+    for (const FlatChain::DrivenJoint& c : d.driven_joints) {
       unsigned one_by_one = (1u << kLanes) - 1;
-      if (IsKnotFunction(f.kind)) {
-        const V a = ws.q[k];
+      if (IsKnotFunction(c.f->kind)) {
         VI on_knot;
-        KnotLanes(f, a, ws.q[k], ws.dq_joint[k], on_knot);
+        KnotLanes(*c.f, ws.qc[c.column], ws.q[c.joint], ws.dq_joint[c.joint], on_knot);
         one_by_one = Bits(on_knot);
       }
-      for (int l = 0; l < kLanes; ++l) {
+      for (int l = 0; one_by_one != 0 && l < kLanes; ++l) {
         if (!(one_by_one & (1u << l))) continue;
         double q_joint, dq_joint;
-        d.coupling[k].ValueAndDerivative(q[l][coordinate[k]], &q_joint, &dq_joint);
-        ws.q[k][l] = q_joint;
-        ws.dq_joint[k][l] = dq_joint;
+        d.coupling[c.joint].ValueAndDerivative(q[l][c.column], &q_joint, &dq_joint);
+        ws.q[c.joint][l] = q_joint;
+        ws.dq_joint[c.joint][l] = dq_joint;
       }
-    }
-    for (int k = 0; k < d.m; ++k) {
-      if (!d.joints[k].revolute) continue;
-      const V magnitude = (V)((VI)ws.q[k] & kMagnitude);
-      out_of_range |= (magnitude < sincos::kMaxReduced) == 0;
+      // (not finite too: a coupling may overflow)
+      out_of_range |= ((V)((VI)ws.q[c.joint] & kMagnitude) < sincos::kMaxReduced) == 0;
     }
   }
   const FastMuscle& mu = d.muscles[muscle];
+  const double minus_force = -(activation * mu.max_force);
   VI coincident;
-  kernel::Kinematics<false, false>(d, ws, ws.q, mu, -(activation * mu.max_force),
-                                   !d.transducer_identity, coincident);
+  if (d.coupled) {
+    kernel::Kinematics<false, false, true>(d, ws, ws.q, mu, minus_force, !d.transducer_identity,
+                                           coincident);
+  } else {
+    kernel::Kinematics<false, false, false>(d, ws, ws.q, mu, minus_force, !d.transducer_identity,
+                                            coincident);
+  }
   return Bits(coincident | out_of_range);
 }
 
@@ -214,8 +222,8 @@ namespace {
 template <int N>
 ISOWRENCH_INLINE void LaneCholesky(LaneWorkspace::Impl& ws, int m, const V* s_t, const V* s_p,
                                    double tolerance, V* wrench, VI& undecided) {
-  kernel::Cholesky<N, false>(m, ws.J[0], static_cast<const V*>(nullptr), kMaxDofs, s_t, s_p, ws.tau,
-                             tolerance, ws.U, ws.x, wrench, undecided);
+  kernel::Cholesky<N, false>(m, ws.J[0], static_cast<const V*>(nullptr), kMaxSlots, s_t, s_p,
+                             ws.tau, tolerance, ws.U, ws.x, wrench, undecided);
 }
 
 }  // namespace

@@ -117,14 +117,16 @@ Eigen::Matrix3Xd PointJacobian(const Model& model, Data& ws, const Eigen::Vector
       b.Frame(frame.frame) * (frame.offset * p_link) + ToEigen(b.origin[frame.frame]);
   // Joint k's column of a point on the frame after joint f (k <= f): z_k x (x - o_k) for a
   // revolute joint, z_k for a prismatic one (the endpoint Jacobian's formula with x for p_E);
-  // on a coupled chain it adds to its coordinate's column times dq_joint_k/dq_c.
+  // on a coupled chain it adds to its coordinate's column times dq_joint_k/dq_c (1 for the
+  // column's owner, whose slot is the column; FlatChain::driven_joints have dq_joint).
   const FlatChain& chain = model.impl().flat;
   for (int k = 0; k <= frame.frame; ++k) {
     const Eigen::Vector3d z = ToEigen(b.axis[k]);
     const Eigen::Vector3d column =
         chain.joints[k].revolute ? Eigen::Vector3d(z.cross(x - ToEigen(b.origin[k]))) : z;
     if (chain.coupled) {
-      J.col(chain.coordinate[k]) += b.dq_joint[k] * column;
+      const int c = chain.coordinate[k];
+      J.col(c) += (chain.slot[k] == c ? 1.0 : b.dq_joint[k]) * column;
     } else {
       J.col(k) = column;
     }

@@ -61,13 +61,9 @@ void CheckKnots(const std::vector<double>& x, const std::vector<double>& y,
 
 // SimmSpline::calcCoefficients (opensim-core OpenSim/Common/SimmSpline.cpp), same operations
 // in the same order.
-void SimmCoefficients(Function::Impl& s) {
-  const std::vector<double>& x = s.x;
-  const std::vector<double>& y = s.y;
+void SimmCoefficients(const std::vector<double>& x, const std::vector<double>& y,
+                      std::vector<double>& b, std::vector<double>& c, std::vector<double>& d) {
   const int n = static_cast<int>(x.size());
-  std::vector<double>& b = s.b;
-  std::vector<double>& c = s.c;
-  std::vector<double>& d = s.d;
   b.assign(n, 0.0);
   c.assign(n, 0.0);
   d.assign(n, 0.0);
@@ -129,9 +125,8 @@ void SimmCoefficients(Function::Impl& s) {
 
 // Natural cubic spline: second derivatives M with M[0] = M[n-1] = 0 from the usual tridiagonal
 // system h[i-1] M[i-1] + 2 (h[i-1] + h[i]) M[i] + h[i] M[i+1] = 6 (s[i] - s[i-1]), s = slopes.
-void NaturalCoefficients(Function::Impl& s) {
-  const std::vector<double>& x = s.x;
-  const std::vector<double>& y = s.y;
+void NaturalCoefficients(const std::vector<double>& x, const std::vector<double>& y,
+                         std::vector<double>& b, std::vector<double>& c, std::vector<double>& d) {
   const int n = static_cast<int>(x.size());
   std::vector<double> h(n - 1), slope(n - 1), m(n, 0.0);
   for (int i = 0; i + 1 < n; ++i) {
@@ -156,29 +151,30 @@ void NaturalCoefficients(Function::Impl& s) {
     m[k] = rhs[k - 1] / diag[k - 1];
     for (int r = k - 2; r >= 0; --r) m[r + 1] = (rhs[r] - upper[r] * m[r + 2]) / diag[r];
   }
-  s.b.assign(n, 0.0);
-  s.c.assign(n, 0.0);
-  s.d.assign(n, 0.0);
+  b.assign(n, 0.0);
+  c.assign(n, 0.0);
+  d.assign(n, 0.0);
   for (int i = 0; i + 1 < n; ++i) {
-    s.b[i] = slope[i] - h[i] * (2.0 * m[i] + m[i + 1]) / 6.0;
-    s.c[i] = m[i] / 2.0;
-    s.d[i] = (m[i + 1] - m[i]) / (6.0 * h[i]);
+    b[i] = slope[i] - h[i] * (2.0 * m[i] + m[i + 1]) / 6.0;
+    c[i] = m[i] / 2.0;
+    d[i] = (m[i + 1] - m[i]) / (6.0 * h[i]);
   }
-  s.b[n - 1] = slope[n - 2] + h[n - 2] * (m[n - 2] + 2.0 * m[n - 1]) / 6.0;
-  s.c[n - 1] = m[n - 1] / 2.0;  // 0
+  b[n - 1] = slope[n - 2] + h[n - 2] * (m[n - 2] + 2.0 * m[n - 1]) / 6.0;
+  c[n - 1] = m[n - 1] / 2.0;  // 0
 }
 
 // PiecewiseLinearFunction::calcCoefficients.
-void PiecewiseCoefficients(Function::Impl& s) {
-  const int n = static_cast<int>(s.x.size());
-  s.b.assign(n, 0.0);
-  s.c.assign(n, 0.0);
-  s.d.assign(n, 0.0);
+void PiecewiseCoefficients(const std::vector<double>& x, const std::vector<double>& y,
+                           std::vector<double>& b, std::vector<double>& c, std::vector<double>& d) {
+  const int n = static_cast<int>(x.size());
+  b.assign(n, 0.0);
+  c.assign(n, 0.0);
+  d.assign(n, 0.0);
   for (int i = 0; i < n - 1; ++i) {
-    double range = std::max(kTinyNumber, s.x[i + 1] - s.x[i]);
-    s.b[i] = (s.y[i + 1] - s.y[i]) / range;
+    double range = std::max(kTinyNumber, x[i + 1] - x[i]);
+    b[i] = (y[i + 1] - y[i]) / range;
   }
-  s.b[n - 1] = s.b[n - 2];
+  b[n - 1] = b[n - 2];
 }
 
 // Horner's rule on coefficients highest order first (SimTK::Function::Polynomial).
@@ -216,16 +212,22 @@ double Evaluate(const Function::Impl& s, double a, int order) {
   return 0.0;
 }
 
-// A knot-based function: checked knots, then the kind's coefficients.
+// A knot-based function: checked knots, then the kind's coefficients, stored per knot.
+using CoefficientFunction = void (*)(const std::vector<double>& x, const std::vector<double>& y,
+                                     std::vector<double>& b, std::vector<double>& c,
+                                     std::vector<double>& d);
 std::shared_ptr<const Function::Impl> KnotImpl(FunctionKind kind, const char* name,
                                                std::vector<double> x, std::vector<double> y,
-                                               void (*coefficients)(Function::Impl&)) {
+                                               CoefficientFunction coefficients) {
   CheckKnots(x, y, name);
   auto s = std::make_shared<Function::Impl>();
   s->kind = kind;
   s->x = std::move(x);
   s->y = std::move(y);
-  coefficients(*s);
+  std::vector<double> b, c, d;
+  coefficients(s->x, s->y, b, c, d);
+  for (size_t k = 0; k < s->x.size(); ++k)
+    s->ybcd.insert(s->ybcd.end(), {s->y[k], b[k], c[k], d[k]});
   return s;
 }
 

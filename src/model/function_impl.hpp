@@ -11,12 +11,14 @@ namespace isowrench {
 
 struct Function::Impl {
   FunctionKind kind = FunctionKind::kConstant;
-  double slope = 0.0;                // Linear
-  double intercept = 0.0;            // Linear; the value of a Constant
-  double scale = 1.0;                // Multiplier
-  std::vector<Function> inner;       // Multiplier: exactly one
-  std::vector<double> x, y;          // knots
-  std::vector<double> b, c, d;       // per-knot polynomial coefficients (function.cpp)
+  double slope = 0.0;           // Linear
+  double intercept = 0.0;       // Linear; the value of a Constant
+  double scale = 1.0;           // Multiplier
+  std::vector<Function> inner;  // Multiplier: exactly one
+  std::vector<double> x, y;     // knots
+  /// Per knot k, y_k and the coefficients of f = y_k + dx (b_k + dx (c_k + dx d_k)) on
+  /// [x_k, x_k+1] (function.cpp), interleaved: y_k, b_k, c_k, d_k at 4 k .. 4 k + 3.
+  std::vector<double> ybcd;
   std::vector<double> coefficients;  // Polynomial, highest order first
 };
 
@@ -34,13 +36,29 @@ struct FunctionAccess {
 /// OpenSim's ROUNDOFF_ERROR (SimmMacros.h): an argument this close to an end knot snaps to it.
 inline constexpr double kKnotRoundoffError = 0.0000000000002;
 
-/// The interval k (x[k] <= a <= x[k+1]) of a knot function, by OpenSim's bisection
-/// (SimmSpline::calcValue): where a equals an interior knot, the bisection's order decides
-/// between the two intervals that hold it.
+/// Knot functions with at most this many knots find their interval by a scan from the first.
+inline constexpr int kScannedKnots = 32;
+
+/// The count of interior knots below a, for x[0] < a < x[n-1] (a scan that x[n-1] > a ends):
+/// interval k (x[k] < a < x[k+1]) wherever a is not an interior knot.
+inline unsigned ScanInterval(const double* x, double a) {
+  const double* above = x + 1;  // the first knot >= a
+  while (*above < a) ++above;
+  return static_cast<unsigned>(above - x - 1);
+}
+
+/// The interval k (x[k] <= a <= x[k+1]) of a knot function for x[0] < a < x[n-1], as OpenSim's
+/// bisection (SimmSpline::calcValue) finds it: up to kScannedKnots knots by ScanInterval; else,
+/// and where a equals an interior knot, the bisection itself, whose order decides between the
+/// two intervals that hold it.
 inline int FindInterval(const std::vector<double>& x, double a) {
-  const int n = static_cast<int>(x.size());
+  const auto n = static_cast<unsigned>(x.size());
   if (n < 3) return 0;
-  int i = 0, j = n, k = 0;
+  if (n <= kScannedKnots) {
+    const unsigned k = ScanInterval(x.data(), a);
+    if (x[k + 1] != a) return static_cast<int>(k);
+  }
+  unsigned i = 0, j = n, k = 0;  // (unsigned: the halving is one shift)
   while (true) {
     k = (i + j) / 2;
     if (a < x[k]) {
@@ -51,7 +69,15 @@ inline int FindInterval(const std::vector<double>& x, double a) {
       break;
     }
   }
-  return k;
+  return static_cast<int>(k);
+}
+
+/// The cubic of an interval at dx = a - x_k: p = its y_k, b_k, c_k, d_k (Function::Impl::ybcd).
+inline void KnotPolynomial(const double* p, double dx, double* value, double* slope,
+                           double* second) {
+  *value = p[0] + dx * (p[1] + dx * (p[2] + dx * p[3]));
+  *slope = p[1] + dx * (2.0 * p[2] + 3.0 * dx * p[3]);
+  if (second) *second = 2.0 * p[2] + 6.0 * dx * p[3];
 }
 
 /// Value, first and (when `second` is not null) second derivative of a knot function
@@ -64,24 +90,54 @@ inline void KnotValues(const Function::Impl& s, double a, double* value, double*
   const int n = static_cast<int>(s.x.size());
   if (a < x[0] || a > x[n - 1]) {
     const int end = a < x[0] ? 0 : n - 1;
-    *value = s.y[end] + (a - x[end]) * s.b[end];
-    *slope = s.b[end];
+    const double* e = s.ybcd.data() + 4 * end;
+    *value = e[0] + (a - x[end]) * e[1];
+    *slope = e[1];
     if (second) *second = 0.0;
     return;
   }
   if (std::abs(a - x[0]) <= kKnotRoundoffError || std::abs(a - x[n - 1]) <= kKnotRoundoffError) {
     const int end = std::abs(a - x[0]) <= kKnotRoundoffError ? 0 : n - 1;
-    *value = s.y[end];
-    *slope = s.b[end];
-    if (second) *second = 2.0 * s.c[end];
+    const double* e = s.ybcd.data() + 4 * end;
+    *value = e[0];
+    *slope = e[1];
+    if (second) *second = 2.0 * e[2];
     return;
   }
   const int k = FindInterval(s.x, a);
-  const double dx = a - x[k];
-  *value = s.y[k] + dx * (s.b[k] + dx * (s.c[k] + dx * s.d[k]));
-  *slope = s.b[k] + dx * (2.0 * s.c[k] + 3.0 * dx * s.d[k]);
-  if (second) *second = 2.0 * s.c[k] + 6.0 * dx * s.d[k];
+  KnotPolynomial(s.ybcd.data() + 4 * k, a - x[k], value, slope, second);
 }
+
+/// A knot function of 3 to kScannedKnots knots as the engine's coupling step reads it (x: the
+/// knots, ybcd: Function::Impl::ybcd, first and last: the end knots; x null for any other
+/// function), so that the common case is evaluated inline: KnotValueAndSlope's result where a
+/// is more than kKnotRoundoffError inside both end knots and not an interior knot.
+struct KnotScan {
+  const double* x = nullptr;
+  const double* ybcd = nullptr;
+  double first = 0.0, last = 0.0;
+  KnotScan() = default;
+  explicit KnotScan(const Function::Impl& f) {
+    const bool knots = f.kind == FunctionKind::kSimmSpline ||
+                       f.kind == FunctionKind::kNaturalCubicSpline ||
+                       f.kind == FunctionKind::kPiecewiseLinear;
+    if (!knots || f.x.size() < 3 || f.x.size() > kScannedKnots) return;
+    x = f.x.data();
+    ybcd = f.ybcd.data();
+    first = f.x.front();
+    last = f.x.back();
+  }
+  /// Writes value and slope and returns true in the common case; else returns false (nothing
+  /// written: evaluate the function).
+  bool ValueAndSlope(double a, double* value, double* slope) const {
+    // (where a >= x[0], |a - x[0]| is a - x[0]; likewise at the last knot)
+    if (!(x && a - first > kKnotRoundoffError && last - a > kKnotRoundoffError)) return false;
+    const unsigned k = ScanInterval(x, a);
+    if (x[k + 1] == a) return false;
+    KnotPolynomial(ybcd + 4 * k, a - x[k], value, slope, nullptr);
+    return true;
+  }
+};
 
 /// Value and first derivative of a knot function (KnotValues without the second).
 inline void KnotValueAndSlope(const Function::Impl& s, double a, double* value, double* slope) {

@@ -11,6 +11,7 @@
 #include "isowrench/engine.hpp"
 #include "isowrench/error.hpp"
 #include "isowrench/input_checks.hpp"
+#include "model/function_impl.hpp"
 #include "model/model_impl.hpp"
 #include "util/text.hpp"
 
@@ -231,17 +232,28 @@ FlatChain Compile(const LimbDescription& d) {
     const int c = column.at(j.coordinate.empty() ? j.name : j.coordinate);
     flat.coordinate.push_back(c);
     flat.coupling.push_back(j.coupling);
-    if (!j.coupling.is_identity()) flat.coupled_joints.push_back(k);
     flat.coupled = flat.coupled || c != k || !j.coupling.is_identity();
   }
-  // The backward sweep meets joints from the last to the first: the first it meets of each
-  // column sets that column, the others add to it; columns no joint drives stay 0.
-  std::vector<char> met(static_cast<size_t>(flat.n), 0);
-  flat.first_in_column.assign(flat.coordinate.size(), 0);
-  for (int k = flat.m - 1; k >= 0; --k) {
-    char& seen = met[static_cast<size_t>(flat.coordinate[k])];
-    flat.first_in_column[k] = !seen;
-    seen = 1;
+  // Slots: a column's owner (its first joint with the identity coupling) writes the column
+  // itself; every other joint, driven by the coupling step, writes a slot past kMaxDofs that is
+  // folded into its column afterwards.
+  std::vector<char> owned(static_cast<size_t>(flat.n), 0), met(static_cast<size_t>(flat.n), 0);
+  int extra = 0;
+  for (int k = 0; k < flat.m; ++k) {
+    const auto c = static_cast<size_t>(flat.coordinate[static_cast<size_t>(k)]);
+    const bool owner = !owned[c] && flat.coupling[static_cast<size_t>(k)].is_identity();
+    owned[c] = owned[c] || owner;
+    flat.slot.push_back(owner ? static_cast<int>(c) : kMaxDofs + extra++);
+    if (owner && static_cast<int>(c) != k) flat.moved_positions.push_back({k, static_cast<int>(c)});
+  }
+  for (int k = 0; k < flat.m; ++k) {
+    const int c = flat.coordinate[static_cast<size_t>(k)];
+    const int slot = flat.slot[static_cast<size_t>(k)];
+    met[static_cast<size_t>(c)] = 1;
+    if (slot == c) continue;
+    const Function::Impl& f = FunctionAccess::Of(flat.coupling[static_cast<size_t>(k)]);
+    flat.driven_joints.push_back({k, c, slot, !owned[static_cast<size_t>(c)], &f, KnotScan(f)});
+    owned[static_cast<size_t>(c)] = 1;  // the next fold into c adds
   }
   for (int c = 0; c < flat.n; ++c) {
     if (!met[static_cast<size_t>(c)]) flat.undriven_columns.push_back(c);
@@ -282,19 +294,23 @@ FlatChain Compile(const LimbDescription& d) {
       if (point.frame < 0) muscle.ground_points.push_back(static_cast<int>(muscle.points.size()));
       muscle.points.push_back(point);
     }
-    muscle.sweep_end.assign(static_cast<size_t>(flat.m) + 1, 0);
-    for (int f = flat.m - 1; f >= 0; --f) {
-      for (size_t k = 0; k < muscle.points.size(); ++k) {
-        if (muscle.points[k].frame == f) muscle.sweep_order.push_back(static_cast<int>(k));
-      }
-      muscle.sweep_end[static_cast<size_t>(f)] = static_cast<int>(muscle.sweep_order.size());
+    // Point groups {frame, count, indices} for the kernel's joint loops (FastMuscle).
+    std::vector<std::vector<int>> by_frame(static_cast<size_t>(flat.m));
+    for (size_t k = 0; k < muscle.points.size(); ++k) {
+      const int f = muscle.points[k].frame;
+      if (f >= 0) by_frame[static_cast<size_t>(f)].push_back(static_cast<int>(k));
     }
-    muscle.point_frames.push_back(-1);  // the sweep's sentinel
-    for (int f = 0; f < flat.m; ++f) {
-      if (muscle.sweep_end[static_cast<size_t>(f)] > muscle.sweep_end[static_cast<size_t>(f) + 1])
-        muscle.point_frames.push_back(f);
-    }
-    muscle.point_frames.push_back(flat.m);  // the forward loop's sentinel
+    auto add_group = [&](std::vector<int>& list, int f) {
+      const std::vector<int>& group = by_frame[static_cast<size_t>(f)];
+      if (group.empty()) return;
+      list.push_back(f);
+      list.push_back(static_cast<int>(group.size()));
+      list.insert(list.end(), group.begin(), group.end());
+    };
+    for (int f = 0; f < flat.m; ++f) add_group(muscle.forward_points, f);
+    for (int f = flat.m - 1; f >= 0; --f) add_group(muscle.backward_points, f);
+    muscle.forward_points.push_back(kMaxDofs);  // the sentinels
+    muscle.backward_points.push_back(-1);
     flat.muscles.push_back(std::move(muscle));
   }
   return flat;

@@ -11,8 +11,13 @@
 
 #include "isowrench/function.hpp"
 #include "isowrench/model.hpp"
+#include "model/function_impl.hpp"
 
 namespace isowrench {
+
+/// The columns the engine's sweep writes (FlatChain::slot): kMaxDofs coordinate columns, then
+/// one slot per joint that is folded into its column afterwards.
+inline constexpr int kMaxSlots = 2 * kMaxDofs;
 
 /// Most path points per muscle (the workspaces hold this many).
 inline constexpr int kFastMaxPathPoints = 64;
@@ -56,15 +61,13 @@ struct FastMuscle {
   double max_force = 0.0;
   std::vector<FastPathPoint> points;  ///< path order
   std::vector<int> ground_points;     ///< the points on ground (frame -1)
-  /// Point indices ordered by decreasing frame (ground points left out): the order of the
-  /// backward torque sweep.
-  std::vector<int> sweep_order;
-  /// sweep_end[k]: how many entries of sweep_order have frame >= k (k = 0 .. m; sweep_end[m] =
-  /// 0): the points of frame k are sweep_order[sweep_end[k + 1] .. sweep_end[k]).
-  std::vector<int> sweep_end;
-  /// The frames that have points, ascending, between the sentinels -1 and m: the joint loops
-  /// compare the joint with the next such frame instead of reading sweep_end at every joint.
-  std::vector<int> point_frames;
+  /// The points of each frame for the kernel's two joint loops: groups {frame, count, the
+  /// count point indices} for the frames that have points (ground points left out), in
+  /// ascending frame order ended by the sentinel frame kMaxDofs (forward_points) and in
+  /// descending order ended by -1 (backward_points). A loop compares its joint with the next
+  /// group's frame, one pointer for all the muscle's points.
+  std::vector<int> forward_points;
+  std::vector<int> backward_points;
   /// Moving components of its points; `dynamic`: some point moves or is conditional, and each
   /// evaluation first runs PreparePathPoints (src/fast/path_points.cpp).
   std::vector<FastMovingComponent> moving;
@@ -94,14 +97,37 @@ struct FlatChain {
   /// Per movable joint: the column of its coordinate and q_joint = coupling(q_column).
   std::vector<int> coordinate;
   std::vector<Function> coupling;
-  std::vector<int> coupled_joints;  ///< the joints whose coupling is not the identity
-  /// Per movable joint: no later joint drives its column (the backward sweep sets the column
-  /// there instead of adding to it); and the columns no joint drives (J and dL/dq are 0 there).
-  std::vector<char> first_in_column;
+  /// Coupled chains: per movable joint, where the backward sweep writes its column of J and its
+  /// dL/dq (one posture's staging, the lanes' J and tau): the column of its coordinate when the
+  /// joint owns it (the first joint of that column with the identity coupling), else a slot
+  /// kMaxDofs + e (e = 0, 1, ...), so that the sweep is the same as on a chain without
+  /// couplings.
+  std::vector<int> slot;
+  /// Coupled chains: the joints that own no column, in chain order, with their coordinate's
+  /// column, their slot and their coupling (f; scan: a knot function's common case, evaluated
+  /// inline; both point into `coupling`, which keeps them alive). The coupling step gives each
+  /// its q_joint = f(q_column) and dq_joint; after the sweep its slot is folded into its column:
+  /// column (= if `set`, else +=) dq_joint slot, `set` for the first fold into a column without
+  /// owner. So J = J_joints C with C = dq_joint/dq, and dL/dq = C^T dL/dq_joint.
+  struct DrivenJoint {
+    int joint = 0, column = 0, slot = 0;
+    bool set = false;
+    const Function::Impl* f = nullptr;
+    KnotScan scan;
+  };
+  std::vector<DrivenJoint> driven_joints;
+  /// Coupled chains: the joint positions start as q_joint[k] = q[k] for k < n (copied four per
+  /// vector); then q_joint[joint] = q[column] for these owners, whose column is not k, and the
+  /// driven joints evaluate their couplings.
+  struct MovedPosition {
+    int joint = 0, column = 0;
+  };
+  std::vector<MovedPosition> moved_positions;
+  /// The columns no joint drives (J and dL/dq are 0 there).
   std::vector<int> undriven_columns;
   /// False when every movable joint k carries column k with the identity (n == m): the kernel
-  /// skips the coupling step. True: q_joint and dq_joint/dq come first, and the joint columns
-  /// of J and dL/dq are folded into coordinate columns, J = J_joints C, C = dq_joint/dq.
+  /// skips the coupling step. True: q_joint and dq_joint/dq come first, the sweep writes each
+  /// joint's column at its slot, and the driven joints' slots are folded into their columns.
   bool coupled = false;
   std::vector<char> locked;  ///< per column: held rigid by the statics
   bool any_locked = false;

@@ -223,10 +223,12 @@ INSTANTIATE_TEST_SUITE_P(Laws, CoupledLeg, ::testing::Values(0, 1),
                            return std::string(info.param == 0 ? "Polynomial" : "SimmSpline");
                          });
 
-// Two coaxial joints at one origin, the second a mimic (multiplier 1, offset 0.3) of the
-// first, are one joint turning theta = 2 q + 0.3: J_mimic(q) = 2 J_one(theta), dL/dq likewise,
-// and (S_p = 0) the same wrench, since W = S_t J (J^T S_t J)^-1 tau is invariant under q -> 2q.
-std::string TwoOrOne(bool mimic) {
+// Two coaxial joints at one origin, the second a mimic (multiplier 1, offset `offset`) of the
+// first, are one joint turning theta = 2 q + offset: J_mimic(q) = 2 J_one(theta), dL/dq
+// likewise, and (S_p = 0) the same wrench, since W = S_t J (J^T S_t J)^-1 tau is invariant
+// under q -> 2q. With offset 0 the mimic's coupling is the identity: a second joint carrying
+// the column with the identity, which the engine folds into it like any other coupled joint.
+std::string TwoOrOne(bool mimic, double offset = 0.3) {
   const std::string knee = mimic ? R"(
   <joint name="knee_a" type="revolute">
     <parent link="thigh"/> <child link="mid"/> <origin xyz="0.03 0 0"/> <axis xyz="0 0 1"/>
@@ -235,7 +237,8 @@ std::string TwoOrOne(bool mimic) {
   <joint name="knee_b" type="revolute">
     <parent link="mid"/> <child link="shank"/> <origin xyz="0 0 0"/> <axis xyz="0 0 1"/>
     <limit lower="-3" upper="3" effort="1" velocity="1"/>
-    <mimic joint="knee_a" multiplier="1" offset="0.3"/>
+    <mimic joint="knee_a" multiplier="1" offset=")" +
+                                       std::to_string(offset) + R"("/>
   </joint>)"
                                  : R"(
   <joint name="knee" type="revolute">
@@ -260,25 +263,135 @@ std::string TwoOrOne(bool mimic) {
 }
 
 TEST(MimicPair, EqualsOneJointTurningTwiceAsFast) {
-  const Model two(isowrench::ReadUrdfString(TwoOrOne(true), "two.urdf"));
-  const Model one(isowrench::ReadUrdfString(TwoOrOne(false), "one.urdf"));
-  ASSERT_EQ(two.dof_count(), 2);
-  ASSERT_EQ(one.dof_count(), 2);
-  std::mt19937 rng(7);
-  std::uniform_real_distribution<double> angle(-1.5, 1.5);
-  for (int p = 0; p < 100; ++p) {
-    const Eigen::Vector2d q(angle(rng), angle(rng));
-    const Eigen::Vector2d theta(q[0], 2 * q[1] + 0.3);
-    const isowrench::WrenchEvaluation a = isowrench::EvaluateWrench(two, q, "M");
-    const isowrench::WrenchEvaluation b = isowrench::EvaluateWrench(one, theta, "M");
-    EXPECT_LE((a.jacobian.col(0) - b.jacobian.col(0)).cwiseAbs().maxCoeff(), kTol);
-    EXPECT_LE((a.jacobian.col(1) - 2 * b.jacobian.col(1)).cwiseAbs().maxCoeff(), kTol);
-    EXPECT_NEAR(a.muscle_length, b.muscle_length, kTol);
-    EXPECT_NEAR(a.tau[0], b.tau[0], kTol);
-    EXPECT_NEAR(a.tau[1], 2 * b.tau[1], kTol);
-    ASSERT_EQ(a.statics.status, b.statics.status);
-    EXPECT_LE((a.statics.wrench - b.statics.wrench).norm(),
-              1e-9 * std::max(1.0, b.statics.wrench.norm()));
+  for (const double offset : {0.3, 0.0}) {
+    const Model two(isowrench::ReadUrdfString(TwoOrOne(true, offset), "two.urdf"));
+    const Model one(isowrench::ReadUrdfString(TwoOrOne(false), "one.urdf"));
+    ASSERT_EQ(two.dof_count(), 2);
+    ASSERT_EQ(one.dof_count(), 2);
+    std::mt19937 rng(7);
+    std::uniform_real_distribution<double> angle(-1.5, 1.5);
+    const int postures = 100;
+    Eigen::MatrixXd Q(2, postures);
+    for (int p = 0; p < postures; ++p) {
+      const Eigen::Vector2d q(angle(rng), angle(rng));
+      Q.col(p) = q;
+      const Eigen::Vector2d theta(q[0], 2 * q[1] + offset);
+      const isowrench::WrenchEvaluation a = isowrench::EvaluateWrench(two, q, "M");
+      const isowrench::WrenchEvaluation b = isowrench::EvaluateWrench(one, theta, "M");
+      EXPECT_LE((a.jacobian.col(0) - b.jacobian.col(0)).cwiseAbs().maxCoeff(), kTol);
+      EXPECT_LE((a.jacobian.col(1) - 2 * b.jacobian.col(1)).cwiseAbs().maxCoeff(), kTol);
+      EXPECT_NEAR(a.muscle_length, b.muscle_length, kTol);
+      EXPECT_NEAR(a.tau[0], b.tau[0], kTol);
+      EXPECT_NEAR(a.tau[1], 2 * b.tau[1], kTol);
+      ASSERT_EQ(a.statics.status, b.statics.status);
+      EXPECT_LE((a.statics.wrench - b.statics.wrench).norm(),
+                1e-9 * std::max(1.0, b.statics.wrench.norm()));
+    }
+    // The batch (four postures per lane group) gives the single evaluations' wrenches.
+    const std::vector<isowrench::StiffnessSet> sets = {two.model_stiffness()};
+    std::vector<isowrench::WrenchResult> batch;
+    isowrench::EvaluateBatch(two, Q, 0, sets, batch);
+    isowrench::Data ws(two);
+    for (int p = 0; p < postures; ++p) {
+      const isowrench::WrenchResult single = isowrench::Evaluate(two, ws, Q.col(p), 0, sets[0]);
+      ASSERT_EQ(single.status, batch[p].status);
+      EXPECT_LE((single.wrench - batch[p].wrench).norm(),
+                1e-12 * std::max(1.0, single.wrench.norm()))
+          << "offset " << offset << " posture " << p;
+    }
+  }
+}
+
+// A column whose owner is prismatic and into which a revolute joint is folded: hip (rz) -
+// slide (prismatic x, coordinate `slide`) - twist (rz, mimic of slide: 20 slide + 0.1) - foot
+// (fixed, 4 cm). Column `slide` is [x_slide; 0] + 20 [z x (p_E - o_twist); z]: its angular
+// rows come from the folded joint only. References: the leg's kinematics by hand and central
+// differences of it, and the batch (whose lane workspace keeps J from one lane group to the
+// next) against single evaluations over many groups.
+std::string SlideAndTwist() {
+  return R"(<?xml version="1.0"?>
+<robot name="slide_and_twist" xmlns:isowrench="urn:isowrench:urdf:1">
+  <link name="ground"/> <link name="thigh"/> <link name="carriage"/> <link name="shank"/>
+  <link name="foot"/>
+  <joint name="hip" type="continuous">
+    <parent link="ground"/> <child link="thigh"/> <origin xyz="0 0 0"/> <axis xyz="0 0 1"/>
+  </joint>
+  <joint name="slide" type="prismatic">
+    <parent link="thigh"/> <child link="carriage"/> <origin xyz="0.03 0 0"/> <axis xyz="1 0 0"/>
+    <limit lower="-0.01" upper="0.01" effort="1" velocity="1"/>
+  </joint>
+  <joint name="twist" type="revolute">
+    <parent link="carriage"/> <child link="shank"/> <origin xyz="0 0 0"/> <axis xyz="0 0 1"/>
+    <limit lower="-3" upper="3" effort="1" velocity="1"/>
+    <mimic joint="slide" multiplier="20" offset="0.1"/>
+  </joint>
+  <joint name="weld" type="fixed">
+    <parent link="shank"/> <child link="foot"/> <origin xyz="0.04 0 0"/>
+  </joint>
+  <isowrench:transducer link="foot" xyz="0 0 0"/>
+  <isowrench:muscle name="M" max_force="2">
+    <isowrench:point link="ground" xyz="0.01 0.012 0.003"/>
+    <isowrench:point link="foot" xyz="-0.01 -0.004 0.002"/>
+  </isowrench:muscle>
+</robot>
+)";
+}
+
+// A point given in the foot frame, at posture (hip, slide), by hand.
+Eigen::Vector3d FootPoint(double hip, double slide, const Eigen::Vector3d& p) {
+  const Eigen::Matrix3d R_hip = Eigen::AngleAxisd(hip, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+  const Eigen::Matrix3d R_twist =
+      Eigen::AngleAxisd(20 * slide + 0.1, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+  return R_hip *
+         (Eigen::Vector3d(0.03 + slide, 0, 0) + R_twist * (Eigen::Vector3d(0.04, 0, 0) + p));
+}
+
+TEST(FoldIntoPrismaticOwner, JacobianMomentArmsAndBatchMatchTheHandKinematics) {
+  const Model model(isowrench::ReadUrdfString(SlideAndTwist(), "slide.urdf"));
+  ASSERT_EQ(model.dof_count(), 2);
+  isowrench::Data ws(model);
+  const Eigen::Vector3d origin(0.01, 0.012, 0.003), insertion(-0.01, -0.004, 0.002);
+  auto length = [&](double hip, double slide) {
+    return (FootPoint(hip, slide, insertion) - origin).norm();
+  };
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<double> hip(-kPi, kPi), slide(-0.01, 0.01);
+  const int postures = 29;  // seven lane groups and one posture
+  Eigen::MatrixXd Q(2, postures);
+  for (int p = 0; p < postures; ++p) {
+    const Eigen::Vector2d q(hip(rng), slide(rng));
+    Q.col(p) = q;
+    ASSERT_TRUE(isowrench::ComputeKinematics(model, ws, q, 0, 1.0));
+    EXPECT_LE((ws.endpoint_position() - FootPoint(q[0], q[1], Eigen::Vector3d::Zero())).norm(),
+              kTol);
+    const isowrench::JacobianBuffer& J = ws.jacobian();
+    for (int c = 0; c < 2; ++c) {
+      Eigen::Vector2d qp = q, qm = q;
+      qp[c] += kFdStep;
+      qm[c] -= kFdStep;
+      const Eigen::Vector3d v = (FootPoint(qp[0], qp[1], Eigen::Vector3d::Zero()) -
+                                 FootPoint(qm[0], qm[1], Eigen::Vector3d::Zero())) /
+                                (2 * kFdStep);
+      EXPECT_LE((J.col(c).head<3>() - v).norm(), kFdTol) << "column " << c;
+      // tau = -F dL/dq (F = 2 N)
+      const double dL = (length(qp[0], qp[1]) - length(qm[0], qm[1])) / (2 * kFdStep);
+      EXPECT_NEAR(ws.tau()[c], -2.0 * dL, 10 * kFdTol) << "column " << c;
+    }
+    EXPECT_LE((J.col(0).tail<3>() - Eigen::Vector3d::UnitZ()).norm(), kTol);
+    EXPECT_LE((J.col(1).tail<3>() - 20 * Eigen::Vector3d::UnitZ()).norm(), kTol);
+  }
+  std::vector<isowrench::StiffnessSet> sets(2, model.model_stiffness());
+  sets[1].s_t.tail<3>() *= 1e-3;
+  std::vector<isowrench::WrenchResult> batch;
+  isowrench::EvaluateBatch(model, Q, 0, sets, batch);
+  for (int p = 0; p < postures; ++p) {
+    for (size_t s = 0; s < sets.size(); ++s) {
+      const isowrench::WrenchResult single = isowrench::Evaluate(model, ws, Q.col(p), 0, sets[s]);
+      const isowrench::WrenchResult& b = batch[p * sets.size() + s];
+      ASSERT_EQ(single.status, b.status);
+      EXPECT_LE((single.wrench - b.wrench).norm(), 1e-12 * std::max(1.0, single.wrench.norm()))
+          << "posture " << p << " set " << s;
+    }
   }
 }
 

@@ -13,6 +13,7 @@
 #include <random>
 
 #include "isowrench/error.hpp"
+#include "model/function_impl.hpp"
 
 namespace isowrench {
 namespace {
@@ -270,6 +271,78 @@ TEST(AllKinds, ValueAndDerivativeIsValueAndDerivative) {
       EXPECT_EQ(derivative, f.Derivative(x)) << FunctionKindName(f.kind()) << " at " << x;
     }
   }
+}
+
+// OpenSim's interval search (SimmSpline::calcValue), written out here: the reference for the
+// engine's scan.
+int OpenSimBisection(const std::vector<double>& x, double a) {
+  const int n = static_cast<int>(x.size());
+  int i = 0, j = n, k = 0;
+  while (true) {
+    k = (i + j) / 2;
+    if (a < x[k]) {
+      j = k;
+    } else if (a > x[k + 1]) {
+      i = k;
+    } else {
+      return k;
+    }
+  }
+}
+
+// Between the end knots the interval is OpenSim's: by the scan up to 32 knots (everywhere but on
+// an interior knot, where the bisection itself decides), by the bisection beyond. And the
+// engine's inline knot evaluation (KnotScan) gives exactly ValueAndDerivative wherever it
+// answers, and answers everywhere except on interior knots, within 2e-13 of an end knot, outside
+// the knots and above 32 knots.
+TEST(KnotIntervals, TheScanFindsOpenSimsIntervalAndKnotScanIsValueAndDerivative) {
+  std::mt19937 rng(21);
+  std::uniform_real_distribution<double> gap(0.05, 1.0), u(0.0, 1.0);
+  for (const int n : {3, 4, 7, 12, 31, 32, 33, 40}) {
+    std::vector<double> x = {-0.7}, y;
+    while (static_cast<int>(x.size()) < n) x.push_back(x.back() + gap(rng));
+    for (double xi : x) y.push_back(0.01 * std::sin(3 * xi) + 0.002 * xi);
+    std::vector<std::pair<double, bool>> args;  // argument, whether KnotScan must answer
+    for (int i = 0; i < 400; ++i)
+      args.push_back({x.front() + (x.back() - x.front()) * u(rng), true});
+    for (size_t i = 0; i < x.size(); ++i) {
+      const bool interior = i > 0 && i + 1 < x.size();
+      if (interior) args.push_back({x[i], false});
+      args.push_back({std::nextafter(x[i], -1e9), interior});
+      args.push_back({std::nextafter(x[i], 1e9), interior});
+    }
+    for (double d : {1e-14, 1.9e-13}) {
+      args.push_back({x.front() + d, false});
+      args.push_back({x.back() - d, false});
+    }
+    args.push_back({x.front() + 3e-13, true});
+    args.push_back({x.back() - 3e-13, true});
+    args.push_back({x.front() - 0.5, false});
+    args.push_back({x.back() + 0.5, false});
+    for (const Function& f : {Function::SimmSpline(x, y), Function::NaturalCubicSpline(x, y),
+                              Function::PiecewiseLinear(x, y)}) {
+      const KnotScan scan(FunctionAccess::Of(f));
+      for (const auto& [a, answers] : args) {
+        if (a > x.front() && a < x.back()) {
+          EXPECT_EQ(FindInterval(x, a), OpenSimBisection(x, a)) << n << " knots, at " << a;
+        }
+        double value = 0.0, slope = 0.0, v = 0.0, s = 0.0;
+        const bool answered = scan.ValueAndSlope(a, &value, &slope);
+        EXPECT_EQ(answered, answers && n <= kScannedKnots)
+            << FunctionKindName(f.kind()) << ", " << n << " knots, at " << a;
+        if (!answered) continue;
+        f.ValueAndDerivative(a, &v, &s);
+        EXPECT_EQ(value, v) << FunctionKindName(f.kind()) << ", " << n << " knots, at " << a;
+        EXPECT_EQ(slope, s) << FunctionKindName(f.kind()) << ", " << n << " knots, at " << a;
+      }
+    }
+  }
+  // Functions without knots (and two knots) are never evaluated by the scan.
+  double value = 0.0, slope = 0.0;
+  EXPECT_FALSE(
+      KnotScan(FunctionAccess::Of(Function::Linear(2.0, 1.0))).ValueAndSlope(0.5, &value, &slope));
+  EXPECT_FALSE(KnotScan(FunctionAccess::Of(Function::SimmSpline({0.0, 1.0}, {0.0, 2.0})))
+                   .ValueAndSlope(0.5, &value, &slope));
 }
 
 TEST(BadKnots, ErrorsNameTheRule) {
