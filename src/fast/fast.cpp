@@ -398,25 +398,50 @@ WrenchResult SolveStatics(const Model& model, Data& workspace, const StiffnessSe
                        options);
 }
 
-// ComputeKinematics and SolveStatics in one function: one call, and the solve's m-dispatch
-// inlined.
-ISOWRENCH_CLONES WrenchResult Evaluate(const Model& model, Data& workspace,
-                                       const Eigen::Ref<const Eigen::VectorXd>& q, int muscle,
-                                       const StiffnessSet& stiffness, double activation,
-                                       const SolveOptions& options) {
-  const FlatChain& d = model.impl().flat;
-  Data::Impl& ws = workspace.impl();
-  assert(q.size() == d.n && ws.m == d.n);
-  WrenchResult out;  // every path returns this object (no copy of the result)
-  if (!AnyKinematics<false>(d, ws, q.data(), muscle, activation, false) ||
-      stiffness.s_p.size() != d.n) {
+namespace {
+
+// ComputeKinematics and SolveStatics in one function (one call, the solve's m-dispatch inlined),
+// on a chain without couplings (kCoupled = false) or any chain (true). The result goes to
+// `out`, which holds a default WrenchResult (invalid input) on entry.
+template <bool kCoupled>
+ISOWRENCH_INLINE void EvaluateWith(const FlatChain& d, Data::Impl& ws, const double* q, int muscle,
+                                   const StiffnessSet& stiffness, double activation,
+                                   const SolveOptions& options, WrenchResult& out) {
+  const bool valid = d.muscles[muscle].dynamic
+                         ? DynamicKinematics<false>(d, ws, q, muscle, activation, false)
+                         : Kinematics<false, false, kCoupled>(d, ws, q, muscle, activation, false);
+  if (!valid || stiffness.s_p.size() != d.n) {
     Invalid(ws);
   } else if (d.any_locked) {
     out = SolveLocked(d, ws, stiffness, options);
   } else {
     SolveAnyM(ws, ws.Jr, stiffness.s_t.data(), stiffness.s_p.data(), ws.tau.data(), options, out);
   }
+}
+
+// Evaluate on a chain without couplings (kCoupled = false) or with them: two functions, so that
+// neither shares the other's registers and stack.
+template <bool kCoupled>
+ISOWRENCH_CLONES ISOWRENCH_NOINLINE WrenchResult EvaluateChain(
+    const Model& model, Data& workspace, const Eigen::Ref<const Eigen::VectorXd>& q, int muscle,
+    const StiffnessSet& stiffness, double activation, const SolveOptions& options) {
+  const FlatChain& d = model.impl().flat;
+  Data::Impl& ws = workspace.impl();
+  assert(q.size() == d.n && ws.m == d.n);
+  WrenchResult out;  // every path returns this object (no copy of the result)
+  EvaluateWith<kCoupled>(d, ws, q.data(), muscle, stiffness, activation, options, out);
   return out;
+}
+
+}  // namespace
+
+ISOWRENCH_CLONES WrenchResult Evaluate(const Model& model, Data& workspace,
+                                       const Eigen::Ref<const Eigen::VectorXd>& q, int muscle,
+                                       const StiffnessSet& stiffness, double activation,
+                                       const SolveOptions& options) {
+  return model.impl().flat.coupled
+             ? EvaluateChain<true>(model, workspace, q, muscle, stiffness, activation, options)
+             : EvaluateChain<false>(model, workspace, q, muscle, stiffness, activation, options);
 }
 
 WrenchResult SolveStatics(Data& workspace, const Eigen::Ref<const Matrix6Xd>& J,

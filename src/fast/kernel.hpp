@@ -475,8 +475,8 @@ ISOWRENCH_INLINE void Kinematics(const FlatChain& d, W& ws, const T* q, const Fa
     V3 RtT[3];  // the lanes turn each column: R_W_T^T v = RtT v
     if constexpr (kRotate && !kScalar<T>) Transpose(Rt, RtT);
     const std::uint32_t revolute_mask = d.revolute_mask;
-    const int* slots = d.slot.data();
-    for (int k = m - 1; k >= 0; --k) {
+    // Joint k: its points' pulls and moments, then its column into slot s.
+    auto joint = [&](int k, int s) ISOWRENCH_LAMBDA_INLINE {
       if (k == backward[0]) {  // the points of frame k
         const int* group_end = backward + 2 + backward[1];
         for (const int* point = backward + 2; point < group_end; ++point) {
@@ -489,7 +489,6 @@ ISOWRENCH_INLINE void Kinematics(const FlatChain& d, W& ws, const T* q, const Fa
       // Vectors of the lanes' workspace are read through references: a local copy of a Lanes3
       // (96 bytes, no vector mode) is made through the stack.
       const V3& z = ws.axis[k];
-      const int s = kCoupled ? slots[k] : k;
       // Joint k's column [v; w] (world axes) and dL/dtheta_k = z . b into slot s of J and tau
       // (the lanes) or of the staging (one posture); called in each branch below, so that no
       // value is merged.
@@ -533,7 +532,13 @@ ISOWRENCH_INLINE void Kinematics(const FlatChain& d, W& ws, const T* q, const Fa
       } else {
         put(z, Zero3<T>(), ps, std::false_type{});
       }
-    }
+    };
+    // With couplings the joints from FlatChain::plain_joints on read their slots; the ones
+    // before write column k, as without couplings.
+    const int plain = kCoupled ? d.plain_joints : 0;
+    const int* slots = d.slot.data();
+    for (int k = m - 1; k >= plain; --k) joint(k, kCoupled ? slots[k] : k);
+    for (int k = plain - 1; k >= 0; --k) joint(k, k);
   };
   if (rotate) {
     sweep(std::true_type{});

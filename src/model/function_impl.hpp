@@ -3,6 +3,7 @@
 // step (src/fast/), which evaluates knot functions of four postures at once.
 
 #include <cmath>
+#include <limits>
 #include <vector>
 
 #include "isowrench/function.hpp"
@@ -39,24 +40,24 @@ inline constexpr double kKnotRoundoffError = 0.0000000000002;
 /// Knot functions with at most this many knots find their interval by a scan from the first.
 inline constexpr int kScannedKnots = 32;
 
-/// The count of interior knots below a, for x[0] < a < x[n-1] (a scan that x[n-1] > a ends):
+/// The first knot >= a, for x[0] < a < x[n-1] (a scan that x[n-1] > a ends): x[k+1] of
 /// interval k (x[k] < a < x[k+1]) wherever a is not an interior knot.
-inline unsigned ScanInterval(const double* x, double a) {
-  const double* above = x + 1;  // the first knot >= a
+inline const double* ScanAbove(const double* x, double a) {
+  const double* above = x + 1;
   while (*above < a) ++above;
-  return static_cast<unsigned>(above - x - 1);
+  return above;
 }
 
 /// The interval k (x[k] <= a <= x[k+1]) of a knot function for x[0] < a < x[n-1], as OpenSim's
-/// bisection (SimmSpline::calcValue) finds it: up to kScannedKnots knots by ScanInterval; else,
+/// bisection (SimmSpline::calcValue) finds it: up to kScannedKnots knots by ScanAbove; else,
 /// and where a equals an interior knot, the bisection itself, whose order decides between the
 /// two intervals that hold it.
 inline int FindInterval(const std::vector<double>& x, double a) {
   const auto n = static_cast<unsigned>(x.size());
   if (n < 3) return 0;
   if (n <= kScannedKnots) {
-    const unsigned k = ScanInterval(x.data(), a);
-    if (x[k + 1] != a) return static_cast<int>(k);
+    const double* above = ScanAbove(x.data(), a);
+    if (*above != a) return static_cast<int>(above - x.data()) - 1;
   }
   unsigned i = 0, j = n, k = 0;  // (unsigned: the halving is one shift)
   while (true) {
@@ -109,13 +110,14 @@ inline void KnotValues(const Function::Impl& s, double a, double* value, double*
 }
 
 /// A knot function of 3 to kScannedKnots knots as the engine's coupling step reads it (x: the
-/// knots, ybcd: Function::Impl::ybcd, first and last: the end knots; x null for any other
-/// function), so that the common case is evaluated inline: KnotValueAndSlope's result where a
-/// is more than kKnotRoundoffError inside both end knots and not an interior knot.
+/// knots, ybcd: Function::Impl::ybcd), so that the common case is evaluated inline:
+/// KnotValueAndSlope's result for a in (lower, upper), two kKnotRoundoffError inside the end
+/// knots, and not an interior knot. The range is empty for any other function.
 struct KnotScan {
   const double* x = nullptr;
   const double* ybcd = nullptr;
-  double first = 0.0, last = 0.0;
+  double lower = std::numeric_limits<double>::infinity();
+  double upper = -std::numeric_limits<double>::infinity();
   KnotScan() = default;
   explicit KnotScan(const Function::Impl& f) {
     const bool knots = f.kind == FunctionKind::kSimmSpline ||
@@ -124,17 +126,21 @@ struct KnotScan {
     if (!knots || f.x.size() < 3 || f.x.size() > kScannedKnots) return;
     x = f.x.data();
     ybcd = f.ybcd.data();
-    first = f.x.front();
-    last = f.x.back();
+    lower = f.x.front() + 2 * kKnotRoundoffError;
+    upper = f.x.back() - 2 * kKnotRoundoffError;
   }
   /// Writes value and slope and returns true in the common case; else returns false (nothing
   /// written: evaluate the function).
   bool ValueAndSlope(double a, double* value, double* slope) const {
-    // (where a >= x[0], |a - x[0]| is a - x[0]; likewise at the last knot)
-    if (!(x && a - first > kKnotRoundoffError && last - a > kKnotRoundoffError)) return false;
-    const unsigned k = ScanInterval(x, a);
-    if (x[k + 1] == a) return false;
-    KnotPolynomial(ybcd + 4 * k, a - x[k], value, slope, nullptr);
+    // a > lower makes KnotValues' a - x[0] (as computed) exceed kKnotRoundoffError: the
+    // computed difference does not decrease as a grows, and at a = lower (x[0] + 2
+    // kKnotRoundoffError, rounded) it exceeds kKnotRoundoffError where half an ulp of x[0] is
+    // below kKnotRoundoffError; elsewhere a > lower >= x[0] puts a an ulp of x[0] (>= 2
+    // kKnotRoundoffError) or more above x[0]. Likewise at the last knot. (NaN fails both.)
+    if (!(a > lower && a < upper)) return false;
+    const double* above = ScanAbove(x, a);
+    if (*above == a) return false;
+    KnotPolynomial(ybcd + 4 * (above - x - 1), a - above[-1], value, slope, nullptr);
     return true;
   }
 };

@@ -246,6 +246,10 @@ FlatChain Compile(const LimbDescription& d) {
     flat.slot.push_back(owner ? static_cast<int>(c) : kMaxDofs + extra++);
     if (owner && static_cast<int>(c) != k) flat.moved_positions.push_back({k, static_cast<int>(c)});
   }
+  while (flat.plain_joints < flat.m &&
+         flat.slot[static_cast<size_t>(flat.plain_joints)] == flat.plain_joints) {
+    ++flat.plain_joints;
+  }
   for (int k = 0; k < flat.m; ++k) {
     const int c = flat.coordinate[static_cast<size_t>(k)];
     const int slot = flat.slot[static_cast<size_t>(k)];

@@ -103,6 +103,9 @@ struct FlatChain {
   /// kMaxDofs + e (e = 0, 1, ...), so that the sweep is the same as on a chain without
   /// couplings.
   std::vector<int> slot;
+  /// Joints 0 .. plain_joints - 1 all have slot k (the backward sweep writes their columns as
+  /// on a chain without couplings, without reading `slot`).
+  int plain_joints = 0;
   /// Coupled chains: the joints that own no column, in chain order, with their coordinate's
   /// column, their slot and their coupling (f; scan: a knot function's common case, evaluated
   /// inline; both point into `coupling`, which keeps them alive). The coupling step gives each
