@@ -24,6 +24,7 @@ struct Fixture {
   isowrench::Model compiled{model};
   Eigen::MatrixXd postures = KernelPostures(model, 1 << 16);
   std::vector<isowrench::StiffnessSet> sets = KernelStiffnessSets(compiled);
+  isowrench::Model coupled = CoupledKernelModel();  // kernel K with the spline-coupled knee
 };
 
 Fixture& F() {
@@ -67,6 +68,18 @@ void BM_FastSingle(benchmark::State& state) {
 }
 BENCHMARK(BM_FastSingle);
 
+void BM_FastSingleCoupledKnee(benchmark::State& state) {
+  Fixture& f = F();
+  isowrench::Data ws(f.coupled);
+  long i = 0;
+  for (auto _ : state) {
+    benchmark::DoNotOptimize(
+        isowrench::Evaluate(f.coupled, ws, f.postures.col(i++ & 1023), 0, f.sets[0]));
+  }
+  state.SetItemsProcessed(state.iterations());
+}
+BENCHMARK(BM_FastSingleCoupledKnee);
+
 // Many postures, one stiffness set, `threads` worker threads.
 void BM_FastBatchPostures(benchmark::State& state) {
   Fixture& f = F();
@@ -82,6 +95,25 @@ void BM_FastBatchPostures(benchmark::State& state) {
   state.counters["threads"] = options.threads;
 }
 BENCHMARK(BM_FastBatchPostures)->Arg(1)->Arg(2)->UseRealTime()->Unit(benchmark::kMillisecond);
+
+void BM_FastBatchPosturesCoupledKnee(benchmark::State& state) {
+  Fixture& f = F();
+  std::vector<isowrench::StiffnessSet> one = {f.sets[0]};
+  std::vector<isowrench::WrenchResult> out;
+  isowrench::BatchOptions options;
+  options.threads = static_cast<int>(state.range(0));
+  for (auto _ : state) {
+    isowrench::EvaluateBatch(f.coupled, f.postures, 0, one, out, 1.0, options);
+    benchmark::DoNotOptimize(out.data());
+  }
+  state.SetItemsProcessed(state.iterations() * f.postures.cols());
+  state.counters["threads"] = options.threads;
+}
+BENCHMARK(BM_FastBatchPosturesCoupledKnee)
+    ->Arg(1)
+    ->Arg(2)
+    ->UseRealTime()
+    ->Unit(benchmark::kMillisecond);
 
 // Postures x 20 stiffness sets: kinematics once per posture, 20 solves.
 void BM_FastBatchStiffness(benchmark::State& state) {
@@ -207,13 +239,13 @@ int main(int argc, char** argv) {
     if (r.name.rfind("BM_KdlBaseline", 0) == 0) kdl = r.ns_per_evaluation;
   }
   std::printf("\nSummary (kernel K: GP on rat_hindlimb_5dof_base.urdf, m = 8)\n");
-  std::printf("%-36s %14s %16s %12s\n", "benchmark", "ns/eval (wall)", "ns/eval/core",
+  std::printf("%-44s %14s %16s %12s\n", "benchmark", "ns/eval (wall)", "ns/eval/core",
               "KDL / this");
   for (const auto& r : reporter.records()) {
     const double per_core = r.ns_per_evaluation * r.threads;
     char ratio[32] = "-";
     if (kdl > 0) std::snprintf(ratio, sizeof(ratio), "%.1fx", kdl / r.ns_per_evaluation);
-    std::printf("%-36s %14.1f %16.1f %12s\n", r.name.c_str(), r.ns_per_evaluation, per_core, ratio);
+    std::printf("%-44s %14.1f %16.1f %12s\n", r.name.c_str(), r.ns_per_evaluation, per_core, ratio);
   }
   benchmark::Shutdown();
   return 0;
