@@ -56,58 +56,40 @@ void BM_ReferenceEvaluateWrench(benchmark::State& state) {
 }
 BENCHMARK(BM_ReferenceEvaluateWrench);
 
-void BM_FastSingle(benchmark::State& state) {
+// One posture at a time, on kernel K or (coupled) kernel K with the spline-coupled knee.
+void FastSingle(benchmark::State& state, const isowrench::Model& model) {
   Fixture& f = F();
-  isowrench::Data ws(f.compiled);
+  isowrench::Data ws(model);
   long i = 0;
   for (auto _ : state) {
     benchmark::DoNotOptimize(
-        isowrench::Evaluate(f.compiled, ws, f.postures.col(i++ & 1023), 0, f.sets[0]));
+        isowrench::Evaluate(model, ws, f.postures.col(i++ & 1023), 0, f.sets[0]));
   }
   state.SetItemsProcessed(state.iterations());
 }
+void BM_FastSingle(benchmark::State& state) { FastSingle(state, F().compiled); }
 BENCHMARK(BM_FastSingle);
-
-void BM_FastSingleCoupledKnee(benchmark::State& state) {
-  Fixture& f = F();
-  isowrench::Data ws(f.coupled);
-  long i = 0;
-  for (auto _ : state) {
-    benchmark::DoNotOptimize(
-        isowrench::Evaluate(f.coupled, ws, f.postures.col(i++ & 1023), 0, f.sets[0]));
-  }
-  state.SetItemsProcessed(state.iterations());
-}
+void BM_FastSingleCoupledKnee(benchmark::State& state) { FastSingle(state, F().coupled); }
 BENCHMARK(BM_FastSingleCoupledKnee);
 
 // Many postures, one stiffness set, `threads` worker threads.
-void BM_FastBatchPostures(benchmark::State& state) {
+void FastBatchPostures(benchmark::State& state, const isowrench::Model& model) {
   Fixture& f = F();
   std::vector<isowrench::StiffnessSet> one = {f.sets[0]};
   std::vector<isowrench::WrenchResult> out;
   isowrench::BatchOptions options;
   options.threads = static_cast<int>(state.range(0));
   for (auto _ : state) {
-    isowrench::EvaluateBatch(f.compiled, f.postures, 0, one, out, 1.0, options);
+    isowrench::EvaluateBatch(model, f.postures, 0, one, out, 1.0, options);
     benchmark::DoNotOptimize(out.data());
   }
   state.SetItemsProcessed(state.iterations() * f.postures.cols());
   state.counters["threads"] = options.threads;
 }
+void BM_FastBatchPostures(benchmark::State& state) { FastBatchPostures(state, F().compiled); }
 BENCHMARK(BM_FastBatchPostures)->Arg(1)->Arg(2)->UseRealTime()->Unit(benchmark::kMillisecond);
-
 void BM_FastBatchPosturesCoupledKnee(benchmark::State& state) {
-  Fixture& f = F();
-  std::vector<isowrench::StiffnessSet> one = {f.sets[0]};
-  std::vector<isowrench::WrenchResult> out;
-  isowrench::BatchOptions options;
-  options.threads = static_cast<int>(state.range(0));
-  for (auto _ : state) {
-    isowrench::EvaluateBatch(f.coupled, f.postures, 0, one, out, 1.0, options);
-    benchmark::DoNotOptimize(out.data());
-  }
-  state.SetItemsProcessed(state.iterations() * f.postures.cols());
-  state.counters["threads"] = options.threads;
+  FastBatchPostures(state, F().coupled);
 }
 BENCHMARK(BM_FastBatchPosturesCoupledKnee)
     ->Arg(1)

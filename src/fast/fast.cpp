@@ -320,8 +320,8 @@ ISOWRENCH_NOINLINE bool DynamicKinematics(const FlatChain& d, Data::Impl& ws, co
   return Kinematics<kFrames, true, true>(d, ws, q, muscle, activation, world_axes);
 }
 
-// The evaluation path of a chain with couplings (kept apart from the one without, which it
-// would otherwise crowd: one function's registers and stack).
+// ComputeKinematics on a chain with couplings, in a function of its own (as EvaluateChain, below:
+// inlined, it would crowd the registers and stack of the chains without couplings).
 ISOWRENCH_CLONES ISOWRENCH_NOINLINE bool CoupledKinematics(const FlatChain& d, Data::Impl& ws,
                                                            const double* q, int muscle,
                                                            double activation) {

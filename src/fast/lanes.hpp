@@ -32,9 +32,9 @@ class LaneWorkspace {
 /// Kinematics and muscle torque (muscle `muscle`, force = activation * max_force) of posture
 /// q[l] (dof_count() entries each) in lane l. Returns the bitmask of lanes (bit l) the caller
 /// must evaluate on the scalar path instead: two consecutive path points coincide (kInvalidInput
-/// there), or a revolute angle has |q| >= 1e5 rad, beyond the lane sin/cos range reduction (on
-/// a chain without couplings every coordinate is checked: a prismatic one beyond 1e5 m, which
-/// the lanes could compute, goes to the scalar path too).
+/// there), or a revolute angle has |q| >= 1e5 rad, beyond the lane sin/cos range reduction
+/// (checked for every coordinate and every driven joint's position, which must also be finite:
+/// a prismatic one beyond 1e5 m, which the lanes could compute, goes to the scalar path too).
 unsigned LaneKinematics(const Model& model, LaneWorkspace& ws, const double* const q[kLanes],
                         int muscle, double activation);
 
