@@ -503,19 +503,14 @@ ISOWRENCH_INLINE void Kinematics(const FlatChain& d, W& ws, const T* q, const Fa
         } else {
           T dl;
           Dot(z, b, dl);
-          // A prismatic column's angular rows are 0: without couplings the lane workspace has
-          // them 0 from construction on (slot k is always joint k); with couplings they are
-          // written, as a fold may have added to an owner's column.
+          // (a prismatic column's angular rows are 0, written each time: a fold may have added
+          // to an owner's column)
           auto store = [&](const V3& vt, const V3& wt) ISOWRENCH_LAMBDA_INLINE {
             T* col = J + s;
             ISOWRENCH_UNROLL
             for (int r = 0; r < 3; ++r) {
               col[r * js] = Component(vt, r);
-              if constexpr (kRevolute) {
-                col[(3 + r) * js] = Component(wt, r);
-              } else if constexpr (kCoupled) {
-                col[(3 + r) * js] = zero;
-              }
+              col[(3 + r) * js] = kRevolute ? Component(wt, r) : zero;
             }
             tau[s] = minus_force * dl;
           };

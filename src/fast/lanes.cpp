@@ -123,9 +123,8 @@ struct LaneWorkspace::Impl {
   void Resize(int) {}
 };
 
-// The buffers are written before they are read, except J, whose angular rows of a prismatic
-// joint's column the kernel never writes on a chain without couplings (they stay 0 from here
-// on).
+// The buffers are written before they are read (J too: zeroed here only so that no entry is
+// ever uninitialised).
 LaneWorkspace::LaneWorkspace(const Model& model) : impl_(new Impl) {
   impl_->m = model.dof_count();
   for (auto& row : impl_->J) {
@@ -197,13 +196,10 @@ ISOWRENCH_CLONES unsigned LaneKinematics(const Model& model, LaneWorkspace& work
   const FastMuscle& mu = d.muscles[muscle];
   const double minus_force = -(activation * mu.max_force);
   VI coincident;
-  if (d.coupled) {
-    kernel::Kinematics<false, false, true>(d, ws, ws.q, mu, minus_force, !d.transducer_identity,
-                                           coincident);
-  } else {
-    kernel::Kinematics<false, false, false>(d, ws, ws.q, mu, minus_force, !d.transducer_identity,
-                                            coincident);
-  }
+  // The general kernel on every chain (without couplings every joint has slot k and no fold;
+  // one instantiation for both halves this file's compile time, for ~3 instructions).
+  kernel::Kinematics<false, false, true>(d, ws, ws.q, mu, minus_force, !d.transducer_identity,
+                                         coincident);
   return Bits(coincident | out_of_range);
 }
 

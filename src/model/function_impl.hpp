@@ -120,10 +120,7 @@ struct KnotScan {
   double upper = -std::numeric_limits<double>::infinity();
   KnotScan() = default;
   explicit KnotScan(const Function::Impl& f) {
-    const bool knots = f.kind == FunctionKind::kSimmSpline ||
-                       f.kind == FunctionKind::kNaturalCubicSpline ||
-                       f.kind == FunctionKind::kPiecewiseLinear;
-    if (!knots || f.x.size() < 3 || f.x.size() > kScannedKnots) return;
+    if (!IsKnotFunction(f.kind) || f.x.size() < 3 || f.x.size() > kScannedKnots) return;
     x = f.x.data();
     ybcd = f.ybcd.data();
     lower = f.x.front() + 2 * kKnotRoundoffError;
