@@ -15,8 +15,8 @@
 //   revolute  dL/dtheta_k = z_k . (sum x_i x g_i - o_k x sum g_i),  prismatic z_k . sum g_i,
 // over the points distal to joint k: O(m + points) instead of one point Jacobian per point.
 // Coupled chains: the sweep writes each joint's column at its slot (FlatChain::slot: its
-// coordinate's column, or a place past kMaxDofs), and the folds then add the latter into their
-// columns, J = J_joints C with C = dq_joint/dq (and dL/dq = C^T dL/dq_joint).
+// coordinate's column, or a place past kMaxDofs), then each driven joint's slot is folded into
+// its column, J = J_joints C with C = dq_joint/dq (and dL/dq = C^T dL/dq_joint).
 // Statics: K = J^T S_t J + S_p, Cholesky K = U^T U, two triangular solves, W = S_t J dtheta
 // (Cholesky).
 //

@@ -237,7 +237,7 @@ FlatChain Compile(const LimbDescription& d) {
   // Slots: a column's owner (its first joint with the identity coupling) writes the column
   // itself; every other joint, driven by the coupling step, writes a slot past kMaxDofs that is
   // folded into its column afterwards.
-  std::vector<char> owned(static_cast<size_t>(flat.n), 0), met(static_cast<size_t>(flat.n), 0);
+  std::vector<char> owned(static_cast<size_t>(flat.n), 0);
   int extra = 0;
   for (int k = 0; k < flat.m; ++k) {
     const auto c = static_cast<size_t>(flat.coordinate[static_cast<size_t>(k)]);
@@ -253,14 +253,13 @@ FlatChain Compile(const LimbDescription& d) {
   for (int k = 0; k < flat.m; ++k) {
     const int c = flat.coordinate[static_cast<size_t>(k)];
     const int slot = flat.slot[static_cast<size_t>(k)];
-    met[static_cast<size_t>(c)] = 1;
     if (slot == c) continue;
     const Function::Impl& f = FunctionAccess::Of(flat.coupling[static_cast<size_t>(k)]);
     flat.driven_joints.push_back({k, c, slot, !owned[static_cast<size_t>(c)], &f, KnotScan(f)});
     owned[static_cast<size_t>(c)] = 1;  // the next fold into c adds
   }
-  for (int c = 0; c < flat.n; ++c) {
-    if (!met[static_cast<size_t>(c)]) flat.undriven_columns.push_back(c);
+  for (int c = 0; c < flat.n; ++c) {  // (owned now: an owner or a driven joint carries c)
+    if (!owned[static_cast<size_t>(c)]) flat.undriven_columns.push_back(c);
   }
   const TransducerSpec& t = d.transducer;
   flat.endpoint = since_last * t.endpoint;
