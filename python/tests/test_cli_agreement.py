@@ -98,3 +98,36 @@ def test_releases_and_diagnose_equal_cli_json(cli, rat):
     np.testing.assert_allclose(wrench_vector(mine["wrench"]), wrench_vector(theirs["wrench"]), rtol=0, atol=TOL)
     assert [e["parameter"] for e in mine["sensitivity"]["entries"]] == \
         [e["parameter"] for e in theirs["sensitivity"]["entries"]]
+
+
+def rotation_rpy(r, p, y):
+    """URDF rpy: R = Rz(y) Ry(p) Rx(r)."""
+    cr, sr, cp, sp, cy, sy = math.cos(r), math.sin(r), math.cos(p), math.sin(p), math.cos(y), math.sin(y)
+    rz = np.array([[cy, -sy, 0], [sy, cy, 0], [0, 0, 1]])
+    ry = np.array([[cp, 0, sp], [0, 1, 0], [-sp, 0, cp]])
+    rx = np.array([[1, 0, 0], [0, cr, -sr], [0, sr, cr]])
+    return rz @ ry @ rx
+
+
+@pytest.mark.parametrize("axes", ["world", "link"])
+def test_rotated_transducer_world_wrench(cli, tmp_path, axes):
+    """World-axes wrench = R_W_T times the transducer-axes wrench, in Python and the CLI's JSON;
+    with a balanced transducer it equals the aligned transducer's (W = pinv(J^T) tau)."""
+    text = (URDF / "rat_hindlimb_5dof.urdf").read_text()
+    aligned = 'rpy="0 0 0" axes="world"'
+    assert aligned in text
+    path = tmp_path / "rotated.urdf"
+    path.write_text(text.replace(aligned, 'rpy="0.4 0.5 -0.3" axes="{}"'.format(axes)))
+    reference = isowrench.load(str(URDF / "rat_hindlimb_5dof.urdf")).wrench("GP")
+    m = isowrench.load(str(path))
+    w = m.wrench("GP")
+    r = rotation_rpy(0.4, 0.5, -0.3)
+    if axes == "link":  # the tibia's rotation at the nominal posture: hip_rz + knee_rz about z
+        r = rotation_rpy(0, 0, math.radians(-110 + 105)) @ r
+    expected = np.concatenate([r @ w.transducer[:3], r @ w.transducer[3:]])
+    scale = np.linalg.norm(reference.world)
+    np.testing.assert_allclose(w.world, expected, rtol=0, atol=1e-12 * scale)
+    np.testing.assert_allclose(w.world, reference.world, rtol=0, atol=1e-9 * scale)
+    assert np.linalg.norm(w.transducer - reference.transducer) > 0.05 * scale
+    j = cli("wrench", path, "--json", "--muscle", "GP")
+    np.testing.assert_allclose(wrench_vector(j["wrench_world"]), expected, rtol=0, atol=1e-12 * scale)

@@ -241,12 +241,12 @@ const JointVector& Data::tau() const { return impl_->tau; }
 const JointVector& Data::muscle_length_gradient() const { return impl_->dL; }
 double Data::muscle_length() const { return impl_->length; }
 const Eigen::Vector3d& Data::endpoint_position() const {
-  impl_->endpoint = impl_->Endpoint();
-  return impl_->endpoint;
+  impl_->endpoint_copy = impl_->Endpoint();
+  return impl_->endpoint_copy;
 }
 const Eigen::Matrix3d& Data::transducer_rotation() const {
-  impl_->R_W_T = impl_->TransducerRotation();
-  return impl_->R_W_T;
+  impl_->R_W_T_copy = impl_->TransducerRotation();
+  return impl_->R_W_T_copy;
 }
 const JointVector& Data::dtheta() const { return impl_->dtheta; }
 const JointMatrix& Data::self_motion() const { return impl_->self_motion; }

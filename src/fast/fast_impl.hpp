@@ -44,9 +44,10 @@ struct Data::Impl {
   Eigen::Vector3d Endpoint() const { return ToEigen(pose[0]); }
   Eigen::Matrix3d TransducerRotation() const { return ToEigen(pose + 1); }
   Eigen::Matrix3d Frame(int k) const { return ToEigen(frames[k].data()); }
-  /// Data::endpoint_position() and Data::transducer_rotation(): copies made on each call.
-  mutable Eigen::Vector3d endpoint = Eigen::Vector3d::Zero();
-  mutable Eigen::Matrix3d R_W_T = Eigen::Matrix3d::Identity();
+  /// The storage behind Data::endpoint_position() and Data::transducer_rotation(), filled only
+  /// by those calls: never read them directly (call Endpoint() / TransducerRotation()).
+  mutable Eigen::Vector3d endpoint_copy = Eigen::Vector3d::Zero();
+  mutable Eigen::Matrix3d R_W_T_copy = Eigen::Matrix3d::Identity();
   /// One posture stages the Jacobian columns [v; w] (world axes) and the x, y, z terms of
   /// dL/dq_c here, column (or FlatChain::slot) s at staged[s] (v), staged[kW + s] (w) and
   /// staged[kP + s] (the terms of dL/dq); kernel::FinishColumns moves the first m columns into

@@ -33,7 +33,7 @@ WrenchEvaluation EvaluateWrench(const Model& model, Data& ws, const Eigen::Vecto
   e.muscle = model.muscle(muscle_index).name;
   // One run of the kinematics kernel: J in transducer axes, R_W_T and the muscle torque.
   const Data::Impl& k = RunKinematics(model, ws, q, muscle_index, activation, false);
-  e.R_W_T = k.R_W_T;
+  e.R_W_T = k.TransducerRotation();
   e.jacobian = k.Jacobian();
   e.muscle_length = k.length;
   e.muscle_force = activation * model.muscle(muscle_index).max_force;

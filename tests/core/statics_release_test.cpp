@@ -241,5 +241,45 @@ TEST(SixDofKnee, AbductionStiffnessGivesTheFiveDofWrench) {
   }
 }
 
+// ---- A rotated transducer: the world-axes wrench is R_W_T times the transducer-axes one ------
+
+Eigen::Matrix3d Rpy(double r, double p, double y) {
+  return (Eigen::AngleAxisd(y, Eigen::Vector3d::UnitZ()) *
+          Eigen::AngleAxisd(p, Eigen::Vector3d::UnitY()) *
+          Eigen::AngleAxisd(r, Eigen::Vector3d::UnitX()))
+      .toRotationMatrix();
+}
+
+// With a balanced transducer, all 6 dofs restrained and S_p = 0, W = pinv(J^T) tau in any axes,
+// so the world-axes wrench cannot depend on how the transducer is turned; and in every case the
+// world wrench is R_W_T W_T with R_W_T built here from the spec (world axes: the rotation itself;
+// link axes: the endpoint link's rotation times it), not read from the result.
+TEST(RotatedTransducer, WorldWrenchIsTheRotatedTransducerWrench) {
+  const Model aligned = LoadModel("rat_hindlimb_5dof.urdf");
+  const Eigen::VectorXd q = aligned.nominal_posture();
+  const isowrench::WrenchEvaluation reference = isowrench::EvaluateWrench(aligned, q, "GP");
+  ASSERT_TRUE(reference.statics.ok());
+  Data ws(aligned);
+  const Eigen::Matrix3d R_W_link = isowrench::EndpointPose(aligned, ws, q).linear();
+  const Eigen::Matrix3d R = Rpy(0.4, 0.5, -0.3);
+  for (bool in_world : {true, false}) {
+    SCOPED_TRACE(in_world ? "axes world" : "axes link");
+    LimbDescription d = aligned.description();
+    d.transducer.rotation = R;
+    d.transducer.axes_in_world = in_world;
+    const Model turned(d);
+    const isowrench::WrenchEvaluation e = isowrench::EvaluateWrench(turned, q, "GP");
+    ASSERT_TRUE(e.statics.ok());
+    const Eigen::Matrix3d R_W_T = in_world ? R : Eigen::Matrix3d(R_W_link * R);
+    Vector6d expected;
+    expected << R_W_T * e.statics.wrench.head<3>(), R_W_T * e.statics.wrench.tail<3>();
+    const double scale = reference.statics.wrench.norm();
+    EXPECT_TRUE(MatricesNear(e.wrench_world, expected, 1e-12 * scale));
+    EXPECT_TRUE(MatricesNear(e.wrench_world, reference.wrench_world, 1e-9 * scale));
+    // The transducer-axes wrench really is turned (the test would pass trivially otherwise).
+    EXPECT_GT((e.statics.wrench - reference.statics.wrench).norm(), 0.05 * scale);
+  }
+}
+
 }  // namespace
 }  // namespace isowrench_test
