@@ -148,11 +148,80 @@ struct PathPoint {
 /// lower - kActiveRangeTolerance <= q <= upper + kActiveRangeTolerance.
 inline constexpr double kActiveRangeTolerance = 1e-5;
 
-/// A straight-line muscle through its active path points (origin first, insertion last).
+// ---- Wrapping (OpenSim wrap objects; docs/opensim.md "Wrapping", include/isowrench/wrap.hpp) ----
+
+/// Shape of a wrap object: OpenSim's WrapCylinder, WrapSphere, WrapEllipsoid, WrapTorus.
+enum class WrapShape { kCylinder, kSphere, kEllipsoid, kTorus };
+
+/// "cylinder", "sphere", "ellipsoid", "torus" (the URDF spelling, <isowrench:wrap shape=>).
+const char* WrapShapeName(WrapShape shape);
+
+/// OpenSim's `quadrant` of a wrap object: the side a path may wrap over. `sign` 0 is "all"
+/// (unconstrained); otherwise the path wraps over the half where coordinate `axis` (0, 1, 2:
+/// x, y, z of the wrap object's frame) has sign `sign` (WrapObject::extendFinalizeFromProperties).
+struct WrapQuadrant {
+  int axis = 0;  ///< 0, 1, 2 (unused when sign is 0)
+  int sign = 0;  ///< +1, -1, or 0 for "all"
+  /// OpenSim's spellings: "all", "All", "ALL", "x", "+x", "X", "+X", "-x", "-X" (y, z alike).
+  /// @throws Error naming the text for anything else.
+  static WrapQuadrant Parse(const std::string& text);
+  /// "all", "+x", "-y", ...
+  std::string ToString() const;
+  bool operator==(const WrapQuadrant& other) const {
+    return sign == other.sign && (sign == 0 || axis == other.axis);
+  }
+};
+
+/// A wrap object fixed on a link (OpenSim: an entry of a body's WrapObjectSet). Its frame S is
+/// `translation` (m, in the link's frame) and the body-fixed X-Y-Z rotation `xyz_body_rotation`
+/// (rad; Simbody Rotation::setRotationToBodyFixedXYZ, as OpenSim's WrapObject::_pose), so
+/// X_link_S = [BodyFixedXyz(xyz_body_rotation), translation]. Dimensions by shape, in S: a
+/// cylinder of `radius` about the z axis, `length` along z centred on the origin; a sphere of
+/// `radius`; an ellipsoid with semi-axes `radii` along x, y, z; a torus about the z axis whose
+/// tube of radius `inner_radius` circles the origin at `outer_radius` in the xy plane.
+struct WrapObjectSpec {
+  std::string name;
+  std::string link;  ///< a link of the chain, or the root link (fixed in world)
+  WrapShape shape = WrapShape::kCylinder;
+  Eigen::Vector3d translation = Eigen::Vector3d::Zero();        ///< m, in the link's frame
+  Eigen::Vector3d xyz_body_rotation = Eigen::Vector3d::Zero();  ///< rad, body-fixed X-Y-Z
+  double radius = 0.0;                                          ///< m: cylinder, sphere; > 0
+  double length = 0.0;                                 ///< m: cylinder, > 0 (OpenSim: >= 0)
+  Eigen::Vector3d radii = Eigen::Vector3d::Zero();     ///< m: ellipsoid semi-axes, each > 0
+  double inner_radius = 0.0;                           ///< m: torus tube radius, > 0
+  double outer_radius = 0.0;                           ///< m: torus ring radius, > inner_radius
+  bool active = true;                                  ///< false: never wraps (OpenSim `active`)
+  WrapQuadrant quadrant;                               ///< constrained side ("all" by default)
+  /// X_link_S: the object's frame in its link's frame.
+  Eigen::Isometry3d Pose() const;
+};
+
+/// OpenSim's PathWrap `method`; it matters for ellipsoids only (WrapEllipsoid::wrapLine).
+enum class WrapMethod { kHybrid, kMidpoint, kAxial };
+
+/// "hybrid", "midpoint", "axial".
+const char* WrapMethodName(WrapMethod method);
+
+/// One entry of a muscle's wrap list (OpenSim: a PathWrap of the GeometryPath's PathWrapSet).
+/// Wraps apply in list order (GeometryPath::applyWrapObjects). `range_first`/`range_last` are
+/// OpenSim's `range`: 1-based numbers of the muscle's path points (MuscleSpec::path, inactive
+/// conditional points counted), -1 meaning the first / the last point; the wrap acts on one
+/// segment between the active points of that range (docs/opensim.md "Wrapping").
+struct PathWrapSpec {
+  std::string object;  ///< a WrapObjectSpec name
+  int range_first = -1;
+  int range_last = -1;
+  WrapMethod method = WrapMethod::kHybrid;
+};
+
+/// A muscle through its active path points (origin first, insertion last), straight between
+/// them except where a wrap object of `wraps` bends it.
 struct MuscleSpec {
   std::string name;
   double max_force = 0.0;       ///< N, > 0; the force used when activation is 1
   std::vector<PathPoint> path;  ///< at least two points, of which at least two never inactive
+  /// Wrap objects the path wraps over, in the order they apply (empty: a straight path).
+  std::vector<PathWrapSpec> wraps;
 };
 
 /// Index into a 6-vector in KDL order: x y z rx ry rz.
@@ -240,6 +309,8 @@ struct LimbDescription {
   /// Nominal posture: coordinate name -> position (rad or m). Coordinates not named here are at
   /// their default_value (0 unless an <isowrench:coordinate default=> says otherwise).
   std::vector<std::pair<std::string, double>> nominal_posture;
+  /// Wrap objects on the links (OpenSim WrapObjectSets), named by MuscleSpec::wraps.
+  std::vector<WrapObjectSpec> wrap_objects;
 };
 
 /// The coordinate called `name`.

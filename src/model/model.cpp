@@ -14,6 +14,7 @@
 #include "model/function_impl.hpp"
 #include "model/model_impl.hpp"
 #include "util/text.hpp"
+#include "wrap/wrap_impl.hpp"
 
 namespace isowrench {
 namespace {
@@ -324,6 +325,8 @@ FlatChain Compile(const LimbDescription& d) {
 Model::Model(LimbDescription description) {
   description = NormalizeCoordinates(std::move(description));
   Validate(description);
+  CheckWraps(description, "model '" + description.name + "'");  // src/wrap (issue 27)
+  wrap_impl::WarnWrapsNotEvaluatedOnce(description);
   auto impl = std::make_shared<Impl>();
   impl->flat = Compile(description);
   double length = 0.0;
