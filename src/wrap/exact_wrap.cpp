@@ -44,6 +44,8 @@ bool WrapCircle(double R, const Eigen::Vector2d& P, const Eigen::Vector2d& N, in
   const double theta2 = std::atan2(N.y(), N.x()) - s * std::acos(R / dN);
   double phi = std::fmod(s * (theta2 - theta1), kTwoPi);
   if (phi < 0.0) phi += kTwoPi;
+  // At engagement the tangent points meet: phi is 0, or 2 pi - rounding.
+  if (phi > kTwoPi - 1e-9) phi = 0.0;
   c.r1 = R * Eigen::Vector2d(std::cos(theta1), std::sin(theta1));
   c.r2 = R * Eigen::Vector2d(std::cos(theta2), std::sin(theta2));
   c.phi = phi;

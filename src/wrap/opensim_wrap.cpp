@@ -1056,6 +1056,18 @@ struct Ellipsoid {
     const V3 p1c1 = p1 - c1;
     V3 vs = p1p2.cross(p1c1);
     NormalizeOrZero(vs, vs);
+    if (vs.isZero()) {
+      // c1 on the line p1p2 (an end point on the surface): no plane, NaN in OpenSim. Fallback:
+      // the plane through the segment and the centre, or any plane holding the segment.
+      status |= kWrapDegenerate;
+      vs = p1p2.cross(p1 - m);
+      if (vs.norm() < 1e-12 * p1p2.norm() * (p1 - m).norm()) {
+        Eigen::Index k = 0;
+        p1p2.cwiseAbs().minCoeff(&k);
+        vs = p1p2.cross(V3::Unit(k));
+      }
+      vs.normalize();
+    }
     const double vs4 = -vs.dot(c1);
     CalcTangentPoint(p1e, r1, p1, m, a, vs, vs4);
     CalcTangentPoint(p2e, r2, p2, m, a, vs, vs4);

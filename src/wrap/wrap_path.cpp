@@ -40,7 +40,14 @@ OsSegment OpenSimSegment(const WrapSurface& s, const V3& p1, const V3& p2, WrapM
 
 OsSegment AnySegment(const WrapSurface& s, const V3& p1, const V3& p2, WrapMode mode,
                      WrapMethod method, bool single_wrap) {
-  const OsSegment os = OpenSimSegment(s, p1, p2, method, single_wrap);
+  OsSegment os = OpenSimSegment(s, p1, p2, method, single_wrap);
+  if (os.has_path && (!os.r1.allFinite() || !os.r2.allFinite() || !std::isfinite(os.length))) {
+    // Whatever NaN OpenSim's arithmetic reached (an end point on an ellipsoid, a plane through
+    // a degenerate c1, ...): the segment does not wrap, and says why.
+    os.has_path = false;
+    os.code = 0;
+    os.status |= kWrapDegenerate;
+  }
   if (mode == WrapMode::kOpenSim) return os;
   return wrap_impl::ExactSegment(s, p1, p2, os);
 }
