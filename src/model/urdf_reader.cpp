@@ -153,6 +153,142 @@ void ReadMovingAndActive(const Reader& r, const tinyxml2::XMLElement& p, const L
   point.active_upper = bounds[1];
 }
 
+// ---- wrapping (issue 27; docs/urdf-extensions.md "Wrap objects") ----------------------------
+
+// <isowrench:path_wrap object= range= method=/> inside a muscle.
+PathWrapSpec ReadPathWrap(const Reader& r, const tinyxml2::XMLElement& e, const std::string& muscle) {
+  PathWrapSpec w;
+  w.object = r.Attribute(&e, "object", true);
+  const std::string what = "muscle '" + muscle + "', path_wrap '" + w.object + "'";
+  const std::vector<double> range = r.Numbers(&e, "range", 2, false);
+  if (!range.empty()) {
+    for (int i = 0; i < 2; ++i) {
+      if (range[i] != std::floor(range[i]) || std::abs(range[i]) > 1e6) {
+        r.Fail(&e, what + ": range '" + r.Attribute(&e, "range", true) +
+                       "' must hold two whole numbers (1-based point numbers, -1 = first/last)");
+      }
+    }
+    w.range_first = static_cast<int>(range[0]);
+    w.range_last = static_cast<int>(range[1]);
+  }
+  const std::string method = r.Attribute(&e, "method", false);
+  if (method.empty() || method == "hybrid") {
+    w.method = WrapMethod::kHybrid;
+  } else if (method == "midpoint") {
+    w.method = WrapMethod::kMidpoint;
+  } else if (method == "axial") {
+    w.method = WrapMethod::kAxial;
+  } else {
+    r.Fail(&e, what + ": method '" + method + "' is not one of hybrid, midpoint, axial");
+  }
+  return w;
+}
+
+// <isowrench:wrap name= link= shape= .../> objects.
+template <class CheckLink>
+void ReadWrapObjects(const Reader& r, const tinyxml2::XMLElement& robot, LimbDescription& d,
+                     const CheckLink& check_link) {
+  for (auto* e = robot.FirstChildElement("isowrench:wrap"); e;
+       e = e->NextSiblingElement("isowrench:wrap")) {
+    WrapObjectSpec w;
+    w.name = r.Attribute(e, "name", true);
+    for (const WrapObjectSpec& other : d.wrap_objects) {
+      if (other.name == w.name) r.Fail(e, "wrap object '" + w.name + "' is defined twice");
+    }
+    w.link = r.Attribute(e, "link", true);
+    if (w.link != d.root_link) check_link(e, w.link);
+    const std::string shape = r.Attribute(e, "shape", true);
+    const std::string what = "wrap object '" + w.name + "' (" + shape + ")";
+    auto positive = [&](const char* name) {
+      const double v = r.Number(e, name, r.Attribute(e, name, true));
+      if (!(v > 0)) r.Fail(e, what + ": " + name + " " + util::FormatNumber(v) + " m must be > 0");
+      return v;
+    };
+    auto forbid = [&](std::initializer_list<const char*> names) {
+      for (const char* name : names) {
+        if (e->Attribute(name)) r.Fail(e, what + ": a " + shape + " has no '" + name + "'");
+      }
+    };
+    if (shape == "cylinder") {
+      w.shape = WrapShape::kCylinder;
+      w.radius = positive("radius");
+      w.length = positive("length");
+      forbid({"radii", "inner_radius", "outer_radius"});
+    } else if (shape == "sphere") {
+      w.shape = WrapShape::kSphere;
+      w.radius = positive("radius");
+      forbid({"length", "radii", "inner_radius", "outer_radius"});
+    } else if (shape == "ellipsoid") {
+      w.shape = WrapShape::kEllipsoid;
+      const std::vector<double> radii = r.Numbers(e, "radii", 3, true);
+      for (int i = 0; i < 3; ++i) {
+        if (!(radii[i] > 0)) {
+          r.Fail(e, what + ": radii '" + r.Attribute(e, "radii", true) + "' must all be > 0");
+        }
+      }
+      w.radii = Eigen::Vector3d(radii[0], radii[1], radii[2]);
+      forbid({"radius", "length", "inner_radius", "outer_radius"});
+    } else if (shape == "torus") {
+      w.shape = WrapShape::kTorus;
+      w.inner_radius = positive("inner_radius");
+      w.outer_radius = positive("outer_radius");
+      if (!(w.inner_radius < w.outer_radius)) {
+        r.Fail(e, what + ": inner_radius " + util::FormatNumber(w.inner_radius) +
+                      " m must be below outer_radius " + util::FormatNumber(w.outer_radius) + " m");
+      }
+      forbid({"radius", "length", "radii"});
+    } else if (shape == "cylinder_obst" || shape == "double_cylinder_obst") {
+      r.Fail(e, what + ": OpenSim's WrapCylinderObst and WrapDoubleCylinderObst are not "
+                       "supported yet");
+    } else {
+      r.Fail(e, what + ": shape '" + shape + "' is not one of cylinder, sphere, ellipsoid, torus");
+    }
+    w.translation = r.Vector3(e, "translation");
+    w.xyz_body_rotation = r.Vector3(e, "xyz_body_rotation");
+    const std::string active = r.Attribute(e, "active", false);
+    if (active == "false" || active == "0") {
+      w.active = false;
+    } else if (!active.empty() && active != "true" && active != "1") {
+      r.Fail(e, what + ": active='" + active + "' must be true or false");
+    }
+    const std::string quadrant = r.Attribute(e, "quadrant", false);
+    if (!quadrant.empty()) {
+      try {
+        w.quadrant = WrapQuadrant::Parse(quadrant);
+      } catch (const Error& error) {
+        r.Fail(e, what + ": " + error.what());
+      }
+    }
+    d.wrap_objects.push_back(w);
+  }
+}
+
+// Every path_wrap names a wrap object, with a range inside its muscle's path.
+void CheckPathWraps(const Reader& r, const LimbDescription& d,
+                    const std::vector<std::pair<std::string, const tinyxml2::XMLElement*>>& wraps) {
+  std::vector<std::string> names;
+  for (const WrapObjectSpec& w : d.wrap_objects) names.push_back(w.name);
+  size_t next = 0;
+  for (const MuscleSpec& m : d.muscles) {
+    for (const PathWrapSpec& w : m.wraps) {
+      const tinyxml2::XMLElement* e = wraps.at(next++).second;
+      const std::string what = "muscle '" + m.name + "', path_wrap '" + w.object + "'";
+      if (std::find(names.begin(), names.end(), w.object) == names.end()) {
+        r.Fail(e, what + ": no <isowrench:wrap> is called '" + w.object + "'" +
+                      DidYouMean(w.object, names));
+      }
+      const int n = static_cast<int>(m.path.size());
+      auto valid = [&](int i) { return i == -1 || (i >= 1 && i <= n); };
+      if (!valid(w.range_first) || !valid(w.range_last) ||
+          (w.range_first != -1 && w.range_last != -1 && w.range_first > w.range_last)) {
+        r.Fail(e, what + ": range " + std::to_string(w.range_first) + " " +
+                      std::to_string(w.range_last) + " is outside the muscle's " +
+                      std::to_string(n) + " points (1-based, -1 = the first/last point, first <= last)");
+      }
+    }
+  }
+}
+
 int DofIndex(const std::string& name) {
   for (int i = 0; i < 6; ++i) {
     if (name == DofName(i)) return i;
@@ -231,10 +367,11 @@ LimbDescription ReadUrdfString(const std::string& xml, const std::string& source
       if (transducer) r.Fail(e, "a second <isowrench:transducer>; a limb has one");
       transducer = e;
     } else if (local != "joint" && local != "muscle" && local != "posture" &&
-               local != "coordinate" && local != "coupling") {
+               local != "coordinate" && local != "coupling" && local != "wrap") {
       r.Fail(e, "unknown extension element <" + tag +
                     ">; known: isowrench:joint, isowrench:transducer, isowrench:muscle, "
-                    "isowrench:posture, isowrench:coordinate, isowrench:coupling");
+                    "isowrench:posture, isowrench:coordinate, isowrench:coupling, "
+                    "isowrench:wrap");
     }
   }
   if (!transducer) {
@@ -351,6 +488,7 @@ LimbDescription ReadUrdfString(const std::string& xml, const std::string& source
     t.released.set(index);
   }
 
+  std::vector<std::pair<std::string, const tinyxml2::XMLElement*>> path_wrap_elements;
   // Coordinates, mimics and couplings first: postures and joint tags name coordinates.
   urdf_coordinates::ReadCoordinates(*robot, r.source, d);
   for (auto* e = robot->FirstChildElement(); e; e = e->NextSiblingElement()) {
@@ -391,9 +529,18 @@ LimbDescription ReadUrdfString(const std::string& xml, const std::string& source
       m.max_force = r.Number(e, "max_force", f);
       if (!(m.max_force > 0)) r.Fail(e, "muscle '" + m.name + "': max_force " + f + " must be > 0");
       for (auto* p = e->FirstChildElement(); p; p = p->NextSiblingElement()) {
+        if (std::string(p->Name()) == "isowrench:path_wrap") {
+          m.wraps.push_back(ReadPathWrap(r, *p, m.name));
+          path_wrap_elements.push_back({m.name, p});
+          continue;
+        }
         if (std::string(p->Name()) != "isowrench:point") {
           r.Fail(p, std::string("unexpected <") + p->Name() + "> in muscle '" + m.name +
-                        "'; expected <isowrench:point>");
+                        "'; expected <isowrench:point> or <isowrench:path_wrap>");
+        }
+        if (!m.wraps.empty()) {
+          r.Fail(p, "muscle '" + m.name + "': <isowrench:point> after <isowrench:path_wrap>; "
+                    "list the points first, then the wraps");
         }
         PathPoint point;
         point.link = r.Attribute(p, "link", true);
@@ -431,6 +578,8 @@ LimbDescription ReadUrdfString(const std::string& xml, const std::string& source
       d.nominal_posture.emplace_back(name, q);
     }
   }
+  ReadWrapObjects(r, *robot, d, check_link);
+  CheckPathWraps(r, d, path_wrap_elements);
   urdf_coordinates::ApplyJointTags(*robot, r.source, d);
   urdf_checks::WarnImplausibleDimensions(d, [&](const std::string& joint) {
     if (joint.rfind("muscle:", 0) == 0) {

@@ -134,6 +134,7 @@ void CheckXmlNames(const LimbDescription& d) {
   for (const JointSpec& j : d.joints) CheckXmlName("joint", j.name);
   for (const CoordinateSpec& c : d.coordinates) CheckXmlName("coordinate", c.name);
   for (const MuscleSpec& m : d.muscles) CheckXmlName("muscle", m.name);
+  for (const WrapObjectSpec& w : d.wrap_objects) CheckXmlName("wrap object", w.name);
 }
 
 }  // namespace
@@ -206,6 +207,24 @@ std::string WriteUrdfString(const LimbDescription& description) {
     << "\"\n      stiffness=\"";
   for (int i = 0; i < 6; ++i) o << (i ? " " : "") << N(t.stiffness[i]);
   o << "\" released=\"" << released << "\"/>\n";
+  for (const WrapObjectSpec& w : d.wrap_objects) {  // docs/urdf-extensions.md "Wrap objects"
+    o << "  <isowrench:wrap name=\"" << w.name << "\" link=\"" << w.link << "\" shape=\""
+      << WrapShapeName(w.shape) << "\"";
+    switch (w.shape) {
+      case WrapShape::kCylinder:
+        o << " radius=\"" << N(w.radius) << "\" length=\"" << N(w.length) << "\"";
+        break;
+      case WrapShape::kSphere: o << " radius=\"" << N(w.radius) << "\""; break;
+      case WrapShape::kEllipsoid: o << " radii=\"" << Vec(w.radii) << "\""; break;
+      case WrapShape::kTorus:
+        o << " inner_radius=\"" << N(w.inner_radius) << "\" outer_radius=\"" << N(w.outer_radius)
+          << "\"";
+        break;
+    }
+    o << "\n      translation=\"" << Vec(w.translation) << "\" xyz_body_rotation=\""
+      << Vec(w.xyz_body_rotation) << "\" quadrant=\"" << w.quadrant.ToString() << "\" active=\""
+      << (w.active ? "true" : "false") << "\"/>\n";
+  }
   for (const MuscleSpec& m : d.muscles) {
     o << "  <isowrench:muscle name=\"" << m.name << "\" max_force=\"" << N(m.max_force) << "\">\n";
     for (const PathPoint& p : m.path) {
@@ -225,6 +244,10 @@ std::string WriteUrdfString(const LimbDescription& description) {
           << FunctionXmlText(c.function, "        ") << "      </isowrench:moving>\n";
       }
       o << "    </isowrench:point>\n";
+    }
+    for (const PathWrapSpec& w : m.wraps) {
+      o << "    <isowrench:path_wrap object=\"" << w.object << "\" range=\"" << w.range_first << " "
+        << w.range_last << "\" method=\"" << WrapMethodName(w.method) << "\"/>\n";
     }
     o << "  </isowrench:muscle>\n";
   }
