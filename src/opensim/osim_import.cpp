@@ -389,6 +389,152 @@ struct Builder {
     return "";
   }
 
+  // ---- wrapping (docs/opensim.md "Wrapping") ----
+
+  const osim::WrapObject* FindWrapObject(const std::string& name) const {
+    // PathWrap::extendConnectToModel: the first frame (in component order) holding the name.
+    for (const osim::WrapObject& w : m.wrap_objects) {
+      if (w.name == name) return &w;
+    }
+    return nullptr;
+  }
+
+  [[noreturn]] void FailAt(int line, const std::string& what) const {
+    throw Error(m.source + ":" + std::to_string(line) + ": " + what);
+  }
+
+  // Body-fixed X-Y-Z angles of R = Rx(a) Ry(b) Rz(c) (the inverse of osim::BodyFixedXyz).
+  static Eigen::Vector3d BodyFixedXyzAngles(const Eigen::Matrix3d& R) {
+    const double b = std::asin(std::clamp(R(0, 2), -1.0, 1.0));
+    if (std::abs(R(0, 2)) < 1.0 - 1e-12) {
+      return Eigen::Vector3d(std::atan2(-R(1, 2), R(2, 2)), b, std::atan2(-R(0, 1), R(0, 0)));
+    }
+    return Eigen::Vector3d(std::atan2(R(2, 1), R(1, 1)), b, 0.0);
+  }
+
+  // The muscle's PathWrapSet as PathWrapSpecs (ranges renumbered to the imported points), or
+  // why the muscle cannot be imported. @throws Error for what OpenSim itself would refuse or we
+  // do not support (an unknown object, WrapCylinderObst, bad dimensions, method or quadrant).
+  std::string Wraps(const osim::Muscle& muscle, const std::vector<int>& kept, MuscleSpec& spec) {
+    const int n = static_cast<int>(muscle.points.size());
+    for (const osim::PathWrap& pw : muscle.wraps) {
+      const std::string what = "muscle '" + muscle.name + "' PathWrap '" + pw.object + "'";
+      const osim::WrapObject* o = FindWrapObject(pw.object);
+      if (!o) {
+        std::vector<std::string> names;
+        for (const osim::WrapObject& w : m.wrap_objects) names.push_back(w.name);
+        FailAt(pw.line, what + ": no body has a wrap object of that name" +
+                            (names.empty() ? "" : "; the wrap objects are " + Closest(names)));
+      }
+      const std::string object = o->type + " '" + o->name + "' on '" + o->body + "'";
+      if (o->type == "WrapCylinderObst" || o->type == "WrapDoubleCylinderObst") {
+        FailAt(o->line, what + " wraps over " + object +
+                            ": WrapCylinderObst and WrapDoubleCylinderObst are not supported yet");
+      }
+      if (o->type != "WrapCylinder" && o->type != "WrapSphere" && o->type != "WrapEllipsoid" &&
+          o->type != "WrapTorus") {
+        FailAt(o->line, what + " wraps over " + object + ": wrap object type '" + o->type +
+                            "' is not supported (WrapCylinder, WrapSphere, WrapEllipsoid, WrapTorus)");
+      }
+      if (!chain_bodies.count(o->body) && !X_G_baked.count(o->body)) {
+        return "wrap object '" + o->name + "' is on body '" + o->body +
+               "', which is off the imported chain";
+      }
+      PathWrapSpec w;
+      w.object = o->name;
+      if (pw.method == "hybrid" || pw.method == "Hybrid" || pw.method == "HYBRID" ||
+          pw.method == "Unassigned") {
+        w.method = WrapMethod::kHybrid;
+      } else if (pw.method == "midpoint" || pw.method == "Midpoint" || pw.method == "MIDPOINT") {
+        w.method = WrapMethod::kMidpoint;
+      } else if (pw.method == "axial" || pw.method == "Axial" || pw.method == "AXIAL") {
+        w.method = WrapMethod::kAxial;
+      } else {
+        FailAt(pw.line, what + ": method '" + pw.method +
+                            "' is not one of hybrid, midpoint, axial (PathWrap::extendConnectToModel)");
+      }
+      // OpenSim's range counts every point of the PathPointSet; the import drops conditional
+      // points that are never active, whose place the scan of applyWrapObjects skips anyway.
+      const int first = pw.range[0] < 1 ? 1 : pw.range[0];
+      const int last = pw.range[1] < 1 ? n : pw.range[1];
+      if (first > n || last > n || first > last) {
+        FailAt(pw.line, what + ": range " + std::to_string(pw.range[0]) + " " +
+                            std::to_string(pw.range[1]) + " is outside the path's " +
+                            std::to_string(n) + " points");
+      }
+      int new_first = -1, new_last = -1;
+      for (int i = first - 1; i < last && new_first < 0; ++i) new_first = kept[i];
+      for (int i = last - 1; i >= first - 1 && new_last < 0; --i) new_last = kept[i];
+      if (new_first < 0) {
+        return "wrap '" + o->name + "': range " + std::to_string(pw.range[0]) + " " +
+               std::to_string(pw.range[1]) +
+               " holds no point that is ever in the path (OpenSim would stop applying its wraps)";
+      }
+      w.range_first = pw.range[0] < 1 ? -1 : new_first + 1;
+      w.range_last = pw.range[1] < 1 ? -1 : new_last + 1;
+      spec.wraps.push_back(w);
+    }
+    return "";
+  }
+
+  // Add the wrap object `name` (checked by Wraps) to the description once: on its body's link,
+  // or on the ground at the baked pose when its body is above the clamp.
+  void AddWrapObject(const std::string& name) {
+    for (const WrapObjectSpec& w : out.description.wrap_objects) {
+      if (w.name == name) return;
+    }
+    const osim::WrapObject& o = *FindWrapObject(name);
+    const std::string what = o.type + " '" + o.name + "' on '" + o.body + "'";
+    WrapObjectSpec w;
+    w.name = o.name;
+    w.active = o.active;
+    try {
+      w.quadrant = WrapQuadrant::Parse(o.quadrant);
+    } catch (const Error& e) {
+      FailAt(o.line, what + ": " + e.what());
+    }
+    auto positive = [&](double v, const char* property) {
+      if (!(v > 0.0) || !std::isfinite(v)) {
+        FailAt(o.line, what + ": " + property + " " + Num(v) + " m must be > 0");
+      }
+      return v;
+    };
+    if (o.type == "WrapCylinder") {
+      w.shape = WrapShape::kCylinder;
+      w.radius = positive(o.radius, "radius");
+      w.length = positive(o.length, "length");
+    } else if (o.type == "WrapSphere") {
+      w.shape = WrapShape::kSphere;
+      w.radius = positive(o.radius, "radius");
+    } else if (o.type == "WrapEllipsoid") {
+      w.shape = WrapShape::kEllipsoid;
+      for (int i = 0; i < 3; ++i) positive(o.dimensions[i], "dimensions");
+      w.radii = o.dimensions;
+    } else {
+      w.shape = WrapShape::kTorus;
+      w.inner_radius = positive(o.inner_radius, "inner_radius");
+      w.outer_radius = positive(o.outer_radius, "outer_radius");
+      if (!(w.inner_radius < w.outer_radius)) {
+        FailAt(o.line, what + ": inner_radius " + Num(w.inner_radius) +
+                           " m is not below outer_radius " + Num(w.outer_radius) + " m");
+      }
+    }
+    if (chain_bodies.count(o.body)) {
+      w.link = o.body;
+      w.translation = o.translation;
+      w.xyz_body_rotation = o.xyz_body_rotation;
+    } else {  // above the clamp (or the ground): fixed in the world at the baked pose
+      w.link = m.ground;
+      WrapObjectSpec local;
+      local.translation = o.translation;
+      local.xyz_body_rotation = o.xyz_body_rotation;
+      const Eigen::Isometry3d X = X_G_baked.at(o.body) * local.Pose();
+      w.translation = X.translation();
+      w.xyz_body_rotation = BodyFixedXyzAngles(X.linear());
+    }
+    out.description.wrap_objects.push_back(w);
+  }
+
   void Muscles() {
     OpenSimReportTable muscles{
         "Muscles", {"muscle", "type", "max force (N)", "points", "status"}, {}};
@@ -397,7 +543,10 @@ struct Builder {
       MuscleSpec spec;
       spec.name = muscle.name;
       spec.max_force = muscle.max_force;
-      for (const osim::Point& p : muscle.points) {
+      // kept[i]: the index in spec.path of .osim point i (PathPointSet order), or -1.
+      std::vector<int> kept(muscle.points.size(), -1);
+      for (size_t index = 0; index < muscle.points.size(); ++index) {
+        const osim::Point& p = muscle.points[index];
         if (!problem.empty()) break;
         PathPoint point;
         if (chain_bodies.count(p.body)) {
@@ -419,8 +568,10 @@ struct Builder {
             continue;  // a conditional point on a constant coordinate that is never active
           }
         }
+        kept[index] = static_cast<int>(spec.path.size());
         spec.path.push_back(point);
       }
+      if (problem.empty()) problem = Wraps(muscle, kept, spec);
       if (problem.empty() && !(muscle.max_force > 0.0)) {
         problem = "max_isometric_force " + Num(muscle.max_force) + " N is not positive";
       }
@@ -445,16 +596,12 @@ struct Builder {
         out.warnings.push_back("muscle '" + muscle.name + "' (line " + std::to_string(muscle.line) +
                                ") skipped: " + problem);
       } else {
+        for (const PathWrapSpec& w : spec.wraps) AddWrapObject(w.object);
         out.description.muscles.push_back(spec);
-        for (const std::string& w : muscle.wraps) {
-          auto body = m.wrap_object_body.find(w);
-          std::string where = body == m.wrap_object_body.end()
-                                  ? ""
-                                  : " (" + m.wrap_object_type.at(w) + " on " + body->second + ")";
-          out.warnings.push_back("muscle '" + muscle.name + "' wraps over '" + w + "'" + where +
-                                 ": wrapping is not modelled; its path is straight between its "
-                                 "points, so length and moment arms differ where it wraps");
-          status += "; wrap '" + w + "' ignored";
+        if (!spec.wraps.empty()) {
+          std::vector<std::string> names;
+          for (const PathWrapSpec& w : spec.wraps) names.push_back(w.object);
+          status += ", wraps over " + util::Join(names, ", ");
         }
       }
       muscles.rows.push_back({muscle.name, muscle.type, Num(muscle.max_force),

@@ -67,13 +67,40 @@ struct Point {
   double range[2] = {0.0, 0.0};
 };
 
+/// A wrap object of a body's WrapObjectSet (Simulation/Wrap/WrapObject.h and its subclasses).
+struct WrapObject {
+  std::string name;
+  std::string type;  // WrapCylinder, WrapSphere, WrapEllipsoid, WrapTorus, WrapCylinderObst, ...
+  std::string body;
+  int line = 0;
+  Eigen::Vector3d translation = Eigen::Vector3d::Zero();        // in the body frame
+  Eigen::Vector3d xyz_body_rotation = Eigen::Vector3d::Zero();  // body-fixed X-Y-Z
+  bool active = true;
+  std::string quadrant = "all";
+  // OpenSim's defaults (constructProperties): cylinder radius 1, length 1; sphere radius 1;
+  // ellipsoid dimensions 0.05; torus inner 0.01, outer 0.05.
+  double radius = 1.0;
+  double length = 1.0;
+  Eigen::Vector3d dimensions = Eigen::Vector3d::Constant(0.05);
+  double inner_radius = 0.01;
+  double outer_radius = 0.05;
+};
+
+/// A PathWrap of a GeometryPath's PathWrapSet (Simulation/Wrap/PathWrap.cpp).
+struct PathWrap {
+  std::string object;
+  std::string method = "hybrid";
+  int range[2] = {-1, -1};  // 1-based PathPointSet indices, < 1 = first/last
+  int line = 0;
+};
+
 struct Muscle {
   std::string name;
   std::string type;
   int line = 0;
   double max_force = 0.0;
   std::vector<Point> points;
-  std::vector<std::string> wraps;  // wrap object names of its PathWrapSet
+  std::vector<PathWrap> wraps;  // its PathWrapSet, in order
 };
 
 /// CoordinateCouplerConstraint: q_dependent = scale * f(q_independent).
@@ -92,8 +119,7 @@ struct Model {
   std::string length_units, force_units;
   std::vector<std::string> bodies;  // ground first
   std::map<std::string, int> body_lines;
-  std::map<std::string, std::string> wrap_object_body;  // wrap object -> body
-  std::map<std::string, std::string> wrap_object_type;
+  std::vector<WrapObject> wrap_objects;  // in document order (the first of a name wins)
   std::vector<Joint> joints;
   std::map<std::string, Coordinate> coordinates;
   std::vector<Muscle> muscles;

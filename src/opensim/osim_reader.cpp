@@ -474,8 +474,28 @@ struct Reader {
     const Xml* objects = set ? set->FirstChildElement("objects") : nullptr;
     if (!objects) return;
     for (const Xml* w = objects->FirstChildElement(); w; w = w->NextSiblingElement()) {
-      model.wrap_object_body[Name(w)] = body_name;
-      model.wrap_object_type[Name(w)] = w->Name();
+      WrapObject o;
+      o.name = Name(w);
+      o.type = w->Name();
+      o.body = body_name;
+      o.line = w->GetLineNum();
+      const std::string what = o.type + " '" + o.name + "' on '" + body_name + "'";
+      o.translation = ChildVector(w, "translation", what);
+      o.xyz_body_rotation = ChildVector(w, "xyz_body_rotation", what);
+      if (w->FirstChildElement("active")) o.active = ChildBool(w, "active", what);
+      const std::string quadrant = ChildText(w, "quadrant");
+      if (!quadrant.empty()) o.quadrant = quadrant;
+      auto number = [&](const char* name, double& value) {
+        std::vector<double> v = ChildNumbers(w, name, 1, what, false);
+        if (!v.empty()) value = v[0];
+      };
+      number("radius", o.radius);
+      number("length", o.length);
+      number("inner_radius", o.inner_radius);
+      number("outer_radius", o.outer_radius);
+      std::vector<double> dims = ChildNumbers(w, "dimensions", 3, what, false);
+      if (!dims.empty()) o.dimensions = Eigen::Vector3d(dims[0], dims[1], dims[2]);
+      model.wrap_objects.push_back(o);
     }
   }
 
@@ -580,8 +600,22 @@ struct Reader {
     if (const Xml* wraps = path->FirstChildElement("PathWrapSet")) {
       if (const Xml* wo = wraps->FirstChildElement("objects")) {
         for (const Xml* w = wo->FirstChildElement(); w; w = w->NextSiblingElement()) {
-          std::string object = ChildText(w, "wrap_object");
-          muscle.wraps.push_back(object.empty() ? Name(w) : object);
+          PathWrap wrap;
+          wrap.object = ChildText(w, "wrap_object");
+          if (wrap.object.empty()) wrap.object = Name(w);
+          wrap.line = w->GetLineNum();
+          const std::string method = ChildText(w, "method");
+          if (!method.empty()) wrap.method = method;
+          const std::string what = context + " PathWrap '" + wrap.object + "'";
+          std::vector<double> range = ChildNumbers(w, "range", 2, what, false);
+          for (size_t i = 0; i < range.size(); ++i) {
+            if (range[i] != std::floor(range[i])) {
+              Fail(w->FirstChildElement("range"), what + ": range holds '" + ChildText(w, "range") +
+                                                     "', not two whole numbers");
+            }
+            wrap.range[i] = range[i] < 1 ? -1 : static_cast<int>(std::min(range[i], 1e6));
+          }
+          muscle.wraps.push_back(wrap);
         }
       }
     }

@@ -296,7 +296,22 @@ TEST(OpenSimImport, MusclesWrapsAndSkippedMusclesAreReported) {
     }
     return false;
   };
-  EXPECT_TRUE(warned("'VAS'", "wraps over 'knee_cyl' (WrapCylinder on femur)"));
+  EXPECT_FALSE(warned("'VAS'", "")) << "its wrap is imported";
+  // VAS's PathWrap over the femur's WrapCylinder (OpenSim's defaults for what the file omits:
+  // quadrant all, active, range -1 -1, method hybrid).
+  ASSERT_EQ(import.description.muscles[1].wraps.size(), 1u);
+  EXPECT_EQ(import.description.muscles[1].wraps[0].object, "knee_cyl");
+  EXPECT_EQ(import.description.muscles[1].wraps[0].range_first, -1);
+  EXPECT_EQ(import.description.muscles[1].wraps[0].range_last, -1);
+  EXPECT_EQ(import.description.muscles[1].wraps[0].method, WrapMethod::kHybrid);
+  ASSERT_EQ(import.description.wrap_objects.size(), 1u);
+  const WrapObjectSpec& cyl = import.description.wrap_objects[0];
+  EXPECT_EQ(cyl.link, "femur");
+  EXPECT_EQ(cyl.shape, WrapShape::kCylinder);
+  EXPECT_EQ(cyl.radius, 0.003);
+  EXPECT_EQ(cyl.length, 0.01);
+  EXPECT_EQ(cyl.quadrant.sign, 0);
+  EXPECT_TRUE(cyl.active);
   EXPECT_TRUE(warned("'PAT'", "body 'patella', which is off the imported chain"));
   EXPECT_FALSE(warned("'GAS'", "")) << "the conditional point is imported";
   EXPECT_FALSE(warned("'RF'", "")) << "the moving point is imported";
@@ -304,6 +319,7 @@ TEST(OpenSimImport, MusclesWrapsAndSkippedMusclesAreReported) {
   EXPECT_THAT(report,
               AllOf(HasSubstr("marker  dropped"), HasSubstr("hip_rotation"), HasSubstr("locked"),
                     HasSubstr("PinJoint"), HasSubstr("imported, 1 moving point"),
+                    HasSubstr("imported, wraps over knee_cyl"),
                     HasSubstr("imported, 1 conditional point")));
   // RF's moving point: x and y follow the knee (the constant z is folded into the position);
   // GAS's middle point is active on the knee's [-2, -0.3].
