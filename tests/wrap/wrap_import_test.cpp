@@ -4,10 +4,14 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <cmath>
 #include <fstream>
+#include <iostream>
 #include <sstream>
 
 #include "isowrench/error.hpp"
+#include "isowrench/kinematics.hpp"
 #include "isowrench/opensim.hpp"
 #include "isowrench/wrap.hpp"
 
@@ -147,6 +151,114 @@ TEST(WrapImportTest, RatHindlimbImportsEveryWrap) {
     EXPECT_THAT(w, ::testing::Not(HasSubstr("wrap"))) << w;
   }
   EXPECT_NO_THROW(Model{import.description});
+}
+
+}  // namespace
+}  // namespace isowrench
+
+namespace isowrench {
+namespace {
+
+// The lengths OpenSim 4.4.1 recorded for Rajagopal's subject_walk_armless_18musc (opensim-core
+// OpenSim/Tests/Wrapping/std_testGeometryPathWrapping_subject_walk_armless_muscle_lengths.sto,
+// the coordinates of OpenSim/Moco/Test/subject_walk_armless_coordinates.mot; testGeometryPath-
+// Wrapping.cpp "Muscle lengths" asserts them to 1e-6 m): its right-leg muscles with cylinder
+// wraps (one muscle over two, one with a range and a quadrant), evaluated by ComputeWrappedPath
+// on the imported model's kinematics. Skipped when opensim-core's files are not here.
+TEST(WrapImportTest, OpenSimMatchesOpenSimsRecordedRajagopalLengths) {
+  const std::string core = "/work/ext/opensim-core/OpenSim";
+  const std::string osim = core + "/Moco/Test/subject_walk_armless_18musc.osim";
+  const std::string mot = core + "/Moco/Test/subject_walk_armless_coordinates.mot";
+  const std::string sto =
+      core + "/Tests/Wrapping/std_testGeometryPathWrapping_subject_walk_armless_muscle_lengths.sto";
+  if (!std::ifstream(osim) || !std::ifstream(mot) || !std::ifstream(sto)) {
+    GTEST_SKIP() << "opensim-core's test files are not here";
+  }
+  OpenSimImportOptions options;
+  options.clamp_body = "pelvis";
+  options.endpoint_body = "calcn_r";
+  const Model model(ImportOpenSimFile(osim, options).description);
+  Data data(model);
+  auto table = [](const std::string& path, const std::string& first_header) {
+    std::ifstream in(path);
+    std::string line;
+    while (std::getline(in, line) && line.rfind(first_header, 0) != 0) {
+    }
+    std::vector<std::string> header;
+    std::stringstream hs(line);
+    for (std::string h; hs >> h;) header.push_back(h);
+    std::vector<std::vector<double>> rows;
+    while (std::getline(in, line)) {
+      std::stringstream ls(line);
+      std::vector<double> row;
+      for (double v; ls >> v;) row.push_back(v);
+      if (row.size() == header.size()) rows.push_back(row);
+    }
+    return std::make_pair(header, rows);
+  };
+  const auto [coordinate_names, postures] = table(mot, "time");
+  const auto [length_names, lengths] = table(sto, "time");
+  ASSERT_EQ(postures.size(), lengths.size());
+  double worst = 0.0, worst_multi = 0.0;
+  int compared = 0;
+  for (size_t row = 0; row < postures.size(); row += 7) {
+    Eigen::VectorXd q(model.dof_count());
+    for (int c = 0; c < model.dof_count(); ++c) {
+      const auto at = std::find(coordinate_names.begin(), coordinate_names.end(),
+                                model.joint_names()[c]);
+      ASSERT_NE(at, coordinate_names.end()) << model.joint_names()[c];
+      q[c] = postures[row][at - coordinate_names.begin()] * M_PI / 180.0;  // inDegrees=yes
+    }
+    for (int i = 0; i < model.muscle_count(); ++i) {
+      const MuscleSpec& m = model.muscle(i);
+      WrapPathInput in;
+      for (const PathPoint& p : m.path) {
+        ASSERT_TRUE(p.moving.empty() && p.active_coordinate.empty()) << m.name;
+        in.points.push_back(PointPosition(model, data, q, p.link, p.position));
+        in.active.push_back(1);
+      }
+      for (const PathWrapSpec& w : m.wraps) {
+        const auto& objects = model.description().wrap_objects;
+        const auto o = std::find_if(objects.begin(), objects.end(),
+                                    [&](const WrapObjectSpec& s) { return s.name == w.object; });
+        WrapPathWrap pw;
+        pw.surface = WrapSurface::From(*o);
+        const Eigen::Isometry3d X = o->Pose();
+        const Eigen::Vector3d origin = PointPosition(model, data, q, o->link, X.translation());
+        pw.X_W_S.translation() = origin;
+        for (int k = 0; k < 3; ++k) {
+          pw.X_W_S.linear().col(k) =
+              PointPosition(model, data, q, o->link, X * Eigen::Vector3d::Unit(k)) - origin;
+        }
+        const int n = static_cast<int>(m.path.size());
+        pw.first = w.range_first < 1 ? 0 : w.range_first - 1;
+        pw.last = w.range_last < 1 ? n - 1 : w.range_last - 1;
+        pw.method = w.method;
+        pw.active = o->active;
+        pw.object = static_cast<int>(o - objects.begin());
+        in.wraps.push_back(pw);
+      }
+      WrappedPath out;
+      ComputeWrappedPath(in, WrapMode::kOpenSim, out);
+      const auto column = std::find(length_names.begin(), length_names.end(),
+                                    "/forceset/" + m.name + "|length");
+      ASSERT_NE(column, length_names.end()) << m.name;
+      const double recorded = lengths[row][column - length_names.begin()];
+      if (m.wraps.size() > 1) {
+        // KNOWN OPEN (docs/opensim.md "Wrapping", "Not yet reproduced"): med_gas_r wraps over
+        // two cylinders; where both engage, isowrench's length is up to 5.4 mm above the
+        // recorded one (where only one engages it agrees to 1e-9).
+        worst_multi = std::max(worst_multi, std::abs(out.length - recorded));
+        continue;
+      }
+      worst = std::max(worst, std::abs(out.length - recorded));
+      EXPECT_NEAR(out.length, recorded, 1e-6) << m.name << " row " << row;
+      ++compared;
+    }
+  }
+  std::cout << compared << " lengths of single-wrap muscles, worst |isowrench - OpenSim| = "
+            << worst << " m; the two-wrap muscle: worst " << worst_multi << " m\n";
+  EXPECT_GT(compared, 150);
 }
 
 }  // namespace
