@@ -186,12 +186,12 @@ struct WrapObjectSpec {
   Eigen::Vector3d translation = Eigen::Vector3d::Zero();        ///< m, in the link's frame
   Eigen::Vector3d xyz_body_rotation = Eigen::Vector3d::Zero();  ///< rad, body-fixed X-Y-Z
   double radius = 0.0;                                          ///< m: cylinder, sphere; > 0
-  double length = 0.0;                                 ///< m: cylinder, > 0 (OpenSim: >= 0)
-  Eigen::Vector3d radii = Eigen::Vector3d::Zero();     ///< m: ellipsoid semi-axes, each > 0
-  double inner_radius = 0.0;                           ///< m: torus tube radius, > 0
-  double outer_radius = 0.0;                           ///< m: torus ring radius, > inner_radius
-  bool active = true;                                  ///< false: never wraps (OpenSim `active`)
-  WrapQuadrant quadrant;                               ///< constrained side ("all" by default)
+  double length = 0.0;                              ///< m: cylinder, > 0 (OpenSim: >= 0)
+  Eigen::Vector3d radii = Eigen::Vector3d::Zero();  ///< m: ellipsoid semi-axes, each > 0
+  double inner_radius = 0.0;                        ///< m: torus tube radius, > 0
+  double outer_radius = 0.0;                        ///< m: torus ring radius, > inner_radius
+  bool active = true;                               ///< false: never wraps (OpenSim `active`)
+  WrapQuadrant quadrant;                            ///< constrained side ("all" by default)
   /// X_link_S: the object's frame in its link's frame.
   Eigen::Isometry3d Pose() const;
 };

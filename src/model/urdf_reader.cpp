@@ -156,7 +156,8 @@ void ReadMovingAndActive(const Reader& r, const tinyxml2::XMLElement& p, const L
 // ---- wrapping (issue 27; docs/urdf-extensions.md "Wrap objects") ----------------------------
 
 // <isowrench:path_wrap object= range= method=/> inside a muscle.
-PathWrapSpec ReadPathWrap(const Reader& r, const tinyxml2::XMLElement& e, const std::string& muscle) {
+PathWrapSpec ReadPathWrap(const Reader& r, const tinyxml2::XMLElement& e,
+                          const std::string& muscle) {
   PathWrapSpec w;
   w.object = r.Attribute(&e, "object", true);
   const std::string what = "muscle '" + muscle + "', path_wrap '" + w.object + "'";
@@ -238,8 +239,9 @@ void ReadWrapObjects(const Reader& r, const tinyxml2::XMLElement& robot, LimbDes
       }
       forbid({"radius", "length", "radii"});
     } else if (shape == "cylinder_obst" || shape == "double_cylinder_obst") {
-      r.Fail(e, what + ": OpenSim's WrapCylinderObst and WrapDoubleCylinderObst are not "
-                       "supported yet");
+      r.Fail(e, what +
+                    ": OpenSim's WrapCylinderObst and WrapDoubleCylinderObst are not "
+                    "supported yet");
     } else {
       r.Fail(e, what + ": shape '" + shape + "' is not one of cylinder, sphere, ellipsoid, torus");
     }
@@ -283,7 +285,8 @@ void CheckPathWraps(const Reader& r, const LimbDescription& d,
           (w.range_first != -1 && w.range_last != -1 && w.range_first > w.range_last)) {
         r.Fail(e, what + ": range " + std::to_string(w.range_first) + " " +
                       std::to_string(w.range_last) + " is outside the muscle's " +
-                      std::to_string(n) + " points (1-based, -1 = the first/last point, first <= last)");
+                      std::to_string(n) +
+                      " points (1-based, -1 = the first/last point, first <= last)");
       }
     }
   }
@@ -539,8 +542,9 @@ LimbDescription ReadUrdfString(const std::string& xml, const std::string& source
                         "'; expected <isowrench:point> or <isowrench:path_wrap>");
         }
         if (!m.wraps.empty()) {
-          r.Fail(p, "muscle '" + m.name + "': <isowrench:point> after <isowrench:path_wrap>; "
-                    "list the points first, then the wraps");
+          r.Fail(p, "muscle '" + m.name +
+                        "': <isowrench:point> after <isowrench:path_wrap>; "
+                        "list the points first, then the wraps");
         }
         PathPoint point;
         point.link = r.Attribute(p, "link", true);

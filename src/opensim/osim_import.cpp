@@ -433,8 +433,9 @@ struct Builder {
       }
       if (o->type != "WrapCylinder" && o->type != "WrapSphere" && o->type != "WrapEllipsoid" &&
           o->type != "WrapTorus") {
-        FailAt(o->line, what + " wraps over " + object + ": wrap object type '" + o->type +
-                            "' is not supported (WrapCylinder, WrapSphere, WrapEllipsoid, WrapTorus)");
+        FailAt(o->line,
+               what + " wraps over " + object + ": wrap object type '" + o->type +
+                   "' is not supported (WrapCylinder, WrapSphere, WrapEllipsoid, WrapTorus)");
       }
       if (!chain_bodies.count(o->body) && !X_G_baked.count(o->body)) {
         return "wrap object '" + o->name + "' is on body '" + o->body +
@@ -450,8 +451,9 @@ struct Builder {
       } else if (pw.method == "axial" || pw.method == "Axial" || pw.method == "AXIAL") {
         w.method = WrapMethod::kAxial;
       } else {
-        FailAt(pw.line, what + ": method '" + pw.method +
-                            "' is not one of hybrid, midpoint, axial (PathWrap::extendConnectToModel)");
+        FailAt(pw.line,
+               what + ": method '" + pw.method +
+                   "' is not one of hybrid, midpoint, axial (PathWrap::extendConnectToModel)");
       }
       // OpenSim's range counts every point of the PathPointSet; the import drops conditional
       // points that are never active, whose place the scan of applyWrapObjects skips anyway.

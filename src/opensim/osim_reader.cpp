@@ -610,8 +610,8 @@ struct Reader {
           std::vector<double> range = ChildNumbers(w, "range", 2, what, false);
           for (size_t i = 0; i < range.size(); ++i) {
             if (range[i] != std::floor(range[i])) {
-              Fail(w->FirstChildElement("range"), what + ": range holds '" + ChildText(w, "range") +
-                                                     "', not two whole numbers");
+              Fail(w->FirstChildElement("range"),
+                   what + ": range holds '" + ChildText(w, "range") + "', not two whole numbers");
             }
             wrap.range[i] = range[i] < 1 ? -1 : static_cast<int>(std::min(range[i], 1e6));
           }

@@ -150,7 +150,8 @@ struct GeodesicEnd {
 // Integrate the geodesic from x0 with unit tangent v0 over arc length s (RK4, projecting back
 // onto the surface and the tangent plane after each step).
 GeodesicEnd Shoot(const Implicit& S, const V3& x0, const V3& v0, double s) {
-  const int steps = std::clamp(static_cast<int>(std::ceil(std::fabs(s) / (0.01 * S.rho))), 8, 20000);
+  const int steps =
+      std::clamp(static_cast<int>(std::ceil(std::fabs(s) / (0.01 * S.rho))), 8, 20000);
   const double h = s / steps;
   V3 x = x0, v = v0;
   auto accel = [&](const V3& xx, const V3& vv) {
@@ -271,7 +272,8 @@ OsSegment ExactGeodesic(const Implicit& S, const V3& p1, const V3& p2, const OsS
 
 }  // namespace
 
-OsSegment ExactSegment(const WrapSurface& surface, const V3& p1, const V3& p2, const OsSegment& os) {
+OsSegment ExactSegment(const WrapSurface& surface, const V3& p1, const V3& p2,
+                       const OsSegment& os) {
   if (!os.has_path || os.code < 2) return os;
   switch (surface.shape) {
     case WrapShape::kCylinder: return ExactCylinder(surface.radius, p1, p2, os);

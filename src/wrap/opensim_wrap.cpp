@@ -23,10 +23,10 @@ namespace isowrench::wrap_impl {
 namespace {
 
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
-constexpr double kPi = 3.14159265358979323846;  // SimTK_PI
+constexpr double kPi = 3.14159265358979323846;                        // SimTK_PI
 constexpr double kSimTKEps = std::numeric_limits<double>::epsilon();  // SimTK::Eps
-constexpr double kRoundoffError = 0.0000000000002;  // SimmMacros.h ROUNDOFF_ERROR
-constexpr double kLineEpsilon = 0.00001;             // WrapMath.cpp LINE_EPSILON
+constexpr double kRoundoffError = 0.0000000000002;                    // SimmMacros.h ROUNDOFF_ERROR
+constexpr double kLineEpsilon = 0.00001;                              // WrapMath.cpp LINE_EPSILON
 
 // SimmMacros.h
 int Dsign(double a) { return a >= 0.0 ? 1 : -1; }
@@ -108,8 +108,8 @@ V3 Unit(const V3& v) { return v / v.norm(); }
 
 // ---- WrapCylinder ---------------------------------------------------------------------------
 
-const V3 kCylP0(0.0, 0.0, -1.0);  // WrapCylinder.cpp p0
-const V3 kCylDn(0.0, 0.0, 1.0);   // WrapCylinder.cpp dn
+const V3 kCylP0(0.0, 0.0, -1.0);                          // WrapCylinder.cpp p0
+const V3 kCylDn(0.0, 0.0, 1.0);                           // WrapCylinder.cpp dn
 constexpr int kCylMaxIterations = 100;                    // MAX_ITERATIONS
 constexpr double kTangencyThreshold = 0.1 * kPi / 180.0;  // TANGENCY_THRESHOLD
 
@@ -354,8 +354,8 @@ struct Cylinder {
     NormalizeOrZero(uu, uu);
     NormalizeOrZero(vv, vv);
     plane_normal = Unit(uu.cross(vv));
-    const double d = -aPoint1[0] * plane_normal[0] - aPoint1[1] * plane_normal[1] -
-                     aPoint1[2] * plane_normal[2];
+    const double d =
+        -aPoint1[0] * plane_normal[0] - aPoint1[1] * plane_normal[1] - aPoint1[2] * plane_normal[2];
     r1a = w.r1 - 10.0 * kCylDn;
     r2a = w.r2 - 10.0 * kCylDn;
     r1b = w.r1 + 10.0 * kCylDn;
@@ -464,8 +464,7 @@ OsSegment SphereWrapLine(double radius, int wrap_axis, int wrap_sign, const V3& 
   const V3* r11;
   const V3* r22;
   {
-    const double j1 = r1am.dot(r2am), j2 = r1am.dot(r2bm), j3 = r1bm.dot(r2am),
-                 j4 = r1bm.dot(r2bm);
+    const double j1 = r1am.dot(r2am), j2 = r1am.dot(r2bm), j3 = r1bm.dot(r2am), j4 = r1bm.dot(r2bm);
     if (j1 > j2 && j1 > j3 && j1 > j4) {
       w.r1 = r1a;
       w.r2 = r2a;
@@ -575,8 +574,7 @@ struct Ellipsoid {
   mutable unsigned status = 0;
 
   // WrapEllipsoid::closestPointToEllipse (Graphics Gems IV).
-  double ClosestPointToEllipse(double a, double b, double u, double v, double* x,
-                               double* y) const {
+  double ClosestPointToEllipse(double a, double b, double u, double v, double* x, double* y) const {
     const double a2 = a * a, b2 = b * b;
     const double u2 = u * u, v2 = v * v;
     const double a2u2 = a2 * u2, b2v2 = b2 * v2;
@@ -703,8 +701,8 @@ struct Ellipsoid {
         return std::sqrt(dx * dx + dy * dy + dz * dz);
       }
       const double PQ = P * Q, PR = P * R, QR = Q * R, PQR = P * Q * R;
-      const double fp = 2.0 * (PQR * (QR + PR + PQ) - a2u2 * QR * (Q + R) -
-                               b2v2 * PR * (P + R) - c2w2 * PQ * (P + Q));
+      const double fp = 2.0 * (PQR * (QR + PR + PQ) - a2u2 * QR * (Q + R) - b2v2 * PR * (P + R) -
+                               c2w2 * PQ * (P + Q));
       t -= f / fp;
     }
     status |= kWrapNotConverged;
@@ -809,9 +807,9 @@ struct Ellipsoid {
   // about 1 mm over the plane section (vs, vs4) from r1 to r2 (normalized units; the caller
   // divides by factor). Also returns the first and last interior points (for the wrong-way
   // test of wrapLine) and their count.
-  double CalcDistanceOnEllipsoid(const V3& r1, const V3& r2, const V3& m, const V3& a,
-                                 const V3& vs, double vs4, bool far_side_wrap, double factor,
-                                 V3& w1, V3& w2, int& num_pts) const {
+  double CalcDistanceOnEllipsoid(const V3& r1, const V3& r2, const V3& m, const V3& a, const V3& vs,
+                                 double vs4, bool far_side_wrap, double factor, V3& w1, V3& w2,
+                                 int& num_pts) const {
     const double desiredSegLength = 0.001;
     const V3 dr = r1 - r2;
     const double len = dr.norm() / factor;
@@ -847,8 +845,8 @@ struct Ellipsoid {
       cosine = std::clamp(cosine, -1.0, 1.0);
     }
     const double phi0 = std::acos(cosine);
-    const double dphi = far_side_wrap ? -(2 * kPi - phi0) / numPathSegments
-                                      : phi0 / numPathSegments;
+    const double dphi =
+        far_side_wrap ? -(2 * kPi - phi0) / numPathSegments : phi0 / numPathSegments;
     V3 vsz = ar1.cross(ar2);
     NormalizeOrZero(vsz, vsz);
     const V3 vsy = vsz.cross(ar1);
@@ -1074,8 +1072,8 @@ struct Ellipsoid {
     bool far_side_wrap = false;
     V3 w1, w2;
     int num_pts = 0;
-    double length = CalcDistanceOnEllipsoid(r1, r2, m, a, vs, vs4, far_side_wrap, factor, w1, w2,
-                                            num_pts);
+    double length =
+        CalcDistanceOnEllipsoid(r1, r2, m, a, vs, vs4, far_side_wrap, factor, w1, w2, num_pts);
     if (wrap_sign != 0 && num_pts > 2 && !far_side_wrap) {
       V3 r1p1 = p1 - r1, r1w1 = w1 - r1, r2p2 = p2 - r2, r2w2 = w2 - r2;
       NormalizeOrZero(r1p1, r1p1);
@@ -1084,8 +1082,8 @@ struct Ellipsoid {
       NormalizeOrZero(r2w2, r2w2);
       if (r1p1.dot(r1w1) > 0.0 || r2p2.dot(r2w2) > 0.0) {
         far_side_wrap = true;
-        length = CalcDistanceOnEllipsoid(r1, r2, m, a, vs, vs4, far_side_wrap, factor, w1, w2,
-                                         num_pts);
+        length =
+            CalcDistanceOnEllipsoid(r1, r2, m, a, vs, vs4, far_side_wrap, factor, w1, w2, num_pts);
       }
     }
     w.length = length / factor;
@@ -1139,9 +1137,9 @@ int TorusClosestPoint(double radius, const V3& p1, const V3& p2, V3& closest, in
   auto pass = [&](const V3& from, const V3& to, double& distance) {
     CircleCallback cb{{from[0], from[1], from[2]}, {to[0], to[1], to[2]}, radius};
     q[0] = 0.0;
-    lmdif_port::lmdif_C(CalcCircleResids, 1, 1, q, resid, ftol, xtol, gtol, max_iter, epsfcn,
-                        diag, mode, step_factor, nprint, &info, &num_func_calls, fjac, 1, ipvt,
-                        qtf, wa1, wa2, wa3, wa4, &cb);
+    lmdif_port::lmdif_C(CalcCircleResids, 1, 1, q, resid, ftol, xtol, gtol, max_iter, epsfcn, diag,
+                        mode, step_factor, nprint, &info, &num_func_calls, fjac, 1, ipvt, qtf, wa1,
+                        wa2, wa3, wa4, &cb);
     if (info == 5) status |= kWrapNotConverged;
     const double u = q[0];
     const V3 n = (to - from) / (to - from).norm();

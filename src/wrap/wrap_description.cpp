@@ -37,9 +37,7 @@ const char* WrapMethodName(WrapMethod method) {
   return "?";
 }
 
-const char* WrapModeName(WrapMode mode) {
-  return mode == WrapMode::kExact ? "exact" : "opensim";
-}
+const char* WrapModeName(WrapMode mode) { return mode == WrapMode::kExact ? "exact" : "opensim"; }
 
 WrapMode ParseWrapMode(const std::string& text) {
   if (text == "opensim") return WrapMode::kOpenSim;
@@ -140,7 +138,8 @@ void CheckWraps(const LimbDescription& d, const std::string& model) {
         break;
       case WrapShape::kSphere: positive(w.radius, "radius"); break;
       case WrapShape::kEllipsoid:
-        for (int i = 0; i < 3; ++i) positive(w.radii[i], i == 0 ? "radius x" : i == 1 ? "radius y" : "radius z");
+        for (int i = 0; i < 3; ++i)
+          positive(w.radii[i], i == 0 ? "radius x" : i == 1 ? "radius y" : "radius z");
         break;
       case WrapShape::kTorus:
         positive(w.inner_radius, "inner_radius");
@@ -162,13 +161,14 @@ void CheckWraps(const LimbDescription& d, const std::string& model) {
     const int n = static_cast<int>(m.path.size());
     for (size_t k = 0; k < m.wraps.size(); ++k) {
       const PathWrapSpec& w = m.wraps[k];
-      const std::string what =
-          model + ", muscle '" + m.name + "', wrap " + std::to_string(k + 1) + " ('" + w.object + "')";
+      const std::string what = model + ", muscle '" + m.name + "', wrap " + std::to_string(k + 1) +
+                               " ('" + w.object + "')";
       if (!names.count(w.object)) {
         throw Error(what + ": no wrap object is called '" + w.object + "'" +
                     DidYouMean(w.object, object_names) +
-                    (object_names.empty() ? "; the model has no wrap objects"
-                                          : "; the wrap objects are " + util::Join(object_names, ", ")));
+                    (object_names.empty()
+                         ? "; the model has no wrap objects"
+                         : "; the wrap objects are " + util::Join(object_names, ", ")));
       }
       auto valid = [&](int i) { return i == -1 || (i >= 1 && i <= n); };
       if (!valid(w.range_first) || !valid(w.range_last) ||
@@ -190,9 +190,10 @@ std::string WrapNotEvaluatedWarning(const LimbDescription& d) {
   std::string list;
   for (size_t i = 0; i < wrapping.size() && i < 8; ++i) list += (i ? ", " : "") + wrapping[i];
   if (wrapping.size() > 8) list += ", ... (" + std::to_string(wrapping.size()) + " muscles)";
-  return "wrap objects are read but not yet evaluated: muscle" +
-         std::string(wrapping.size() > 1 ? "s " : " ") + list +
-         " get straight paths between their points in every length, moment arm, torque and "
+  const bool one = wrapping.size() == 1;
+  return "wrap objects are read but not yet evaluated: muscle" + std::string(one ? " " : "s ") +
+         list + (one ? " gets" : " get") +
+         " straight paths between their points in every length, moment arm, torque and "
          "wrench until the engine evaluates wraps (issue 27 stage 2)";
 }
 

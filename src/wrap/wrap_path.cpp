@@ -181,9 +181,8 @@ void ComputeWrappedPath(const WrapPathInput& input, WrapMode mode, WrappedPath& 
           }
           if (wr.code == 2) {  // wrapped: keep the segment lengthened least (NaN never wins)
             const double straight = (path[pt2].position - path[pt1].position).norm();
-            const double change =
-                (ws.X_W_S * wr.r1 - path[pt1].position).norm() + wr.length +
-                (path[pt2].position - ws.X_W_S * wr.r2).norm() - straight;
+            const double change = (ws.X_W_S * wr.r1 - path[pt1].position).norm() + wr.length +
+                                  (path[pt2].position - ws.X_W_S * wr.r2).norm() - straight;
             if (change < min_change) {
               best = wr;
               best_end = pt2;
@@ -192,8 +191,8 @@ void ComputeWrappedPath(const WrapPathInput& input, WrapMode mode, WrappedPath& 
             }
           }
         }
-        state.action = have_best ? static_cast<WrapAction>(best.code)
-                                 : static_cast<WrapAction>(result[i]);
+        state.action =
+            have_best ? static_cast<WrapAction>(best.code) : static_cast<WrapAction>(result[i]);
         if (!have_best || !best.has_path || !best.r1.allFinite() || !best.r2.allFinite()) {
           continue;  // no wrap points: resetPreviousWrap
         }
@@ -204,8 +203,8 @@ void ComputeWrappedPath(const WrapPathInput& input, WrapMode mode, WrappedPath& 
         state.r2 = ws.X_W_S * best.r2;
         state.arc_length = best.length;
         state.status = best.status;
-        path.insert(path.begin() + best_end, {Element{-1, k, 0, state.r1},
-                                              Element{-1, k, 1, state.r2}});
+        path.insert(path.begin() + best_end,
+                    {Element{-1, k, 0, state.r1}, Element{-1, k, 1, state.r2}});
       }
       if (aborted) break;
       const double length = path_length();

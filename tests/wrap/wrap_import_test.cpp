@@ -90,8 +90,10 @@ TEST(WrapImportTest, EveryShapeIsImportedWithItsFrameQuadrantAndRange) {
   const PathPoint& gm0 = baked.description.muscles[0].path[0];
   ASSERT_EQ(gm0.link, baked.description.root_link);
   EXPECT_LT((X_G_pelvis * Eigen::Vector3d(0.01, 0.005, 0.002) - gm0.position).norm(), 1e-15);
-  EXPECT_LT((X_G_pelvis.linear().transpose() * X_G_pelvis.linear() -
-             Eigen::Matrix3d::Identity()).cwiseAbs().maxCoeff(), 1e-15);
+  EXPECT_LT((X_G_pelvis.linear().transpose() * X_G_pelvis.linear() - Eigen::Matrix3d::Identity())
+                .cwiseAbs()
+                .maxCoeff(),
+            1e-15);
   // The result writes and reads back, and builds a Model (which warns, once, that wraps are not
   // evaluated yet).
   const LimbDescription again = ReadUrdfString(WriteUrdfString(d), "wraps.urdf");
@@ -204,8 +206,8 @@ TEST(WrapImportTest, OpenSimMatchesOpenSimsRecordedRajagopalLengths) {
   for (size_t row = 0; row < postures.size(); row += 7) {
     Eigen::VectorXd q(model.dof_count());
     for (int c = 0; c < model.dof_count(); ++c) {
-      const auto at = std::find(coordinate_names.begin(), coordinate_names.end(),
-                                model.joint_names()[c]);
+      const auto at =
+          std::find(coordinate_names.begin(), coordinate_names.end(), model.joint_names()[c]);
       ASSERT_NE(at, coordinate_names.end()) << model.joint_names()[c];
       q[c] = postures[row][at - coordinate_names.begin()] * M_PI / 180.0;  // inDegrees=yes
     }
@@ -240,8 +242,8 @@ TEST(WrapImportTest, OpenSimMatchesOpenSimsRecordedRajagopalLengths) {
       }
       WrappedPath out;
       ComputeWrappedPath(in, WrapMode::kOpenSim, out);
-      const auto column = std::find(length_names.begin(), length_names.end(),
-                                    "/forceset/" + m.name + "|length");
+      const auto column =
+          std::find(length_names.begin(), length_names.end(), "/forceset/" + m.name + "|length");
       ASSERT_NE(column, length_names.end()) << m.name;
       const double recorded = lengths[row][column - length_names.begin()];
       if (m.wraps.size() > 1) {
@@ -256,8 +258,9 @@ TEST(WrapImportTest, OpenSimMatchesOpenSimsRecordedRajagopalLengths) {
       ++compared;
     }
   }
-  std::cout << compared << " lengths of single-wrap muscles, worst |isowrench - OpenSim| = "
-            << worst << " m; the two-wrap muscle: worst " << worst_multi << " m\n";
+  std::cout << compared
+            << " lengths of single-wrap muscles, worst |isowrench - OpenSim| = " << worst
+            << " m; the two-wrap muscle: worst " << worst_multi << " m\n";
   EXPECT_GT(compared, 150);
 }
 

@@ -192,8 +192,9 @@ void CheckPullsAgainstDifferences(const WrapSurface& surface, WrapMode mode, uns
     // Through the sphere, ellipsoid or cylinder near its centre; through a torus's tube.
     const double offset = surface.shape == WrapShape::kTorus ? 0.018 : 0.0;
     const V3 P = scale * (3 + u(rng)) * dir + (offset + 0.3 * scale * u(rng)) * side;
-    const V3 N = -scale * (3 + u(rng)) * dir + (offset + 0.3 * scale * u(rng)) * side +
-                 (surface.shape == WrapShape::kTorus ? 0.0 : 0.3 * scale * u(rng)) * dir.cross(side);
+    const V3 N =
+        -scale * (3 + u(rng)) * dir + (offset + 0.3 * scale * u(rng)) * side +
+        (surface.shape == WrapShape::kTorus ? 0.0 : 0.3 * scale * u(rng)) * dir.cross(side);
     Eigen::Isometry3d X_S = Eigen::Isometry3d::Identity();
     if (surface.shape == WrapShape::kCylinder || surface.shape == WrapShape::kTorus) {
       // Cylinder axis / torus axis across the segment (z perpendicular to P -> N).
@@ -349,7 +350,8 @@ TEST(WrappedPathTest, CheckWrapsNamesTheMuscleTheObjectAndTheRule) {
   expect_error(bad, "inner_radius 0.02 m must be below outer_radius 0.01 m");
   bad = d;
   bad.muscles[0].wraps[0].object = "kne";
-  expect_error(bad, "muscle 'VAS', wrap 1 ('kne'): no wrap object is called 'kne' (did you mean 'knee'?)");
+  expect_error(
+      bad, "muscle 'VAS', wrap 1 ('kne'): no wrap object is called 'kne' (did you mean 'knee'?)");
   bad = d;
   bad.muscles[0].wraps[0].range_last = 3;
   expect_error(bad, "muscle 'VAS', wrap 1 ('knee'): range -1 3 is outside the path's 2 points");
@@ -360,7 +362,7 @@ TEST(WrappedPathTest, CheckWrapsNamesTheMuscleTheObjectAndTheRule) {
   bad = d;
   bad.wrap_objects[0].link = "tibia";
   expect_error(bad, "link 'tibia' is not on the chain");
-  EXPECT_THAT(WrapNotEvaluatedWarning(d), HasSubstr("muscle VAS get straight paths"));
+  EXPECT_THAT(WrapNotEvaluatedWarning(d), HasSubstr("muscle VAS gets straight paths"));
 }
 
 }  // namespace

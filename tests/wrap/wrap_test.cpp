@@ -1,6 +1,8 @@
 // One segment over one wrap surface (WrapSegment): closed forms, an independent shortest-path
 // minimiser written here, and the numbers opensim-core's own wrap tests record.
 
+#include "isowrench/wrap.hpp"
+
 #include <gtest/gtest.h>
 
 #include <Eigen/Dense>
@@ -8,7 +10,6 @@
 #include <random>
 
 #include "isowrench/error.hpp"
-#include "isowrench/wrap.hpp"
 
 namespace isowrench {
 namespace {
@@ -72,10 +73,10 @@ TEST(WrapSegmentTest, CylinderPerpendicularToPlaneOfMotionHasTheClosedFormLength
     const WrapSurface cyl = Cylinder(R, 0.05);
     for (WrapMode mode : {WrapMode::kOpenSim, WrapMode::kExact}) {
       const WrapSegmentResult w = WrapSegment(cyl, P, N, mode);
-      const bool crosses = std::abs(P.head<2>().x() * N.head<2>().y() -
-                                    P.head<2>().y() * N.head<2>().x()) /
-                               (N - P).head<2>().norm() <
-                           R;
+      const bool crosses =
+          std::abs(P.head<2>().x() * N.head<2>().y() - P.head<2>().y() * N.head<2>().x()) /
+              (N - P).head<2>().norm() <
+          R;
       ASSERT_EQ(w.wraps, crosses) << "trial " << trial << " mode " << WrapModeName(mode);
       if (!crosses) continue;
       ++wrapped;
@@ -151,16 +152,13 @@ TEST(WrapSegmentTest, PerpendicularWrapMatchesOpenSimsAnalyticCase) {
         const V3 a = X.inverse() * origin, b = X.inverse() * insertion;
         const WrapSegmentResult w = WrapSegment(surface, a, b, mode);
         const std::string what = std::string(WrapShapeName(surface.shape)) + " " +
-                                 surface.quadrant.ToString() + " rot " +
-                                 std::to_string(rot.x()) + "," + std::to_string(rot.y()) + "," +
-                                 std::to_string(rot.z()) + " q " + std::to_string(q) + " " +
-                                 WrapModeName(mode);
+                                 surface.quadrant.ToString() + " rot " + std::to_string(rot.x()) +
+                                 "," + std::to_string(rot.y()) + "," + std::to_string(rot.z()) +
+                                 " q " + std::to_string(q) + " " + WrapModeName(mode);
         if (i == 0) continue;  // tangent at q = 0: wrapping or not, the length is the same
         ASSERT_TRUE(w.wraps) << what;
-        const double tolerance = surface.shape == WrapShape::kEllipsoid &&
-                                         mode == WrapMode::kOpenSim
-                                     ? 1e-6
-                                     : 1e-9;
+        const double tolerance =
+            surface.shape == WrapShape::kEllipsoid && mode == WrapMode::kOpenSim ? 1e-6 : 1e-9;
         EXPECT_NEAR(Total(w, a, b), 2 * r - 0.1 + r * q, tolerance) << what;
         // Moment arm from the pull at the insertion (the object is on ground): -pull . dx/dq.
         const V3 pull = (X * w.r2 - insertion).normalized() * -1.0;  // dL/dx at the insertion
@@ -255,7 +253,8 @@ TEST(WrapSegmentTest, ExactCylinderEqualsAnIndependentShortestPathMinimisation) 
     const double a1 = TangentAngle(R, P, s, true), a2 = TangentAngle(R, N, s, false);
     double turn = std::fmod(s * (a2 - a1), 2 * kPi);
     if (turn < 0) turn += 2 * kPi;
-    CylinderPath path{R, std::sqrt(dP * dP - R * R), std::sqrt(dN * dN - R * R), turn, P.z(), N.z()};
+    CylinderPath path{R,    std::sqrt(dP * dP - R * R), std::sqrt(dN * dN - R * R), turn, P.z(),
+                      N.z()};
     Eigen::VectorXd x(2);
     x << P.z() / R + 0.3, N.z() / R - 0.3;  // start at neither answer
     x = Minimise(
@@ -432,15 +431,17 @@ TEST(WrapSegmentTest, ConstrainedSphereFarSideArcIsNegativeInOpenSimAndPositiveW
   EXPECT_GT(ex.arc_length, kPi * R);  // the long way round
   EXPECT_EQ(ex.status & kWrapNegativeArc, 0u);
   // OpenSim's arc is -(2 pi R - the short arc) between the same tangent points.
-  EXPECT_NEAR(os.arc_length, -(2 * kPi * R - R * std::acos(os.r1.normalized().dot(os.r2.normalized()))),
-              1e-15);
+  EXPECT_NEAR(os.arc_length,
+              -(2 * kPi * R - R * std::acos(os.r1.normalized().dot(os.r2.normalized()))), 1e-15);
 }
 
 TEST(WrapSegmentTest, NeverNaNOnRandomAndDegenerateSegments) {
   std::mt19937 rng(5);
   std::uniform_real_distribution<double> u(-1.0, 1.0);
-  std::vector<WrapSurface> surfaces = {Cylinder(0.01, 0.05), Cylinder(0.01, 0.05, "-x"),
-                                       Sphere(0.01), Sphere(0.01, "+z"),
+  std::vector<WrapSurface> surfaces = {Cylinder(0.01, 0.05),
+                                       Cylinder(0.01, 0.05, "-x"),
+                                       Sphere(0.01),
+                                       Sphere(0.01, "+z"),
                                        Ellipsoid(V3(0.01, 0.02, 0.015)),
                                        Ellipsoid(V3(0.01, 0.02, 0.015), "y")};
   WrapSurface torus;
@@ -450,9 +451,9 @@ TEST(WrapSegmentTest, NeverNaNOnRandomAndDegenerateSegments) {
   surfaces.push_back(torus);
   for (int trial = 0; trial < 30; ++trial) {
     V3 P = 0.04 * V3(u(rng), u(rng), u(rng)), N = 0.04 * V3(u(rng), u(rng), u(rng));
-    if (trial % 10 == 0) N = -P;                // through the centre
-    if (trial % 10 == 1) N = P;                 // zero length
-    if (trial % 10 == 2) P = V3(0.01, 0, 0);    // on the surface
+    if (trial % 10 == 0) N = -P;              // through the centre
+    if (trial % 10 == 1) N = P;               // zero length
+    if (trial % 10 == 2) P = V3(0.01, 0, 0);  // on the surface
     for (const WrapSurface& s : surfaces) {
       for (WrapMode mode : {WrapMode::kOpenSim, WrapMode::kExact}) {
         for (WrapMethod method : {WrapMethod::kHybrid, WrapMethod::kMidpoint, WrapMethod::kAxial}) {

@@ -21,12 +21,14 @@ std::string WrapUrdf(const std::string& wraps, const std::string& muscle_wraps) 
   <joint name="knee" type="revolute"><parent link="femur"/><child link="tibia"/>
     <origin xyz="0.04 0 0" rpy="0 0 0"/><axis xyz="0 0 1"/><limit lower="-2" upper="2" effort="1" velocity="1"/></joint>
   <isowrench:transducer link="tibia" xyz="0.04 0 0"/>
-)" + wraps + R"(
+)" + wraps +
+         R"(
   <isowrench:muscle name="VAS" max_force="2">
     <isowrench:point link="ground" xyz="0.01 0.01 0"/>
     <isowrench:point link="femur" xyz="0.02 0.005 0"/>
     <isowrench:point link="tibia" xyz="0.01 0.004 0"/>
-)" + muscle_wraps + R"(
+)" + muscle_wraps +
+         R"(
   </isowrench:muscle>
 </robot>
 )";
@@ -104,26 +106,34 @@ void ExpectUrdfError(const std::string& objects, const std::string& list, const 
 }
 
 TEST(WrapUrdfTest, BadWrapsNameTheFileLineMuscleAndObject) {
-  ExpectUrdfError(R"(<isowrench:wrap name="c" link="femur" shape="cylinder" radius="-0.004" length="0.02"/>)",
-                  "", "leg.urdf:9: wrap object 'c' (cylinder): radius -0.004 m must be > 0");
-  ExpectUrdfError(R"(<isowrench:wrap name="t" link="femur" shape="torus" inner_radius="0.005" outer_radius="0.004"/>)",
-                  "", "leg.urdf:9: wrap object 't' (torus): inner_radius 0.005 m must be below outer_radius 0.004 m");
-  ExpectUrdfError(R"(<isowrench:wrap name="c" link="femur" shape="cylinder_obst" radius="0.004"/>)", "",
-                  "WrapCylinderObst and WrapDoubleCylinderObst are not supported yet");
-  ExpectUrdfError(R"(<isowrench:wrap name="c" link="femur" shape="cylinder" radius="0.004" length="0.02" radii="1 1 1"/>)",
-                  "", "a cylinder has no 'radii'");
-  ExpectUrdfError(R"(<isowrench:wrap name="c" link="femur" shape="cylinder" radius="0.004" lenght="0.02"/>)",
-                  "", "has no attribute 'lenght' (did you mean 'length'?)");
+  ExpectUrdfError(
+      R"(<isowrench:wrap name="c" link="femur" shape="cylinder" radius="-0.004" length="0.02"/>)",
+      "", "leg.urdf:9: wrap object 'c' (cylinder): radius -0.004 m must be > 0");
+  ExpectUrdfError(
+      R"(<isowrench:wrap name="t" link="femur" shape="torus" inner_radius="0.005" outer_radius="0.004"/>)",
+      "",
+      "leg.urdf:9: wrap object 't' (torus): inner_radius 0.005 m must be below outer_radius 0.004 "
+      "m");
+  ExpectUrdfError(R"(<isowrench:wrap name="c" link="femur" shape="cylinder_obst" radius="0.004"/>)",
+                  "", "WrapCylinderObst and WrapDoubleCylinderObst are not supported yet");
+  ExpectUrdfError(
+      R"(<isowrench:wrap name="c" link="femur" shape="cylinder" radius="0.004" length="0.02" radii="1 1 1"/>)",
+      "", "a cylinder has no 'radii'");
+  ExpectUrdfError(
+      R"(<isowrench:wrap name="c" link="femur" shape="cylinder" radius="0.004" lenght="0.02"/>)",
+      "", "has no attribute 'lenght' (did you mean 'length'?)");
   ExpectUrdfError(kObjects, R"(<isowrench:path_wrap object="knee_cly"/>)",
-                  "muscle 'VAS', path_wrap 'knee_cly': no <isowrench:wrap> is called 'knee_cly' (did you mean 'knee_cyl'?)");
+                  "muscle 'VAS', path_wrap 'knee_cly': no <isowrench:wrap> is called 'knee_cly' "
+                  "(did you mean 'knee_cyl'?)");
   ExpectUrdfError(kObjects, R"(<isowrench:path_wrap object="knee_cyl" range="2 4"/>)",
                   "muscle 'VAS', path_wrap 'knee_cyl': range 2 4 is outside the muscle's 3 points");
   ExpectUrdfError(kObjects, R"(<isowrench:path_wrap object="knee_cyl" method="fan"/>)",
                   "method 'fan' is not one of hybrid, midpoint, axial");
   ExpectUrdfError(R"(<isowrench:wrap name="c" link="foot" shape="sphere" radius="0.004"/>)", "",
                   "unknown link 'foot'");
-  ExpectUrdfError(R"(<isowrench:wrap name="c" link="femur" shape="sphere" radius="0.004" quadrant="+w"/>)",
-                  "", "quadrant '+w' is not one of all");
+  ExpectUrdfError(
+      R"(<isowrench:wrap name="c" link="femur" shape="sphere" radius="0.004" quadrant="+w"/>)", "",
+      "quadrant '+w' is not one of all");
 }
 
 }  // namespace
