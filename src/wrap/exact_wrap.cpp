@@ -13,6 +13,7 @@
 #include <Eigen/Dense>
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
 #include "wrap/wrap_impl.hpp"
 
@@ -101,10 +102,11 @@ OsSegment ExactSphere(double R, const V3& p1, const V3& p2, const OsSegment& os)
 
 struct Implicit {
   WrapShape shape;
-  V3 radii;          // ellipsoid
-  double R = 0.0;    // torus ring radius
-  double r = 0.0;    // torus tube radius
-  double rho = 0.0;  // smallest radius of curvature (step size scale)
+  V3 radii;           // ellipsoid
+  double R = 0.0;     // torus ring radius
+  double r = 0.0;     // torus tube radius
+  double rho = 0.0;   // smallest radius of curvature (step size scale)
+  double size = 0.0;  // largest dimension: no stationary arc is longer than 4 pi size
 
   double F(const V3& x) const {
     if (shape == WrapShape::kEllipsoid) return x.cwiseQuotient(radii).squaredNorm() - 1.0;
@@ -183,6 +185,9 @@ struct GeodesicProblem {
   V3 Start(const Eigen::Vector3d& z) const { return S.Project(c + z[0] * e1 + z[1] * e2); }
   Eigen::Vector3d Residual(const Eigen::Vector3d& z, V3* r1_out = nullptr, V3* r2_out = nullptr,
                            double* ahead = nullptr) const {
+    if (!(z[2] > 0.0) || !(z[2] < 4.0 * 3.14159265358979 * S.size)) {
+      return Eigen::Vector3d::Constant(std::numeric_limits<double>::infinity());
+    }
     const V3 r1 = Start(z);
     const V3 n1 = S.Normal(r1);
     V3 d1 = r1 - p1;
@@ -217,7 +222,7 @@ OsSegment ExactGeodesic(const Implicit& S, const V3& p1, const V3& p2, const OsS
   Eigen::Vector3d z(0.0, 0.0, std::max(s0, 1e-3 * scale));
   Eigen::Vector3d res = problem.Residual(z);
   bool converged = false;
-  for (int it = 0; it < 40 && res.allFinite(); ++it) {
+  for (int it = 0; it < 30 && res.allFinite(); ++it) {
     if (res.norm() < 1e-13) {
       converged = true;
       break;
@@ -238,7 +243,7 @@ OsSegment ExactGeodesic(const Implicit& S, const V3& p1, const V3& p2, const OsS
     double step = 1.0;
     Eigen::Vector3d trial = z + dz;
     Eigen::Vector3d trial_res = problem.Residual(trial);
-    while (!(trial_res.norm() < res.norm()) && step > 1e-4) {
+    while (!(trial_res.norm() < res.norm()) && step > 1e-3) {
       step *= 0.5;
       trial = z + step * dz;
       trial_res = problem.Residual(trial);
@@ -279,14 +284,17 @@ OsSegment ExactSegment(const WrapSurface& surface, const V3& p1, const V3& p2,
     case WrapShape::kCylinder: return ExactCylinder(surface.radius, p1, p2, os);
     case WrapShape::kSphere: return ExactSphere(surface.radius, p1, p2, os);
     case WrapShape::kEllipsoid: {
-      Implicit S{WrapShape::kEllipsoid, surface.radii, 0.0, 0.0, 0.0};
+      Implicit S{WrapShape::kEllipsoid, surface.radii, 0.0, 0.0, 0.0, 0.0};
       const double a = surface.radii.minCoeff(), b = surface.radii.maxCoeff();
       S.rho = a * a / b;
+      S.size = b;
       return ExactGeodesic(S, p1, p2, os);
     }
     case WrapShape::kTorus: {
-      Implicit S{WrapShape::kTorus, V3::Zero(), surface.outer_radius, surface.inner_radius, 0.0};
+      Implicit S{WrapShape::kTorus,    V3::Zero(), surface.outer_radius,
+                 surface.inner_radius, 0.0,        0.0};
       S.rho = std::min(surface.inner_radius, surface.outer_radius - surface.inner_radius);
+      S.size = surface.outer_radius + surface.inner_radius;
       return ExactGeodesic(S, p1, p2, os);
     }
   }
