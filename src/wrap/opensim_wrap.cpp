@@ -166,9 +166,11 @@ struct Cylinder {
       auto spiral_point = [&](double s) {
         return V3(Eigen::AngleAxisd(sense * s * theta, kCylDn) * w.r1 + kCylDn * (s * axial_dist));
       };
-      int segments = static_cast<int>(w.length / 0.002);
-      if (segments < 1) segments = 1;
-      if (segments < 2) return;
+      // (int) of a NaN is undefined: a NaN length (degenerate tangent points) is not adjusted;
+      // the caller turns it into no wrap.
+      const double samples = w.length / 0.002;
+      if (!(samples >= 2.0)) return;
+      const int segments = samples > 1e6 ? 1000000 : static_cast<int>(samples);
       const double s = 1.0 / segments;  // i == 1
       const V3 wrap_pt = spiral_point(s);
       const V3 saved_r1 = w.r1, saved_r2 = w.r2;
@@ -819,7 +821,13 @@ struct Ellipsoid {
       w2 = r1;
       return len * factor;
     }
-    int numPathSegments = static_cast<int>(len / desiredSegLength);
+    if (!std::isfinite(len)) {  // (int) of a NaN is undefined; the caller makes it no wrap
+      status |= kWrapDegenerate;
+      num_pts = 0;
+      return len;
+    }
+    int numPathSegments =
+        len / desiredSegLength > 499.0 ? 499 : static_cast<int>(len / desiredSegLength);
     if (numPathSegments <= 0) {
       num_pts = 0;
       return len;
