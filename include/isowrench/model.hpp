@@ -26,6 +26,7 @@
 #include <vector>
 
 #include "isowrench/function.hpp"
+#include "isowrench/muscle.hpp"
 
 namespace isowrench {
 
@@ -218,10 +219,14 @@ struct PathWrapSpec {
 /// them except where a wrap object of `wraps` bends it.
 struct MuscleSpec {
   std::string name;
-  double max_force = 0.0;       ///< N, > 0; the force used when activation is 1
+  /// N, > 0: OpenSim's max_isometric_force; with the constant force model, the force at
+  /// activation 1.
+  double max_force = 0.0;
   std::vector<PathPoint> path;  ///< at least two points, of which at least two never inactive
   /// Wrap objects the path wraps over, in the order they apply (empty: a straight path).
   std::vector<PathWrapSpec> wraps;
+  /// The force model and its parameters (muscle.hpp; default: constant, F = a * max_force).
+  MuscleForceSpec force;
 };
 
 /// Index into a 6-vector in KDL order: x y z rx ry rz.

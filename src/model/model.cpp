@@ -97,6 +97,11 @@ void Validate(const LimbDescription& d) {
                   " N must be finite and > 0");
     }
     if (m.path.size() < 2) throw Error(what + " needs at least two path points");
+    try {
+      static_cast<void>(MuscleForceModel(m.name, m.max_force, m.force));  // its parameter checks
+    } catch (const Error& e) {
+      throw Error(model + ": " + e.what());
+    }
     for (const PathPoint& p : m.path) {
       if (!links.count(p.link)) {
         throw Error(what + ": path point on link '" + p.link + "', which is not on the chain");
