@@ -226,6 +226,12 @@ SmoothCurve FiberForceLengthCurve(const FiberForceLengthCurveSpec& spec,
               "or all be empty (OpenSim FiberForceLengthCurve::ensureCurveUpToDate)");
   }
   const double eZero = spec.strain_at_zero_force, eIso = spec.strain_at_one_norm_force;
+  // createFiberForceLengthCurve's first check (before the defaults divide by e1 - e0).
+  if (!(eIso > eZero) || !std::isfinite(eIso) || !std::isfinite(eZero)) {
+    CurveFail(muscle, curve,
+              "strain_at_one_norm_force " + CurveNumber(eIso) +
+                  " must be greater than strain_at_zero_force " + CurveNumber(eZero));
+  }
   // FiberForceLengthCurve::ensureCurveUpToDate defaults.
   const double kIso = given ? *spec.stiffness_at_one_norm_force : 2.0 / (eIso - eZero);
   const double kLow = given ? *spec.stiffness_at_low_force : 0.2;
@@ -237,12 +243,7 @@ SmoothCurve FiberForceLengthCurve(const FiberForceLengthCurveSpec& spec,
                                 {"curviness", curviness}}) {
     if (!std::isfinite(v)) CurveFail(muscle, curve, std::string(name) + " is not finite");
   }
-  // createFiberForceLengthCurve's checks.
-  if (!(eIso > eZero)) {
-    CurveFail(muscle, curve,
-              "strain_at_one_norm_force " + CurveNumber(eIso) +
-                  " must be greater than strain_at_zero_force " + CurveNumber(eZero));
-  }
+  // createFiberForceLengthCurve's other checks.
   if (!(kIso > 1.0 / (eIso - eZero))) {
     CurveFail(muscle, curve,
               "stiffness_at_one_norm_force " + CurveNumber(kIso) + " must be greater than " +
@@ -287,6 +288,10 @@ SmoothCurve TendonForceLengthCurve(const TendonForceLengthCurveSpec& spec,
               "all be empty (OpenSim TendonForceLengthCurve::ensureCurveUpToDate)");
   }
   const double eIso = spec.strain_at_one_norm_force;
+  // createTendonForceLengthCurve's first check (before the defaults divide by it).
+  if (!(eIso > 0) || !std::isfinite(eIso)) {
+    CurveFail(muscle, curve, "strain_at_one_norm_force " + CurveNumber(eIso) + " must be > 0");
+  }
   // TendonForceLengthCurve::ensureCurveUpToDate defaults.
   const double kIso = given ? *spec.stiffness_at_one_norm_force : 1.375 / eIso;
   const double fToe = given ? *spec.norm_force_at_toe_end : 2.0 / 3.0;
@@ -297,10 +302,7 @@ SmoothCurve TendonForceLengthCurve(const TendonForceLengthCurveSpec& spec,
                                 {"curviness", curviness}}) {
     if (!std::isfinite(v)) CurveFail(muscle, curve, std::string(name) + " is not finite");
   }
-  // createTendonForceLengthCurve's checks.
-  if (!(eIso > 0)) {
-    CurveFail(muscle, curve, "strain_at_one_norm_force " + CurveNumber(eIso) + " must be > 0");
-  }
+  // createTendonForceLengthCurve's other checks.
   if (!(fToe > 0 && fToe < 1)) {
     CurveFail(muscle, curve, "norm_force_at_toe_end " + CurveNumber(fToe) + " must be > 0 and < 1");
   }
