@@ -143,8 +143,9 @@ enum class MuscleForceStatus {
   /// "Warning_FiberAtLowerBound"); active_force and passive_force are 0, as in OpenSim's
   /// MuscleDynamicsInfo of a clamped fiber.
   kFiberAtMinimumLength,
-  /// No equilibrium: the path length is not finite or not positive. force is 0 and is not a
-  /// number to use.
+  /// No equilibrium: the path length is not finite or not positive, or the force it implies
+  /// is not representable (an exponential curve overflowing at an absurd length). force is 0
+  /// and is not a number to use.
   kNoEquilibrium,
 };
 
@@ -163,7 +164,10 @@ struct MuscleForce {
   /// N/m, dF/dL_MT at this length and activation (analytic, implicit differentiation of the
   /// equilibrium; 0 where the force is 0 or constant).
   double stiffness = 0.0;
-  double fiber_length = 0.0;     ///< m (0 for kConstant)
+  double fiber_length = 0.0;  ///< m (0 for kConstant)
+  /// d fiber_length / dL_MT (dimensionless): with the previous fiber length it predicts a good
+  /// Evaluate guess at a nearby length, fiber_length + fiber_length_slope * (L_new - L).
+  double fiber_length_slope = 0.0;
   double pennation_angle = 0.0;  ///< rad
   /// Tendon strain l_T / l_Ts - 1 (0 for a rigid tendon and when tendon_slack_length is 0;
   /// negative when kSlack).

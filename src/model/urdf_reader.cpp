@@ -17,6 +17,7 @@
 #include "isowrench/error.hpp"
 #include "isowrench/input_checks.hpp"
 #include "isowrench/model.hpp"
+#include "isowrench/muscle.hpp"
 #include "model/function_xml.hpp"
 #include "model/urdf_checks.hpp"
 #include "model/urdf_coordinates.hpp"
@@ -292,6 +293,114 @@ void CheckPathWraps(const Reader& r, const LimbDescription& d,
   }
 }
 
+// The force model of <isowrench:muscle> (docs/urdf-extensions.md "Muscle force models"): the
+// attributes model= and the OpenSim properties, and the curve children. Attribute names are
+// OpenSim's property names; lengths in m, angles in rad.
+bool IsMuscleForceChild(const std::string& tag) {
+  return tag == "isowrench:active_force_length" || tag == "isowrench:fiber_force_length" ||
+         tag == "isowrench:tendon_force_length" || tag == "isowrench:thelen2003_curves";
+}
+
+void ReadMuscleForce(const Reader& r, const tinyxml2::XMLElement& e, MuscleSpec& m) {
+  const std::string what = "muscle '" + m.name + "'";
+  MuscleForceSpec& f = m.force;
+  const std::string model = r.Attribute(&e, "model", false);
+  if (!model.empty()) {
+    try {
+      f.model = ParseForceModel(model);
+    } catch (const Error& error) {
+      r.Fail(&e, what + ": " + error.what());
+    }
+  }
+  static const char* const kForceAttributes[] = {"optimal_fiber_length",
+                                                 "tendon_slack_length",
+                                                 "pennation_angle_at_optimal",
+                                                 "maximum_pennation_angle",
+                                                 "minimum_activation",
+                                                 "ignore_tendon_compliance",
+                                                 "fiber_damping"};
+  auto number = [&](const tinyxml2::XMLElement& el, const char* name, double* out, bool required) {
+    const std::string text = r.Attribute(&el, name, required);
+    if (!text.empty()) *out = r.Number(&el, name, text);
+  };
+  auto optional = [&](const tinyxml2::XMLElement& el, const char* name,
+                      std::optional<double>* out) {
+    const std::string text = r.Attribute(&el, name, false);
+    if (!text.empty()) *out = r.Number(&el, name, text);
+  };
+  if (f.model == ForceModelType::kConstant) {
+    for (const char* name : kForceAttributes) {
+      if (e.Attribute(name)) {
+        r.Fail(&e, what + ": attribute '" + name +
+                       "' needs model=\"thelen2003\" or model=\"millard2012\" (this muscle's "
+                       "force model is constant: F = activation * max_force)");
+      }
+    }
+  } else {
+    number(e, "optimal_fiber_length", &f.optimal_fiber_length, true);
+    number(e, "tendon_slack_length", &f.tendon_slack_length, true);
+    number(e, "pennation_angle_at_optimal", &f.pennation_angle_at_optimal, false);
+    number(e, "maximum_pennation_angle", &f.maximum_pennation_angle, false);
+    number(e, "minimum_activation", &f.minimum_activation, false);
+    const std::string rigid = r.Attribute(&e, "ignore_tendon_compliance", false);
+    if (!rigid.empty()) {
+      if (rigid != "true" && rigid != "false") {
+        r.Fail(&e, what + ": ignore_tendon_compliance '" + rigid + "' must be true or false");
+      }
+      f.ignore_tendon_compliance = rigid == "true";
+    }
+    if (e.Attribute("fiber_damping") && f.model != ForceModelType::kMillard2012) {
+      r.Fail(&e, what + ": fiber_damping is a millard2012 property");
+    }
+    number(e, "fiber_damping", &f.fiber_damping, false);
+  }
+  std::set<std::string> seen;
+  for (auto* c = e.FirstChildElement(); c; c = c->NextSiblingElement()) {
+    const std::string tag = c->Name();
+    if (!IsMuscleForceChild(tag)) continue;
+    if (!seen.insert(tag).second) r.Fail(c, what + ": a second <" + tag + ">");
+    const bool thelen_tag = tag == "isowrench:thelen2003_curves";
+    const ForceModelType wanted =
+        thelen_tag ? ForceModelType::kThelen2003 : ForceModelType::kMillard2012;
+    if (f.model != wanted) {
+      r.Fail(c, what + ": <" + tag + "> belongs to model=\"" + ForceModelName(wanted) +
+                    "\", not \"" + ForceModelName(f.model) + "\"");
+    }
+    if (tag == "isowrench:active_force_length") {
+      ActiveForceLengthCurveSpec& a = f.active_force_length;
+      number(*c, "min_norm_active_fiber_length", &a.min_norm_active_fiber_length, false);
+      number(*c, "transition_norm_fiber_length", &a.transition_norm_fiber_length, false);
+      number(*c, "max_norm_active_fiber_length", &a.max_norm_active_fiber_length, false);
+      number(*c, "shallow_ascending_slope", &a.shallow_ascending_slope, false);
+      number(*c, "minimum_value", &a.minimum_value, false);
+    } else if (tag == "isowrench:fiber_force_length") {
+      FiberForceLengthCurveSpec& p = f.fiber_force_length;
+      number(*c, "strain_at_zero_force", &p.strain_at_zero_force, false);
+      number(*c, "strain_at_one_norm_force", &p.strain_at_one_norm_force, false);
+      optional(*c, "stiffness_at_low_force", &p.stiffness_at_low_force);
+      optional(*c, "stiffness_at_one_norm_force", &p.stiffness_at_one_norm_force);
+      optional(*c, "curviness", &p.curviness);
+    } else if (tag == "isowrench:tendon_force_length") {
+      TendonForceLengthCurveSpec& t = f.tendon_force_length;
+      number(*c, "strain_at_one_norm_force", &t.strain_at_one_norm_force, false);
+      optional(*c, "stiffness_at_one_norm_force", &t.stiffness_at_one_norm_force);
+      optional(*c, "norm_force_at_toe_end", &t.norm_force_at_toe_end);
+      optional(*c, "curviness", &t.curviness);
+    } else {
+      Thelen2003CurveSpec& t = f.thelen;
+      number(*c, "FmaxTendonStrain", &t.FmaxTendonStrain, false);
+      number(*c, "FmaxMuscleStrain", &t.FmaxMuscleStrain, false);
+      number(*c, "KshapeActive", &t.KshapeActive, false);
+      number(*c, "KshapePassive", &t.KshapePassive, false);
+    }
+  }
+  try {
+    static_cast<void>(MuscleForceModel(m.name, m.max_force, f));  // OpenSim's parameter checks
+  } catch (const Error& error) {
+    r.Fail(&e, error.what());
+  }
+}
+
 int DofIndex(const std::string& name) {
   for (int i = 0; i < 6; ++i) {
     if (name == DofName(i)) return i;
@@ -531,7 +640,9 @@ LimbDescription ReadUrdfString(const std::string& xml, const std::string& source
       std::string f = r.Attribute(e, "max_force", true);
       m.max_force = r.Number(e, "max_force", f);
       if (!(m.max_force > 0)) r.Fail(e, "muscle '" + m.name + "': max_force " + f + " must be > 0");
+      ReadMuscleForce(r, *e, m);
       for (auto* p = e->FirstChildElement(); p; p = p->NextSiblingElement()) {
+        if (IsMuscleForceChild(p->Name())) continue;
         if (std::string(p->Name()) == "isowrench:path_wrap") {
           m.wraps.push_back(ReadPathWrap(r, *p, m.name));
           path_wrap_elements.push_back({m.name, p});
@@ -539,7 +650,7 @@ LimbDescription ReadUrdfString(const std::string& xml, const std::string& source
         }
         if (std::string(p->Name()) != "isowrench:point") {
           r.Fail(p, std::string("unexpected <") + p->Name() + "> in muscle '" + m.name +
-                        "'; expected <isowrench:point> or <isowrench:path_wrap>");
+                        "'; expected <isowrench:point>, <isowrench:path_wrap> or a force-model curve element");
         }
         if (!m.wraps.empty()) {
           r.Fail(p, "muscle '" + m.name +

@@ -32,6 +32,77 @@ Eigen::Vector3d Rpy(const Eigen::Matrix3d& R) {
   return Eigen::Vector3d(roll, pitch, yaw);
 }
 
+// The force model of a muscle: attributes of <isowrench:muscle> (after max_force) and its curve
+// elements; OpenSim defaults are left out (the reader restores them).
+std::string ForceAttributes(const MuscleForceSpec& f) {
+  if (f.model == ForceModelType::kConstant) return "";
+  const MuscleForceSpec defaults;
+  std::string a = std::string(" model=\"") + ForceModelName(f.model) +
+                  "\" optimal_fiber_length=\"" + N(f.optimal_fiber_length) +
+                  "\" tendon_slack_length=\"" + N(f.tendon_slack_length) + "\"";
+  auto add = [&](const char* name, double v, double def) {
+    if (v != def) a += std::string(" ") + name + "=\"" + N(v) + "\"";
+  };
+  add("pennation_angle_at_optimal", f.pennation_angle_at_optimal,
+      defaults.pennation_angle_at_optimal);
+  add("maximum_pennation_angle", f.maximum_pennation_angle, defaults.maximum_pennation_angle);
+  add("minimum_activation", f.minimum_activation, defaults.minimum_activation);
+  if (f.ignore_tendon_compliance) a += " ignore_tendon_compliance=\"true\"";
+  if (f.model == ForceModelType::kMillard2012) {
+    add("fiber_damping", f.fiber_damping, defaults.fiber_damping);
+  }
+  return a;
+}
+
+std::string ForceElements(const MuscleForceSpec& f, const std::string& indent) {
+  std::ostringstream o;
+  const MuscleForceSpec d;
+  auto attr = [&](const char* name, double v) { o << " " << name << "=\"" << N(v) << "\""; };
+  auto opt = [&](const char* name, const std::optional<double>& v) {
+    if (v) attr(name, *v);
+  };
+  if (f.model == ForceModelType::kMillard2012) {
+    if (f.active_force_length != d.active_force_length) {
+      const ActiveForceLengthCurveSpec& c = f.active_force_length;
+      o << indent << "<isowrench:active_force_length";
+      attr("min_norm_active_fiber_length", c.min_norm_active_fiber_length);
+      attr("transition_norm_fiber_length", c.transition_norm_fiber_length);
+      attr("max_norm_active_fiber_length", c.max_norm_active_fiber_length);
+      attr("shallow_ascending_slope", c.shallow_ascending_slope);
+      attr("minimum_value", c.minimum_value);
+      o << "/>\n";
+    }
+    if (f.fiber_force_length != d.fiber_force_length) {
+      const FiberForceLengthCurveSpec& c = f.fiber_force_length;
+      o << indent << "<isowrench:fiber_force_length";
+      attr("strain_at_zero_force", c.strain_at_zero_force);
+      attr("strain_at_one_norm_force", c.strain_at_one_norm_force);
+      opt("stiffness_at_low_force", c.stiffness_at_low_force);
+      opt("stiffness_at_one_norm_force", c.stiffness_at_one_norm_force);
+      opt("curviness", c.curviness);
+      o << "/>\n";
+    }
+    if (f.tendon_force_length != d.tendon_force_length) {
+      const TendonForceLengthCurveSpec& c = f.tendon_force_length;
+      o << indent << "<isowrench:tendon_force_length";
+      attr("strain_at_one_norm_force", c.strain_at_one_norm_force);
+      opt("stiffness_at_one_norm_force", c.stiffness_at_one_norm_force);
+      opt("norm_force_at_toe_end", c.norm_force_at_toe_end);
+      opt("curviness", c.curviness);
+      o << "/>\n";
+    }
+  } else if (f.model == ForceModelType::kThelen2003 && f.thelen != d.thelen) {
+    const Thelen2003CurveSpec& c = f.thelen;
+    o << indent << "<isowrench:thelen2003_curves";
+    attr("FmaxTendonStrain", c.FmaxTendonStrain);
+    attr("FmaxMuscleStrain", c.FmaxMuscleStrain);
+    attr("KshapeActive", c.KshapeActive);
+    attr("KshapePassive", c.KshapePassive);
+    o << "/>\n";
+  }
+  return o.str();
+}
+
 const CoordinateSpec* Coordinate(const LimbDescription& d, const std::string& name) {
   for (const CoordinateSpec& c : d.coordinates) {
     if (c.name == name) return &c;
@@ -226,7 +297,9 @@ std::string WriteUrdfString(const LimbDescription& description) {
       << (w.active ? "true" : "false") << "\"/>\n";
   }
   for (const MuscleSpec& m : d.muscles) {
-    o << "  <isowrench:muscle name=\"" << m.name << "\" max_force=\"" << N(m.max_force) << "\">\n";
+    o << "  <isowrench:muscle name=\"" << m.name << "\" max_force=\"" << N(m.max_force) << "\""
+      << ForceAttributes(m.force) << ">\n"
+      << ForceElements(m.force, "    ");
     for (const PathPoint& p : m.path) {
       o << "    <isowrench:point link=\"" << p.link << "\" xyz=\"" << Vec(p.position) << "\"";
       if (!p.active_coordinate.empty()) {

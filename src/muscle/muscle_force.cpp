@@ -241,6 +241,7 @@ struct MuscleForceModel::Impl {
     const double dfiber = max_force * (a * fal.slope + fpe.slope) * inv_optimal_fiber_length;
     const double dcos = sin_phi * sin_phi / (l * cos_phi);
     f.stiffness = (dfiber * cos_phi + fiber * dcos) * cos_phi;
+    f.fiber_length_slope = cos_phi;
     return f;
   }
 
@@ -260,6 +261,7 @@ struct MuscleForceModel::Impl {
     // dl/dL = k_T / r_l with r_l = dF_MAT/dl + k_T / cos phi, and
     // dF/dL = k_T (1 - (dl_MAT/dl) dl/dL) = k_T dF_MAT/dl / r_l (the series stiffness).
     f.stiffness = s.slope != 0.0 ? s.tendon_stiffness * s.dfiber_along / s.slope : 0.0;
+    f.fiber_length_slope = s.slope != 0.0 ? s.tendon_stiffness / s.slope : 0.0;
     return f;
   }
 
@@ -534,6 +536,18 @@ MuscleForce MuscleForceModel::Evaluate(double length, double activation,
   const double a = std::max(activation, m.min_activation);  // clampActivation
   f = m.rigid ? m.Rigid(length, a) : m.Compliant(length, a, fiber_length_guess);
   f.opensim_gives_no_number = f.opensim_gives_no_number || !m.limitation.empty();
+  const double fields[] = {f.force,        f.active_force,       f.passive_force, f.stiffness,
+                           f.fiber_length, f.fiber_length_slope, f.tendon_strain, f.residual};
+  for (double v : fields) {
+    if (!std::isfinite(v)) {  // an exponential curve overflowed: no number to give
+      const bool no_number = f.opensim_gives_no_number;
+      f = MuscleForce{};
+      f.status = MuscleForceStatus::kNoEquilibrium;
+      f.activation = a;
+      f.opensim_gives_no_number = no_number;
+      break;
+    }
+  }
   return f;
 }
 

@@ -8,6 +8,7 @@
 #include <sstream>
 
 #include "isowrench/error.hpp"
+#include "isowrench/muscle.hpp"
 #include "isowrench/opensim.hpp"
 #include "model/urdf_coordinates.hpp"
 #include "opensim/osim_model.hpp"
@@ -537,14 +538,47 @@ struct Builder {
     out.description.wrap_objects.push_back(w);
   }
 
+  // "constant", "millard2012 compliant", "millard2012 rigid", "thelen2003 compliant",
+  // "thelen2003 rigid-tendon limit" (tendon_slack_length 0 with a compliant tendon), ...
+  static std::string ForceModelSummary(const MuscleForceSpec& f) {
+    std::string text = ForceModelName(f.model);
+    if (f.model == ForceModelType::kConstant) return text;
+    if (f.ignore_tendon_compliance) return text + " rigid";
+    return text + (f.tendon_slack_length > 0 ? " compliant" : " rigid-tendon limit");
+  }
+
+  // Checks an imported muscle's force model with OpenSim's rules (an Error with the file and
+  // line: OpenSim refuses such a model) and warns where OpenSim gives no number or the model is
+  // not modelled. Returns the status words for the report ("" when nothing to say).
+  std::string ForceModelStatus(const osim::Muscle& muscle, const MuscleSpec& spec) {
+    const std::string where = m.source + ":" + std::to_string(muscle.line) + ": ";
+    if (!muscle.force_note.empty()) {
+      out.warnings.push_back("muscle '" + muscle.name + "' (line " + std::to_string(muscle.line) +
+                             "): " + muscle.force_note);
+      return "constant force (" + muscle.type + " not modelled)";
+    }
+    std::string limitation;
+    try {
+      limitation = MuscleForceModel(spec.name, spec.max_force, spec.force).opensim_limitation();
+    } catch (const Error& e) {
+      throw Error(where + e.what() + " (OpenSim refuses this " + muscle.type + ")");
+    }
+    if (limitation.empty()) return "";
+    out.warnings.push_back("muscle '" + muscle.name + "' (" + muscle.type + ", line " +
+                           std::to_string(muscle.line) + "): " + limitation +
+                           "; OpenSim gives no force for this muscle");
+    return "OpenSim gives no force (see warning)";
+  }
+
   void Muscles() {
     OpenSimReportTable muscles{
-        "Muscles", {"muscle", "type", "max force (N)", "points", "status"}, {}};
+        "Muscles", {"muscle", "type", "max force (N)", "points", "force model", "status"}, {}};
     for (const osim::Muscle& muscle : m.muscles) {
       std::string problem;
       MuscleSpec spec;
       spec.name = muscle.name;
       spec.max_force = muscle.max_force;
+      spec.force = muscle.force;
       // kept[i]: the index in spec.path of .osim point i (PathPointSet order), or -1.
       std::vector<int> kept(muscle.points.size(), -1);
       for (size_t index = 0; index < muscle.points.size(); ++index) {
@@ -599,6 +633,8 @@ struct Builder {
                                ") skipped: " + problem);
       } else {
         for (const PathWrapSpec& w : spec.wraps) AddWrapObject(w.object);
+        const std::string force_status = ForceModelStatus(muscle, spec);
+        if (!force_status.empty()) status += "; " + force_status;
         out.description.muscles.push_back(spec);
         if (!spec.wraps.empty()) {
           std::vector<std::string> names;
@@ -607,7 +643,8 @@ struct Builder {
         }
       }
       muscles.rows.push_back({muscle.name, muscle.type, Num(muscle.max_force),
-                              std::to_string(muscle.points.size()), status});
+                              std::to_string(muscle.points.size()), ForceModelSummary(spec.force),
+                              status});
     }
     out.tables.push_back(muscles);
   }

@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "isowrench/function.hpp"
+#include "isowrench/muscle.hpp"
 
 namespace isowrench::osim {
 
@@ -101,6 +102,11 @@ struct Muscle {
   double max_force = 0.0;
   std::vector<Point> points;
   std::vector<PathWrap> wraps;  // its PathWrapSet, in order
+  // Force model and parameters (Thelen2003Muscle, Millard2012EquilibriumMuscle; constant for
+  // other types, with force_note saying so). Properties missing from the muscle come from the
+  // document's <defaults> object of its type, else OpenSim's class defaults.
+  MuscleForceSpec force;
+  std::string force_note;
 };
 
 /// CoordinateCouplerConstraint: q_dependent = scale * f(q_independent).

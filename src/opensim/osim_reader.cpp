@@ -530,6 +530,117 @@ struct Reader {
     return name;
   }
 
+  // ---- muscle force models ---------------------------------------------------------------
+
+  // The document's <defaults>: OpenSim registers each object there as the default instance of
+  // its type (Object::updateDefaultObjectsFromXMLNode), so a property an object leaves out takes
+  // the value of that default object, else the class default.
+  const Xml* defaults = nullptr;
+  const Xml* DefaultObject(const char* type) const {
+    return defaults ? defaults->FirstChildElement(type) : nullptr;
+  }
+
+  // Property `name` of `object`, else of `fallback` (its <defaults> object); null when neither
+  // has it or the element holds no value (an empty optional property).
+  const Xml* Property(const Xml* object, const Xml* fallback, const char* name) const {
+    for (const Xml* o : {object, fallback}) {
+      const Xml* e = o ? o->FirstChildElement(name) : nullptr;
+      if (e && !Text(e).empty()) return e;
+    }
+    return nullptr;
+  }
+
+  void ForceNumber(const Xml* object, const Xml* fallback, const char* name,
+                   const std::string& what, double* out) const {
+    if (const Xml* e = Property(object, fallback, name)) {
+      const std::vector<double> v = Numbers(e, what + " <" + name + ">");
+      if (v.size() != 1) Fail(e, what + " <" + name + "> = '" + Text(e) + "' must hold 1 number");
+      *out = v[0];
+    }
+  }
+
+  void ForceOptional(const Xml* object, const Xml* fallback, const char* name,
+                     const std::string& what, std::optional<double>* out) const {
+    if (Property(object, fallback, name)) {
+      double v = 0.0;
+      ForceNumber(object, fallback, name, what, &v);
+      *out = v;
+    }
+  }
+
+  void ReadMuscleForce(const Xml* m, Muscle& muscle) {
+    const bool thelen = muscle.type == "Thelen2003Muscle";
+    const bool millard = muscle.type == "Millard2012EquilibriumMuscle";
+    if (!thelen && !millard) {
+      muscle.force_note = "force model " + muscle.type +
+                          " is not modelled: imported with the constant force model "
+                          "(F = activation * max_isometric_force)";
+      return;
+    }
+    const std::string what = "muscle '" + muscle.name + "'";
+    const Xml* def = DefaultObject(muscle.type.c_str());
+    MuscleForceSpec& f = muscle.force;
+    f.model = thelen ? ForceModelType::kThelen2003 : ForceModelType::kMillard2012;
+    // Muscle::constructProperties defaults (MuscleForceSpec has OpenSim's other defaults).
+    f.optimal_fiber_length = 0.1;
+    f.tendon_slack_length = 0.2;
+    ForceNumber(m, def, "optimal_fiber_length", what, &f.optimal_fiber_length);
+    ForceNumber(m, def, "tendon_slack_length", what, &f.tendon_slack_length);
+    ForceNumber(m, def, "pennation_angle_at_optimal", what, &f.pennation_angle_at_optimal);
+    ForceNumber(m, def, "maximum_pennation_angle", what, &f.maximum_pennation_angle);
+    ForceNumber(m, def, "minimum_activation", what, &f.minimum_activation);
+    if (const Xml* e = Property(m, def, "ignore_tendon_compliance")) {
+      const std::string t = Text(e);
+      if (t != "true" && t != "false" && t != "1" && t != "0") {
+        Fail(e, what + " <ignore_tendon_compliance> = '" + t + "' must be true or false");
+      }
+      f.ignore_tendon_compliance = t == "true" || t == "1";
+    }
+    if (thelen) {
+      Thelen2003CurveSpec& t = f.thelen;
+      ForceNumber(m, def, "FmaxTendonStrain", what, &t.FmaxTendonStrain);
+      ForceNumber(m, def, "FmaxMuscleStrain", what, &t.FmaxMuscleStrain);
+      ForceNumber(m, def, "KshapeActive", what, &t.KshapeActive);
+      ForceNumber(m, def, "KshapePassive", what, &t.KshapePassive);
+      return;
+    }
+    ForceNumber(m, def, "fiber_damping", what, &f.fiber_damping);
+    auto curve = [&](const char* type) {
+      const Xml* c = m->FirstChildElement(type);
+      if (!c && def) c = def->FirstChildElement(type);
+      return std::pair<const Xml*, const Xml*>{c, DefaultObject(type)};
+    };
+    {
+      const auto [c, cdef] = curve("ActiveForceLengthCurve");
+      const std::string cw = what + " ActiveForceLengthCurve";
+      ActiveForceLengthCurveSpec& a = f.active_force_length;
+      ForceNumber(c, cdef, "min_norm_active_fiber_length", cw, &a.min_norm_active_fiber_length);
+      ForceNumber(c, cdef, "transition_norm_fiber_length", cw, &a.transition_norm_fiber_length);
+      ForceNumber(c, cdef, "max_norm_active_fiber_length", cw, &a.max_norm_active_fiber_length);
+      ForceNumber(c, cdef, "shallow_ascending_slope", cw, &a.shallow_ascending_slope);
+      ForceNumber(c, cdef, "minimum_value", cw, &a.minimum_value);
+    }
+    {
+      const auto [c, cdef] = curve("FiberForceLengthCurve");
+      const std::string cw = what + " FiberForceLengthCurve";
+      FiberForceLengthCurveSpec& p = f.fiber_force_length;
+      ForceNumber(c, cdef, "strain_at_zero_force", cw, &p.strain_at_zero_force);
+      ForceNumber(c, cdef, "strain_at_one_norm_force", cw, &p.strain_at_one_norm_force);
+      ForceOptional(c, cdef, "stiffness_at_low_force", cw, &p.stiffness_at_low_force);
+      ForceOptional(c, cdef, "stiffness_at_one_norm_force", cw, &p.stiffness_at_one_norm_force);
+      ForceOptional(c, cdef, "curviness", cw, &p.curviness);
+    }
+    {
+      const auto [c, cdef] = curve("TendonForceLengthCurve");
+      const std::string cw = what + " TendonForceLengthCurve";
+      TendonForceLengthCurveSpec& t = f.tendon_force_length;
+      ForceNumber(c, cdef, "strain_at_one_norm_force", cw, &t.strain_at_one_norm_force);
+      ForceOptional(c, cdef, "stiffness_at_one_norm_force", cw, &t.stiffness_at_one_norm_force);
+      ForceOptional(c, cdef, "norm_force_at_toe_end", cw, &t.norm_force_at_toe_end);
+      ForceOptional(c, cdef, "curviness", cw, &t.curviness);
+    }
+  }
+
   void ReadMuscle(const Xml* m) {
     Muscle muscle;
     muscle.name = Name(m);
@@ -619,6 +730,7 @@ struct Reader {
         }
       }
     }
+    ReadMuscleForce(m, muscle);
     model.muscles.push_back(muscle);
   }
 
@@ -741,6 +853,7 @@ struct Reader {
         }
       }
     }
+    defaults = m->FirstChildElement("defaults");
     // Muscles: in the ForceSet, or (4.x) among the model's own <components>.
     std::vector<const Xml*> holders;
     if (const Xml* fs = m->FirstChildElement("ForceSet"))

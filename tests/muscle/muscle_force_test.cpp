@@ -392,6 +392,32 @@ TEST(MuscleForce, NonFiniteOrNonPositiveLengthHasNoEquilibriumAndNoNaN) {
   }
 }
 
+TEST(MuscleForce, OverflowingForceHasNoEquilibriumAndNoInfinity) {
+  // Thelen's passive curve exp(KshapePassive (l/l_o - 1) / FmaxMuscleStrain) overflows beyond
+  // l/l_o ~ 107 with the defaults: a fiber that long (the rigid-tendon limit of a model with
+  // tendon_slack_length 0 and a long path) has no representable force.
+  const MuscleForceModel m("T", 1.0, ThelenSpec(0.001, 0.0));
+  EXPECT_EQ(m.Evaluate(0.05, 1.0).status, MuscleForceStatus::kEquilibrium);
+  const MuscleForce f = m.Evaluate(0.5, 1.0);
+  EXPECT_EQ(f.status, MuscleForceStatus::kNoEquilibrium);
+  EXPECT_EQ(f.force, 0.0);
+  EXPECT_TRUE(f.opensim_gives_no_number);
+}
+
+TEST(MuscleForce, FiberLengthSlopeEqualsCentralDifferences) {
+  const double h = 1e-7;
+  for (const MuscleForceSpec& spec : RatLikeSpecs()) {
+    const MuscleForceModel m("R", 10.0, spec);
+    const double length = 1.3 * (spec.optimal_fiber_length + spec.tendon_slack_length);
+    const MuscleForce f = m.Evaluate(length, 0.5);
+    ASSERT_EQ(f.status, MuscleForceStatus::kEquilibrium);
+    const double fd =
+        (m.Evaluate(length + h, 0.5).fiber_length - m.Evaluate(length - h, 0.5).fiber_length) /
+        (2 * h);
+    EXPECT_NEAR(f.fiber_length_slope, fd, 1e-6) << spec.optimal_fiber_length;
+  }
+}
+
 TEST(MuscleForce, ConstantModelIsActivationTimesMaxForce) {
   const MuscleForceModel m("GP", 2.3, MuscleForceSpec{});
   const MuscleForce f = m.Evaluate(0.05, 0.4);
