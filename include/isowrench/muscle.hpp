@@ -57,6 +57,7 @@ struct ActiveForceLengthCurveSpec {
   /// extendFinalizeFromProperties): 0 with fiber damping or a rigid tendon, at least 0.1 for an
   /// undamped compliant tendon; MuscleForceModel applies the same rule.
   double minimum_value = 0.1;
+  /// Field-wise equality (optional properties compare set-ness and value).
   bool operator==(const ActiveForceLengthCurveSpec& o) const;
   bool operator!=(const ActiveForceLengthCurveSpec& o) const { return !(*this == o); }
 };
@@ -71,6 +72,7 @@ struct FiberForceLengthCurveSpec {
   std::optional<double> stiffness_at_low_force;       ///< normalized (1 / strain)
   std::optional<double> stiffness_at_one_norm_force;  ///< normalized (1 / strain)
   std::optional<double> curviness;                    ///< 0..1
+  /// Field-wise equality (optional properties compare set-ness and value).
   bool operator==(const FiberForceLengthCurveSpec& o) const;
   bool operator!=(const FiberForceLengthCurveSpec& o) const { return !(*this == o); }
 };
@@ -84,6 +86,7 @@ struct TendonForceLengthCurveSpec {
   std::optional<double> stiffness_at_one_norm_force;  ///< normalized (1 / strain)
   std::optional<double> norm_force_at_toe_end;        ///< 0..1, end of the toe region
   std::optional<double> curviness;                    ///< 0..1
+  /// Field-wise equality (optional properties compare set-ness and value).
   bool operator==(const TendonForceLengthCurveSpec& o) const;
   bool operator!=(const TendonForceLengthCurveSpec& o) const { return !(*this == o); }
 };
@@ -96,6 +99,7 @@ struct Thelen2003CurveSpec {
   double FmaxMuscleStrain = 0.6;   ///< passive fiber strain at max_force
   double KshapeActive = 0.45;      ///< Gaussian shape of the active force-length curve
   double KshapePassive = 5.0;      ///< exponential shape of the passive force-length curve
+  /// Field-wise equality (optional properties compare set-ness and value).
   bool operator==(const Thelen2003CurveSpec& o) const;
   bool operator!=(const Thelen2003CurveSpec& o) const { return !(*this == o); }
 };
@@ -103,6 +107,7 @@ struct Thelen2003CurveSpec {
 /// A muscle's force model and its parameters (OpenSim property names; lengths in m, angles in
 /// rad). The muscle's max_force (MuscleSpec) is OpenSim's max_isometric_force.
 struct MuscleForceSpec {
+  /// The model; kConstant ignores every other field.
   ForceModelType model = ForceModelType::kConstant;
   double optimal_fiber_length = 0.0;  ///< m, > 0 (not used by kConstant)
   /// m, >= 0. 0 with a compliant tendon is a model OpenSim cannot evaluate (its equilibrium
@@ -124,6 +129,7 @@ struct MuscleForceSpec {
   FiberForceLengthCurveSpec fiber_force_length;    ///< Millard2012
   TendonForceLengthCurveSpec tendon_force_length;  ///< Millard2012
   Thelen2003CurveSpec thelen;                      ///< Thelen2003
+  /// Field-wise equality (optional properties compare set-ness and value).
   bool operator==(const MuscleForceSpec& o) const;
   bool operator!=(const MuscleForceSpec& o) const { return !(*this == o); }
 };
@@ -131,8 +137,9 @@ struct MuscleForceSpec {
 /// What one force evaluation found.
 enum class MuscleForceStatus {
   /// Fiber and tendon in equilibrium: |fiber force along the tendon - tendon force| <=
-  /// MuscleForceModel::equilibrium_tolerance() (rigid tendon: the fiber length follows from the
-  /// path length and the force is the fiber's).
+  /// MuscleForceModel::equilibrium_tolerance(), or the fiber length bracketed to rounding where
+  /// forces far above max_force make that tolerance unreachable (rigid tendon: the fiber length
+  /// follows from the path length and the force is the fiber's).
   kEquilibrium,
   /// The path is too short for tension: L_MT <= tendon slack length + the fiber's minimum length
   /// along the tendon. The fiber rests at its minimum length and the force is 0 (OpenSim: 0 too).

@@ -148,7 +148,7 @@ struct MuscleForceModel::Impl {
     const double dfiber = max_force * (a * fal.slope + fpe.slope) * inv_optimal_fiber_length;
     // d cos(phi) / dl = sin^2(phi) / (l cos(phi)) (Thelen2003Muscle::calcDFmATDlce;
     // Millard2012EquilibriumMuscle::calc_DFiberForceAT_DFiberLength).
-    const double dcos = s.sin_phi * s.sin_phi / (l * s.cos_phi);
+    const double dcos = s.sin_phi != 0.0 ? s.sin_phi * s.sin_phi / (l * s.cos_phi) : 0.0;
     s.fiber_along = fiber * s.cos_phi;
     s.dfiber_along = dfiber * s.cos_phi + fiber * dcos;
     const double tendon_length = length - l * s.cos_phi;  // calcTendonLength
@@ -239,7 +239,7 @@ struct MuscleForceModel::Impl {
     // dF/dL = d(F_M cos phi)/dl * dl/dL, with l = sqrt(h^2 + (L - l_Ts)^2): dl/dL = cos phi.
     const double fiber = max_force * (a * fal.value + fpe.value);
     const double dfiber = max_force * (a * fal.slope + fpe.slope) * inv_optimal_fiber_length;
-    const double dcos = sin_phi * sin_phi / (l * cos_phi);
+    const double dcos = sin_phi != 0.0 ? sin_phi * sin_phi / (l * cos_phi) : 0.0;
     f.stiffness = (dfiber * cos_phi + fiber * dcos) * cos_phi;
     f.fiber_length_slope = cos_phi;
     return f;

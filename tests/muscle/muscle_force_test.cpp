@@ -381,6 +381,21 @@ TEST(MuscleForce, OpenSimTestMusclesScenarios) {
   EXPECT_LT(std::abs(t.residual), 1e-13 * t.force);
 }
 
+TEST(MuscleForce, BarelyTautTendonOfAnUnpennatedThelenMuscle) {
+  // Unpennated Thelen2003: the minimum fiber length is 0 (h / sin(phi_max) with h = 0), and
+  // OpenSim's first guess, the fiber length of a tendon at 1.01 l_Ts, is 0 when
+  // L_MT < 1.01 l_Ts. The fiber of length 0 still has finite forces and slopes.
+  const MuscleForceModel m("T", 10.0, ThelenSpec(0.03, 0.02));
+  for (double length : {0.02005, 0.0201, 0.0202, 0.021}) {
+    const MuscleForce f = m.Evaluate(length, 1.0);
+    EXPECT_NE(f.status, MuscleForceStatus::kNoEquilibrium) << length;
+    EXPECT_GT(f.force, 0.0) << length;
+    if (f.status == MuscleForceStatus::kEquilibrium) {
+      EXPECT_LE(std::abs(f.residual), 1e-10) << length;
+    }
+  }
+}
+
 TEST(MuscleForce, NonFiniteOrNonPositiveLengthHasNoEquilibriumAndNoNaN) {
   const MuscleForceModel m("R", 10.0, MillardSpec(0.03, 0.02));
   for (double length : {std::numeric_limits<double>::quiet_NaN(),
