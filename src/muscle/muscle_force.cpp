@@ -313,6 +313,7 @@ struct MuscleForceModel::Impl {
             f.active_force = 0.0;
             f.passive_force = 0.0;
             f.stiffness = low.tendon_stiffness;  // the fiber is held: dF/dL = k_T
+            f.fiber_length_slope = 0.0;
             f.opensim_gives_no_number = opensim_fails;
             return f;
           }
@@ -331,6 +332,7 @@ struct MuscleForceModel::Impl {
       f.active_force = 0.0;
       f.passive_force = 0.0;
       f.stiffness = s.tendon_stiffness;
+      f.fiber_length_slope = 0.0;
       f.opensim_gives_no_number = opensim_fails;
       return f;
     }

@@ -310,6 +310,8 @@ TEST(MuscleForce, FiberAtMinimumLengthCarriesTheTendonForce) {
     EXPECT_EQ(w.status, MuscleForceStatus::kFiberAtMinimumLength);
     EXPECT_EQ(w.force, f.force);
     EXPECT_EQ(w.stiffness, f.stiffness);
+    EXPECT_EQ(f.fiber_length_slope, 0.0);  // the fiber is held at its minimum length
+    EXPECT_EQ(w.fiber_length_slope, 0.0);
   }
 }
 
