@@ -634,13 +634,13 @@ struct Builder {
       } else {
         for (const PathWrapSpec& w : spec.wraps) AddWrapObject(w.object);
         const std::string force_status = ForceModelStatus(muscle, spec);
-        if (!force_status.empty()) status += "; " + force_status;
         out.description.muscles.push_back(spec);
         if (!spec.wraps.empty()) {
           std::vector<std::string> names;
           for (const PathWrapSpec& w : spec.wraps) names.push_back(w.object);
           status += ", wraps over " + util::Join(names, ", ");
         }
+        if (!force_status.empty()) status += "; " + force_status;
       }
       muscles.rows.push_back({muscle.name, muscle.type, Num(muscle.max_force),
                               std::to_string(muscle.points.size()), ForceModelSummary(spec.force),
