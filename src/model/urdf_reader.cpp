@@ -650,7 +650,8 @@ LimbDescription ReadUrdfString(const std::string& xml, const std::string& source
         }
         if (std::string(p->Name()) != "isowrench:point") {
           r.Fail(p, std::string("unexpected <") + p->Name() + "> in muscle '" + m.name +
-                        "'; expected <isowrench:point>, <isowrench:path_wrap> or a force-model curve element");
+                        "'; expected <isowrench:point>, <isowrench:path_wrap> or a force-model "
+                        "curve element");
         }
         if (!m.wraps.empty()) {
           r.Fail(p, "muscle '" + m.name +
