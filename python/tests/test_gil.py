@@ -7,7 +7,7 @@ import numpy as np
 
 
 def test_second_thread_progresses_during_batch(rat):
-    Q = np.tile(rat.default_posture, (400_000, 1))
+    Q = np.tile(rat.default_posture, (1_000_000, 1))
     Q[:, 3] += np.linspace(-0.5, 0.5, Q.shape[0])
     window = {}
 
@@ -24,9 +24,9 @@ def test_second_thread_progresses_during_batch(rat):
     worker.join()
     inside = [t for t in ticks if window["start"] < t < window["end"]]
     duration = window["end"] - window["start"]
-    assert duration > 0.05, duration
-    # Holding the GIL, the batch would leave this thread at most a few switch intervals (5 ms):
-    # count ticks spread over the whole batch instead.
+    # A C++ call that holds the GIL never lets this thread run: no tick at all would fall inside
+    # the batch. No bound on the batch's own duration (speed is not a unit-test property); ticks
+    # take ~0.1 us each, so 1000 of them need only a batch of a fraction of a millisecond.
     assert len(inside) > 1000, (len(inside), duration)
     middle = [t for t in inside if window["start"] + 0.25 * duration < t < window["end"] - 0.25 * duration]
     assert len(middle) > 100, (len(middle), duration)
