@@ -318,31 +318,33 @@ ISOWRENCH_INLINE void LaneCholesky(W& ws, int m, const V* s_t, const V* s_p, dou
 }
 
 // LaneSolve on the workspace's shape (its sets already in ws.s_t, s_p): the undecided lanes.
+// (Masks are written through references, not returned: a 32-byte vector returned by value
+// changes the ABI without AVX, and the large chain's function below is called from a clone.)
 template <class W>
-ISOWRENCH_INLINE VI LaneSolveOf(W& ws, const V* s_t, const V* s_p, double tolerance, V* wrench) {
-  VI undecided;
-  if constexpr (W::kLarge) {
-    LaneCholesky<-1>(ws, ws.m, s_t, s_p, tolerance, wrench, undecided);
-    return undecided;
-  }
+ISOWRENCH_INLINE void LaneSolveOf(W& ws, const V* s_t, const V* s_p, double tolerance, V* wrench,
+                                  VI& undecided) {
   const int m = ws.m;
-  switch (m) {
-    case 1: LaneCholesky<1>(ws, m, s_t, s_p, tolerance, wrench, undecided); break;
-    case 2: LaneCholesky<2>(ws, m, s_t, s_p, tolerance, wrench, undecided); break;
-    case 3: LaneCholesky<3>(ws, m, s_t, s_p, tolerance, wrench, undecided); break;
-    case 4: LaneCholesky<4>(ws, m, s_t, s_p, tolerance, wrench, undecided); break;
-    case 5: LaneCholesky<5>(ws, m, s_t, s_p, tolerance, wrench, undecided); break;
-    case 6: LaneCholesky<6>(ws, m, s_t, s_p, tolerance, wrench, undecided); break;
-    case 7: LaneCholesky<7>(ws, m, s_t, s_p, tolerance, wrench, undecided); break;
-    case 8: LaneCholesky<8>(ws, m, s_t, s_p, tolerance, wrench, undecided); break;
-    default: LaneCholesky<0>(ws, m, s_t, s_p, tolerance, wrench, undecided); break;
+  if constexpr (W::kLarge) {
+    LaneCholesky<-1>(ws, m, s_t, s_p, tolerance, wrench, undecided);
+  } else {
+    switch (m) {
+      case 1: LaneCholesky<1>(ws, m, s_t, s_p, tolerance, wrench, undecided); break;
+      case 2: LaneCholesky<2>(ws, m, s_t, s_p, tolerance, wrench, undecided); break;
+      case 3: LaneCholesky<3>(ws, m, s_t, s_p, tolerance, wrench, undecided); break;
+      case 4: LaneCholesky<4>(ws, m, s_t, s_p, tolerance, wrench, undecided); break;
+      case 5: LaneCholesky<5>(ws, m, s_t, s_p, tolerance, wrench, undecided); break;
+      case 6: LaneCholesky<6>(ws, m, s_t, s_p, tolerance, wrench, undecided); break;
+      case 7: LaneCholesky<7>(ws, m, s_t, s_p, tolerance, wrench, undecided); break;
+      case 8: LaneCholesky<8>(ws, m, s_t, s_p, tolerance, wrench, undecided); break;
+      default: LaneCholesky<0>(ws, m, s_t, s_p, tolerance, wrench, undecided); break;
+    }
   }
-  return undecided;
 }
 
-ISOWRENCH_NOINLINE VI LargeLaneSolve(LargeLanes& ws, const V* s_t, const V* s_p, double tolerance,
-                                     V* wrench) {
-  return LaneSolveOf(ws, s_t, s_p, tolerance, wrench);
+ISOWRENCH_CLONES ISOWRENCH_NOINLINE void LargeLaneSolve(LargeLanes& ws, const V* s_t, const V* s_p,
+                                                        double tolerance, V* wrench,
+                                                        VI& undecided) {
+  LaneSolveOf(ws, s_t, s_p, tolerance, wrench, undecided);
 }
 
 }  // namespace
@@ -372,9 +374,12 @@ ISOWRENCH_CLONES unsigned LaneSolve(const Model& model, LaneWorkspace& workspace
   }
   V wrench[6];
   const double tolerance = options.cholesky_pivot_tolerance;
-  const VI undecided =
-      d.large ? LargeLaneSolve(static_cast<LargeLanes&>(ws), s_t, s_p, tolerance, wrench)
-              : LaneSolveOf(static_cast<SmallLanes&>(ws), s_t, s_p, tolerance, wrench);
+  VI undecided;
+  if (d.large) {
+    LargeLaneSolve(static_cast<LargeLanes&>(ws), s_t, s_p, tolerance, wrench, undecided);
+  } else {
+    LaneSolveOf(static_cast<SmallLanes&>(ws), s_t, s_p, tolerance, wrench, undecided);
+  }
   const unsigned bits = Bits(undecided);
   for (int l = 0; l < kLanes; ++l) {
     if (bits & (1u << l)) continue;
