@@ -145,7 +145,7 @@ ISOWRENCH_INLINE void SolveWith(W& ws, const double* J, const double* s_t, const
   kernel::CholeskyScratch<double> scratch;
   if constexpr (W::kLarge) {
     sJ = ws.sJ.data();
-    scratch = {ws.row_scratch.data(), ws.inv_diag_scratch.data(), ws.y_scratch.data()};
+    scratch = {ws.inv_diag_scratch.data(), ws.y_scratch.data()};
   }
   ISOWRENCH_UNROLL
   for (int r = 0; r < 6; ++r) {
@@ -175,20 +175,20 @@ ISOWRENCH_INLINE void SolveAnyM(W& ws, const double* J, const double* s_t, const
                                 const double* tau, const SolveOptions& options, WrenchResult& out) {
   if constexpr (W::kLarge) {
     SolveWith<-1>(ws, J, s_t, s_p, tau, options, out);
-    return;
-  }
-  switch (ws.m) {
-    case 1: return SolveWith<1>(ws, J, s_t, s_p, tau, options, out);
-    case 2: return SolveWith<2>(ws, J, s_t, s_p, tau, options, out);
-    case 3: return SolveWith<3>(ws, J, s_t, s_p, tau, options, out);
-    case 4: return SolveWith<4>(ws, J, s_t, s_p, tau, options, out);
-    case 5: return SolveWith<5>(ws, J, s_t, s_p, tau, options, out);
-    case 6: return SolveWith<6>(ws, J, s_t, s_p, tau, options, out);
-    case 7: return SolveWith<7>(ws, J, s_t, s_p, tau, options, out);
-    case 8: return SolveWith<8>(ws, J, s_t, s_p, tau, options, out);
-    case 9: return SolveWith<9>(ws, J, s_t, s_p, tau, options, out);
-    case 10: return SolveWith<10>(ws, J, s_t, s_p, tau, options, out);
-    default: return SolveWith<0>(ws, J, s_t, s_p, tau, options, out);
+  } else {
+    switch (ws.m) {
+      case 1: return SolveWith<1>(ws, J, s_t, s_p, tau, options, out);
+      case 2: return SolveWith<2>(ws, J, s_t, s_p, tau, options, out);
+      case 3: return SolveWith<3>(ws, J, s_t, s_p, tau, options, out);
+      case 4: return SolveWith<4>(ws, J, s_t, s_p, tau, options, out);
+      case 5: return SolveWith<5>(ws, J, s_t, s_p, tau, options, out);
+      case 6: return SolveWith<6>(ws, J, s_t, s_p, tau, options, out);
+      case 7: return SolveWith<7>(ws, J, s_t, s_p, tau, options, out);
+      case 8: return SolveWith<8>(ws, J, s_t, s_p, tau, options, out);
+      case 9: return SolveWith<9>(ws, J, s_t, s_p, tau, options, out);
+      case 10: return SolveWith<10>(ws, J, s_t, s_p, tau, options, out);
+      default: return SolveWith<0>(ws, J, s_t, s_p, tau, options, out);
+    }
   }
 }
 
@@ -327,9 +327,8 @@ void LargeWorkspace::Lay(WorkspaceArena& a) {
   a.Take(locked_J, 6 * stride);
   a.Take(locked_tau, stride);
   a.Take(s_p_copy, stride);
-  a.Take(row_scratch, stride / 4);
   a.Take(inv_diag_scratch, columns);
-  a.Take(y_scratch, columns);
+  a.Take(y_scratch, stride);  // (LargeSolveWithFactor writes whole vectors)
   a.Take(self_motion_data, columns * columns);
   a.Take(local, points_count);
   a.Take(point_rotation, points_count);
@@ -475,16 +474,17 @@ ISOWRENCH_INLINE bool AnyKinematics(const FlatChain& d, W& ws, const double* q, 
     } else {
       return CoupledKinematics(d, ws, q, muscle, activation);
     }
-  }
-  if ((!kFrames || muscle >= 0) && d.muscles[muscle].dynamic) {
-    return DynamicKinematics<kFrames>(d, ws, q, muscle, activation, world_axes);
-  }
-  if constexpr (kFrames) {
-    return Kinematics<true, false, true>(d, ws, q, muscle, activation, world_axes);
-  } else if (d.coupled) {
-    return CoupledKinematics(d, ws, q, muscle, activation);
   } else {
-    return Kinematics<false, false, false>(d, ws, q, muscle, activation, world_axes);
+    if ((!kFrames || muscle >= 0) && d.muscles[muscle].dynamic) {
+      return DynamicKinematics<kFrames>(d, ws, q, muscle, activation, world_axes);
+    }
+    if constexpr (kFrames) {
+      return Kinematics<true, false, true>(d, ws, q, muscle, activation, world_axes);
+    } else if (d.coupled) {
+      return CoupledKinematics(d, ws, q, muscle, activation);
+    } else {
+      return Kinematics<false, false, false>(d, ws, q, muscle, activation, world_axes);
+    }
   }
 }
 

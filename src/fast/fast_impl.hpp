@@ -258,10 +258,9 @@ struct LargeWorkspace final : Data::Impl {
   int cos_offset = 0;
   Buffer<double> U;
   /// The statics' copies (S_t J; J, tau and S_p with the locked columns taken out; a raw
-  /// solve's S_p) and the Cholesky's scratch (one row of K, the reciprocal diagonal, the
-  /// forward substitution), which a small chain keeps on the stack.
+  /// solve's S_p) and the Cholesky's scratch (the reciprocal diagonal, the forward
+  /// substitution), which a small chain keeps on the stack.
   Buffer<double> sJ, locked_J, locked_tau, s_p_copy;
-  Buffer<V4> row_scratch;
   Buffer<double> inv_diag_scratch, y_scratch;
   Eigen::MatrixXd K_full;
   Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eigen;

@@ -616,19 +616,17 @@ ISOWRENCH_INLINE void Combine(V& e, const V& product) {
 }
 
 /// One row of the statics (entries 0 .. N - 1, N > 0; N = 0: kSmallJoints entries, the first m
-/// used; N < 0, a large chain: the caller's scratch, m entries), for the row-by-row Cholesky
-/// below. The lanes (T = V4) hold one lane vector per entry;
-/// one posture (T = double) holds four entries per V4, so that a row update is one vector
-/// multiply-add per four entries. Operations act on the entries i >= from (for T = double from
-/// the start of the V4 holding entry `from`: the entries below it in that vector are computed
-/// too and never read). Rows read from memory (J, U) are stored with consecutive entries; for
-/// T = double a row may be read up to the next multiple of 4 past m (the callers' buffers hold
-/// those entries; their values are never used).
-template <int N, class T, bool kVectorised = kScalar<T>, bool kScratch = (N < 0)>
+/// used), for the row-by-row Cholesky of a small chain below (a large one: LargeFactor). The lanes
+/// (T = V4) hold one lane vector per entry; one posture (T = double) holds four entries per V4, so
+/// that a row update is one vector multiply-add per four entries. Operations act on the entries i
+/// >= from (for T = double from the start of the V4 holding entry `from`: the entries below it in
+/// that vector are computed too and never read). Rows read from memory (J, U) are stored with
+/// consecutive entries; for T = double a row may be read up to the next multiple of 4 past m (the
+/// callers' buffers hold those entries; their values are never used).
+template <int N, class T, bool kVectorised = kScalar<T>>
 struct Row {
   static constexpr int kEntries = N > 0 ? N : kSmallJoints;
   T e[kEntries];
-  explicit Row(T*) : e{} {}  // ({}: GCC's -Wmaybe-uninitialized; entries below j are not read)
   /// e_i (=, +=, -=) a x_i for i in [from, m).
   template <RowUpdate kHow>
   ISOWRENCH_INLINE void Update(const T& a, const T* x, int from, int m) {
@@ -644,10 +642,9 @@ struct Row {
 };
 
 template <int N>
-struct Row<N, double, true, false> {
+struct Row<N, double, true> {
   static constexpr int kChunks = (N > 0 ? N + 3 : kSmallJoints) / 4;
   V4 e[kChunks];
-  explicit Row(V4*) : e{} {}
   template <RowUpdate kHow>
   ISOWRENCH_INLINE void Update(double a, const double* x, int from, int m) {
     const V4 av = ISOWRENCH_V4_SPLAT(a);
@@ -669,49 +666,10 @@ struct Row<N, double, true, false> {
   }
 };
 
-// A large chain's rows: the same operations on the caller's scratch.
-template <int N, class T>
-struct Row<N, T, false, true> {
-  T* e;
-  explicit Row(T* scratch) : e(scratch) {}
-  template <RowUpdate kHow>
-  ISOWRENCH_INLINE void Update(const T& a, const T* x, int from, int m) {
-    for (int i = from; i < m; ++i) Combine<kHow>(e[i], a * x[i]);
-  }
-  ISOWRENCH_INLINE void Get(int i, T& out) const { out = e[i]; }
-  ISOWRENCH_INLINE void StoreScaled(T* out, const T& s, int from, int m) const {
-    for (int i = from; i < m; ++i) out[i] = e[i] * s;
-  }
-};
-template <int N>
-struct Row<N, double, true, true> {
-  V4* e;
-  explicit Row(V4* scratch) : e(scratch) {}
-  template <RowUpdate kHow>
-  ISOWRENCH_INLINE void Update(double a, const double* x, int from, int m) {
-    const V4 av = ISOWRENCH_V4_SPLAT(a);
-    for (int c = from / 4; c < (m + 3) / 4; ++c) {
-      V4 xv;
-      std::memcpy(&xv, x + 4 * c, sizeof xv);
-      Combine<kHow>(e[c], av * xv);
-    }
-  }
-  ISOWRENCH_INLINE void Get(int i, double& out) const { out = e[i / 4][i % 4]; }
-  ISOWRENCH_INLINE void StoreScaled(double* out, double s, int from, int m) const {
-    const V4 sv = ISOWRENCH_V4_SPLAT(s);
-    for (int c = from / 4; c < (m + 3) / 4; ++c) {
-      const V4 v = e[c] * sv;
-      std::memcpy(out + 4 * c, &v, sizeof v);
-    }
-  }
-};
-
-/// The Cholesky's buffers for a large chain (N < 0): one row of K (one posture: RoundUpTo4(m) / 4
-/// vectors; the lanes: m), the reciprocal diagonal and the forward substitution (m each). A
-/// small chain keeps them on the stack (nullptr).
+/// The Cholesky's buffers for a large chain (N < 0): the reciprocal diagonal and the forward
+/// substitution (m each). A small chain keeps them on the stack (nullptr).
 template <class T>
 struct CholeskyScratch {
-  std::conditional_t<kScalar<T>, V4, T>* row = nullptr;
   T* inv_diag = nullptr;
   T* y = nullptr;
 };
@@ -759,6 +717,170 @@ ISOWRENCH_INLINE void ScaledRowsTimes(int m_runtime, const double* sJ, int js, d
   undecided |= ((nonfinite[0] + nonfinite[1]) + (nonfinite[2] + nonfinite[3])) != 0.0;
 }
 
+/// A large chain's rows of the Cholesky (N < 0), in blocks: kGroups groups of row j of K - the
+/// sum of the rows of U above it (one posture: a group is 4 consecutive entries, one V4; the
+/// lanes: one entry, one lane vector), from group g0 on, kept in registers while every source
+/// is added in (the 6 rows of J with their coefficients s_t,r J_rj, then the j rows of U above
+/// with U_kj), each source entry read once from memory; then scaled by `inv` and stored into row
+/// j of U. One pass over a whole row in memory per source (the small chains' Row, whose rows
+/// live in registers) costs several times as many instructions once a row no longer fits.
+template <int kGroups, bool kScaled, class T>
+ISOWRENCH_INLINE void LargeRowBlock(int j, int g0, const T* J, const T* sJ, int js, const T* s_t,
+                                    const T* U, int S, V4* acc) {
+  auto load = [](const T* row, int g) ISOWRENCH_LAMBDA_INLINE {
+    if constexpr (kScalar<T>) {
+      V4 v;
+      std::memcpy(&v, row + 4 * g, sizeof v);
+      return v;
+    } else {
+      return row[g];
+    }
+  };
+  auto splat = [](const T& a) ISOWRENCH_LAMBDA_INLINE {
+    if constexpr (kScalar<T>) {
+      return ISOWRENCH_V4_SPLAT(a);
+    } else {
+      return a;
+    }
+  };
+  ISOWRENCH_UNROLL
+  for (int r = 0; r < 6; ++r) {
+    const V4 a = splat(kScaled ? sJ[r * js + j] : s_t[r] * J[r * js + j]);
+    ISOWRENCH_UNROLL
+    for (int i = 0; i < kGroups; ++i) {
+      const V4 product = a * load(J + r * js, g0 + i);
+      acc[i] = r == 0 ? product : acc[i] + product;
+    }
+  }
+  const T* u = U;  // row k of U
+  for (int k = 0; k < j; ++k, u += S) {
+    const V4 a = splat(u[j]);
+    ISOWRENCH_UNROLL
+    for (int i = 0; i < kGroups; ++i) acc[i] -= a * load(u, g0 + i);
+  }
+}
+
+/// Stores kGroups groups `acc` times inv into row j of U from group g0 on.
+template <int kGroups, class T>
+ISOWRENCH_INLINE void LargeRowStore(int j, int g0, T* U, int S, const V4* acc, const T& inv) {
+  ISOWRENCH_UNROLL
+  for (int i = 0; i < kGroups; ++i) {
+    if constexpr (kScalar<T>) {
+      const V4 v = acc[i] * ISOWRENCH_V4_SPLAT(inv);
+      std::memcpy(U + j * S + 4 * (g0 + i), &v, sizeof v);
+    } else {
+      U[j * S + g0 + i] = acc[i] * inv;
+    }
+  }
+}
+
+/// The first block of row j (kGroups groups from the one holding entry j): its pivot d_j
+/// (+ s_p,j), the reciprocal root `inv` of it, and the block scaled into U.
+template <int kGroups, bool kScaled, class T>
+ISOWRENCH_INLINE void LargeFirstBlock(int j, const T* J, const T* sJ, int js, const T* s_t,
+                                      const T* s_p, T* U, int S, T& dj, T& inv) {
+  const int g0 = kScalar<T> ? j / 4 : j;
+  V4 acc[kGroups];
+  LargeRowBlock<kGroups, kScaled>(j, g0, J, sJ, js, s_t, U, S, acc);
+  if constexpr (kScalar<T>) {
+    dj = acc[0][j % 4] + s_p[j];
+  } else {
+    dj = acc[0] + s_p[j];
+  }
+  T root;
+  Sqrt(dj, root);
+  inv = 1.0 / root;
+  LargeRowStore<kGroups>(j, g0, U, S, acc, inv);
+}
+
+/// A further block of row j: kGroups groups from g0, scaled by inv into U.
+template <int kGroups, bool kScaled, class T>
+ISOWRENCH_INLINE void LargeNextBlock(int j, int g0, const T* J, const T* sJ, int js, const T* s_t,
+                                     T* U, int S, const T& inv) {
+  V4 acc[kGroups];
+  LargeRowBlock<kGroups, kScaled>(j, g0, J, sJ, js, s_t, U, S, acc);
+  LargeRowStore<kGroups>(j, g0, U, S, acc, inv);
+}
+
+/// The factor of a large chain (N < 0): rows of U formed block by block (LargeRowBlock, up to
+/// four groups per block), the pivot of row j (from its first block) scaling its blocks. The
+/// same sums as the small chains' rows, in the same order per entry.
+template <bool kScaled, class T>
+ISOWRENCH_INLINE void LargeFactor(int m, const T* J, const T* sJ, int js, const T* s_t,
+                                  const T* s_p, T* U, int S, T* inv_diag, T& max_diag,
+                                  T& min_pivot) {
+  constexpr int kBlock = 4;
+  const int groups = kScalar<T> ? (m + 3) / 4 : m;
+  for (int j = 0; j < m; ++j) {
+    // K_jj (the largest diagonal entry of K judges the pivots): sum_r s_t,r J_rj^2 + s_p,j.
+    auto term = [&](int r) ISOWRENCH_LAMBDA_INLINE {
+      return (kScaled ? sJ[r * js + j] : s_t[r] * J[r * js + j]) * J[r * js + j];
+    };
+    T k_jj = term(0);
+    for (int r = 1; r < 6; ++r) k_jj += term(r);
+    k_jj += s_p[j];
+    const int first = kScalar<T> ? j / 4 : j;
+    const int count = std::min(kBlock, groups - first);
+    T dj, inv;
+    switch (count) {  // (U_jj is written too, without s_p, and never read, as for small chains)
+      case 1: LargeFirstBlock<1, kScaled>(j, J, sJ, js, s_t, s_p, U, S, dj, inv); break;
+      case 2: LargeFirstBlock<2, kScaled>(j, J, sJ, js, s_t, s_p, U, S, dj, inv); break;
+      case 3: LargeFirstBlock<3, kScaled>(j, J, sJ, js, s_t, s_p, U, S, dj, inv); break;
+      default: LargeFirstBlock<4, kScaled>(j, J, sJ, js, s_t, s_p, U, S, dj, inv); break;
+    }
+    max_diag = j == 0 ? k_jj : (k_jj > max_diag ? k_jj : max_diag);
+    min_pivot = j == 0 ? dj : (dj < min_pivot ? dj : min_pivot);
+    inv_diag[j] = inv;
+    for (int g = first + count; g < groups; g += kBlock) {
+      switch (std::min(kBlock, groups - g)) {
+        case 1: LargeNextBlock<1, kScaled>(j, g, J, sJ, js, s_t, U, S, inv); break;
+        case 2: LargeNextBlock<2, kScaled>(j, g, J, sJ, js, s_t, U, S, inv); break;
+        case 3: LargeNextBlock<3, kScaled>(j, g, J, sJ, js, s_t, U, S, inv); break;
+        default: LargeNextBlock<4, kScaled>(j, g, J, sJ, js, s_t, U, S, inv); break;
+      }
+    }
+  }
+}
+
+/// One posture's substitutions for a large chain (U^T U x = b; m at run time), four entries per
+/// vector: the forward one by columns (y -= y_k times row k of U, which is contiguous), the
+/// backward one by rows (a dot product of row i with x); the first entries up to a multiple of
+/// 4 one by one. y and x hold RoundUpTo4(m) entries, x zero past m; U's rows are read up to
+/// RoundUpTo4(m) (finite: the factor's padding columns are formed from J's zero columns).
+ISOWRENCH_INLINE void LargeSolveWithFactor(int m, const double* U, int S, const double* inv_diag,
+                                           const double* b, double* y, double* x) {
+  for (int i = 0; i < m; ++i) y[i] = b[i];
+  for (int k = 0; k < m; ++k) {
+    const double yk = y[k] * inv_diag[k];
+    y[k] = yk;
+    const double* u = U + k * S;
+    int i = k + 1;
+    for (; i < m && (i & 3) != 0; ++i) y[i] -= u[i] * yk;
+    const V4 a = ISOWRENCH_V4_SPLAT(yk);
+    for (; i < m; i += 4) {
+      V4 yi, ui;
+      std::memcpy(&yi, y + i, sizeof yi);
+      std::memcpy(&ui, u + i, sizeof ui);
+      yi -= a * ui;
+      std::memcpy(y + i, &yi, sizeof yi);
+    }
+  }
+  for (int i = m - 1; i >= 0; --i) {
+    const double* u = U + i * S;
+    double v = y[i];
+    int k = i + 1;
+    for (; k < m && (k & 3) != 0; ++k) v -= u[k] * x[k];
+    V4 sum = ISOWRENCH_V4_SPLAT(0.0);
+    for (; k < m; k += 4) {
+      V4 uk, xk;
+      std::memcpy(&uk, u + k, sizeof uk);
+      std::memcpy(&xk, x + k, sizeof xk);
+      sum += uk * xk;
+    }
+    x[i] = (v - ((sum[0] + sum[1]) + (sum[2] + sum[3]))) * inv_diag[i];
+  }
+}
+
 /// The statics for one lane type: K = J^T S_t J + S_p, its Cholesky factor U (K = U^T U, row k
 /// of U at U[k * us + i], i >= k, us >= RoundUpTo4(m)), dtheta = K^-1 tau into x and W = S_t J
 /// dtheta into wrench. Row j of K is formed just before row j of U needs it (K itself is never
@@ -782,37 +904,41 @@ ISOWRENCH_INLINE void Cholesky(int m_runtime, const T* J, const T* sJ, int js, c
   T max_diag = T{}, min_pivot = T{};
   T inv_local[N < 0 ? 1 : kSmallJoints];
   T* const inv_diag = N < 0 ? scratch.inv_diag : inv_local;
-  ISOWRENCH_UNROLL
-  for (int j = 0; j < m; ++j) {
-    // Lanes: J and U are read from memory again for each row (a compiler barrier): otherwise
-    // GCC keeps every entry of J it loaded live across the unrolled rows and spills them all.
-    if constexpr (!kScalar<T>) ISOWRENCH_COMPILER_BARRIER();
-    Row<N, T> row(scratch.row);  // (entries below j are never read)
-    row.template Update<RowUpdate::kSet>(kScaled ? sJ[j] : s_t[0] * J[j], J, j, m);
+  if constexpr (N < 0) {
+    LargeFactor<kScaled>(m, J, sJ, js, s_t, s_p, U, S, inv_diag, max_diag, min_pivot);
+  } else {
     ISOWRENCH_UNROLL
-    for (int r = 1; r < 6; ++r) {
-      row.template Update<RowUpdate::kAdd>(kScaled ? sJ[r * js + j] : s_t[r] * J[r * js + j],
-                                           J + r * js, j, m);
+    for (int j = 0; j < m; ++j) {
+      // Lanes: J and U are read from memory again for each row (a compiler barrier): otherwise
+      // GCC keeps every entry of J it loaded live across the unrolled rows and spills them all.
+      if constexpr (!kScalar<T>) ISOWRENCH_COMPILER_BARRIER();
+      Row<N, T> row{};  // (entries below j are never read; {} for GCC's -Wmaybe-uninitialized)
+      row.template Update<RowUpdate::kSet>(kScaled ? sJ[j] : s_t[0] * J[j], J, j, m);
+      ISOWRENCH_UNROLL
+      for (int r = 1; r < 6; ++r) {
+        row.template Update<RowUpdate::kAdd>(kScaled ? sJ[r * js + j] : s_t[r] * J[r * js + j],
+                                             J + r * js, j, m);
+      }
+      T k_jj, dj;
+      row.Get(j, k_jj);
+      k_jj += s_p[j];
+      ISOWRENCH_UNROLL
+      for (int k = 0; k < j; ++k)
+        row.template Update<RowUpdate::kSubtract>(U[k * S + j], U + k * S, j, m);
+      row.Get(j, dj);
+      dj += s_p[j];
+      // Pivots are judged once K's largest diagonal entry is known (below); a pivot <= 0 makes
+      // the rest of this factor NaN or inf, which only the undecided lanes see.
+      max_diag = j == 0 ? k_jj : (k_jj > max_diag ? k_jj : max_diag);
+      min_pivot = j == 0 ? dj : (dj < min_pivot ? dj : min_pivot);
+      T root;
+      Sqrt(dj, root);
+      const T inv = 1.0 / root;
+      inv_diag[j] = inv;
+      // U_jj is written too (without s_p: not the factor's diagonal) but never read: the
+      // substitutions use inv_diag.
+      row.StoreScaled(U + j * S, inv, j, m);
     }
-    T k_jj, dj;
-    row.Get(j, k_jj);
-    k_jj += s_p[j];
-    ISOWRENCH_UNROLL
-    for (int k = 0; k < j; ++k)
-      row.template Update<RowUpdate::kSubtract>(U[k * S + j], U + k * S, j, m);
-    row.Get(j, dj);
-    dj += s_p[j];
-    // Pivots are judged once K's largest diagonal entry is known (below); a pivot <= 0 makes
-    // the rest of this factor NaN or inf, which only the undecided lanes see.
-    max_diag = j == 0 ? k_jj : (k_jj > max_diag ? k_jj : max_diag);
-    min_pivot = j == 0 ? dj : (dj < min_pivot ? dj : min_pivot);
-    T root;
-    Sqrt(dj, root);
-    const T inv = 1.0 / root;
-    inv_diag[j] = inv;
-    // U_jj is written too (without s_p: not the factor's diagonal) but never read: the
-    // substitutions use inv_diag.
-    row.StoreScaled(U + j * S, inv, j, m);
   }
   undecided = (min_pivot > pivot_tolerance * max_diag) == 0;
   if constexpr (kScalar<T>) {
@@ -823,7 +949,11 @@ ISOWRENCH_INLINE void Cholesky(int m_runtime, const T* J, const T* sJ, int js, c
   if constexpr (kScalar<T>) ISOWRENCH_COMPILER_BARRIER();
   T y_local[N < 0 ? 1 : kSmallJoints];
   T* const y = N < 0 ? scratch.y : y_local;
-  SolveWithFactor<N>(m, U, S, inv_diag, tau, y, x);
+  if constexpr (N < 0 && kScalar<T>) {
+    LargeSolveWithFactor(m, U, S, inv_diag, tau, y, x);
+  } else {
+    SolveWithFactor<N>(m, U, S, inv_diag, tau, y, x);
+  }
   if constexpr (kScalar<T> && kScaled) {
     ScaledRowsTimes<N>(m, sJ, js, x, wrench, undecided);
   } else {

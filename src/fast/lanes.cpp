@@ -163,7 +163,6 @@ struct LargeLanes final : LaneWorkspace::Impl {
     a.Take(U, columns * columns);
     a.Take(x, columns);
     a.Take(s_p, columns);
-    a.Take(row_scratch, columns);
     a.Take(inv_diag_scratch, columns);
     a.Take(y_scratch, columns);
   }
@@ -174,7 +173,7 @@ struct LargeLanes final : LaneWorkspace::Impl {
   Buffer<Vec3<V>> origin, axis, points, pulls;
   Buffer<V> J;  // row-major, row stride `slots`
   Buffer<V> tau, U, x, s_p;
-  Buffer<V> row_scratch, inv_diag_scratch, y_scratch;  // the Cholesky's (kernel::CholeskyScratch)
+  Buffer<V> inv_diag_scratch, y_scratch;  // the Cholesky's (kernel::CholeskyScratch)
   V* JacobianData() { return J.data(); }
   int JacobianStride() const { return slots; }
   V* TauData() { return tau.data(); }
@@ -310,7 +309,7 @@ ISOWRENCH_INLINE void LaneCholesky(W& ws, int m, const V* s_t, const V* s_p, dou
                                    V* wrench, VI& undecided) {
   kernel::CholeskyScratch<V> scratch;
   if constexpr (W::kLarge) {
-    scratch = {ws.row_scratch.data(), ws.inv_diag_scratch.data(), ws.y_scratch.data()};
+    scratch = {ws.inv_diag_scratch.data(), ws.y_scratch.data()};
   }
   kernel::Cholesky<N, false>(m, ws.JacobianData(), static_cast<const V*>(nullptr),
                              ws.JacobianStride(), s_t, s_p, ws.TauData(), tolerance, &ws.U[0],

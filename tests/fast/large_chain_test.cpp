@@ -41,8 +41,7 @@ constexpr double kEps = std::numeric_limits<double>::epsilon();
 class CoupledKdl {
  public:
   explicit CoupledKdl(const Model& model)
-      : model_(model),
-        chain_(isowrench::BuildKdlChain(model.description())),
+      : chain_(isowrench::BuildKdlChain(model.description())),
         fk_(chain_),
         jac_(chain_),
         q_(chain_.getNrOfJoints()),
@@ -96,7 +95,6 @@ class CoupledKdl {
   }
 
  private:
-  const Model& model_;
   KDL::Chain chain_;
   KDL::ChainFkSolverPos_recursive fk_;
   KDL::ChainJntToJacSolver jac_;
