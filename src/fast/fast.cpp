@@ -318,13 +318,14 @@ void LargeWorkspace::Lay(WorkspaceArena& a) {
   a.Take(dq_joint, joints);
   a.Take(staged, 3 * static_cast<std::size_t>(size.slots));
   a.Take(trig, 2 * static_cast<std::size_t>(cos_offset));
-  a.Take(Jr, 6 * stride);
+  // (J and its copies: 12 entries more, which the large Cholesky's last blocks read past row 5)
+  a.Take(Jr, 6 * stride + 12);
   a.Take(dL_data, stride);
   a.Take(tau_data, stride);
   a.Take(dtheta_data, stride);
   a.Take(U, stride * columns);
-  a.Take(sJ, 6 * stride);
-  a.Take(locked_J, 6 * stride);
+  a.Take(sJ, 6 * stride + 12);
+  a.Take(locked_J, 6 * stride + 12);
   a.Take(locked_tau, stride);
   a.Take(s_p_copy, stride);
   a.Take(inv_diag_scratch, columns);
@@ -460,20 +461,18 @@ ISOWRENCH_CLONES ISOWRENCH_NOINLINE bool CoupledKinematics(const FlatChain& d, W
 
 // Muscles with moving or conditional points, the public kinematics functions and chains with
 // couplings run the general kernel; the evaluation of a small chain without couplings its own.
-// A large chain has three instantiations only: the evaluation's general kernel, the same with
-// moving points, and the public kinematics functions' (frames, moving points: it runs any
-// muscle, and none).
+// A large chain has two kernel instantiations only (compile time): the evaluation's general
+// kernel, and one with frames and moving points for everything else (the public kinematics
+// functions, any muscle or none; and the evaluations of muscles with moving points, which store
+// frames they do not need).
 template <bool kFrames, class W>
 ISOWRENCH_INLINE bool AnyKinematics(const FlatChain& d, W& ws, const double* q, int muscle,
                                     double activation, bool world_axes) {
   if constexpr (W::kLarge) {
-    if constexpr (kFrames) {
-      return DynamicKinematics<true>(d, ws, q, muscle, activation, world_axes);
-    } else if (d.muscles[muscle].dynamic) {
-      return DynamicKinematics<false>(d, ws, q, muscle, activation, world_axes);
-    } else {
-      return CoupledKinematics(d, ws, q, muscle, activation);
+    if (kFrames || d.muscles[muscle].dynamic) {
+      return DynamicKinematics<true>(d, ws, q, muscle, activation, kFrames && world_axes);
     }
+    return CoupledKinematics(d, ws, q, muscle, activation);
   } else {
     if ((!kFrames || muscle >= 0) && d.muscles[muscle].dynamic) {
       return DynamicKinematics<kFrames>(d, ws, q, muscle, activation, world_axes);
@@ -590,13 +589,21 @@ template <bool kCoupled, class W>
 ISOWRENCH_INLINE void EvaluateWith(const FlatChain& d, W& ws, const double* q, int muscle,
                                    const StiffnessSet& stiffness, double activation,
                                    const SolveOptions& options, WrenchResult& out) {
-  const bool valid = d.muscles[muscle].dynamic
-                         ? DynamicKinematics<false>(d, ws, q, muscle, activation, false)
-                         : Kinematics<false, false, kCoupled>(d, ws, q, muscle, activation, false);
+  bool valid;
+  if constexpr (W::kLarge) {  // (the kinematics and the solve out of line, each compiled once)
+    valid = AnyKinematics<false>(d, ws, q, muscle, activation, false);
+  } else {
+    valid = d.muscles[muscle].dynamic
+                ? DynamicKinematics<false>(d, ws, q, muscle, activation, false)
+                : Kinematics<false, false, kCoupled>(d, ws, q, muscle, activation, false);
+  }
   if (!valid || stiffness.s_p.size() != d.n) {
     Invalid(ws);
   } else if (d.any_locked) {
     out = SolveLocked(d, ws, stiffness, options);
+  } else if constexpr (W::kLarge) {
+    out = SolveDispatch(ws, ws.Jr.data(), stiffness.s_t.data(), stiffness.s_p.data(),
+                        ws.tau_data.data(), options);
   } else {
     SolveAnyM(ws, ws.Jr.data(), stiffness.s_t.data(), stiffness.s_p.data(), ws.tau_data.data(),
               options, out);

@@ -760,11 +760,11 @@ ISOWRENCH_INLINE void LargeRowBlock(int j, int g0, const T* J, const T* sJ, int 
   }
 }
 
-/// Stores kGroups groups `acc` times inv into row j of U from group g0 on.
-template <int kGroups, class T>
-ISOWRENCH_INLINE void LargeRowStore(int j, int g0, T* U, int S, const V4* acc, const T& inv) {
-  ISOWRENCH_UNROLL
-  for (int i = 0; i < kGroups; ++i) {
+/// Stores `count` (1 .. 4) groups `acc` times inv into row j of U from group g0 on.
+template <class T>
+ISOWRENCH_INLINE void LargeRowStore(int count, int j, int g0, T* U, int S, const V4* acc,
+                                    const T& inv) {
+  for (int i = 0; i < count; ++i) {
     if constexpr (kScalar<T>) {
       const V4 v = acc[i] * ISOWRENCH_V4_SPLAT(inv);
       std::memcpy(U + j * S + 4 * (g0 + i), &v, sizeof v);
@@ -774,37 +774,11 @@ ISOWRENCH_INLINE void LargeRowStore(int j, int g0, T* U, int S, const V4* acc, c
   }
 }
 
-/// The first block of row j (kGroups groups from the one holding entry j): its pivot d_j
-/// (+ s_p,j), the reciprocal root `inv` of it, and the block scaled into U.
-template <int kGroups, bool kScaled, class T>
-ISOWRENCH_INLINE void LargeFirstBlock(int j, const T* J, const T* sJ, int js, const T* s_t,
-                                      const T* s_p, T* U, int S, T& dj, T& inv) {
-  const int g0 = kScalar<T> ? j / 4 : j;
-  V4 acc[kGroups];
-  LargeRowBlock<kGroups, kScaled>(j, g0, J, sJ, js, s_t, U, S, acc);
-  if constexpr (kScalar<T>) {
-    dj = acc[0][j % 4] + s_p[j];
-  } else {
-    dj = acc[0] + s_p[j];
-  }
-  T root;
-  Sqrt(dj, root);
-  inv = 1.0 / root;
-  LargeRowStore<kGroups>(j, g0, U, S, acc, inv);
-}
-
-/// A further block of row j: kGroups groups from g0, scaled by inv into U.
-template <int kGroups, bool kScaled, class T>
-ISOWRENCH_INLINE void LargeNextBlock(int j, int g0, const T* J, const T* sJ, int js, const T* s_t,
-                                     T* U, int S, const T& inv) {
-  V4 acc[kGroups];
-  LargeRowBlock<kGroups, kScaled>(j, g0, J, sJ, js, s_t, U, S, acc);
-  LargeRowStore<kGroups>(j, g0, U, S, acc, inv);
-}
-
-/// The factor of a large chain (N < 0): rows of U formed block by block (LargeRowBlock, up to
-/// four groups per block), the pivot of row j (from its first block) scaling its blocks. The
-/// same sums as the small chains' rows, in the same order per entry.
+/// The factor of a large chain (N < 0): rows of U formed block by block (LargeRowBlock, four
+/// groups per block; the last block of a row reads up to three groups past the row's end, which
+/// the workspaces' J buffers hold and whose sums are not stored), the pivot of row j (from its
+/// first block) scaling its blocks. The same sums as the small chains' rows, in the same order
+/// per entry.
 template <bool kScaled, class T>
 ISOWRENCH_INLINE void LargeFactor(int m, const T* J, const T* sJ, int js, const T* s_t,
                                   const T* s_p, T* U, int S, T* inv_diag, T& max_diag,
@@ -820,24 +794,25 @@ ISOWRENCH_INLINE void LargeFactor(int m, const T* J, const T* sJ, int js, const 
     for (int r = 1; r < 6; ++r) k_jj += term(r);
     k_jj += s_p[j];
     const int first = kScalar<T> ? j / 4 : j;
-    const int count = std::min(kBlock, groups - first);
-    T dj, inv;
-    switch (count) {  // (U_jj is written too, without s_p, and never read, as for small chains)
-      case 1: LargeFirstBlock<1, kScaled>(j, J, sJ, js, s_t, s_p, U, S, dj, inv); break;
-      case 2: LargeFirstBlock<2, kScaled>(j, J, sJ, js, s_t, s_p, U, S, dj, inv); break;
-      case 3: LargeFirstBlock<3, kScaled>(j, J, sJ, js, s_t, s_p, U, S, dj, inv); break;
-      default: LargeFirstBlock<4, kScaled>(j, J, sJ, js, s_t, s_p, U, S, dj, inv); break;
+    V4 acc[kBlock];
+    LargeRowBlock<kBlock, kScaled>(j, first, J, sJ, js, s_t, U, S, acc);
+    T dj;
+    if constexpr (kScalar<T>) {
+      dj = acc[0][j % 4] + s_p[j];
+    } else {
+      dj = acc[0] + s_p[j];
     }
     max_diag = j == 0 ? k_jj : (k_jj > max_diag ? k_jj : max_diag);
     min_pivot = j == 0 ? dj : (dj < min_pivot ? dj : min_pivot);
+    T root;
+    Sqrt(dj, root);
+    const T inv = 1.0 / root;
     inv_diag[j] = inv;
-    for (int g = first + count; g < groups; g += kBlock) {
-      switch (std::min(kBlock, groups - g)) {
-        case 1: LargeNextBlock<1, kScaled>(j, g, J, sJ, js, s_t, U, S, inv); break;
-        case 2: LargeNextBlock<2, kScaled>(j, g, J, sJ, js, s_t, U, S, inv); break;
-        case 3: LargeNextBlock<3, kScaled>(j, g, J, sJ, js, s_t, U, S, inv); break;
-        default: LargeNextBlock<4, kScaled>(j, g, J, sJ, js, s_t, U, S, inv); break;
-      }
+    // (U_jj is written too, without s_p, and never read, as for small chains)
+    LargeRowStore(std::min(kBlock, groups - first), j, first, U, S, acc, inv);
+    for (int g = first + kBlock; g < groups; g += kBlock) {
+      LargeRowBlock<kBlock, kScaled>(j, g, J, sJ, js, s_t, U, S, acc);
+      LargeRowStore(std::min(kBlock, groups - g), j, g, U, S, acc, inv);
     }
   }
 }

@@ -158,7 +158,7 @@ struct LargeLanes final : LaneWorkspace::Impl {
     a.Take(axis, static_cast<std::size_t>(joints));
     a.Take(points, static_cast<std::size_t>(points_count));
     a.Take(pulls, static_cast<std::size_t>(points_count));
-    a.Take(J, 6 * slot_count);
+    a.Take(J, 6 * slot_count + 3);  // (+3: the large Cholesky's last blocks read past row 5)
     a.Take(tau, slot_count);
     a.Take(U, columns * columns);
     a.Take(x, columns);
