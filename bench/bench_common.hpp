@@ -32,6 +32,68 @@ inline isowrench::Model CoupledKernelModel() {
   return isowrench::Model(d);
 }
 
+/// A chain of `coordinates` revolute joints (3 mm to 6 mm apart, axes cycling through x, y, z
+/// and a general one, tilted fixed offsets), each driving, when `coupled`, a second joint: a
+/// prismatic translation through a 6-knot SimmSpline of it (as an OpenSim knee's). S_p on every
+/// coordinate, a transducer turning with the last link, one muscle with a point on every second
+/// link: the size of real OpenSim limbs (a coupled knee or ankle spends up to six joints per
+/// coordinate) for the instruction counts of chains past 16 joints.
+inline isowrench::Model ChainModel(int coordinates, bool coupled) {
+  isowrench::LimbDescription d;
+  d.name = "chain_" + std::to_string(coordinates) + (coupled ? "_coupled" : "");
+  d.root_link = "ground";
+  d.links = {"ground"};
+  std::string parent = "ground";
+  auto add = [&](const std::string& name, isowrench::JointType type, const Eigen::Vector3d& xyz,
+                 const Eigen::Vector3d& rpy, const Eigen::Vector3d& axis) -> isowrench::JointSpec& {
+    isowrench::JointSpec j;
+    j.name = name;
+    j.type = type;
+    j.parent_link = parent;
+    j.child_link = name + "_link";
+    j.origin.translation() = xyz;
+    j.origin.linear() = (Eigen::AngleAxisd(rpy.z(), Eigen::Vector3d::UnitZ()) *
+                         Eigen::AngleAxisd(rpy.y(), Eigen::Vector3d::UnitY()) *
+                         Eigen::AngleAxisd(rpy.x(), Eigen::Vector3d::UnitX()))
+                            .toRotationMatrix();
+    j.axis = axis.normalized();
+    d.joints.push_back(j);
+    d.links.push_back(j.child_link);
+    parent = j.child_link;
+    return d.joints.back();
+  };
+  const Eigen::Vector3d axes[4] = {Eigen::Vector3d::UnitZ(), Eigen::Vector3d::UnitX(),
+                                   Eigen::Vector3d::UnitY(), Eigen::Vector3d(1, 2, -0.5)};
+  for (int c = 0; c < coordinates; ++c) {
+    isowrench::JointSpec& own = add("q" + std::to_string(c), isowrench::JointType::kRevolute,
+                                    Eigen::Vector3d(0.003 + 0.001 * (c % 4), 0.001, 0),
+                                    Eigen::Vector3d(0.1, -0.2, 0.3), axes[c % 4]);
+    own.stiffness = 0.5;
+    if (!coupled) continue;
+    isowrench::JointSpec& slide =
+        add("slide" + std::to_string(c), isowrench::JointType::kPrismatic, Eigen::Vector3d::Zero(),
+            Eigen::Vector3d::Zero(), Eigen::Vector3d::UnitX());
+    slide.coordinate = "q" + std::to_string(c);
+    slide.coupling = isowrench::Function::SimmSpline({-3, -1.5, -0.2, 0.4, 1.1, 3},
+                                                     {0.001, 0.0004, 0, -0.0003, -0.0009, -0.002});
+  }
+  d.transducer.link = parent;
+  d.transducer.endpoint = Eigen::Vector3d(0.005, 0.001, -0.002);
+  d.transducer.axes_in_world = false;
+  d.transducer.rotation =
+      Eigen::AngleAxisd(0.4, Eigen::Vector3d(1, 1, 0).normalized()).toRotationMatrix();
+  isowrench::MuscleSpec muscle;
+  muscle.name = "along";
+  muscle.max_force = 5.0;
+  muscle.path.push_back({"ground", Eigen::Vector3d(-0.01, 0.02, 0.0)});
+  for (size_t l = 1; l < d.links.size(); l += 2) {
+    muscle.path.push_back(
+        {d.links[l], Eigen::Vector3d(0.001, (l / 2) % 2 ? 0.004 : -0.004, 0.002)});
+  }
+  d.muscles.push_back(muscle);
+  return isowrench::Model(d);
+}
+
 /// `count` postures around the nominal one: hip and knee angles within +-60 degrees, base
 /// translations within +-1 mm, from a fixed seed (the same postures in every run).
 inline Eigen::MatrixXd KernelPostures(const isowrench::Model& model, int count) {

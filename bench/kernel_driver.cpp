@@ -8,6 +8,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
+#include <memory>
 
 #include "bench_common.hpp"
 #include "kdl_baseline.hpp"
@@ -28,14 +29,45 @@ struct Setup {
   isowrench::Data coupled_ws{coupled};
 };
 
+// A synthetic chain (ChainModel) named by a kernel "fast-chain-N" or "batch-chain-N" (N
+// coordinates, one joint each) or "...-Nc" (each driving a second, spline-coupled joint).
+struct Chain {
+  explicit Chain(const char* spec)
+      : model(ChainModel(std::atoi(spec), spec[std::strlen(spec) - 1] == 'c')),
+        ws(model),
+        postures(KernelPostures(model, 1024)) {}
+  isowrench::Model model;
+  isowrench::Data ws;
+  Eigen::MatrixXd postures;
+  std::vector<isowrench::WrenchResult> out;
+};
+
 double g_sink = 0.0;
 
 }  // namespace
 
 // Returns the number of evaluations done.
-extern "C" __attribute__((noinline)) long isowrench_measured_loop(Setup& s, const char* kernel,
-                                                                  long n) {
+extern "C" __attribute__((noinline)) long isowrench_measured_loop(Setup& s, Chain* chain,
+                                                                  const char* kernel, long n) {
   const isowrench::StiffnessSet& st = s.sets[0];
+  if (chain != nullptr && kernel[0] == 'f') {  // fast-chain-N: one posture at a time
+    const isowrench::StiffnessSet set = chain->model.model_stiffness();
+    for (long i = 0; i < n; ++i) {
+      g_sink += isowrench::Evaluate(chain->model, chain->ws, chain->postures.col(i & 1023), 0, set)
+                    .wrench[0];
+    }
+    return n;
+  }
+  if (chain != nullptr) {  // batch-chain-N: 1024 postures per call, one thread
+    const std::vector<isowrench::StiffnessSet> one = {chain->model.model_stiffness()};
+    isowrench::BatchOptions options;
+    options.threads = 1;
+    for (long i = 0; i < n; ++i) {
+      isowrench::EvaluateBatch(chain->model, chain->postures, 0, one, chain->out, 1.0, options);
+      g_sink += chain->out[0].wrench[0];
+    }
+    return n * chain->postures.cols();
+  }
   if (std::strcmp(kernel, "fast") == 0) {
     for (long i = 0; i < n; ++i) {
       g_sink += isowrench::Evaluate(s.compiled, s.ws, s.postures.col(i & 1023), 0, st).wrench[0];
@@ -96,7 +128,7 @@ extern "C" __attribute__((noinline)) long isowrench_measured_loop(Setup& s, cons
   }
   std::fprintf(stderr,
                "unknown kernel '%s' (fast, fast-stiffness, fast-coupled, batch, batch-stiffness, "
-               "batch-coupled, kdl, reference)\n",
+               "batch-coupled, kdl, reference, fast-chain-N[c], batch-chain-N[c])\n",
                kernel);
   std::exit(2);
 }
@@ -106,15 +138,18 @@ int main(int argc, char** argv) {
     std::fprintf(stderr,
                  "usage: %s "
                  "fast|fast-stiffness|fast-coupled|batch|batch-stiffness|batch-coupled|kdl|"
-                 "reference <count>\n",
+                 "reference|fast-chain-N[c]|batch-chain-N[c] <count>\n",
                  argv[0]);
     return 2;
   }
   Setup s;
   const long n = std::atol(argv[2]);
+  const char* chain_spec = std::strstr(argv[1], "-chain-");
+  std::unique_ptr<Chain> chain;
+  if (chain_spec != nullptr) chain = std::make_unique<Chain>(chain_spec + 7);
   // Warm-up and measurement both run inside the collected function: report their sum.
-  const long evaluations = isowrench_measured_loop(s, argv[1], std::min(16L, n)) +
-                           isowrench_measured_loop(s, argv[1], n);
+  const long evaluations = isowrench_measured_loop(s, chain.get(), argv[1], std::min(16L, n)) +
+                           isowrench_measured_loop(s, chain.get(), argv[1], n);
   std::printf("%s: %ld evaluations collected (checksum %.6g)\n", argv[1], evaluations, g_sink);
   return 0;
 }

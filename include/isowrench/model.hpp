@@ -34,17 +34,19 @@ using Vector6d = Eigen::Matrix<double, 6, 1>;
 using Matrix6d = Eigen::Matrix<double, 6, 6>;
 using Matrix6Xd = Eigen::Matrix<double, 6, Eigen::Dynamic>;
 
-/// Largest number of independent coordinates (and of movable joints) a Model may have: the
-/// engine's buffers are fixed-size matrices of this many rows/columns, so an evaluation never
-/// allocates.
-inline constexpr int kMaxDofs = 16;
-
-/// A joint-space vector of at most kMaxDofs entries, stored inline (no heap).
-using JointVector = Eigen::Matrix<double, Eigen::Dynamic, 1, 0, kMaxDofs, 1>;
-/// An m x r matrix with m, r <= kMaxDofs, stored inline (no heap).
-using JointMatrix = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, 0, kMaxDofs, kMaxDofs>;
-/// A 6 x m endpoint Jacobian with m <= kMaxDofs, stored inline (no heap).
-using JacobianBuffer = Eigen::Matrix<double, 6, Eigen::Dynamic, 0, 6, kMaxDofs>;
+/// A joint-space vector: one entry per coordinate (column) of a Model, any number of them.
+/// A Data holds its vectors from construction on (sized from the Model, never resized), so an
+/// evaluation never allocates.
+using JointVector = Eigen::VectorXd;
+/// An m x r joint-space matrix (any m, r).
+using JointMatrix = Eigen::MatrixXd;
+/// A 6 x m endpoint Jacobian (any m).
+using JacobianBuffer = Matrix6Xd;
+/// A read-only view of a joint-space vector a Data holds (Data::tau(), dtheta(), ...): it shows
+/// the Data's buffer, so it stays valid as long as the Data and shows the last evaluation.
+using JointVectorView = Eigen::Map<const JointVector>;
+/// A read-only view of an m x r matrix a Data holds (Data::self_motion()), as JointVectorView.
+using JointMatrixView = Eigen::Map<const JointMatrix>;
 
 /// One set of compliances for the statics.
 struct StiffnessSet {
@@ -447,13 +449,17 @@ class Model {
 /// Mutable scratch of the engine for one thread (the Model/Data split: the Model is shared,
 /// each thread owns a Data). Evaluations leave their results here (the last evaluation's
 /// Jacobian, torque, displacement and self-motion basis stay readable until the next one).
-/// Construction allocates once; evaluations never allocate. Never share one between threads.
+/// Construction allocates once, every buffer sized from the model (its movable joints,
+/// coordinates, coupled joints and path points: there is no fixed limit on any of them);
+/// evaluations never allocate. Never share one between threads. A Data evaluates the model it
+/// was made for (and copies of it); given another model it is checked first, and a model it is
+/// too small for (or with another number of coordinates) is refused with an Error.
 class Data {
  public:
   /// Workspace sized for `model`.
   explicit Data(const Model& model);
-  /// Workspace for the raw-matrix solve SolveStatics(Data&, J, ...) with `dof_count` joints.
-  /// @throws Error if dof_count is not in [1, kMaxDofs].
+  /// Workspace for the raw-matrix solve SolveStatics(Data&, J, ...) with `dof_count` joints
+  /// (any number >= 1). @throws Error if dof_count < 1.
   explicit Data(int dof_count);
   ~Data();
   Data(Data&&) noexcept;
@@ -465,10 +471,11 @@ class Data {
   /// evaluation still shows the old J: call jacobian() again. Like every use of a Data (one per
   /// thread), not to be called from two threads at once.
   const JacobianBuffer& jacobian() const;
-  /// Muscle torque tau = -F (dL/dtheta)^T of the last kinematics (N·m or N per joint).
-  const JointVector& tau() const;
-  /// dL/dtheta of the last kinematics (m/rad or m/m per joint).
-  const JointVector& muscle_length_gradient() const;
+  /// Muscle torque tau = -F (dL/dtheta)^T of the last kinematics (N·m or N per joint); a view
+  /// of the Data's buffer (JointVectorView).
+  JointVectorView tau() const;
+  /// dL/dtheta of the last kinematics (m/rad or m/m per joint); a view, as tau().
+  JointVectorView muscle_length_gradient() const;
   /// Muscle length (m) of the last kinematics.
   double muscle_length() const;
   /// Endpoint position in world (m) of the last kinematics. Like jacobian(), a copy made on
@@ -478,11 +485,13 @@ class Data {
   /// R_W_T of the last kinematics: transducer axes in world. A copy made on each call, as
   /// endpoint_position().
   const Eigen::Matrix3d& transducer_rotation() const;
-  /// dtheta of the last solve (rad or m per joint); zeros after kSelfMotion / kInvalidInput.
-  const JointVector& dtheta() const;
+  /// dtheta of the last solve (rad or m per joint); zeros after kSelfMotion / kInvalidInput. A
+  /// view, as tau().
+  JointVectorView dtheta() const;
   /// Self-motion basis of the last solve: m x r, unit columns spanning null(K), largest entry
-  /// positive (the same convention as StaticsResult::self_motion); r = 0 when K is regular.
-  const JointMatrix& self_motion() const;
+  /// positive (the same convention as StaticsResult::self_motion); r = 0 when K is regular. A
+  /// view of the Data's buffer (JointMatrixView): copy it to keep it across evaluations.
+  JointMatrixView self_motion() const;
 
   /// Opaque access for isowrench's own modules (the kernel's buffers). Not part of the stable API.
   struct Impl;

@@ -6,6 +6,7 @@
 #include <atomic>
 #include <cstdint>
 #include <cstring>
+#include <optional>
 #include <thread>
 
 #include "fast/fast_impl.hpp"
@@ -61,7 +62,8 @@ bool ValidStiffness(const StiffnessSet& s) {
 }
 
 // One thread's evaluator: the lane workspace, plus one scalar workspace per lane for the
-// evaluations the lanes leave undecided (and for postures evaluated alone).
+// evaluations the lanes leave undecided (and for postures evaluated alone), each built the
+// first time it is needed.
 class UnitEvaluator {
  public:
   UnitEvaluator(const Model& model, const Eigen::Ref<const Eigen::MatrixXd>& postures, int muscle,
@@ -75,8 +77,7 @@ class UnitEvaluator {
         activation_(activation),
         options_(options),
         results_(results),
-        lanes_(model),
-        scalar_{Data(model), Data(model), Data(model), Data(model)} {}
+        lanes_(model) {}
 
   // Postures [p0, p1) x sets [s0, s1).
   void Run(long p0, long p1, long s0, long s1) {
@@ -95,6 +96,12 @@ class UnitEvaluator {
   }
 
  private:
+  // The scalar workspace of lane l, built when first needed (most batches need none).
+  Data& Scalar(int l) {
+    if (!scalar_[l]) scalar_[l].emplace(model_);
+    return *scalar_[l];
+  }
+
   WrenchResult& Result(long p, long s) {
     return results_[p * static_cast<long>(stiffness_.size()) + s];
   }
@@ -124,10 +131,10 @@ class UnitEvaluator {
       for (int l = 0; l < lanes; ++l) {
         if (undecided & (1u << l)) {
           if (!scalar_ready[l]) {
-            ComputeKinematics(model_, scalar_[l], postures_.col(p + l), muscle_, activation_);
+            ComputeKinematics(model_, Scalar(l), postures_.col(p + l), muscle_, activation_);
             scalar_ready[l] = true;
           }
-          Result(p + l, s) = SolveStatics(model_, scalar_[l], stiffness_[s], options_);
+          Result(p + l, s) = SolveStatics(model_, Scalar(l), stiffness_[s], options_);
         }
       }
     }
@@ -140,7 +147,7 @@ class UnitEvaluator {
 
   // One posture, its kinematics broadcast to every lane, kLanes stiffness sets at a time.
   void SetLanes(long p, long s0, long s1) {
-    Data& ws = scalar_[0];
+    Data& ws = Scalar(0);
     if (!ComputeKinematics(model_, ws, postures_.col(p), muscle_, activation_)) {
       for (long s = s0; s < s1; ++s) Result(p, s) = WrenchResult{};
       return;
@@ -183,7 +190,7 @@ class UnitEvaluator {
   const SolveOptions& options_;
   WrenchResult* const results_;
   LaneWorkspace lanes_;
-  Data scalar_[kLanes];
+  std::optional<Data> scalar_[kLanes];
   WrenchResult padding_;
 };
 

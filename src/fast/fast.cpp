@@ -19,12 +19,13 @@
 namespace isowrench {
 namespace {
 // The eigen-solve used when the Cholesky pivots say K is (nearly) singular: the same rank and
-// excitation decisions as SolveStatics, on the workspace's fixed-size buffers. J: row-major,
-// 6 x m, row r at J + r * js.
-WrenchResult SolveByEigen(Data::Impl& ws, int m, const double* J, int js, const double* s_t,
+// excitation decisions as SolveStatics, on the workspace's buffers (a small chain's of fixed
+// size; a large chain's sized at construction). J: row-major, 6 x m, row r at J + r * js.
+template <class W>
+WrenchResult SolveByEigen(W& ws, int m, const double* J, int js, const double* s_t,
                           const double* s_p, const double* tau, const SolveOptions& options) {
   WrenchResult out;
-  JointMatrix& K = ws.K_full;
+  auto& K = ws.K_full;
   K.resize(m, m);
   for (int i = 0; i < m; ++i) {
     for (int j = 0; j <= i; ++j) {
@@ -45,8 +46,9 @@ WrenchResult SolveByEigen(Data::Impl& ws, int m, const double* J, int js, const 
   for (int i = 0; i < m; ++i) {
     if (lambda[i] <= threshold || lambda_max == 0.0) ++nulls;
   }
-  ws.dtheta.setZero(m);
-  ws.self_motion.resize(m, nulls);
+  ws.dtheta.setZero();
+  ws.self_motion_count = nulls;
+  Eigen::Map<Eigen::MatrixXd> self_motion(ws.self_motion_data.data(), m, nulls);
   bool excited = false;
   int c = 0;
   for (int i = 0; i < m; ++i) {
@@ -57,7 +59,7 @@ WrenchResult SolveByEigen(Data::Impl& ws, int m, const double* J, int js, const 
       Eigen::Index largest = 0;
       V.col(i).cwiseAbs().maxCoeff(&largest);
       const double sign = V(largest, i) < 0 ? -1.0 : 1.0;
-      ws.self_motion.col(c++) = sign * V.col(i);
+      self_motion.col(c++) = sign * V.col(i);
       if (std::abs(v_tau) > options.excitation_tolerance * tau_norm) excited = true;
     } else {
       ws.dtheta += V.col(i) * (v_tau / lambda[i]);
@@ -66,7 +68,7 @@ WrenchResult SolveByEigen(Data::Impl& ws, int m, const double* J, int js, const 
   out.self_motion_count = nulls;
   if (excited) {
     out.status = StaticsStatus::kSelfMotion;
-    ws.dtheta.setZero(m);
+    ws.dtheta.setZero();
     return out;
   }
   for (int r = 0; r < 6; ++r) {
@@ -117,73 +119,92 @@ ISOWRENCH_INLINE bool ValidSolveInput(int m_runtime, const double* s_t, const do
 }
 
 WrenchResult Invalid(Data::Impl& ws) {
-  ws.dtheta.setZero(ws.m);
-  ws.self_motion.resize(ws.m, 0);
+  ws.dtheta.setZero();
+  ws.self_motion_count = 0;
   return WrenchResult{};
 }
 
 // The statics of one evaluation (inputs checked first): the kernel's Cholesky (m fixed at
-// compile time up to 10) on J and S_t J, the eigen-solve when it cannot decide. J: row-major,
-// row stride kMaxDofs (Data::Impl::Jr). The result goes to `out`, which holds a default
-// WrenchResult (invalid input) on entry: written in place, the caller's result is not copied.
-template <int N>
-ISOWRENCH_INLINE void SolveWith(Data::Impl& ws, const double* J, const double* s_t,
-                                const double* s_p, const double* tau, const SolveOptions& options,
-                                WrenchResult& out) {
+// compile time up to 10 on a small chain; N < 0: a large chain's, m at run time) on J and
+// S_t J, the eigen-solve when it cannot decide. J: row-major, row stride ws.kStride
+// (Data::Impl::Jr). The result goes to `out`, which holds a default WrenchResult (invalid
+// input) on entry: written in place, the caller's result is not copied.
+template <int N, class W>
+ISOWRENCH_INLINE void SolveWith(W& ws, const double* J, const double* s_t, const double* s_p,
+                                const double* tau, const SolveOptions& options, WrenchResult& out) {
   const int m = N > 0 ? N : ws.m;
+  const int S = ws.kStride;
   if (!ValidSolveInput<N>(m, s_t, s_p, tau)) {
     Invalid(ws);
     return;
   }
   // S_t J, four columns per vector (up to the next multiple of 4: the Cholesky reads whole
-  // vectors).
-  alignas(32) double sJ[6 * kMaxDofs];
+  // vectors); on the stack for a small chain.
+  alignas(32) double sJ_small[W::kLarge ? 1 : 6 * kSmallJoints];
+  double* sJ = sJ_small;
+  kernel::CholeskyScratch<double> scratch;
+  if constexpr (W::kLarge) {
+    sJ = ws.sJ.data();
+    scratch = {ws.inv_diag_scratch.data(), ws.y_scratch.data()};
+  }
   ISOWRENCH_UNROLL
   for (int r = 0; r < 6; ++r) {
     const V4 scale = ISOWRENCH_V4_SPLAT(s_t[r]);
     ISOWRENCH_UNROLL
     for (int c = 0; c < (m + 3) / 4; ++c) {
       V4 v;
-      std::memcpy(&v, J + r * kMaxDofs + 4 * c, sizeof v);
+      std::memcpy(&v, J + r * S + 4 * c, sizeof v);
       v *= scale;
-      std::memcpy(sJ + r * kMaxDofs + 4 * c, &v, sizeof v);
+      std::memcpy(sJ + r * S + 4 * c, &v, sizeof v);
     }
   }
-  bool undecided;  // (dtheta has m entries from construction on)
-  kernel::Cholesky<N, true>(m, J, sJ, kMaxDofs, s_t, s_p, tau, options.cholesky_pivot_tolerance,
-                            ws.U, ws.dtheta.data(), out.wrench.data(), undecided);
+  bool undecided;  // (dtheta holds the stride's entries from construction on)
+  kernel::Cholesky<N, true>(m, J, sJ, S, s_t, s_p, tau, options.cholesky_pivot_tolerance,
+                            ws.U.data(), S, ws.dtheta_data.data(), out.wrench.data(), undecided,
+                            scratch);
   if (undecided) {
-    out = SolveByEigen(ws, m, J, kMaxDofs, s_t, s_p, tau, options);
+    out = SolveByEigen(ws, m, J, S, s_t, s_p, tau, options);
     return;
   }
   out.status = StaticsStatus::kOk;
-  ws.self_motion.resize(m, 0);
+  ws.self_motion_count = 0;
 }
 
-ISOWRENCH_INLINE void SolveAnyM(Data::Impl& ws, const double* J, const double* s_t,
-                                const double* s_p, const double* tau, const SolveOptions& options,
-                                WrenchResult& out) {
-  switch (ws.m) {
-    case 1: return SolveWith<1>(ws, J, s_t, s_p, tau, options, out);
-    case 2: return SolveWith<2>(ws, J, s_t, s_p, tau, options, out);
-    case 3: return SolveWith<3>(ws, J, s_t, s_p, tau, options, out);
-    case 4: return SolveWith<4>(ws, J, s_t, s_p, tau, options, out);
-    case 5: return SolveWith<5>(ws, J, s_t, s_p, tau, options, out);
-    case 6: return SolveWith<6>(ws, J, s_t, s_p, tau, options, out);
-    case 7: return SolveWith<7>(ws, J, s_t, s_p, tau, options, out);
-    case 8: return SolveWith<8>(ws, J, s_t, s_p, tau, options, out);
-    case 9: return SolveWith<9>(ws, J, s_t, s_p, tau, options, out);
-    case 10: return SolveWith<10>(ws, J, s_t, s_p, tau, options, out);
-    default: return SolveWith<0>(ws, J, s_t, s_p, tau, options, out);
+template <class W>
+ISOWRENCH_INLINE void SolveAnyM(W& ws, const double* J, const double* s_t, const double* s_p,
+                                const double* tau, const SolveOptions& options, WrenchResult& out) {
+  if constexpr (W::kLarge) {
+    SolveWith<-1>(ws, J, s_t, s_p, tau, options, out);
+  } else {
+    switch (ws.m) {
+      case 1: return SolveWith<1>(ws, J, s_t, s_p, tau, options, out);
+      case 2: return SolveWith<2>(ws, J, s_t, s_p, tau, options, out);
+      case 3: return SolveWith<3>(ws, J, s_t, s_p, tau, options, out);
+      case 4: return SolveWith<4>(ws, J, s_t, s_p, tau, options, out);
+      case 5: return SolveWith<5>(ws, J, s_t, s_p, tau, options, out);
+      case 6: return SolveWith<6>(ws, J, s_t, s_p, tau, options, out);
+      case 7: return SolveWith<7>(ws, J, s_t, s_p, tau, options, out);
+      case 8: return SolveWith<8>(ws, J, s_t, s_p, tau, options, out);
+      case 9: return SolveWith<9>(ws, J, s_t, s_p, tau, options, out);
+      case 10: return SolveWith<10>(ws, J, s_t, s_p, tau, options, out);
+      default: return SolveWith<0>(ws, J, s_t, s_p, tau, options, out);
+    }
   }
 }
 
-ISOWRENCH_CLONES WrenchResult SolveDispatch(Data::Impl& ws, const double* J, const double* s_t,
+template <class W>
+ISOWRENCH_CLONES WrenchResult SolveDispatch(W& ws, const double* J, const double* s_t,
                                             const double* s_p, const double* tau,
                                             const SolveOptions& options) {
   WrenchResult out;
   SolveAnyM(ws, J, s_t, s_p, tau, options, out);
   return out;
+}
+
+// Runs f on the workspace as its shape (SmallWorkspace or LargeWorkspace).
+template <class F>
+ISOWRENCH_INLINE auto WithShape(bool large, Data::Impl& ws, F&& f) {
+  return large ? f(static_cast<LargeWorkspace&>(ws)) : f(static_cast<SmallWorkspace&>(ws));
 }
 
 }  // namespace
@@ -208,28 +229,129 @@ std::string StatusMessage(const WrenchResult& result) {
 
 // ---- Data --------------------------------------------------------------------------
 
-Data::Impl::Impl(int dofs) : m(dofs), eigen(dofs) {
-  for (double& v : Jr) v = 0.0;
+Data::Impl::Impl(const WorkspaceSize& s, const FlatChain* chain)
+    : chain_id(chain != nullptr ? chain->id : 0),
+      model_name(chain != nullptr ? chain->name : ""),
+      size(s),
+      m(s.columns) {
   J.setZero(6, m);
-  dL.setZero(m);
-  tau.setZero(m);
-  dtheta.setZero(m);
-  K_full.setZero(m, m);
-  self_motion.resize(m, 0);
-  for (double& v : U) v = 0.0;
-  for (int c = m; c < (m + 3) / 4 * 4; ++c) {
-    staged[c] = staged[kW + c] = staged[kP + c] = ISOWRENCH_V4_SPLAT(0.0);
-  }
 }
 
-Data::Data(const Model& model) : impl_(std::make_unique<Impl>(model.dof_count())) {}
+Data::Impl::~Impl() = default;
+
+void Data::Impl::SetViews() {
+  new (&dL) Eigen::Map<Eigen::VectorXd>(dL_data.data(), m);
+  new (&tau) Eigen::Map<Eigen::VectorXd>(tau_data.data(), m);
+  new (&dtheta) Eigen::Map<Eigen::VectorXd>(dtheta_data.data(), m);
+}
+
+// Every array zeroed (value-initialised): the columns from m to the next multiple of 4 of J,
+// the staging, dL, tau and dtheta are read in whole vectors and must stay 0 (or finite).
+SmallWorkspace::SmallWorkspace(const WorkspaceSize& s, const FlatChain* chain)
+    : Impl(s, chain),
+      origin(),
+      axis(),
+      points(),
+      pulls(),
+      frames(),
+      q_joint(),
+      dq_joint(),
+      staged(),
+      Jr(),
+      dL_data(),
+      tau_data(),
+      dtheta_data(),
+      U(),
+      K_full(Matrix::Zero(s.columns, s.columns)),
+      eigen(s.columns),
+      self_motion_data(),
+      local(),
+      point_rotation(),
+      active(),
+      moving_slope() {
+  auto view = [](auto& array, std::size_t n) { return Buffer(array.data(), n); };
+  const auto joints = static_cast<std::size_t>(kSmallJoints);
+  const auto points_count = static_cast<std::size_t>(kSmallPoints);
+  Impl::origin = view(origin, joints);
+  Impl::axis = view(axis, joints);
+  Impl::points = view(points, points_count);
+  Impl::pulls = view(pulls, points_count);
+  Impl::frames = view(frames, joints);
+  Impl::q_joint = view(q_joint, joints);
+  Impl::dq_joint = view(dq_joint, joints);
+  Impl::Jr = view(Jr, Jr.size());
+  Impl::dL_data = view(dL_data, dL_data.size());
+  Impl::tau_data = view(tau_data, tau_data.size());
+  Impl::dtheta_data = view(dtheta_data, dtheta_data.size());
+  Impl::self_motion_data = view(self_motion_data, self_motion_data.size());
+  Impl::local = view(local, points_count);
+  Impl::point_rotation = view(point_rotation, points_count);
+  Impl::active = view(active, points_count);
+  Impl::moving_slope = view(moving_slope, moving_slope.size());
+  SetViews();
+}
+
+LargeWorkspace::LargeWorkspace(const WorkspaceSize& s, const FlatChain* chain)
+    : Impl(s, chain), K_full(Eigen::MatrixXd::Zero(s.columns, s.columns)), eigen(s.columns) {
+  kStride = s.stride;
+  kW = s.slots;
+  kP = 2 * s.slots;
+  cos_offset = RoundUpTo4(s.joints) + 4;
+  Lay(arena);
+  arena.Allocate();
+  Lay(arena);
+  SetViews();
+}
+
+// Every buffer, in one allocation, zeroed (as SmallWorkspace's arrays).
+void LargeWorkspace::Lay(WorkspaceArena& a) {
+  const auto joints = static_cast<std::size_t>(size.joints);
+  const auto points_count = static_cast<std::size_t>(size.points);
+  const auto stride = static_cast<std::size_t>(size.stride);
+  const auto columns = static_cast<std::size_t>(m);
+  a.Take(origin, joints);
+  a.Take(axis, joints);
+  a.Take(points, points_count);
+  a.Take(pulls, points_count);
+  a.Take(frames, joints);
+  a.Take(q_joint, joints);
+  a.Take(dq_joint, joints);
+  a.Take(staged, 3 * static_cast<std::size_t>(size.slots));
+  a.Take(trig, 2 * static_cast<std::size_t>(cos_offset));
+  // (J and its copies: 12 entries more, which the large Cholesky's last blocks read past row 5)
+  a.Take(Jr, 6 * stride + 12);
+  a.Take(dL_data, stride);
+  a.Take(tau_data, stride);
+  a.Take(dtheta_data, stride);
+  a.Take(U, stride * columns);
+  a.Take(sJ, 6 * stride + 12);
+  a.Take(locked_J, 6 * stride + 12);
+  a.Take(locked_tau, stride);
+  a.Take(s_p_copy, stride);
+  a.Take(inv_diag_scratch, columns);
+  a.Take(y_scratch, stride);  // (LargeSolveWithFactor writes whole vectors)
+  a.Take(self_motion_data, columns * columns);
+  a.Take(local, points_count);
+  a.Take(point_rotation, points_count);
+  a.Take(active, points_count);
+  a.Take(moving_slope, static_cast<std::size_t>(size.moving));
+}
+
+namespace {
+std::unique_ptr<Data::Impl> MakeWorkspace(const WorkspaceSize& size, const FlatChain* chain) {
+  if (size.large) return std::make_unique<LargeWorkspace>(size, chain);
+  return std::make_unique<SmallWorkspace>(size, chain);
+}
+}  // namespace
+
+Data::Data(const Model& model)
+    : impl_(MakeWorkspace(WorkspaceSize::Of(model.impl().flat), &model.impl().flat)) {}
 
 Data::Data(int dof_count) {
-  if (dof_count < 1 || dof_count > kMaxDofs) {
-    throw Error("Data: dof count " + std::to_string(dof_count) + " is not in [1, " +
-                std::to_string(kMaxDofs) + "]");
+  if (dof_count < 1) {
+    throw Error("Data: dof count " + std::to_string(dof_count) + " must be at least 1");
   }
-  impl_ = std::make_unique<Impl>(dof_count);
+  impl_ = MakeWorkspace(WorkspaceSize::Raw(dof_count), nullptr);
 }
 
 Data::~Data() = default;
@@ -237,8 +359,10 @@ Data::Data(Data&&) noexcept = default;
 Data& Data::operator=(Data&&) noexcept = default;
 
 const JacobianBuffer& Data::jacobian() const { return impl_->Jacobian(); }
-const JointVector& Data::tau() const { return impl_->tau; }
-const JointVector& Data::muscle_length_gradient() const { return impl_->dL; }
+JointVectorView Data::tau() const { return JointVectorView(impl_->tau_data.data(), impl_->m); }
+JointVectorView Data::muscle_length_gradient() const {
+  return JointVectorView(impl_->dL_data.data(), impl_->m);
+}
 double Data::muscle_length() const { return impl_->length; }
 const Eigen::Vector3d& Data::endpoint_position() const {
   impl_->endpoint_copy = impl_->Endpoint();
@@ -248,8 +372,12 @@ const Eigen::Matrix3d& Data::transducer_rotation() const {
   impl_->R_W_T_copy = impl_->TransducerRotation();
   return impl_->R_W_T_copy;
 }
-const JointVector& Data::dtheta() const { return impl_->dtheta; }
-const JointMatrix& Data::self_motion() const { return impl_->self_motion; }
+JointVectorView Data::dtheta() const {
+  return JointVectorView(impl_->dtheta_data.data(), impl_->m);
+}
+JointMatrixView Data::self_motion() const {
+  return JointMatrixView(impl_->self_motion_data.data(), impl_->m, impl_->self_motion_count);
+}
 // ---- Evaluation -----------------------------------------------------------------------------
 
 namespace {
@@ -260,9 +388,10 @@ const FastMuscle kNoMuscle{};  // the muscle of a kinematics call without one
 // ones the folds read), dq_joint_k/dq: joint k first takes coordinate k (four per vector), the
 // owners of FlatChain::moved_positions their coordinates, then the driven joints evaluate their
 // couplings.
-ISOWRENCH_INLINE void Couple(const FlatChain& d, Data::Impl& ws, const double* q) {
+template <class W>
+ISOWRENCH_INLINE void Couple(const FlatChain& d, W& ws, const double* q) {
   const int n = d.n;
-  double* q_joint = ws.q_joint;
+  double* q_joint = ws.q_joint.data();
   if (n >= 4) {  // whole vectors, the last one ending at n (it may overlap the one before)
     V4 v;
     for (int i = 0; i + 4 < n; i += 4) {
@@ -289,9 +418,10 @@ ISOWRENCH_INLINE void Couple(const FlatChain& d, Data::Impl& ws, const double* q
 // stored, muscle < 0 allowed, J in world axes if world_axes); the evaluation path runs
 // kFrames = false. A muscle with moving or conditional points runs the kDynamic
 // instantiation (out of line), the others the one where those steps are compiled out.
-// kCoupled: any chain (kernel::Kinematics); false: a chain without couplings only.
-template <bool kFrames, bool kDynamic, bool kCoupled>
-ISOWRENCH_INLINE bool Kinematics(const FlatChain& d, Data::Impl& ws, const double* q, int muscle,
+// kCoupled: any chain (kernel::Kinematics); false: a chain without couplings only. W: the
+// workspace's shape (SmallWorkspace, LargeWorkspace).
+template <bool kFrames, bool kDynamic, bool kCoupled, class W>
+ISOWRENCH_INLINE bool Kinematics(const FlatChain& d, W& ws, const double* q, int muscle,
                                  double activation, bool world_axes) {
   assert(ws.m == d.n);
   assert(muscle < static_cast<int>(d.muscles.size()) && (kFrames || muscle >= 0));
@@ -299,7 +429,7 @@ ISOWRENCH_INLINE bool Kinematics(const FlatChain& d, Data::Impl& ws, const doubl
   if (kDynamic) PreparePathPoints(mu, q, ws);
   if (kCoupled && d.coupled) {
     Couple(d, ws, q);
-    q = ws.q_joint;
+    q = ws.q_joint.data();
   }
   const double minus_force = -(activation * mu.max_force);
   const bool rotate = !d.transducer_identity && !(kFrames && world_axes);
@@ -314,34 +444,46 @@ ISOWRENCH_INLINE bool Kinematics(const FlatChain& d, Data::Impl& ws, const doubl
   return true;
 }
 
-template <bool kFrames>
-ISOWRENCH_NOINLINE bool DynamicKinematics(const FlatChain& d, Data::Impl& ws, const double* q,
-                                          int muscle, double activation, bool world_axes) {
+template <bool kFrames, class W>
+ISOWRENCH_NOINLINE bool DynamicKinematics(const FlatChain& d, W& ws, const double* q, int muscle,
+                                          double activation, bool world_axes) {
   return Kinematics<kFrames, true, true>(d, ws, q, muscle, activation, world_axes);
 }
 
 // ComputeKinematics on a chain with couplings, in a function of its own (as EvaluateChain, below:
 // inlined, it would crowd the registers and stack of the chains without couplings).
-ISOWRENCH_CLONES ISOWRENCH_NOINLINE bool CoupledKinematics(const FlatChain& d, Data::Impl& ws,
+template <class W>
+ISOWRENCH_CLONES ISOWRENCH_NOINLINE bool CoupledKinematics(const FlatChain& d, W& ws,
                                                            const double* q, int muscle,
                                                            double activation) {
   return Kinematics<false, false, true>(d, ws, q, muscle, activation, false);
 }
 
 // Muscles with moving or conditional points, the public kinematics functions and chains with
-// couplings run the general kernel; the evaluation of a chain without couplings its own.
-template <bool kFrames>
-ISOWRENCH_INLINE bool AnyKinematics(const FlatChain& d, Data::Impl& ws, const double* q, int muscle,
+// couplings run the general kernel; the evaluation of a small chain without couplings its own.
+// A large chain has two kernel instantiations only (compile time): the evaluation's general
+// kernel, and one with frames and moving points for everything else (the public kinematics
+// functions, any muscle or none; and the evaluations of muscles with moving points, which store
+// frames they do not need).
+template <bool kFrames, class W>
+ISOWRENCH_INLINE bool AnyKinematics(const FlatChain& d, W& ws, const double* q, int muscle,
                                     double activation, bool world_axes) {
-  if ((!kFrames || muscle >= 0) && d.muscles[muscle].dynamic) {
-    return DynamicKinematics<kFrames>(d, ws, q, muscle, activation, world_axes);
-  }
-  if constexpr (kFrames) {
-    return Kinematics<true, false, true>(d, ws, q, muscle, activation, world_axes);
-  } else if (d.coupled) {
+  if constexpr (W::kLarge) {
+    if (kFrames || d.muscles[muscle].dynamic) {
+      return DynamicKinematics<true>(d, ws, q, muscle, activation, kFrames && world_axes);
+    }
     return CoupledKinematics(d, ws, q, muscle, activation);
   } else {
-    return Kinematics<false, false, false>(d, ws, q, muscle, activation, world_axes);
+    if ((!kFrames || muscle >= 0) && d.muscles[muscle].dynamic) {
+      return DynamicKinematics<kFrames>(d, ws, q, muscle, activation, world_axes);
+    }
+    if constexpr (kFrames) {
+      return Kinematics<true, false, true>(d, ws, q, muscle, activation, world_axes);
+    } else if (d.coupled) {
+      return CoupledKinematics(d, ws, q, muscle, activation);
+    } else {
+      return Kinematics<false, false, false>(d, ws, q, muscle, activation, world_axes);
+    }
   }
 }
 
@@ -350,14 +492,25 @@ ISOWRENCH_INLINE bool AnyKinematics(const FlatChain& d, Data::Impl& ws, const do
 // least 1), so that K has an isolated diagonal there and dtheta is exactly 0 on them; the
 // other entries of dtheta and W are those of the statics without the locked columns. The
 // reported J and tau (ws.Jr, ws.tau) keep every column.
-ISOWRENCH_NOINLINE WrenchResult SolveLocked(const FlatChain& d, Data::Impl& ws,
+template <class W>
+ISOWRENCH_NOINLINE WrenchResult SolveLocked(const FlatChain& d, W& ws,
                                             const StiffnessSet& stiffness,
                                             const SolveOptions& options) {
-  constexpr int S = kMaxDofs;
+  const int S = ws.kStride;
   const int n = d.n;
-  alignas(32) double J[6 * S] = {};  // row-major, row stride S (as Data::Impl::Jr)
-  double tau[S];
-  double s_p[S];
+  // Row-major, row stride S (as Data::Impl::Jr): on the stack for a small chain (zeroed each
+  // time), in the workspace for a large one (zero from construction on past column n).
+  alignas(32) double J_small[W::kLarge ? 1 : 6 * kSmallJoints] = {};
+  double tau_small[W::kLarge ? 1 : kSmallJoints];
+  double s_p_small[W::kLarge ? 1 : kSmallJoints];
+  double* J = J_small;
+  double* tau = tau_small;
+  double* s_p = s_p_small;
+  if constexpr (W::kLarge) {
+    J = ws.locked_J.data();
+    tau = ws.locked_tau.data();
+    s_p = ws.s_p_copy.data();
+  }
   double scale = 1.0;
   for (int r = 0; r < 6; ++r) scale = std::max(scale, stiffness.s_t[r]);
   for (int c = 0; c < n; ++c) scale = std::max(scale, stiffness.s_p[c]);
@@ -372,30 +525,59 @@ ISOWRENCH_NOINLINE WrenchResult SolveLocked(const FlatChain& d, Data::Impl& ws,
   return SolveDispatch(ws, J, stiffness.s_t.data(), s_p, tau, options);
 }
 
+// A Data made for another model (or by Data(int)) runs this chain only when its buffers are
+// big enough for it (WorkspaceSize::Holds); otherwise the evaluation would write past them.
+ISOWRENCH_NOINLINE void CheckOtherWorkspace(const FlatChain& d, const Data::Impl& ws) {
+  if (ws.size.Holds(d)) return;
+  const std::string made_for = ws.model_name.empty()
+                                   ? "Data(" + std::to_string(ws.m) + ") (a raw-matrix solve)"
+                                   : "model '" + ws.model_name + "'";
+  throw Error(
+      "this Data was made for " + made_for + " (" + std::to_string(ws.m) + " coordinates, " +
+      std::to_string(ws.size.joints) + " movable joints, " + std::to_string(ws.size.points) +
+      " path points per muscle) and cannot evaluate model '" + d.name + "' (" +
+      std::to_string(d.n) + " coordinates, " + std::to_string(d.m) + " movable joints, " +
+      std::to_string(d.max_points) + " path points per muscle): make a Data(model) for each model");
+}
+
+// The workspace check of the kinematics entry points: one comparison for the Data made for this
+// model (and its copies).
+ISOWRENCH_INLINE void CheckWorkspace(const FlatChain& d, const Data::Impl& ws) {
+  if (__builtin_expect(ws.chain_id != d.id, 0)) CheckOtherWorkspace(d, ws);
+}
+
 }  // namespace
 
 ISOWRENCH_CLONES bool ComputeKinematics(const Model& model, Data& workspace,
                                         const Eigen::Ref<const Eigen::VectorXd>& q, int muscle,
                                         double activation) {
   assert(q.size() == model.dof_count());
-  return AnyKinematics<false>(model.impl().flat, workspace.impl(), q.data(), muscle, activation,
-                              false);
+  const FlatChain& d = model.impl().flat;
+  CheckWorkspace(d, workspace.impl());
+  return WithShape(d.large, workspace.impl(), [&](auto& ws) ISOWRENCH_LAMBDA_INLINE {
+    return AnyKinematics<false>(d, ws, q.data(), muscle, activation, false);
+  });
 }
 
-bool ComputeKinematicsWithFrames(const FlatChain& chain, Data::Impl& ws, const double* q,
+bool ComputeKinematicsWithFrames(const FlatChain& chain, Data::Impl& workspace, const double* q,
                                  int muscle, double activation, bool world_axes) {
-  return AnyKinematics<true>(chain, ws, q, muscle, activation, world_axes);
+  CheckWorkspace(chain, workspace);
+  return WithShape(chain.large, workspace, [&](auto& ws) {
+    return AnyKinematics<true>(chain, ws, q, muscle, activation, world_axes);
+  });
 }
 
 WrenchResult SolveStatics(const Model& model, Data& workspace, const StiffnessSet& stiffness,
                           const SolveOptions& options) {
   Data::Impl& ws = workspace.impl();
   const FlatChain& d = model.impl().flat;
-  assert(ws.m == d.n);
-  if (stiffness.s_p.size() != d.n) return Invalid(ws);
-  if (d.any_locked) return SolveLocked(d, ws, stiffness, options);
-  return SolveDispatch(ws, ws.Jr, stiffness.s_t.data(), stiffness.s_p.data(), ws.tau.data(),
-                       options);
+  // (a Data of another size: "a size does not match", kInvalidInput)
+  if (stiffness.s_p.size() != d.n || ws.m != d.n) return Invalid(ws);
+  return WithShape(ws.size.large, ws, [&](auto& w) {
+    if (d.any_locked) return SolveLocked(d, w, stiffness, options);
+    return SolveDispatch(w, w.Jr.data(), stiffness.s_t.data(), stiffness.s_p.data(),
+                         w.tau_data.data(), options);
+  });
 }
 
 namespace {
@@ -403,30 +585,40 @@ namespace {
 // ComputeKinematics and SolveStatics in one function (one call, the solve's m-dispatch inlined),
 // on a chain without couplings (kCoupled = false) or any chain (true). The result goes to
 // `out`, which holds a default WrenchResult (invalid input) on entry.
-template <bool kCoupled>
-ISOWRENCH_INLINE void EvaluateWith(const FlatChain& d, Data::Impl& ws, const double* q, int muscle,
+template <bool kCoupled, class W>
+ISOWRENCH_INLINE void EvaluateWith(const FlatChain& d, W& ws, const double* q, int muscle,
                                    const StiffnessSet& stiffness, double activation,
                                    const SolveOptions& options, WrenchResult& out) {
-  const bool valid = d.muscles[muscle].dynamic
-                         ? DynamicKinematics<false>(d, ws, q, muscle, activation, false)
-                         : Kinematics<false, false, kCoupled>(d, ws, q, muscle, activation, false);
+  bool valid;
+  if constexpr (W::kLarge) {  // (the kinematics and the solve out of line, each compiled once)
+    valid = AnyKinematics<false>(d, ws, q, muscle, activation, false);
+  } else {
+    valid = d.muscles[muscle].dynamic
+                ? DynamicKinematics<false>(d, ws, q, muscle, activation, false)
+                : Kinematics<false, false, kCoupled>(d, ws, q, muscle, activation, false);
+  }
   if (!valid || stiffness.s_p.size() != d.n) {
     Invalid(ws);
   } else if (d.any_locked) {
     out = SolveLocked(d, ws, stiffness, options);
+  } else if constexpr (W::kLarge) {
+    out = SolveDispatch(ws, ws.Jr.data(), stiffness.s_t.data(), stiffness.s_p.data(),
+                        ws.tau_data.data(), options);
   } else {
-    SolveAnyM(ws, ws.Jr, stiffness.s_t.data(), stiffness.s_p.data(), ws.tau.data(), options, out);
+    SolveAnyM(ws, ws.Jr.data(), stiffness.s_t.data(), stiffness.s_p.data(), ws.tau_data.data(),
+              options, out);
   }
 }
 
-// Evaluate on a chain without couplings (kCoupled = false) or with them: two functions, so that
-// neither shares the other's registers and stack.
-template <bool kCoupled>
+// Evaluate on a small chain without couplings (kCoupled = false), with them, or a large chain
+// (W = LargeWorkspace): three functions, so that none shares another's registers and stack.
+template <bool kCoupled, class W>
 ISOWRENCH_CLONES ISOWRENCH_NOINLINE WrenchResult EvaluateChain(
     const Model& model, Data& workspace, const Eigen::Ref<const Eigen::VectorXd>& q, int muscle,
     const StiffnessSet& stiffness, double activation, const SolveOptions& options) {
   const FlatChain& d = model.impl().flat;
-  Data::Impl& ws = workspace.impl();
+  CheckWorkspace(d, workspace.impl());
+  W& ws = static_cast<W&>(workspace.impl());
   assert(q.size() == d.n && ws.m == d.n);
   WrenchResult out;  // every path returns this object (no copy of the result)
   EvaluateWith<kCoupled>(d, ws, q.data(), muscle, stiffness, activation, options, out);
@@ -439,23 +631,34 @@ ISOWRENCH_CLONES WrenchResult Evaluate(const Model& model, Data& workspace,
                                        const Eigen::Ref<const Eigen::VectorXd>& q, int muscle,
                                        const StiffnessSet& stiffness, double activation,
                                        const SolveOptions& options) {
-  return model.impl().flat.coupled
-             ? EvaluateChain<true>(model, workspace, q, muscle, stiffness, activation, options)
-             : EvaluateChain<false>(model, workspace, q, muscle, stiffness, activation, options);
+  const FlatChain& d = model.impl().flat;
+  if (d.large) {
+    return EvaluateChain<true, LargeWorkspace>(model, workspace, q, muscle, stiffness, activation,
+                                               options);
+  }
+  return d.coupled ? EvaluateChain<true, SmallWorkspace>(model, workspace, q, muscle, stiffness,
+                                                         activation, options)
+                   : EvaluateChain<false, SmallWorkspace>(model, workspace, q, muscle, stiffness,
+                                                          activation, options);
 }
 
 WrenchResult SolveStatics(Data& workspace, const Eigen::Ref<const Matrix6Xd>& J,
                           const Vector6d& s_t, const Eigen::Ref<const Eigen::VectorXd>& s_p,
                           const Eigen::Ref<const Eigen::VectorXd>& tau,
                           const SolveOptions& options) {
-  Data::Impl& ws = workspace.impl();
-  const int m = ws.m;
-  if (J.cols() != m || s_p.size() != m || tau.size() != m || !J.allFinite()) return Invalid(ws);
-  ws.SetJacobian(J);
-  ws.tau = tau;
-  double s_p_copy[kMaxDofs];
-  for (int i = 0; i < m; ++i) s_p_copy[i] = s_p[i];
-  return SolveDispatch(ws, ws.Jr, s_t.data(), s_p_copy, ws.tau.data(), options);
+  Data::Impl& impl = workspace.impl();
+  const int m = impl.m;
+  if (J.cols() != m || s_p.size() != m || tau.size() != m || !J.allFinite()) return Invalid(impl);
+  impl.SetJacobian(J);
+  impl.tau = tau;
+  return WithShape(impl.size.large, impl, [&](auto& ws) {
+    using W = std::remove_reference_t<decltype(ws)>;
+    double s_p_small[W::kLarge ? 1 : kSmallJoints];
+    double* s_p_copy = s_p_small;
+    if constexpr (W::kLarge) s_p_copy = ws.s_p_copy.data();
+    for (int i = 0; i < m; ++i) s_p_copy[i] = s_p[i];
+    return SolveDispatch(ws, ws.Jr.data(), s_t.data(), s_p_copy, ws.tau_data.data(), options);
+  });
 }
 
 }  // namespace isowrench

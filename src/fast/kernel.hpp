@@ -15,27 +15,33 @@
 //   revolute  dL/dtheta_k = z_k . (sum x_i x g_i - o_k x sum g_i),  prismatic z_k . sum g_i,
 // over the points distal to joint k: O(m + points) instead of one point Jacobian per point.
 // Coupled chains: the sweep writes each joint's column at its slot (FlatChain::slot: its
-// coordinate's column, or a place past kMaxDofs), then each driven joint's slot is folded into
-// its column, J = J_joints C with C = dq_joint/dq (and dL/dq = C^T dL/dq_joint).
+// coordinate's column, or a place past the stride), then each driven joint's slot is folded
+// into its column, J = J_joints C with C = dq_joint/dq (and dL/dq = C^T dL/dq_joint).
 // Statics: K = J^T S_t J + S_p, Cholesky K = U^T U, two triangular solves, W = S_t J dtheta
 // (Cholesky).
 //
 // Vectors and frames are Vec3<T> (fast/vec3.hpp): for one posture x, y, z share one SIMD
 // register, for the lanes each component is a lane vector.
 //
-// A workspace W provides: `using Scalar = T`; Vec3<T> arrays origin, axis (kMaxDofs), points,
-// pulls (kFastMaxPathPoints), T array dq_joint (kMaxDofs; coupled chains), frames (kMaxDofs x 3
-// columns; only for kFrames); T length; and Resize(columns) before J, dL and tau are written.
-// The lanes also JacobianData() (row-major, row r at JacobianData() + r * JacobianStride(),
-// kMaxSlots columns) and TauData() (kMaxSlots entries); one posture SetPose(endpoint, R_W_T
-// columns) and the column staging `staged` (three arrays of kMaxSlots: v at 0, w at kW, the
-// terms of dL/dq at kP; FinishColumns reads the first n rounded up to whole groups of 4).
+// A workspace W (fast_impl.hpp: SmallWorkspace or LargeWorkspace; lanes.cpp: the lanes' two)
+// provides: `using Scalar = T`; kLarge (its shape: false, fixed-size arrays whose strides are
+// compile-time constants; true, buffers sized from the chain); Vec3<T> arrays origin, axis (one
+// per movable joint), points, pulls (one per path point), a T array dq_joint (per movable joint;
+// coupled chains), frames (3 columns per movable joint; only for kFrames); T length; and
+// Resize(columns) before J, dL and tau are written. The lanes also JacobianData() (row-major,
+// row r at JacobianData() + r * JacobianStride(), FlatChain::slot_count columns) and TauData()
+// (slot_count entries); one posture SetPose(endpoint, R_W_T columns), the column staging
+// `staged` (three arrays of slot_count: v at 0, w at kW, the terms of dL/dq at kP;
+// FinishColumns reads the first n rounded up to whole groups of 4), J, dL and tau (Jr,
+// dL_data, tau_data; row stride kStride), and for a large chain `trig` (sin and cos, cos at
+// cos_offset). Where W is a SmallWorkspace its kW, kP and kStride are constants.
 
 #include <Eigen/Core>
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
 #include <cstring>
+#include <limits>
 #include <type_traits>
 #include <utility>
 
@@ -48,8 +54,8 @@ namespace isowrench {
 namespace kernel {
 
 // The one-posture statics reads rows of J, S_t J and U four entries at a time up to the next
-// multiple of 4 past m; with m <= kMaxDofs that stays inside each row of kMaxDofs entries.
-static_assert(kMaxDofs % 4 == 0, "rows are read in whole 4-double vectors");
+// multiple of 4 past m; the row strides (FlatChain::stride) are multiples of 4 at least m.
+static_assert(kSmallJoints % 4 == 0, "rows are read in whole 4-double vectors");
 
 /// The result of a comparison (fast/vec3.hpp: LaneTypes).
 template <class T>
@@ -174,16 +180,16 @@ ISOWRENCH_INLINE void JointSinCos(const FlatChain& d, const double* q, double* s
   }
 }
 /// The point groups of a muscle without path points (FastMuscle), for any chain: the sentinels.
-inline constexpr int kNoForwardPoints[1] = {kMaxDofs};
+inline constexpr int kNoForwardPoints[1] = {std::numeric_limits<int>::max()};
 inline constexpr int kNoBackwardPoints[1] = {-1};
 
 /// One movable joint of the forward kinematics, compiled for its kind OP (FastJoint::op, 64
 /// kinds): the frame (M, o) moves to the joint (fixed transform), z = its world axis, and the
 /// joint turns M (revolute) or moves o along z (prismatic). One posture reads sin q and cos q
-/// from sc[0] and sc[kMaxDofs + 4] (JointSinCos); the lanes compute them.
+/// from sc[0] and sc[cos_offset] (JointSinCos); the lanes compute them.
 template <int OP, class T>
 ISOWRENCH_INLINE void JointStep(const FastJoint& j, Vec3<T>* M, Vec3<T>& o, Vec3<T>& z, const T& qk,
-                                const double* sc) {
+                                const double* sc, int cos_offset) {
   constexpr bool kRevolute = (OP & 1) != 0;
   constexpr int kAxis = (OP >> 1) & 3;        // 0/1/2: x/y/z, 3: general
   constexpr bool kNegative = (OP & 32) != 0;  // -x/-y/-z
@@ -200,7 +206,7 @@ ISOWRENCH_INLINE void JointStep(const FastJoint& j, Vec3<T>* M, Vec3<T>& o, Vec3
     T s, c;
     if constexpr (kScalar<T>) {
       s = sc[0];
-      c = sc[kMaxDofs + 4];
+      c = sc[cos_offset];
     } else {
       SinCos(qk, s, c);
     }
@@ -218,8 +224,8 @@ ISOWRENCH_INLINE void JointStep(const FastJoint& j, Vec3<T>* M, Vec3<T>& o, Vec3
 /// world axes, and the x, y and z terms of dL/dq) moved into J (row-major, turned into
 /// transducer axes when `rotate`), dL/dq and tau, four columns per step: a 4 x 4 transpose of
 /// the staged vectors gives four entries of a row at once.
-ISOWRENCH_INLINE void FinishColumns(Data::Impl& ws, int n, const V4* Rt, bool rotate,
-                                    double minus_force) {
+template <class W>
+ISOWRENCH_INLINE void FinishColumns(W& ws, int n, const V4* Rt, bool rotate, double minus_force) {
   // Rows x, y, z (lanes: columns c0 .. c0 + 3) of four staged vectors.
   auto rows = [](const V4* s, V4* out) ISOWRENCH_LAMBDA_INLINE {
     const V4 t0 = __builtin_shufflevector(s[0], s[1], 0, 4, 2, 6);
@@ -230,18 +236,18 @@ ISOWRENCH_INLINE void FinishColumns(Data::Impl& ws, int n, const V4* Rt, bool ro
     out[1] = __builtin_shufflevector(t1, t3, 0, 1, 4, 5);
     out[2] = __builtin_shufflevector(t0, t2, 2, 3, 6, 7);
   };
-  constexpr int S = kMaxDofs;
-  double* J = ws.Jr;
-  double* dL = ws.dL.data();
-  double* tau = ws.tau.data();
+  const int S = ws.kStride;
+  double* J = ws.Jr.data();
+  double* dL = ws.dL_data.data();
+  double* tau = ws.tau_data.data();
   // Compiled once with and once without the turn, so that the turn's setup (R_W_T's entries in
   // whole vectors) happens only when it is used.
   auto all_columns = [&](auto rotate_tag) ISOWRENCH_LAMBDA_INLINE {
     for (int c0 = 0; c0 < n; c0 += 4) {
       V4 r[6], p[3];
-      rows(ws.staged + c0, r);
-      rows(ws.staged + Data::Impl::kW + c0, r + 3);
-      rows(ws.staged + Data::Impl::kP + c0, p);
+      rows(&ws.staged[c0], r);
+      rows(&ws.staged[ws.kW + c0], r + 3);
+      rows(&ws.staged[ws.kP + c0], p);
       if constexpr (decltype(rotate_tag)::value) {  // R_W_T^T [v; w]: row i = sum_k R_ki row k
         V4 t[6];
         ISOWRENCH_UNROLL
@@ -311,82 +317,88 @@ ISOWRENCH_INLINE void Kinematics(const FlatChain& d, W& ws, const T* q, const Fa
 
   // The current frame lives in locals (registers): rotation M (three columns) and origin o; it
   // starts as the world frame.
-  // One posture: sin q_k at sin_q[k], cos q_k at sin_q[kMaxDofs + 4 + k] (+ 4: JointSinCos
-  // writes whole vectors).
-  double sin_q[2 * (kMaxDofs + 4)];
-  if constexpr (kScalar<T>) JointSinCos(d, q, sin_q, sin_q + kMaxDofs + 4);
+  // One posture: sin q_k at sin_q[k], cos q_k at sin_q[cos_offset + k] (+ 4: JointSinCos
+  // writes whole vectors); on the stack for a small chain, in the workspace for a large one.
+  double sin_small[W::kLarge ? 1 : 2 * (kSmallJoints + 4)];
+  double* sin_q = sin_small;
+  int cos_offset = kSmallJoints + 4;
+  if constexpr (W::kLarge && kScalar<T>) {
+    sin_q = ws.trig.data();
+    cos_offset = ws.cos_offset;
+  }
+  if constexpr (kScalar<T>) JointSinCos(d, q, sin_q, sin_q + cos_offset);
   V3 M[3] = {Unit3<T>(0), Unit3<T>(1), Unit3<T>(2)};
   V3 o = Zero3<T>();
   for (int k = 0; k < m; ++k) {
     const FastJoint& j = joints[k];
     V3& z = ws.axis[k];
     const T qk = q[k];
-    const double* sc = sin_q + k;  // one posture: sin q_k, and cos q_k at sc[kMaxDofs + 4]
+    const double* sc = sin_q + k;  // one posture: sin q_k, and cos q_k at sc[cos_offset]
     switch (j.op) {  // one jump per joint to the step compiled for its kind (JointStep)
-      case 0: JointStep<0>(j, M, o, z, qk, sc); break;
-      case 1: JointStep<1>(j, M, o, z, qk, sc); break;
-      case 2: JointStep<2>(j, M, o, z, qk, sc); break;
-      case 3: JointStep<3>(j, M, o, z, qk, sc); break;
-      case 4: JointStep<4>(j, M, o, z, qk, sc); break;
-      case 5: JointStep<5>(j, M, o, z, qk, sc); break;
-      case 6: JointStep<6>(j, M, o, z, qk, sc); break;
-      case 7: JointStep<7>(j, M, o, z, qk, sc); break;
-      case 8: JointStep<8>(j, M, o, z, qk, sc); break;
-      case 9: JointStep<9>(j, M, o, z, qk, sc); break;
-      case 10: JointStep<10>(j, M, o, z, qk, sc); break;
-      case 11: JointStep<11>(j, M, o, z, qk, sc); break;
-      case 12: JointStep<12>(j, M, o, z, qk, sc); break;
-      case 13: JointStep<13>(j, M, o, z, qk, sc); break;
-      case 14: JointStep<14>(j, M, o, z, qk, sc); break;
-      case 15: JointStep<15>(j, M, o, z, qk, sc); break;
-      case 16: JointStep<16>(j, M, o, z, qk, sc); break;
-      case 17: JointStep<17>(j, M, o, z, qk, sc); break;
-      case 18: JointStep<18>(j, M, o, z, qk, sc); break;
-      case 19: JointStep<19>(j, M, o, z, qk, sc); break;
-      case 20: JointStep<20>(j, M, o, z, qk, sc); break;
-      case 21: JointStep<21>(j, M, o, z, qk, sc); break;
-      case 22: JointStep<22>(j, M, o, z, qk, sc); break;
-      case 23: JointStep<23>(j, M, o, z, qk, sc); break;
-      case 24: JointStep<24>(j, M, o, z, qk, sc); break;
-      case 25: JointStep<25>(j, M, o, z, qk, sc); break;
-      case 26: JointStep<26>(j, M, o, z, qk, sc); break;
-      case 27: JointStep<27>(j, M, o, z, qk, sc); break;
-      case 28: JointStep<28>(j, M, o, z, qk, sc); break;
-      case 29: JointStep<29>(j, M, o, z, qk, sc); break;
-      case 30: JointStep<30>(j, M, o, z, qk, sc); break;
-      case 31: JointStep<31>(j, M, o, z, qk, sc); break;
-      case 32: JointStep<32>(j, M, o, z, qk, sc); break;
-      case 33: JointStep<33>(j, M, o, z, qk, sc); break;
-      case 34: JointStep<34>(j, M, o, z, qk, sc); break;
-      case 35: JointStep<35>(j, M, o, z, qk, sc); break;
-      case 36: JointStep<36>(j, M, o, z, qk, sc); break;
-      case 37: JointStep<37>(j, M, o, z, qk, sc); break;
-      case 38: JointStep<38>(j, M, o, z, qk, sc); break;
-      case 39: JointStep<39>(j, M, o, z, qk, sc); break;
-      case 40: JointStep<40>(j, M, o, z, qk, sc); break;
-      case 41: JointStep<41>(j, M, o, z, qk, sc); break;
-      case 42: JointStep<42>(j, M, o, z, qk, sc); break;
-      case 43: JointStep<43>(j, M, o, z, qk, sc); break;
-      case 44: JointStep<44>(j, M, o, z, qk, sc); break;
-      case 45: JointStep<45>(j, M, o, z, qk, sc); break;
-      case 46: JointStep<46>(j, M, o, z, qk, sc); break;
-      case 47: JointStep<47>(j, M, o, z, qk, sc); break;
-      case 48: JointStep<48>(j, M, o, z, qk, sc); break;
-      case 49: JointStep<49>(j, M, o, z, qk, sc); break;
-      case 50: JointStep<50>(j, M, o, z, qk, sc); break;
-      case 51: JointStep<51>(j, M, o, z, qk, sc); break;
-      case 52: JointStep<52>(j, M, o, z, qk, sc); break;
-      case 53: JointStep<53>(j, M, o, z, qk, sc); break;
-      case 54: JointStep<54>(j, M, o, z, qk, sc); break;
-      case 55: JointStep<55>(j, M, o, z, qk, sc); break;
-      case 56: JointStep<56>(j, M, o, z, qk, sc); break;
-      case 57: JointStep<57>(j, M, o, z, qk, sc); break;
-      case 58: JointStep<58>(j, M, o, z, qk, sc); break;
-      case 59: JointStep<59>(j, M, o, z, qk, sc); break;
-      case 60: JointStep<60>(j, M, o, z, qk, sc); break;
-      case 61: JointStep<61>(j, M, o, z, qk, sc); break;
-      case 62: JointStep<62>(j, M, o, z, qk, sc); break;
-      case 63: JointStep<63>(j, M, o, z, qk, sc); break;
+      case 0: JointStep<0>(j, M, o, z, qk, sc, cos_offset); break;
+      case 1: JointStep<1>(j, M, o, z, qk, sc, cos_offset); break;
+      case 2: JointStep<2>(j, M, o, z, qk, sc, cos_offset); break;
+      case 3: JointStep<3>(j, M, o, z, qk, sc, cos_offset); break;
+      case 4: JointStep<4>(j, M, o, z, qk, sc, cos_offset); break;
+      case 5: JointStep<5>(j, M, o, z, qk, sc, cos_offset); break;
+      case 6: JointStep<6>(j, M, o, z, qk, sc, cos_offset); break;
+      case 7: JointStep<7>(j, M, o, z, qk, sc, cos_offset); break;
+      case 8: JointStep<8>(j, M, o, z, qk, sc, cos_offset); break;
+      case 9: JointStep<9>(j, M, o, z, qk, sc, cos_offset); break;
+      case 10: JointStep<10>(j, M, o, z, qk, sc, cos_offset); break;
+      case 11: JointStep<11>(j, M, o, z, qk, sc, cos_offset); break;
+      case 12: JointStep<12>(j, M, o, z, qk, sc, cos_offset); break;
+      case 13: JointStep<13>(j, M, o, z, qk, sc, cos_offset); break;
+      case 14: JointStep<14>(j, M, o, z, qk, sc, cos_offset); break;
+      case 15: JointStep<15>(j, M, o, z, qk, sc, cos_offset); break;
+      case 16: JointStep<16>(j, M, o, z, qk, sc, cos_offset); break;
+      case 17: JointStep<17>(j, M, o, z, qk, sc, cos_offset); break;
+      case 18: JointStep<18>(j, M, o, z, qk, sc, cos_offset); break;
+      case 19: JointStep<19>(j, M, o, z, qk, sc, cos_offset); break;
+      case 20: JointStep<20>(j, M, o, z, qk, sc, cos_offset); break;
+      case 21: JointStep<21>(j, M, o, z, qk, sc, cos_offset); break;
+      case 22: JointStep<22>(j, M, o, z, qk, sc, cos_offset); break;
+      case 23: JointStep<23>(j, M, o, z, qk, sc, cos_offset); break;
+      case 24: JointStep<24>(j, M, o, z, qk, sc, cos_offset); break;
+      case 25: JointStep<25>(j, M, o, z, qk, sc, cos_offset); break;
+      case 26: JointStep<26>(j, M, o, z, qk, sc, cos_offset); break;
+      case 27: JointStep<27>(j, M, o, z, qk, sc, cos_offset); break;
+      case 28: JointStep<28>(j, M, o, z, qk, sc, cos_offset); break;
+      case 29: JointStep<29>(j, M, o, z, qk, sc, cos_offset); break;
+      case 30: JointStep<30>(j, M, o, z, qk, sc, cos_offset); break;
+      case 31: JointStep<31>(j, M, o, z, qk, sc, cos_offset); break;
+      case 32: JointStep<32>(j, M, o, z, qk, sc, cos_offset); break;
+      case 33: JointStep<33>(j, M, o, z, qk, sc, cos_offset); break;
+      case 34: JointStep<34>(j, M, o, z, qk, sc, cos_offset); break;
+      case 35: JointStep<35>(j, M, o, z, qk, sc, cos_offset); break;
+      case 36: JointStep<36>(j, M, o, z, qk, sc, cos_offset); break;
+      case 37: JointStep<37>(j, M, o, z, qk, sc, cos_offset); break;
+      case 38: JointStep<38>(j, M, o, z, qk, sc, cos_offset); break;
+      case 39: JointStep<39>(j, M, o, z, qk, sc, cos_offset); break;
+      case 40: JointStep<40>(j, M, o, z, qk, sc, cos_offset); break;
+      case 41: JointStep<41>(j, M, o, z, qk, sc, cos_offset); break;
+      case 42: JointStep<42>(j, M, o, z, qk, sc, cos_offset); break;
+      case 43: JointStep<43>(j, M, o, z, qk, sc, cos_offset); break;
+      case 44: JointStep<44>(j, M, o, z, qk, sc, cos_offset); break;
+      case 45: JointStep<45>(j, M, o, z, qk, sc, cos_offset); break;
+      case 46: JointStep<46>(j, M, o, z, qk, sc, cos_offset); break;
+      case 47: JointStep<47>(j, M, o, z, qk, sc, cos_offset); break;
+      case 48: JointStep<48>(j, M, o, z, qk, sc, cos_offset); break;
+      case 49: JointStep<49>(j, M, o, z, qk, sc, cos_offset); break;
+      case 50: JointStep<50>(j, M, o, z, qk, sc, cos_offset); break;
+      case 51: JointStep<51>(j, M, o, z, qk, sc, cos_offset); break;
+      case 52: JointStep<52>(j, M, o, z, qk, sc, cos_offset); break;
+      case 53: JointStep<53>(j, M, o, z, qk, sc, cos_offset); break;
+      case 54: JointStep<54>(j, M, o, z, qk, sc, cos_offset); break;
+      case 55: JointStep<55>(j, M, o, z, qk, sc, cos_offset); break;
+      case 56: JointStep<56>(j, M, o, z, qk, sc, cos_offset); break;
+      case 57: JointStep<57>(j, M, o, z, qk, sc, cos_offset); break;
+      case 58: JointStep<58>(j, M, o, z, qk, sc, cos_offset); break;
+      case 59: JointStep<59>(j, M, o, z, qk, sc, cos_offset); break;
+      case 60: JointStep<60>(j, M, o, z, qk, sc, cos_offset); break;
+      case 61: JointStep<61>(j, M, o, z, qk, sc, cos_offset); break;
+      case 62: JointStep<62>(j, M, o, z, qk, sc, cos_offset); break;
+      case 63: JointStep<63>(j, M, o, z, qk, sc, cos_offset); break;
       default: __builtin_unreachable();
     }
     ws.origin[k] = o;
@@ -457,7 +469,7 @@ ISOWRENCH_INLINE void Kinematics(const FlatChain& d, W& ws, const T* q, const Fa
   // posture stages each column in world axes (ws.staged: v, w and the terms of the dot product
   // dL/dq) and FinishColumns moves them into J, dL and tau four columns at a time; the lanes
   // write them directly. On a coupled chain joint k writes slot d.slot[k] (its column, or a
-  // place past kMaxDofs that a fold adds into its column after the sweep).
+  // place past the stride that a fold adds into its column after the sweep).
   V3 ps = Zero3<T>();  // sum of pulls distal to joint k
   V3 ms = Zero3<T>();  // sum of their moments about the world origin
   T* J = nullptr;      // the lanes' J (row-major, row r at J + r * js) and tau
@@ -474,7 +486,8 @@ ISOWRENCH_INLINE void Kinematics(const FlatChain& d, W& ws, const T* q, const Fa
     constexpr bool kRotate = decltype(rotate_tag)::value;
     V3 RtT[3];  // the lanes turn each column: R_W_T^T v = RtT v
     if constexpr (kRotate && !kScalar<T>) Transpose(Rt, RtT);
-    const std::uint32_t revolute_mask = d.revolute_mask;
+    const std::uint32_t revolute_mask = d.revolute_mask;                // a small chain's joints
+    [[maybe_unused]] const std::uint8_t* revolute = d.revolute.data();  // a large chain's
     // Joint k: its points' pulls and moments, then its column into slot s.
     auto joint = [&](int k, int s) ISOWRENCH_LAMBDA_INLINE {
       if (k == backward[0]) {  // the points of frame k
@@ -496,10 +509,10 @@ ISOWRENCH_INLINE void Kinematics(const FlatChain& d, W& ws, const T* q, const Fa
                      auto revolute_tag) ISOWRENCH_LAMBDA_INLINE {
         constexpr bool kRevolute = decltype(revolute_tag)::value;
         if constexpr (kScalar<T>) {  // staged in world axes; FinishColumns turns them
-          V3* col = ws.staged + s;
+          V3* col = &ws.staged[s];
           col[0] = v;
-          col[W::kW] = w;
-          col[W::kP] = Hadamard(z, b);
+          col[ws.kW] = w;
+          col[ws.kP] = Hadamard(z, b);
         } else {
           T dl;
           Dot(z, b, dl);
@@ -521,7 +534,13 @@ ISOWRENCH_INLINE void Kinematics(const FlatChain& d, W& ws, const T* q, const Fa
           }
         }
       };
-      if ((revolute_mask >> k) & 1u) {
+      bool is_revolute;
+      if constexpr (W::kLarge) {
+        is_revolute = revolute[k] != 0;
+      } else {
+        is_revolute = ((revolute_mask >> k) & 1u) != 0;
+      }
+      if (is_revolute) {
         const V3& ok = ws.origin[k];
         put(Cross(z, pe - ok), z, ms - Cross(ok, ps), std::true_type{});
       } else {
@@ -540,16 +559,16 @@ ISOWRENCH_INLINE void Kinematics(const FlatChain& d, W& ws, const T* q, const Fa
   } else {
     sweep(std::false_type{});
   }
-  // Coupled chains: each slot past kMaxDofs into its column, J = J_joints C and the same for
+  // Coupled chains: each slot past the stride into its column, J = J_joints C and the same for
   // dL/dq (one posture: the staged terms) or tau (the lanes); columns no joint drives are 0.
   if constexpr (kCoupled) {
     for (const FlatChain::DrivenJoint& f : d.driven_joints) {
       const T c = ws.dq_joint[f.joint];
       if constexpr (kScalar<T>) {
-        const V3* from = ws.staged + f.slot;
-        V3* to = ws.staged + f.column;
+        const V3* from = &ws.staged[f.slot];
+        V3* to = &ws.staged[f.column];
         ISOWRENCH_UNROLL
-        for (const int i : {0, W::kW, W::kP}) {
+        for (const int i : {0, int(ws.kW), int(ws.kP)}) {
           if (f.set) {
             to[i] = from[i] * c;
           } else {
@@ -572,7 +591,7 @@ ISOWRENCH_INLINE void Kinematics(const FlatChain& d, W& ws, const T* q, const Fa
     }
     for (const int c : d.undriven_columns) {
       if constexpr (kScalar<T>) {
-        ws.staged[c] = ws.staged[W::kW + c] = ws.staged[W::kP + c] = Zero3<T>();
+        ws.staged[c] = ws.staged[ws.kW + c] = ws.staged[ws.kP + c] = Zero3<T>();
       } else {
         tau[c] = zero;
         for (int r = 0; r < 6; ++r) J[r * js + c] = zero;
@@ -596,17 +615,17 @@ ISOWRENCH_INLINE void Combine(V& e, const V& product) {
   }
 }
 
-/// One row of the statics (entries 0 .. N - 1, N > 0; N = 0: kMaxDofs entries, the first m
-/// used), for the row-by-row Cholesky below. The lanes (T = V4) hold one lane vector per entry;
-/// one posture (T = double) holds four entries per V4, so that a row update is one vector
-/// multiply-add per four entries. Operations act on the entries i >= from (for T = double from
-/// the start of the V4 holding entry `from`: the entries below it in that vector are computed
-/// too and never read). Rows read from memory (J, U) are stored with consecutive entries; for
-/// T = double a row may be read up to the next multiple of 4 past m (the callers' buffers hold
-/// those entries; their values are never used).
+/// One row of the statics (entries 0 .. N - 1, N > 0; N = 0: kSmallJoints entries, the first m
+/// used), for the row-by-row Cholesky of a small chain below (a large one: LargeFactor). The lanes
+/// (T = V4) hold one lane vector per entry; one posture (T = double) holds four entries per V4, so
+/// that a row update is one vector multiply-add per four entries. Operations act on the entries i
+/// >= from (for T = double from the start of the V4 holding entry `from`: the entries below it in
+/// that vector are computed too and never read). Rows read from memory (J, U) are stored with
+/// consecutive entries; for T = double a row may be read up to the next multiple of 4 past m (the
+/// callers' buffers hold those entries; their values are never used).
 template <int N, class T, bool kVectorised = kScalar<T>>
 struct Row {
-  static constexpr int kEntries = N > 0 ? N : kMaxDofs;
+  static constexpr int kEntries = N > 0 ? N : kSmallJoints;
   T e[kEntries];
   /// e_i (=, +=, -=) a x_i for i in [from, m).
   template <RowUpdate kHow>
@@ -624,7 +643,7 @@ struct Row {
 
 template <int N>
 struct Row<N, double, true> {
-  static constexpr int kChunks = (N > 0 ? N + 3 : kMaxDofs) / 4;
+  static constexpr int kChunks = (N > 0 ? N + 3 : kSmallJoints) / 4;
   V4 e[kChunks];
   template <RowUpdate kHow>
   ISOWRENCH_INLINE void Update(double a, const double* x, int from, int m) {
@@ -645,6 +664,14 @@ struct Row<N, double, true> {
       std::memcpy(out + 4 * c, &v, sizeof v);
     }
   }
+};
+
+/// The Cholesky's buffers for a large chain (N < 0): the reciprocal diagonal and the forward
+/// substitution (m each). A small chain keeps them on the stack (nullptr).
+template <class T>
+struct CholeskyScratch {
+  T* inv_diag = nullptr;
+  T* y = nullptr;
 };
 
 /// One posture: wrench_r = sum_j sJ_rj x_j for the 6 rows of S_t J (row r at sJ + r * js), four
@@ -690,57 +717,203 @@ ISOWRENCH_INLINE void ScaledRowsTimes(int m_runtime, const double* sJ, int js, d
   undecided |= ((nonfinite[0] + nonfinite[1]) + (nonfinite[2] + nonfinite[3])) != 0.0;
 }
 
-/// The statics for one lane type: K = J^T S_t J + S_p, its Cholesky factor U (K = U^T U, row k
-/// of U at U[k * kMaxDofs + i], i >= k), dtheta = K^-1 tau into x and W = S_t J dtheta into
-/// wrench. Row j of K is formed just before row j of U needs it (K itself is never stored), as
-/// one Row: K_j = sum_r (s_t,r J_rj) J_r (rows J_r of J), then K_j - sum_{k<j} U_kj U_k.
-/// J: row-major, row r at J + r * js (js >= m; for T = double the buffer must hold
-/// 4 ceil(m / 4) entries past the start of the last row, and so must x). kScaled: sJ holds S_t J
-/// in the same layout (one posture: each coefficient s_t,r J_rj is then one broadcast from
-/// memory, and W is formed four entries of a row at a time by ScaledRowsTimes); else sJ is not
-/// read. N > 0 fixes m at compile time (loops unroll). Sets `undecided` on the lanes it
-/// cannot decide: K not clearly positive definite (a pivot at or below pivot_tolerance times the
-/// largest diagonal entry of K; the scalar path then returns before the substitutions, leaving x
-/// and wrench unwritten) or a non-finite W.
-template <int N, bool kScaled, class T>
-ISOWRENCH_INLINE void Cholesky(int m_runtime, const T* J, const T* sJ, int js, const T* s_t,
-                               const T* s_p, const T* tau, double pivot_tolerance, T* U, T* x,
-                               T* wrench, Mask<T>& undecided) {
-  constexpr int S = kMaxDofs;
-  const int m = N > 0 ? N : std::min(m_runtime, S);
-  T max_diag = T{}, min_pivot = T{};
-  T inv_diag[S];
-  ISOWRENCH_UNROLL
-  for (int j = 0; j < m; ++j) {
-    // Lanes: J and U are read from memory again for each row (a compiler barrier): otherwise
-    // GCC keeps every entry of J it loaded live across the unrolled rows and spills them all.
-    if constexpr (!kScalar<T>) ISOWRENCH_COMPILER_BARRIER();
-    Row<N, T> row{};  // (entries below j are never read; {} for GCC's -Wmaybe-uninitialized)
-    row.template Update<RowUpdate::kSet>(kScaled ? sJ[j] : s_t[0] * J[j], J, j, m);
-    ISOWRENCH_UNROLL
-    for (int r = 1; r < 6; ++r) {
-      row.template Update<RowUpdate::kAdd>(kScaled ? sJ[r * js + j] : s_t[r] * J[r * js + j],
-                                           J + r * js, j, m);
+/// A large chain's rows of the Cholesky (N < 0), in blocks: kGroups groups of row j of K - the
+/// sum of the rows of U above it (one posture: a group is 4 consecutive entries, one V4; the
+/// lanes: one entry, one lane vector), from group g0 on, kept in registers while every source
+/// is added in (the 6 rows of J with their coefficients s_t,r J_rj, then the j rows of U above
+/// with U_kj), each source entry read once from memory; then scaled by `inv` and stored into row
+/// j of U. One pass over a whole row in memory per source (the small chains' Row, whose rows
+/// live in registers) costs several times as many instructions once a row no longer fits.
+template <int kGroups, bool kScaled, class T>
+ISOWRENCH_INLINE void LargeRowBlock(int j, int g0, const T* J, const T* sJ, int js, const T* s_t,
+                                    const T* U, int S, V4* acc) {
+  auto load = [](const T* row, int g) ISOWRENCH_LAMBDA_INLINE {
+    if constexpr (kScalar<T>) {
+      V4 v;
+      std::memcpy(&v, row + 4 * g, sizeof v);
+      return v;
+    } else {
+      return row[g];
     }
-    T k_jj, dj;
-    row.Get(j, k_jj);
-    k_jj += s_p[j];
+  };
+  auto splat = [](const T& a) ISOWRENCH_LAMBDA_INLINE {
+    if constexpr (kScalar<T>) {
+      return ISOWRENCH_V4_SPLAT(a);
+    } else {
+      return a;
+    }
+  };
+  ISOWRENCH_UNROLL
+  for (int r = 0; r < 6; ++r) {
+    const V4 a = splat(kScaled ? sJ[r * js + j] : s_t[r] * J[r * js + j]);
     ISOWRENCH_UNROLL
-    for (int k = 0; k < j; ++k)
-      row.template Update<RowUpdate::kSubtract>(U[k * S + j], U + k * S, j, m);
-    row.Get(j, dj);
-    dj += s_p[j];
-    // Pivots are judged once K's largest diagonal entry is known (below); a pivot <= 0 makes
-    // the rest of this factor NaN or inf, which only the undecided lanes see.
+    for (int i = 0; i < kGroups; ++i) {
+      const V4 product = a * load(J + r * js, g0 + i);
+      acc[i] = r == 0 ? product : acc[i] + product;
+    }
+  }
+  const T* u = U;  // row k of U
+  for (int k = 0; k < j; ++k, u += S) {
+    const V4 a = splat(u[j]);
+    ISOWRENCH_UNROLL
+    for (int i = 0; i < kGroups; ++i) acc[i] -= a * load(u, g0 + i);
+  }
+}
+
+/// Stores `count` (1 .. 4) groups `acc` times inv into row j of U from group g0 on.
+template <class T>
+ISOWRENCH_INLINE void LargeRowStore(int count, int j, int g0, T* U, int S, const V4* acc,
+                                    const T& inv) {
+  for (int i = 0; i < count; ++i) {
+    if constexpr (kScalar<T>) {
+      const V4 v = acc[i] * ISOWRENCH_V4_SPLAT(inv);
+      std::memcpy(U + j * S + 4 * (g0 + i), &v, sizeof v);
+    } else {
+      U[j * S + g0 + i] = acc[i] * inv;
+    }
+  }
+}
+
+/// The factor of a large chain (N < 0): rows of U formed block by block (LargeRowBlock, four
+/// groups per block; the last block of a row reads up to three groups past the row's end, which
+/// the workspaces' J buffers hold and whose sums are not stored), the pivot of row j (from its
+/// first block) scaling its blocks. The same sums as the small chains' rows, in the same order
+/// per entry.
+template <bool kScaled, class T>
+ISOWRENCH_INLINE void LargeFactor(int m, const T* J, const T* sJ, int js, const T* s_t,
+                                  const T* s_p, T* U, int S, T* inv_diag, T& max_diag,
+                                  T& min_pivot) {
+  constexpr int kBlock = 4;
+  const int groups = kScalar<T> ? (m + 3) / 4 : m;
+  for (int j = 0; j < m; ++j) {
+    // K_jj (the largest diagonal entry of K judges the pivots): sum_r s_t,r J_rj^2 + s_p,j.
+    auto term = [&](int r) ISOWRENCH_LAMBDA_INLINE {
+      return (kScaled ? sJ[r * js + j] : s_t[r] * J[r * js + j]) * J[r * js + j];
+    };
+    T k_jj = term(0);
+    for (int r = 1; r < 6; ++r) k_jj += term(r);
+    k_jj += s_p[j];
+    const int first = kScalar<T> ? j / 4 : j;
+    V4 acc[kBlock];
+    LargeRowBlock<kBlock, kScaled>(j, first, J, sJ, js, s_t, U, S, acc);
+    T dj;
+    if constexpr (kScalar<T>) {
+      dj = acc[0][j % 4] + s_p[j];
+    } else {
+      dj = acc[0] + s_p[j];
+    }
     max_diag = j == 0 ? k_jj : (k_jj > max_diag ? k_jj : max_diag);
     min_pivot = j == 0 ? dj : (dj < min_pivot ? dj : min_pivot);
     T root;
     Sqrt(dj, root);
     const T inv = 1.0 / root;
     inv_diag[j] = inv;
-    // U_jj is written too (without s_p: not the factor's diagonal) but never read: the
-    // substitutions use inv_diag.
-    row.StoreScaled(U + j * S, inv, j, m);
+    // (U_jj is written too, without s_p, and never read, as for small chains)
+    LargeRowStore(std::min(kBlock, groups - first), j, first, U, S, acc, inv);
+    for (int g = first + kBlock; g < groups; g += kBlock) {
+      LargeRowBlock<kBlock, kScaled>(j, g, J, sJ, js, s_t, U, S, acc);
+      LargeRowStore(std::min(kBlock, groups - g), j, g, U, S, acc, inv);
+    }
+  }
+}
+
+/// One posture's substitutions for a large chain (U^T U x = b; m at run time), four entries per
+/// vector: the forward one by columns (y -= y_k times row k of U, which is contiguous), the
+/// backward one by rows (a dot product of row i with x); the first entries up to a multiple of
+/// 4 one by one. y and x hold RoundUpTo4(m) entries, x zero past m; U's rows are read up to
+/// RoundUpTo4(m) (finite: the factor's padding columns are formed from J's zero columns).
+ISOWRENCH_INLINE void LargeSolveWithFactor(int m, const double* U, int S, const double* inv_diag,
+                                           const double* b, double* y, double* x) {
+  for (int i = 0; i < m; ++i) y[i] = b[i];
+  for (int k = 0; k < m; ++k) {
+    const double yk = y[k] * inv_diag[k];
+    y[k] = yk;
+    const double* u = U + k * S;
+    int i = k + 1;
+    for (; i < m && (i & 3) != 0; ++i) y[i] -= u[i] * yk;
+    const V4 a = ISOWRENCH_V4_SPLAT(yk);
+    for (; i < m; i += 4) {
+      V4 yi, ui;
+      std::memcpy(&yi, y + i, sizeof yi);
+      std::memcpy(&ui, u + i, sizeof ui);
+      yi -= a * ui;
+      std::memcpy(y + i, &yi, sizeof yi);
+    }
+  }
+  for (int i = m - 1; i >= 0; --i) {
+    const double* u = U + i * S;
+    double v = y[i];
+    int k = i + 1;
+    for (; k < m && (k & 3) != 0; ++k) v -= u[k] * x[k];
+    V4 sum = ISOWRENCH_V4_SPLAT(0.0);
+    for (; k < m; k += 4) {
+      V4 uk, xk;
+      std::memcpy(&uk, u + k, sizeof uk);
+      std::memcpy(&xk, x + k, sizeof xk);
+      sum += uk * xk;
+    }
+    x[i] = (v - ((sum[0] + sum[1]) + (sum[2] + sum[3]))) * inv_diag[i];
+  }
+}
+
+/// The statics for one lane type: K = J^T S_t J + S_p, its Cholesky factor U (K = U^T U, row k
+/// of U at U[k * us + i], i >= k, us >= RoundUpTo4(m)), dtheta = K^-1 tau into x and W = S_t J
+/// dtheta into wrench. Row j of K is formed just before row j of U needs it (K itself is never
+/// stored), as one Row: K_j = sum_r (s_t,r J_rj) J_r (rows J_r of J), then K_j - sum_{k<j} U_kj
+/// U_k. J: row-major, row r at J + r * js (js >= m; for T = double the buffer must hold 4 ceil(m /
+/// 4) entries past the start of the last row, and so must x). kScaled: sJ holds S_t J in the same
+/// layout (one posture: each coefficient s_t,r J_rj is then one broadcast from memory, and W is
+/// formed four entries of a row at a time by ScaledRowsTimes); else sJ is not read. N > 0 fixes m
+/// at compile time (loops unroll); N = 0: m <= kSmallJoints at run time (a small chain: rows on the
+/// stack); N < 0: any m (a large chain: rows in `scratch`). Sets `undecided` on the lanes it cannot
+/// decide: K not clearly positive definite (a pivot at or below pivot_tolerance times the largest
+/// diagonal entry of K; the scalar path then returns before the substitutions, leaving x and wrench
+/// unwritten) or a non-finite W.
+template <int N, bool kScaled, class T>
+ISOWRENCH_INLINE void Cholesky(int m_runtime, const T* J, const T* sJ, int js, const T* s_t,
+                               const T* s_p, const T* tau, double pivot_tolerance, T* U, int us,
+                               T* x, T* wrench, Mask<T>& undecided,
+                               const CholeskyScratch<T>& scratch = {}) {
+  const int S = us;
+  const int m = N > 0 ? N : (N == 0 ? std::min(m_runtime, kSmallJoints) : m_runtime);
+  T max_diag = T{}, min_pivot = T{};
+  T inv_local[N < 0 ? 1 : kSmallJoints];
+  T* const inv_diag = N < 0 ? scratch.inv_diag : inv_local;
+  if constexpr (N < 0) {
+    LargeFactor<kScaled>(m, J, sJ, js, s_t, s_p, U, S, inv_diag, max_diag, min_pivot);
+  } else {
+    ISOWRENCH_UNROLL
+    for (int j = 0; j < m; ++j) {
+      // Lanes: J and U are read from memory again for each row (a compiler barrier): otherwise
+      // GCC keeps every entry of J it loaded live across the unrolled rows and spills them all.
+      if constexpr (!kScalar<T>) ISOWRENCH_COMPILER_BARRIER();
+      Row<N, T> row{};  // (entries below j are never read; {} for GCC's -Wmaybe-uninitialized)
+      row.template Update<RowUpdate::kSet>(kScaled ? sJ[j] : s_t[0] * J[j], J, j, m);
+      ISOWRENCH_UNROLL
+      for (int r = 1; r < 6; ++r) {
+        row.template Update<RowUpdate::kAdd>(kScaled ? sJ[r * js + j] : s_t[r] * J[r * js + j],
+                                             J + r * js, j, m);
+      }
+      T k_jj, dj;
+      row.Get(j, k_jj);
+      k_jj += s_p[j];
+      ISOWRENCH_UNROLL
+      for (int k = 0; k < j; ++k)
+        row.template Update<RowUpdate::kSubtract>(U[k * S + j], U + k * S, j, m);
+      row.Get(j, dj);
+      dj += s_p[j];
+      // Pivots are judged once K's largest diagonal entry is known (below); a pivot <= 0 makes
+      // the rest of this factor NaN or inf, which only the undecided lanes see.
+      max_diag = j == 0 ? k_jj : (k_jj > max_diag ? k_jj : max_diag);
+      min_pivot = j == 0 ? dj : (dj < min_pivot ? dj : min_pivot);
+      T root;
+      Sqrt(dj, root);
+      const T inv = 1.0 / root;
+      inv_diag[j] = inv;
+      // U_jj is written too (without s_p: not the factor's diagonal) but never read: the
+      // substitutions use inv_diag.
+      row.StoreScaled(U + j * S, inv, j, m);
+    }
   }
   undecided = (min_pivot > pivot_tolerance * max_diag) == 0;
   if constexpr (kScalar<T>) {
@@ -749,8 +922,13 @@ ISOWRENCH_INLINE void Cholesky(int m_runtime, const T* J, const T* sJ, int js, c
   // The substitutions read U from memory (a compiler barrier): one posture otherwise extracts
   // its entries from the row vectors still in registers, two or three instructions each.
   if constexpr (kScalar<T>) ISOWRENCH_COMPILER_BARRIER();
-  T y[S];
-  SolveWithFactor<N>(m, U, inv_diag, tau, y, x);
+  T y_local[N < 0 ? 1 : kSmallJoints];
+  T* const y = N < 0 ? scratch.y : y_local;
+  if constexpr (N < 0 && kScalar<T>) {
+    LargeSolveWithFactor(m, U, S, inv_diag, tau, y, x);
+  } else {
+    SolveWithFactor<N>(m, U, S, inv_diag, tau, y, x);
+  }
   if constexpr (kScalar<T> && kScaled) {
     ScaledRowsTimes<N>(m, sJ, js, x, wrench, undecided);
   } else {

@@ -96,49 +96,114 @@ ISOWRENCH_INLINE void KnotLanes(const Function::Impl& f, const V& a, V& value, V
 
 }  // namespace
 
-// The lane workspace (src/fast/kernel.hpp describes what the kernel needs).
+// The lane workspace (src/fast/kernel.hpp describes what the kernel needs), in the two shapes of
+// the scalar one (fast_impl.hpp): a small chain's fixed-size arrays, a large chain's buffers
+// sized from it in one allocation. The lane functions never allocate.
 struct LaneWorkspace::Impl {
-  using Scalar = V;
-  int m = 0;
-  V q[kMaxDofs];         // joint positions q_joint = f(q_c) (= q_c without couplings)
-  V qc[kMaxDofs];        // coupled chains: the postures' coordinates
-  V dq_joint[kMaxDofs];  // and dq_joint/dq_c of the driven joints
-  Vec3<V> origin[kMaxDofs];
-  Vec3<V> axis[kMaxDofs];
-  Vec3<V> points[kFastMaxPathPoints];
-  Vec3<V> pulls[kFastMaxPathPoints];
-  V J[6][kMaxSlots];  // row-major: column k is [v; w] in transducer axes (slots: FlatChain::slot)
-  V tau[kMaxSlots];
-  V length;
-  V U[kMaxDofs * kMaxDofs];  // statics (kernel::Cholesky)
-  V x[kMaxDofs];             // dtheta
+  explicit Impl(const FlatChain& d) : m(d.n) {}
+  virtual ~Impl() = default;
+  int m = 0;  // the columns (the model's coordinates)
   // The stiffness sets in the lanes (LaneSolve); `splatted`: the one set in every lane, if so.
   // Sets are not changed during a batch, so the same pointer means the same numbers.
   V s_t[6];
-  V s_p[kMaxDofs];
   const StiffnessSet* splatted = nullptr;
+  V length;
+};
+
+namespace {
+
+struct SmallLanes final : LaneWorkspace::Impl {
+  using Scalar = V;
+  static constexpr bool kLarge = false;
+  static constexpr int kUStride = kSmallJoints;  // U's row stride
+  explicit SmallLanes(const FlatChain& d) : Impl(d) {
+    for (auto& row : J) {
+      for (V& entry : row) entry = ISOWRENCH_V4_SPLAT(0.0);
+    }
+  }
+  V q[kSmallJoints];         // joint positions q_joint = f(q_c) (= q_c without couplings)
+  V qc[kSmallJoints];        // coupled chains: the postures' coordinates
+  V dq_joint[kSmallJoints];  // and dq_joint/dq_c of the driven joints
+  Vec3<V> origin[kSmallJoints];
+  Vec3<V> axis[kSmallJoints];
+  Vec3<V> points[kSmallPoints];
+  Vec3<V> pulls[kSmallPoints];
+  V J[6][kSmallSlots];  // row-major: column k is [v; w] in transducer axes (FlatChain::slot)
+  V tau[kSmallSlots];
+  V U[kSmallJoints * kSmallJoints];  // statics (kernel::Cholesky)
+  V x[kSmallJoints];                 // dtheta
+  V s_p[kSmallJoints];
   V* JacobianData() { return J[0]; }
-  static int JacobianStride() { return kMaxSlots; }
+  static int JacobianStride() { return kSmallSlots; }
   V* TauData() { return tau; }
   void Resize(int) {}
 };
 
-// The buffers are written before they are read (J too: zeroed here only so that no entry is
-// ever uninitialised).
-LaneWorkspace::LaneWorkspace(const Model& model) : impl_(new Impl) {
-  impl_->m = model.dof_count();
-  for (auto& row : impl_->J) {
-    for (V& entry : row) entry = ISOWRENCH_V4_SPLAT(0.0);
+struct LargeLanes final : LaneWorkspace::Impl {
+  using Scalar = V;
+  static constexpr bool kLarge = true;
+  explicit LargeLanes(const FlatChain& d)
+      : Impl(d), kUStride(d.n), joints(d.m), slots(d.slot_count), points_count(d.max_points) {
+    Lay(arena);
+    arena.Allocate();
+    Lay(arena);
+  }
+  void Lay(WorkspaceArena& a) {
+    const auto columns = static_cast<std::size_t>(m);
+    const auto slot_count = static_cast<std::size_t>(slots);
+    a.Take(q, static_cast<std::size_t>(std::max(joints, m)));
+    a.Take(qc, columns);
+    a.Take(dq_joint, static_cast<std::size_t>(joints));
+    a.Take(origin, static_cast<std::size_t>(joints));
+    a.Take(axis, static_cast<std::size_t>(joints));
+    a.Take(points, static_cast<std::size_t>(points_count));
+    a.Take(pulls, static_cast<std::size_t>(points_count));
+    a.Take(J, 6 * slot_count + 3);  // (+3: the large Cholesky's last blocks read past row 5)
+    a.Take(tau, slot_count);
+    a.Take(U, columns * columns);
+    a.Take(x, columns);
+    a.Take(s_p, columns);
+    a.Take(inv_diag_scratch, columns);
+    a.Take(y_scratch, columns);
+  }
+  WorkspaceArena arena;
+  int kUStride;
+  int joints, slots, points_count;
+  Buffer<V> q, qc, dq_joint;
+  Buffer<Vec3<V>> origin, axis, points, pulls;
+  Buffer<V> J;  // row-major, row stride `slots`
+  Buffer<V> tau, U, x, s_p;
+  Buffer<V> inv_diag_scratch, y_scratch;  // the Cholesky's (kernel::CholeskyScratch)
+  V* JacobianData() { return J.data(); }
+  int JacobianStride() const { return slots; }
+  V* TauData() { return tau.data(); }
+  void Resize(int) {}
+};
+
+// Runs f on the lane workspace as its shape.
+template <class F>
+ISOWRENCH_INLINE auto WithLaneShape(bool large, LaneWorkspace::Impl& ws, F&& f) {
+  return large ? f(static_cast<LargeLanes&>(ws)) : f(static_cast<SmallLanes&>(ws));
+}
+
+}  // namespace
+
+LaneWorkspace::LaneWorkspace(const Model& model) {
+  const FlatChain& d = model.impl().flat;
+  if (d.large) {
+    impl_ = std::make_unique<LargeLanes>(d);
+  } else {
+    impl_ = std::make_unique<SmallLanes>(d);
   }
 }
 
 LaneWorkspace::~LaneWorkspace() = default;
 
-ISOWRENCH_CLONES unsigned LaneKinematics(const Model& model, LaneWorkspace& workspace,
-                                         const double* const q[kLanes], int muscle,
-                                         double activation) {
-  const FlatChain& d = model.impl().flat;
-  LaneWorkspace::Impl& ws = workspace.impl();
+namespace {
+
+template <class W>
+ISOWRENCH_INLINE unsigned LaneKinematicsOf(const FlatChain& d, W& ws, const double* const q[kLanes],
+                                           int muscle, double activation) {
   // The coordinates of the four postures, four per step by a 4 x 4 transpose, and whether each
   // is within the lane sin/cos range (every coordinate, not only the angles: a prismatic one
   // beyond 1e5 m only sends its lane to the scalar path too). Joint k takes coordinate k: on a
@@ -198,28 +263,87 @@ ISOWRENCH_CLONES unsigned LaneKinematics(const Model& model, LaneWorkspace& work
   VI coincident;
   // The general kernel on every chain (without couplings every joint has slot k and no fold;
   // one instantiation for both halves this file's compile time, for ~3 instructions).
-  kernel::Kinematics<false, false, true>(d, ws, ws.q, mu, minus_force, !d.transducer_identity,
+  kernel::Kinematics<false, false, true>(d, ws, &ws.q[0], mu, minus_force, !d.transducer_identity,
                                          coincident);
   return Bits(coincident | out_of_range);
 }
 
-ISOWRENCH_CLONES void LaneBroadcast(const Data& scalar, LaneWorkspace& workspace) {
-  LaneWorkspace::Impl& ws = workspace.impl();
-  const Data::Impl& s = scalar.impl();
-  for (int k = 0; k < ws.m; ++k) {
-    for (int r = 0; r < 6; ++r) ws.J[r][k] = ISOWRENCH_V4_SPLAT(s.Jr[r * kMaxDofs + k]);
-    ws.tau[k] = ISOWRENCH_V4_SPLAT(s.tau[k]);
+// A large chain's, out of line.
+ISOWRENCH_CLONES ISOWRENCH_NOINLINE unsigned LargeLaneKinematics(const FlatChain& d, LargeLanes& ws,
+                                                                 const double* const q[kLanes],
+                                                                 int muscle, double activation) {
+  return LaneKinematicsOf(d, ws, q, muscle, activation);
+}
+
+}  // namespace
+
+ISOWRENCH_CLONES unsigned LaneKinematics(const Model& model, LaneWorkspace& workspace,
+                                         const double* const q[kLanes], int muscle,
+                                         double activation) {
+  const FlatChain& d = model.impl().flat;
+  if (d.large) {
+    return LargeLaneKinematics(d, static_cast<LargeLanes&>(workspace.impl()), q, muscle,
+                               activation);
   }
+  return LaneKinematicsOf(d, static_cast<SmallLanes&>(workspace.impl()), q, muscle, activation);
+}
+
+ISOWRENCH_CLONES void LaneBroadcast(const Data& scalar, LaneWorkspace& workspace) {
+  const Data::Impl& s = scalar.impl();
+  const int S = s.size.stride;
+  WithLaneShape(s.size.large, workspace.impl(), [&](auto& ws) {
+    V* J = ws.JacobianData();
+    const int js = ws.JacobianStride();
+    for (int k = 0; k < ws.m; ++k) {
+      for (int r = 0; r < 6; ++r) J[r * js + k] = ISOWRENCH_V4_SPLAT(s.Jr[r * S + k]);
+      ws.TauData()[k] = ISOWRENCH_V4_SPLAT(s.tau[k]);
+    }
+  });
 }
 
 namespace {
 
-// The kernel's statics on the lanes (N > 0: m fixed at compile time).
-template <int N>
-ISOWRENCH_INLINE void LaneCholesky(LaneWorkspace::Impl& ws, int m, const V* s_t, const V* s_p,
-                                   double tolerance, V* wrench, VI& undecided) {
-  kernel::Cholesky<N, false>(m, ws.J[0], static_cast<const V*>(nullptr), kMaxSlots, s_t, s_p,
-                             ws.tau, tolerance, ws.U, ws.x, wrench, undecided);
+// The kernel's statics on the lanes (N > 0: m fixed at compile time; N < 0: a large chain).
+template <int N, class W>
+ISOWRENCH_INLINE void LaneCholesky(W& ws, int m, const V* s_t, const V* s_p, double tolerance,
+                                   V* wrench, VI& undecided) {
+  kernel::CholeskyScratch<V> scratch;
+  if constexpr (W::kLarge) {
+    scratch = {ws.inv_diag_scratch.data(), ws.y_scratch.data()};
+  }
+  kernel::Cholesky<N, false>(m, ws.JacobianData(), static_cast<const V*>(nullptr),
+                             ws.JacobianStride(), s_t, s_p, ws.TauData(), tolerance, &ws.U[0],
+                             ws.kUStride, &ws.x[0], wrench, undecided, scratch);
+}
+
+// LaneSolve on the workspace's shape (its sets already in ws.s_t, s_p): the undecided lanes.
+// (Masks are written through references, not returned: a 32-byte vector returned by value
+// changes the ABI without AVX, and the large chain's function below is called from a clone.)
+template <class W>
+ISOWRENCH_INLINE void LaneSolveOf(W& ws, const V* s_t, const V* s_p, double tolerance, V* wrench,
+                                  VI& undecided) {
+  const int m = ws.m;
+  if constexpr (W::kLarge) {
+    LaneCholesky<-1>(ws, m, s_t, s_p, tolerance, wrench, undecided);
+  } else {
+    switch (m) {
+      case 1: LaneCholesky<1>(ws, m, s_t, s_p, tolerance, wrench, undecided); break;
+      case 2: LaneCholesky<2>(ws, m, s_t, s_p, tolerance, wrench, undecided); break;
+      case 3: LaneCholesky<3>(ws, m, s_t, s_p, tolerance, wrench, undecided); break;
+      case 4: LaneCholesky<4>(ws, m, s_t, s_p, tolerance, wrench, undecided); break;
+      case 5: LaneCholesky<5>(ws, m, s_t, s_p, tolerance, wrench, undecided); break;
+      case 6: LaneCholesky<6>(ws, m, s_t, s_p, tolerance, wrench, undecided); break;
+      case 7: LaneCholesky<7>(ws, m, s_t, s_p, tolerance, wrench, undecided); break;
+      case 8: LaneCholesky<8>(ws, m, s_t, s_p, tolerance, wrench, undecided); break;
+      default: LaneCholesky<0>(ws, m, s_t, s_p, tolerance, wrench, undecided); break;
+    }
+  }
+}
+
+ISOWRENCH_CLONES ISOWRENCH_NOINLINE void LargeLaneSolve(LargeLanes& ws, const V* s_t, const V* s_p,
+                                                        double tolerance, V* wrench,
+                                                        VI& undecided) {
+  LaneSolveOf(ws, s_t, s_p, tolerance, wrench, undecided);
 }
 
 }  // namespace
@@ -229,10 +353,11 @@ ISOWRENCH_CLONES unsigned LaneSolve(const Model& model, LaneWorkspace& workspace
                                     const SolveOptions& options, WrenchResult* const out[kLanes]) {
   LaneWorkspace::Impl& ws = workspace.impl();
   const int m = ws.m;  // the model's dof count
+  const FlatChain& d = model.impl().flat;
   // Locked coordinates: the scalar path's SolveLocked decides every lane.
-  if (model.impl().flat.any_locked) return (1u << kLanes) - 1;
+  if (d.any_locked) return (1u << kLanes) - 1;
   V* s_t = ws.s_t;
-  V* s_p = ws.s_p;
+  V* s_p = d.large ? static_cast<LargeLanes&>(ws).s_p.data() : static_cast<SmallLanes&>(ws).s_p;
   if (sets[0] == sets[1] && sets[0] == sets[2] && sets[0] == sets[3]) {  // four postures, one set
     if (ws.splatted != sets[0]) {  // the same set as the last call: already in the lanes
       for (int r = 0; r < 6; ++r) s_t[r] = ISOWRENCH_V4_SPLAT(sets[0]->s_t[r]);
@@ -249,16 +374,10 @@ ISOWRENCH_CLONES unsigned LaneSolve(const Model& model, LaneWorkspace& workspace
   V wrench[6];
   const double tolerance = options.cholesky_pivot_tolerance;
   VI undecided;
-  switch (m) {
-    case 1: LaneCholesky<1>(ws, m, s_t, s_p, tolerance, wrench, undecided); break;
-    case 2: LaneCholesky<2>(ws, m, s_t, s_p, tolerance, wrench, undecided); break;
-    case 3: LaneCholesky<3>(ws, m, s_t, s_p, tolerance, wrench, undecided); break;
-    case 4: LaneCholesky<4>(ws, m, s_t, s_p, tolerance, wrench, undecided); break;
-    case 5: LaneCholesky<5>(ws, m, s_t, s_p, tolerance, wrench, undecided); break;
-    case 6: LaneCholesky<6>(ws, m, s_t, s_p, tolerance, wrench, undecided); break;
-    case 7: LaneCholesky<7>(ws, m, s_t, s_p, tolerance, wrench, undecided); break;
-    case 8: LaneCholesky<8>(ws, m, s_t, s_p, tolerance, wrench, undecided); break;
-    default: LaneCholesky<0>(ws, m, s_t, s_p, tolerance, wrench, undecided); break;
+  if (d.large) {
+    LargeLaneSolve(static_cast<LargeLanes&>(ws), s_t, s_p, tolerance, wrench, undecided);
+  } else {
+    LaneSolveOf(static_cast<SmallLanes&>(ws), s_t, s_p, tolerance, wrench, undecided);
   }
   const unsigned bits = Bits(undecided);
   for (int l = 0; l < kLanes; ++l) {

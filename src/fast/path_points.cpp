@@ -38,6 +38,10 @@ void PreparePathPoints(const FastMuscle& muscle, const double* q, Data::Impl& ws
 
 bool ActivePathPulls(Data::Impl& ws, double* length) {
   double total = 0.0;
+  if (ws.active_count == 0) {  // no muscle (a large chain's kinematics functions run this)
+    *length = 0.0;
+    return true;
+  }
   Eigen::Vector3d before = Eigen::Vector3d::Zero();  // u of the previous segment
   for (int j = 1; j < ws.active_count; ++j) {
     const Eigen::Vector3d segment = ToEigen(ws.points[ws.active[j]] - ws.points[ws.active[j - 1]]);

@@ -180,13 +180,12 @@ ISOWRENCH_INLINE void Kernel(const T& x, const T& k, T& sin_r, T& cos_r) {
 }  // namespace sincos
 
 /// Solve U^T U x = b with the Cholesky factor U (upper triangle by rows: U_ki at
-/// U[k * kMaxDofs + i], k <= i; only the strict upper triangle and the reciprocal diagonal
+/// U[k * S + i], k <= i; only the strict upper triangle and the reciprocal diagonal
 /// inv_diag are read): forward substitution into y, back substitution into x. T is double or
 /// V4; N > 0 fixes m at compile time (loops unroll).
 template <int N, class T>
-ISOWRENCH_INLINE void SolveWithFactor(int m, const T* U, const T* inv_diag, const T* b, T* y,
+ISOWRENCH_INLINE void SolveWithFactor(int m, const T* U, int S, const T* inv_diag, const T* b, T* y,
                                       T* x) {
-  constexpr int S = kMaxDofs;  // the row stride of U
   ISOWRENCH_UNROLL
   for (int i = 0; i < m; ++i) {
     T v = b[i];

@@ -117,20 +117,6 @@ RawWrenches EvaluateRaw(const Model& model, const std::map<std::string, double>&
   raw.other.assign(others.size(), std::vector<Vector6d>(subset.size(), Vector6d::Zero()));
   raw.ok.assign(subset.size(), false);
   for (int i = 0; i < model.muscle_count(); ++i) raw.max_force.push_back(model.muscle(i).max_force);
-  if (model.dof_count() > kMaxDofs || model.dof_count() < 1) {
-    // Reference path (KDL kinematics + SolveStatics): the fast path cannot compile the model.
-    Data kinematics(model);
-    EvaluateEach(model, posture_offset, trials, subset, &raw,
-                 [&](const Eigen::VectorXd& q, int muscle_index, double activation,
-                     Vector6d* w) -> std::string {
-                   const StaticsResult s =
-                       EvaluateWrench(model, kinematics, q, muscle_index, activation).statics;
-                   if (!s.ok()) return std::string(StatusName(s.status)) + ": " + s.message;
-                   *w = s.wrench;
-                   return "";
-                 });
-    return raw;
-  }
   Data ws(model);
   const StiffnessSet stiffness = model.model_stiffness();
   EvaluateEach(model, posture_offset, trials, subset, &raw,

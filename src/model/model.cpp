@@ -4,7 +4,9 @@
 #include "isowrench/model.hpp"
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
+#include <limits>
 #include <map>
 #include <set>
 
@@ -150,6 +152,67 @@ void Validate(const LimbDescription& d) {
 
 }  // namespace
 
+bool ConstantCoupling(const Function& coupling, double lower, double upper, double* value) {
+  // Over [lower, upper] when it is a finite interval with an interior; else over all reals.
+  const bool range = std::isfinite(lower) && std::isfinite(upper) && lower < upper;
+  if (!range) {
+    lower = -std::numeric_limits<double>::infinity();
+    upper = std::numeric_limits<double>::infinity();
+  }
+  const Function::Impl& f = FunctionAccess::Of(coupling);
+  switch (f.kind) {
+    case FunctionKind::kConstant:
+    case FunctionKind::kLinear:
+      if (coupling.slope() != 0.0) return false;
+      *value = coupling.intercept();
+      return true;
+    case FunctionKind::kMultiplier: {
+      if (f.scale == 0.0) {
+        *value = 0.0;
+        return true;
+      }
+      double inner = 0.0;
+      if (!ConstantCoupling(f.inner.at(0), lower, upper, &inner)) return false;
+      *value = f.scale * inner;
+      return true;
+    }
+    case FunctionKind::kPolynomial: {
+      const std::vector<double>& c = f.coefficients;  // highest order first
+      if (!std::all_of(c.begin(), c.end() - 1, [](double v) { return v == 0.0; })) return false;
+      *value = c.back();
+      return true;
+    }
+    case FunctionKind::kSimmSpline:
+    case FunctionKind::kNaturalCubicSpline:
+    case FunctionKind::kPiecewiseLinear: {
+      // Interval k's cubic is y_k + dx (b_k + dx (c_k + dx d_k)) on [x_k, x_k+1]; below x_0
+      // the function is y_0 + (a - x_0) b_0, above x_n-1 it is y_n-1 + (a - x_n-1) b_n-1, and
+      // within OpenSim's roundoff of an end knot y and b of that knot. Every interval that
+      // meets the closed range (a touching end too: OpenSim's bisection may pick either
+      // interval at a knot), and each end knot the range reaches, must be flat at one y.
+      const std::vector<double>& x = f.x;
+      const auto n = x.size();
+      const double* p = f.ybcd.data();
+      const double y = lower <= x[0]
+                           ? p[0]
+                           : p[4 * (std::upper_bound(x.begin(), x.end(), lower) - x.begin() - 1)];
+      auto flat_knot = [&](size_t k, bool cubic) {
+        const double* q = p + 4 * k;
+        return q[0] == y && q[1] == 0.0 && (!cubic || (q[2] == 0.0 && q[3] == 0.0));
+      };
+      if (lower <= x[0] + kKnotRoundoffError && !flat_knot(0, false)) return false;
+      if (upper >= x[n - 1] - kKnotRoundoffError && !flat_knot(n - 1, false)) return false;
+      for (size_t k = 0; k + 1 < n; ++k) {
+        if (x[k + 1] < lower || x[k] > upper) continue;  // interval k misses the range
+        if (!flat_knot(k, true) || p[4 * (k + 1)] != y) return false;
+      }
+      *value = y;
+      return true;
+    }
+  }
+  return false;
+}
+
 KDL::Chain BuildKdlChain(const LimbDescription& d) {
   KDL::Chain chain;
   for (const JointSpec& j : d.joints) {
@@ -184,10 +247,27 @@ int JointOp(const Eigen::Isometry3d& origin, const Eigen::Vector3d& a, bool revo
   return op | 3 << 1;
 }
 
-// Walk the chain, folding fixed joints into the next movable joint (or the endpoint).
+// The motion of a joint at position `value` (rad or m): a turn about or a shift along its axis.
+Eigen::Isometry3d JointMotion(const JointSpec& j, double value) {
+  Eigen::Isometry3d motion = Eigen::Isometry3d::Identity();
+  if (j.type == JointType::kRevolute) {
+    motion.linear() = Eigen::AngleAxisd(value, j.axis).toRotationMatrix();
+  } else {
+    motion.translation() = value * j.axis;
+  }
+  return motion;
+}
+
+// Walk the chain, folding fixed joints, and movable joints whose coupling is constant over their
+// coordinate's range (ConstantCoupling), into the next movable joint (or the endpoint).
 FlatChain Compile(const LimbDescription& d) {
+  static std::atomic<std::uint64_t> next_id{1};
   FlatChain flat;
+  flat.id = next_id.fetch_add(1, std::memory_order_relaxed);
+  flat.name = d.name;
   const std::string model = "model '" + d.name + "'";
+  std::map<std::string, const CoordinateSpec*> coordinates;
+  for (const CoordinateSpec& c : d.coordinates) coordinates[c.name] = &c;
   Eigen::Isometry3d since_last = Eigen::Isometry3d::Identity();
   int frame = -1;
   flat.links[d.root_link] = {-1, since_last};
@@ -195,6 +275,14 @@ FlatChain Compile(const LimbDescription& d) {
     if (j.type == JointType::kFixed) {
       since_last = since_last * j.origin;
       flat.links[j.child_link] = {frame, since_last};
+      continue;
+    }
+    const CoordinateSpec& c = *coordinates.at(j.coordinate.empty() ? j.name : j.coordinate);
+    double constant = 0.0;
+    if (ConstantCoupling(j.coupling, c.lower, c.upper, &constant)) {
+      since_last = since_last * j.origin * JointMotion(j, constant);
+      flat.links[j.child_link] = {frame, since_last};
+      flat.folded_joints.push_back(j.name);
       continue;
     }
     const Eigen::Isometry3d origin = since_last * j.origin;
@@ -214,17 +302,14 @@ FlatChain Compile(const LimbDescription& d) {
   // The joints whose sin and cos one posture computes: from the first to the last revolute
   // joint, widened towards the chain's start to whole groups of 4 where the chain allows.
   for (int k = 0; k < flat.m; ++k) {
-    if (!flat.joints[static_cast<size_t>(k)].revolute) continue;
-    flat.revolute_mask |= 1u << k;
+    const bool revolute = flat.joints[static_cast<size_t>(k)].revolute;
+    flat.revolute.push_back(revolute ? 1 : 0);
+    if (!revolute) continue;
+    if (k < 32) flat.revolute_mask |= 1u << k;
     if (flat.trig_end == 0) flat.trig_begin = k;
     flat.trig_end = k + 1;
   }
   flat.trig_begin = std::max(0, flat.trig_end - (flat.trig_end - flat.trig_begin + 3) / 4 * 4);
-  if (flat.m > kMaxDofs || flat.n > kMaxDofs) {
-    throw Error(model + " has " + std::to_string(flat.m) + " movable joints and " +
-                std::to_string(flat.n) + " coordinates; isowrench handles at most " +
-                std::to_string(kMaxDofs) + " of each");
-  }
   std::map<std::string, int> column;
   for (int c = 0; c < flat.n; ++c) {
     column[d.coordinates[c].name] = c;
@@ -233,7 +318,11 @@ FlatChain Compile(const LimbDescription& d) {
   }
   flat.coupled = flat.n != flat.m;
   for (const JointSpec& j : d.joints) {
-    if (j.type == JointType::kFixed) continue;
+    if (j.type == JointType::kFixed ||
+        std::find(flat.folded_joints.begin(), flat.folded_joints.end(), j.name) !=
+            flat.folded_joints.end()) {
+      continue;
+    }
     const int k = static_cast<int>(flat.coordinate.size());
     const int c = column.at(j.coordinate.empty() ? j.name : j.coordinate);
     flat.coordinate.push_back(c);
@@ -241,16 +330,31 @@ FlatChain Compile(const LimbDescription& d) {
     flat.coupled = flat.coupled || c != k || !j.coupling.is_identity();
   }
   // Slots: a column's owner (its first joint with the identity coupling) writes the column
-  // itself; every other joint, driven by the coupling step, writes a slot past kMaxDofs that is
-  // folded into its column afterwards.
+  // itself; every other joint, driven by the coupling step, writes a slot past the columns
+  // (from the stride on) that is folded into its column afterwards.
   std::vector<char> owned(static_cast<size_t>(flat.n), 0);
+  std::vector<char> owner(static_cast<size_t>(flat.m), 0);
+  int driven = 0;
+  for (int k = 0; k < flat.m; ++k) {
+    const auto c = static_cast<size_t>(flat.coordinate[static_cast<size_t>(k)]);
+    owner[static_cast<size_t>(k)] =
+        !owned[c] && flat.coupling[static_cast<size_t>(k)].is_identity();
+    owned[c] = owned[c] || owner[static_cast<size_t>(k)];
+    driven += owner[static_cast<size_t>(k)] ? 0 : 1;
+  }
+  std::size_t max_points = 0;
+  for (const MuscleSpec& spec : d.muscles) max_points = std::max(max_points, spec.path.size());
+  flat.large = flat.m > kSmallJoints || flat.n > kSmallJoints ||
+               kSmallJoints + driven > kSmallSlots || max_points > kSmallPoints;
+  flat.stride = flat.large ? RoundUpTo4(flat.n) : kSmallJoints;
+  flat.slot_count = flat.large ? flat.stride + driven : kSmallSlots;
   int extra = 0;
   for (int k = 0; k < flat.m; ++k) {
     const auto c = static_cast<size_t>(flat.coordinate[static_cast<size_t>(k)]);
-    const bool owner = !owned[c] && flat.coupling[static_cast<size_t>(k)].is_identity();
-    owned[c] = owned[c] || owner;
-    flat.slot.push_back(owner ? static_cast<int>(c) : kMaxDofs + extra++);
-    if (owner && static_cast<int>(c) != k) flat.moved_positions.push_back({k, static_cast<int>(c)});
+    flat.slot.push_back(owner[static_cast<size_t>(k)] ? static_cast<int>(c)
+                                                      : flat.stride + extra++);
+    if (owner[static_cast<size_t>(k)] && static_cast<int>(c) != k)
+      flat.moved_positions.push_back({k, static_cast<int>(c)});
   }
   while (flat.plain_joints < flat.m &&
          flat.slot[static_cast<size_t>(flat.plain_joints)] == flat.plain_joints) {
@@ -275,10 +379,6 @@ FlatChain Compile(const LimbDescription& d) {
       t.axes_in_world ? t.rotation : Eigen::Matrix3d(since_last.linear() * t.rotation);
   flat.transducer_identity = t.axes_in_world && t.rotation == Eigen::Matrix3d::Identity();
   for (const MuscleSpec& spec : d.muscles) {
-    if (static_cast<int>(spec.path.size()) > kFastMaxPathPoints) {
-      throw Error(model + ", muscle '" + spec.name + "' has " + std::to_string(spec.path.size()) +
-                  " path points; isowrench handles at most " + std::to_string(kFastMaxPathPoints));
-    }
     FastMuscle muscle;
     muscle.max_force = spec.max_force;
     for (const PathPoint& p : spec.path) {
@@ -318,8 +418,10 @@ FlatChain Compile(const LimbDescription& d) {
     };
     for (int f = 0; f < flat.m; ++f) add_group(muscle.forward_points, f);
     for (int f = flat.m - 1; f >= 0; --f) add_group(muscle.backward_points, f);
-    muscle.forward_points.push_back(kMaxDofs);  // the sentinels
+    muscle.forward_points.push_back(flat.m);  // the sentinels
     muscle.backward_points.push_back(-1);
+    flat.max_points = std::max(flat.max_points, static_cast<int>(muscle.points.size()));
+    flat.max_moving = std::max(flat.max_moving, static_cast<int>(muscle.moving.size()));
     flat.muscles.push_back(std::move(muscle));
   }
   return flat;

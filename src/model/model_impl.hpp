@@ -15,12 +15,18 @@
 
 namespace isowrench {
 
-/// The columns the engine's sweep writes (FlatChain::slot): kMaxDofs coordinate columns, then
-/// one slot per joint that is folded into its column afterwards.
-inline constexpr int kMaxSlots = 2 * kMaxDofs;
+/// n rounded up to a multiple of 4: the engine reads and writes rows of J, dL/dq and tau in whole
+/// 4-double vectors, so its buffers of n columns hold this many.
+inline constexpr int RoundUpTo4(int n) { return (n + 3) / 4 * 4; }
 
-/// Most path points per muscle (the workspaces hold this many).
-inline constexpr int kFastMaxPathPoints = 64;
+/// The engine's workspaces come in two shapes (src/fast/fast_impl.hpp). A chain of at most
+/// kSmallJoints movable joints and columns, at most kSmallSlots - kSmallJoints driven joints
+/// and kSmallPoints path points per muscle runs on fixed-size arrays inside its workspace, whose
+/// strides and offsets are compile-time constants (the kernel's small chains: every shipped
+/// model); any larger chain runs on buffers sized from it (FlatChain::large), with no limit.
+inline constexpr int kSmallJoints = 16;
+inline constexpr int kSmallSlots = 2 * kSmallJoints;
+inline constexpr int kSmallPoints = 64;
 
 /// One movable joint, relative to the frame after the previous movable joint (world for the
 /// first one), with the fixed joints in between folded into `origin_*`.
@@ -63,7 +69,7 @@ struct FastMuscle {
   std::vector<int> ground_points;     ///< the points on ground (frame -1)
   /// The points of each frame for the kernel's two joint loops: groups {frame, count, the
   /// count point indices} for the frames that have points (ground points left out), in
-  /// ascending frame order ended by the sentinel frame kMaxDofs (forward_points) and in
+  /// ascending frame order ended by the sentinel frame FlatChain::m (forward_points) and in
   /// descending order ended by -1 (backward_points). A loop compares its joint with the next
   /// group's frame, one pointer for all the muscle's points.
   std::vector<int> forward_points;
@@ -85,6 +91,10 @@ struct LinkFrame {
 /// movable joint's frame (fixed joints folded in), axis and type; per muscle path point its
 /// movable-joint frame and offset; the endpoint and transducer axes.
 struct FlatChain {
+  /// Unique to this compiled chain (a process-wide counter, from 1): a Data made for it
+  /// recognises it by one comparison. And the model's name, for messages.
+  std::uint64_t id = 0;
+  std::string name;
   int m = 0;  ///< movable joints
   int n = 0;  ///< independent coordinates: the public columns (J, tau, S_p, postures)
   std::vector<FastJoint> joints;
@@ -93,16 +103,26 @@ struct FlatChain {
   /// when no joint is revolute).
   int trig_begin = 0;
   int trig_end = 0;
-  std::uint32_t revolute_mask = 0;  ///< bit k: movable joint k is revolute
+  /// Per movable joint: 1 revolute, 0 prismatic (the backward sweep's test on a large chain);
+  /// a small chain's in bits (bit k: movable joint k is revolute).
+  std::vector<std::uint8_t> revolute;
+  std::uint32_t revolute_mask = 0;
   /// Per movable joint: the column of its coordinate and q_joint = coupling(q_column).
   std::vector<int> coordinate;
   std::vector<Function> coupling;
   /// Coupled chains: per movable joint, where the backward sweep writes its column of J and its
   /// dL/dq (one posture's staging, the lanes' J and tau): the column of its coordinate when the
   /// joint owns it (the first joint of that column with the identity coupling), else a slot
-  /// kMaxDofs + e (e = 0, 1, ...), so that the sweep is the same as on a chain without
-  /// couplings.
+  /// stride + e (e = 0, 1, ...), so that the sweep is the same as on a chain without couplings
+  /// (the columns n .. stride - 1 stay 0: the staging is read in groups of 4).
   std::vector<int> slot;
+  /// The workspace's shape: false, a small chain (kSmallJoints ...): stride = kSmallJoints and
+  /// slot_count = kSmallSlots, the fixed arrays' sizes; true, a large one: stride =
+  /// RoundUpTo4(n), slot_count = stride + the number of driven joints. The stride is the row
+  /// stride of J and of the Cholesky factor, the columns' capacity.
+  bool large = false;
+  int stride = kSmallJoints;
+  int slot_count = kSmallSlots;
   /// Joints 0 .. plain_joints - 1 all have slot k (the backward sweep writes their columns as
   /// on a chain without couplings, without reading `slot`).
   int plain_joints = 0;
@@ -135,6 +155,14 @@ struct FlatChain {
   std::vector<char> locked;  ///< per column: held rigid by the statics
   bool any_locked = false;
   std::vector<FastMuscle> muscles;
+  /// The workspaces' sizes besides m, n and slot_count: the most path points of a muscle and
+  /// the most moving components (FastMuscle::moving) of a muscle.
+  int max_points = 0;
+  int max_moving = 0;
+  /// Movable joints of the description whose coupling is constant over their coordinate's
+  /// range (ConstantCoupling), folded into the fixed transforms like fixed joints: not among
+  /// `joints`. Their names, in chain order.
+  std::vector<std::string> folded_joints;
   std::map<std::string, LinkFrame> links;
   /// Endpoint in the frame after the last movable joint (m), and the endpoint link's rotation
   /// in that frame (fixed joints after the last movable one).
@@ -158,6 +186,17 @@ struct Model::Impl {
   double chain_length = 0.0;
   StiffnessSet stiffness;  ///< Model::model_stiffness()
 };
+
+/// The value of a coupling that is constant over its coordinate's range, or false when it is
+/// not: `coupling` restricted to [lower, upper] (the coordinate's range, rad or m) when both
+/// are finite, else to all reals (an infinite end: the function must be constant to that side
+/// too), takes one value. Constant: always; Linear (and a Multiplier of one): slope 0 (or a
+/// Multiplier scale 0: any inner function); Polynomial: every coefficient but c_0 zero; a knot
+/// function: every interval cubic that meets the range has b = c = d = 0 and, where the range
+/// reaches past an end knot, that end's slope is 0 (OpenSim extrapolates linearly with it).
+/// Model compile folds such joints into fixed transforms, and `isowrench import` writes them
+/// as fixed joints (docs/model.md "Constant couplings").
+bool ConstantCoupling(const Function& coupling, double lower, double upper, double* value);
 
 /// Build the KDL chain for a validated description: the independent reference the tests and
 /// the benchmark baseline compare the engine with (one KDL segment per description joint, fixed

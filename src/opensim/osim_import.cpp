@@ -10,6 +10,7 @@
 #include "isowrench/error.hpp"
 #include "isowrench/muscle.hpp"
 #include "isowrench/opensim.hpp"
+#include "model/model_impl.hpp"
 #include "model/urdf_coordinates.hpp"
 #include "opensim/osim_model.hpp"
 #include "util/text.hpp"
@@ -159,13 +160,24 @@ struct Builder {
         if (!coupled.count(c)) chain_coordinates.insert(c);
       }
     }
-    // An axis that does not move with a chain coordinate is fixed at its default value.
+    // An axis that does not move with a chain coordinate is fixed at its default value; one
+    // whose function is constant over its coordinate's range (ConstantCoupling: e.g. a
+    // SimmSpline of zeros) is fixed at that constant, as Model compile folds it: written into
+    // the fixed transform, not as a joint.
+    auto moves = [&](const Axis& a) {
+      return !a.coordinate.empty() && chain_coordinates.count(a.coordinate) != 0;
+    };
+    auto flat_value = [&](const Axis& a, double* value) {
+      const osim::Coordinate& c = m.coordinates.at(a.coordinate);
+      return ConstantCoupling(a.function, c.lower, c.upper, value);
+    };
     auto constant = [&](const Axis& a) {
-      return a.coordinate.empty() || !chain_coordinates.count(a.coordinate) ||
-             a.function.kind() == FunctionKind::kConstant ||
-             (a.function.is_linear() && a.function.slope() == 0.0);
+      double value = 0.0;
+      return !moves(a) || flat_value(a, &value);
     };
     auto constant_value = [&](const Axis& a) {
+      double value = 0.0;
+      if (moves(a) && flat_value(a, &value)) return value;
       return a.function.Value(a.coordinate.empty() ? 0.0 : defaults.at(a.coordinate));
     };
     for (const osim::Joint* j : chain) {
@@ -185,6 +197,13 @@ struct Builder {
       for (const Axis* a : emission(*j)) {
         if (constant(*a)) {
           pending = pending * osim::AxisMotion(*a, constant_value(*a));
+          if (moves(*a)) {  // (a constant function of a chain coordinate: say so)
+            const double scale = a->rotation ? 180.0 / M_PI : 1e3;
+            expansion.push_back(j->name + "_" + a->name + " fixed at " +
+                                Num(constant_value(*a) * scale) + (a->rotation ? " deg" : " mm") +
+                                " (" + FunctionKindName(a->function.kind()) + " of " +
+                                a->coordinate + ", constant over its range)");
+          }
           continue;
         }
         JointSpec s;

@@ -345,14 +345,15 @@ TEST(FastPath, RawMatrixSolveSeparatesHeldAndExcitedSelfMotion) {
 }
 
 // The solve's input check reads four entries per vector and the rest one by one: every dof
-// count up to kMaxDofs, a bad value at every position of s_t, s_p and tau (NaN, +inf, -inf;
-// a negative stiffness), each alone, is kInvalidInput; the untouched input is solved.
+// count up to 20 (past 16, the old fixed limit), a bad value at every position of s_t, s_p and tau
+// (NaN, +inf, -inf; a negative stiffness), each alone, is kInvalidInput; the untouched input is
+// solved.
 TEST(FastPath, EveryBadSolveInputEntryIsInvalidForEveryDofCount) {
   std::mt19937 rng(21);
   std::uniform_real_distribution<double> u(-1.0, 1.0);
   const double nan = std::numeric_limits<double>::quiet_NaN();
   const double inf = std::numeric_limits<double>::infinity();
-  for (int m = 1; m <= isowrench::kMaxDofs; ++m) {
+  for (int m = 1; m <= 20; ++m) {
     Data ws(m);
     isowrench::Matrix6Xd J(6, m);
     for (int c = 0; c < m; ++c)

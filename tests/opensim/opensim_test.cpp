@@ -647,5 +647,79 @@ TEST(OpenSimImportErrors, NameFileLineJointAxisAndRule) {
       ThrowsMessage<Error>(HasSubstr("--unlock names coordinate 'hip_rot', which does not exist")));
 }
 
+// ---- constant couplings (issue 25, item 1) -----------------------------------------------------
+
+// The fixture with the knee's translation2 axis (a SimmSpline of knee_angle) replaced by `axis`,
+// and the knee's range by `range`.
+std::string KneeTranslation2(const std::string& axis,
+                             const std::string& range = "-2.0944 0.17453") {
+  std::string text = FixtureText();
+  const size_t knee = text.find("<CustomJoint name=\"knee\">");
+  const size_t begin = text.find("<TransformAxis name=\"translation2\">", knee);
+  const size_t end = text.find("</TransformAxis>", begin) + std::string("</TransformAxis>").size();
+  text.replace(begin, end - begin,
+               "<TransformAxis name=\"translation2\">" + axis + "</TransformAxis>");
+  const std::string old_range = "<range>-2.0944 0.17453</range>";
+  text.replace(text.find(old_range, knee), old_range.size(), "<range>" + range + "</range>");
+  return text;
+}
+
+// An axis whose function is constant over its coordinate's range becomes part of the fixed
+// transform at that constant, exactly as an axis of no coordinate with a Constant does (the
+// reference), and the report says so; a function constant over the range only where the range
+// ends inside its flat part, so a wider range keeps the joint.
+TEST(OpenSimImport, AxesConstantOverTheRangeAreFixedAtTheirConstant) {
+  OpenSimImportOptions options;
+  options.clamp_body = "pelvis";
+  options.endpoint_body = "foot";
+  options.endpoint_point = kEndpointOnFoot;
+  auto import = [&](const std::string& text) {
+    return ImportOpenSimString(text, "edited.osim", options);
+  };
+  const std::string axis_y = "<axis>0 2 0</axis>";
+  const std::string of_knee = "<coordinates>knee_angle</coordinates>" + axis_y;
+  const std::string zeros = of_knee +
+                            "<SimmSpline name=\"function\"><x>-2.0944 -1.7 -1.2 -0.6 0 0.17453</x>"
+                            "<y>0 0 0 0 0 0</y></SimmSpline>";
+  // 2 mm between -2.2 and 0.3 rad (the knee's range, -2.0944 .. 0.17453, inside), rising beyond.
+  const std::string flat = of_knee +
+                           "<PiecewiseLinearFunction name=\"function\"><x>-3 -2.2 0.3 1</x>"
+                           "<y>0.01 0.002 0.002 0.004</y></PiecewiseLinearFunction>";
+  auto constant = [&](const std::string& value) {
+    return "<coordinates></coordinates>" + axis_y + "<Constant name=\"function\"><value>" + value +
+           "</value></Constant>";
+  };
+  struct Case {
+    std::string axis, reference;
+  };
+  for (const Case& c : {Case{zeros, constant("0")}, Case{flat, constant("0.002")}}) {
+    const OpenSimImport imported = import(KneeTranslation2(c.axis));
+    const OpenSimImport reference = import(KneeTranslation2(c.reference));
+    const LimbDescription& d = imported.description;
+    std::vector<std::string> joints, reference_joints;
+    for (const JointSpec& j : d.joints) joints.push_back(j.name);
+    for (const JointSpec& j : reference.description.joints) reference_joints.push_back(j.name);
+    EXPECT_EQ(joints, reference_joints);
+    EXPECT_EQ(std::count(joints.begin(), joints.end(), "knee_translation2"), 0);
+    for (const Posture& p : Postures()) {  // (knees beyond the range too: constant both)
+      const auto X = LinkPoses(d, p);
+      const auto X_ref = LinkPoses(reference.description, p);
+      EXPECT_LT((X.at("foot").matrix() - X_ref.at("foot").matrix()).cwiseAbs().maxCoeff(), 1e-15);
+    }
+    const std::string value = c.axis == zeros ? "0 mm" : "2 mm";
+    EXPECT_THAT(FormatOpenSimReport(imported),
+                HasSubstr("knee_translation2 fixed at " + value + " (" +
+                          (c.axis == zeros ? "simm_spline" : "piecewise_linear") +
+                          " of knee_angle, constant over its range)"));
+  }
+  // The knee's range widened to -2.5: the function rises over the range; a coupled joint.
+  const LimbDescription wide = import(KneeTranslation2(flat, "-2.5 0.17453")).description;
+  const auto joint = std::find_if(wide.joints.begin(), wide.joints.end(),
+                                  [](const JointSpec& j) { return j.name == "knee_translation2"; });
+  ASSERT_NE(joint, wide.joints.end());
+  EXPECT_EQ(joint->coordinate, "knee_angle");
+  EXPECT_NEAR(joint->coupling.Value(-2.4), 0.002 + 0.008 * 0.2 / 0.8, 1e-15);
+}
+
 }  // namespace
 }  // namespace isowrench
