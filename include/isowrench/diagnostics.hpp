@@ -224,8 +224,12 @@ struct Diagnosis {
   std::vector<JointMotion> stiffness_null;  ///< basis of null(K): self-motion no spring holds
   /// The part of W the compliances set: W - W_classic (pinv(J_r^T) tau, Eq. 15) written on the
   /// internal-wrench basis, W - W_classic ~ sum_i c_i direction_i (c_i dimensionless, since
-  /// each direction is in N and N·m). Empty when there is no internal wrench.
+  /// each direction is in N and N·m). Empty when there is no internal wrench, no equilibrium,
+  /// or base dofs (the classic answer treats their springs as free joints and means nothing).
   Eigen::VectorXd internal_coefficients;
+  /// False with base dofs (StaticsProblem::base_columns()): the classic answer treats their
+  /// springs as free joints and means nothing; reports then omit it.
+  bool classic_meaningful = true;
   /// |D (W - W_classic - sum c_i direction_i)| / |D W| (D as in StiffnessSensitivity): 0 when
   /// all of the difference is internal, i.e. when the spring-free joints carry all of tau.
   double internal_residual = 0.0;

@@ -154,6 +154,9 @@ class StaticsProblem {
   const std::vector<int>& spring_free_columns() const { return spring_free_; }
   /// The locked coordinates, ascending.
   const std::vector<int>& locked_columns() const { return locked_; }
+  /// The columns of K with role kBase (base translation dofs), ascending. With base dofs the
+  /// classic answers (ClassicWrench) treat the base springs as free joints and mean nothing.
+  const std::vector<int>& base_columns() const { return base_; }
   /// Names of the locked coordinates, in column order.
   std::vector<std::string> LockedNames() const;
   /// Leg length (m): Model::chain_length(), the length through the joint centres.
@@ -184,7 +187,7 @@ class StaticsProblem {
   Model model_;
   StiffnessSet stiffness_;
   std::vector<CoordinateUse> use_;
-  std::vector<int> columns_, spring_free_, locked_;
+  std::vector<int> columns_, spring_free_, locked_, base_;
 };
 
 /// Everything about one muscle at one posture on a model: kinematics, muscle torque, statics

@@ -441,7 +441,7 @@ py::dict Diagnose(const std::shared_ptr<PyModel>& m0, const std::string& muscle,
   out["stiffness_null"] = null_k;
   out["internal_coefficients"] = Array(d.internal_coefficients);
   out["internal_residual"] = d.internal_residual;
-  out["classic_wrench"] = WrenchDict(e.classic.wrench);
+  out["classic_wrench"] = WrenchOrNone(d.classic_meaningful, e.classic.wrench);
   py::dict sensitivity;
   sensitivity["ok"] = d.sensitivity.ok;
   sensitivity["message"] = d.sensitivity.message;

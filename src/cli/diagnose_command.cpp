@@ -104,7 +104,8 @@ nlohmann::json MuscleJson(const Diagnosis& d) {
       {"stiffness_null", null_k},
       {"internal_coefficients", ToJson(d.internal_coefficients)},
       {"internal_residual", d.internal_residual},
-      {"classic_wrench", WrenchJson(e.classic.wrench)},
+      {"classic_wrench",
+       d.classic_meaningful ? WrenchJson(e.classic.wrench) : nlohmann::json(nullptr)},
       {"sensitivity",
        {{"ok", d.sensitivity.ok},
         {"message", d.sensitivity.message},
@@ -181,6 +182,10 @@ void PrintMuscle(const Diagnosis& d) {
               << " x internal wrench " << i + 1 << " (residual " << N(d.internal_residual, 2)
               << " of |W|)\n";
   }
+  if (!d.classic_meaningful && !d.constraints.internal_wrench.empty() && e.statics.ok()) {
+    std::cout << "    internal part of W not shown: the model has base dofs, and the classic "
+                 "pinv(J_r^T) tau it is measured from treats their springs as free joints\n";
+  }
   PrintMotions("  null(K), self-motion no stiffness holds", d.stiffness_null, "none");
   std::cout << "    sensitivity dW/dlog(k): " << d.sensitivity.message << "\n";
   if (d.sensitivity.ok) {
@@ -209,7 +214,9 @@ void PrintMuscle(const Diagnosis& d) {
                   << " rad; wrench difference " << N(100 * l.wrench_relative_difference, 3)
                   << "% of |W|\n";
       } else {
-        std::cout << "      (Eq. 10 has no equilibrium to compare with)\n";
+        std::cout << "      (Eq. 10 has no equilibrium to compare with; the nonlinear one is "
+                     "reached after max |dtheta| = "
+                  << N(l.dtheta_nonlinear.cwiseAbs().maxCoeff(), 3) << " rad)\n";
       }
     } else {
       std::cout << "      no nonlinear equilibrium found: no wrench to compare with Eq. 10\n";

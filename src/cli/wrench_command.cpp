@@ -25,9 +25,8 @@ double NoNegativeZero(double v) { return v == 0.0 ? 0.0 : v; }
 /// (J^-T tau / pinv(J^T) tau) meaningless: it has no compliance to share the load with.
 std::vector<std::string> BaseDofs(const Model& model) {
   std::vector<std::string> names;
-  for (int i = 0; i < model.dof_count(); ++i) {
-    if (model.joint(i).role == JointRole::kBase) names.push_back(model.joint_names()[i]);
-  }
+  const StaticsProblem problem(model);
+  for (int i : problem.base_columns()) names.push_back(model.joint_names()[i]);
   return names;
 }
 

@@ -285,7 +285,10 @@ Diagnosis DiagnoseLimb(const Model& model, const Eigen::VectorXd& q, const std::
     d.stiffness_null.push_back({v, DescribeJointMotion(model, v),
                                 InterpretMotion(model, q, v, centres, d.constraints.length_scale)});
   }
-  if (!d.constraints.internal_wrench.empty() && d.evaluation.statics.ok()) {
+  // The decomposition against the classic answer needs a classic answer: with base dofs it
+  // treats the base springs as free joints and means nothing (as `wrench` says).
+  d.classic_meaningful = StaticsProblem(model).base_columns().empty();
+  if (!d.constraints.internal_wrench.empty() && d.evaluation.statics.ok() && d.classic_meaningful) {
     const double L = d.constraints.length_scale;
     const Eigen::Index k = static_cast<Eigen::Index>(d.constraints.internal_wrench.size());
     Eigen::MatrixXd N(6, k);

@@ -48,7 +48,8 @@ System MakeSystem(const Matrix6Xd& J, const Eigen::VectorXd& tau, const Model& m
   s.coordinates = problem.columns();
   s.prismatic = diagnostics::PrismaticColumns(model, s.coordinates);
   for (size_t i = 0; i < s.coordinates.size(); ++i) {
-    if (model.joint(s.coordinates[i]).role == JointRole::kBase)
+    const std::vector<int>& base = problem.base_columns();
+    if (std::find(base.begin(), base.end(), s.coordinates[i]) != base.end())
       s.base_columns.push_back(static_cast<int>(i));
   }
   return s;

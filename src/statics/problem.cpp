@@ -41,6 +41,7 @@ StaticsProblem::StaticsProblem(const Model& model, const StiffnessSet& stiffness
     } else {
       columns_.push_back(c);
       if (u == CoordinateUse::kFree) spring_free_.push_back(c);
+      if (model.joint(c).role == JointRole::kBase) base_.push_back(c);
     }
   }
 }

@@ -29,6 +29,7 @@ using isowrench::Model;
 using isowrench::ReleaseKind;
 using isowrench::Vector6d;
 using ::testing::HasSubstr;
+using ::testing::Not;
 using ::testing::ThrowsMessage;
 
 constexpr double kPi = 3.14159265358979323846;
@@ -704,6 +705,90 @@ TEST(Locks, WithLockedCoordinatesReplacesTheLocksAndNamesBadNames) {
   EXPECT_TRUE(isowrench::StaticsProblem(none).locked_columns().empty());
   EXPECT_THAT([&] { isowrench::WithLockedCoordinates(model.description(), {"kne_rx"}); },
               ThrowsMessage<Error>(HasSubstr("kne_rx")));
+}
+
+// ---- what diagnose and releases say agrees with their numbers (issue 25 item 5) ------------
+
+// A planar cat hindlimb with base dofs and an in-plane muscle: over-constrained (fz, mx, my are
+// internal wrench directions of the spring-free limb) but W depends on no stiffness.
+Model PlanarCat() {
+  return Model::FromUrdfFile(std::string(ISOWRENCH_TEST_DATA_DIR) + "/planar_cat_base.urdf");
+}
+
+TEST(Diagnosis, ComplianceVerdictFollowsTheSensitivitiesNotTheClass) {
+  Model cat = PlanarCat();
+  const Eigen::VectorXd q = cat.nominal_posture();
+  auto d = isowrench::DiagnoseLimb(cat, q, "gastrocnemius");
+  EXPECT_EQ(d.constraints.free_class, isowrench::ConstraintClass::kOverConstrained);
+  EXPECT_THAT(d.constraints.explanation, Not(HasSubstr("so W depends on the compliances")));
+  EXPECT_FALSE(d.compliance_dependent) << d.compliance_verdict;
+  EXPECT_THAT(d.compliance_verdict, HasSubstr("does not depend on any compliance"));
+  // Independently: W under other transducers and base stiffnesses (1e3 .. 1e12 N/m) is the same.
+  const Vector6d w = d.evaluation.statics.wrench;
+  const double L = cat.chain_length();
+  for (const char* preset : {"balanced", "ati-mini40"}) {
+    for (double k : {1e3, 1e12}) {
+      Model other(
+          isowrench::WithBaseStiffness(isowrench::WithTransducerStiffness(
+                                           cat.description(), isowrench::TransducerPreset(preset)),
+                                       k));
+      const Vector6d wk = isowrench::EvaluateWrench(other, q, "gastrocnemius").statics.wrench;
+      // Rounding of solves with cond(K) up to 1e12 / 1e3 ~ 1e9: 1e-6 relative.
+      EXPECT_LT(ScaledNorm(wk - w, L), 1e-6 * ScaledNorm(w, L)) << preset << " " << k;
+    }
+  }
+  // The over-constrained rat limb's W does depend on the compliances, and says so.
+  Model rat = Load("rat_hindlimb_5dof.urdf");
+  auto r = isowrench::DiagnoseLimb(rat, rat.nominal_posture(), "GP");
+  EXPECT_TRUE(r.compliance_dependent);
+  EXPECT_THAT(r.compliance_verdict, HasSubstr("W depends on the compliances: S_t"));
+  // The classic answer means nothing with base dofs: no internal part against it.
+  EXPECT_FALSE(d.classic_meaningful);
+  EXPECT_EQ(d.internal_coefficients.size(), 0);
+  EXPECT_TRUE(r.classic_meaningful);
+}
+
+TEST(Constraints, InternalWrenchDirectionsAreNormalisedOnTheirComponents) {
+  for (const Model& model : {PlanarCat(), Load("rat_hindlimb_5dof.urdf"), LockedRat()}) {
+    const Eigen::VectorXd q = model.nominal_posture();
+    auto a = isowrench::AnalyzeConstraints(model, q);
+    ASSERT_FALSE(a.internal_wrench.empty()) << model.name();
+    const double L = a.length_scale;
+    const isowrench::StaticsProblem problem(model);
+    for (const auto& w : a.internal_wrench) {
+      SCOPED_TRACE(model.name() + ": " + w.description);
+      const double f = w.direction.head<3>().cwiseAbs().maxCoeff();
+      const double m = w.direction.tail<3>().cwiseAbs().maxCoeff();
+      // Largest force 1 N when forces dominate in the D metric, else largest moment 1 N·m.
+      EXPECT_DOUBLE_EQ(f >= m / L ? f : m, 1.0);
+      EXPECT_LE(w.direction.cwiseAbs().maxCoeff(), std::max(1.0, 1.0 / L) * (1 + 1e-15));
+      // A wrench the joints do not feel: J^T w = 0 on the columns of K (N·m per unit).
+      const Eigen::VectorXd feel =
+          problem.Reduce(isowrench::Matrix6Xd(a.jacobian)).transpose() * w.direction;
+      EXPECT_LT(feel.cwiseAbs().maxCoeff(), 1e-12 * std::max(1.0, L));
+      for (int k = 0; k < 6; ++k) {
+        const bool touched =
+            std::find(w.components.begin(), w.components.end(), k) != w.components.end();
+        if (!touched) {
+          EXPECT_EQ(w.direction[k], 0.0) << k;
+        }
+      }
+    }
+  }
+}
+
+TEST(Releases, NoReleaseNeededWhenWDoesNotDependOnTheCompliances) {
+  Model cat = PlanarCat();
+  auto c = isowrench::CompareReleases(cat, cat.nominal_posture(), "gastrocnemius");
+  EXPECT_FALSE(c.release_needed);
+  EXPECT_EQ(c.recommended, -1);
+  EXPECT_THAT(c.recommendation, HasSubstr("no release needed"));
+  EXPECT_LE(c.baseline.spread, 1e-6);
+  EXPECT_THAT(c.baseline.verdict, HasSubstr("but W does not depend on the compliances"));
+  Model rat = Load("rat_hindlimb_5dof.urdf");
+  auto r = isowrench::CompareReleases(rat, rat.nominal_posture(), "GP");
+  EXPECT_TRUE(r.release_needed);
+  EXPECT_GE(r.recommended, 0);
 }
 
 // ---- diagnosis and posture table ---------------------------------------------------------
