@@ -8,6 +8,7 @@
 
 #include <Eigen/Core>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "isowrench/kinematics.hpp"
@@ -138,7 +139,10 @@ class StaticsProblem {
 
   const Model& model() const { return model_; }
   /// S_t diagonal with released dofs 0 (N/m, N·m/rad), S_p per coordinate (m entries).
-  const StiffnessSet& stiffness() const { return stiffness_; }
+  /// The accessors returning containers return a copy when called on a temporary
+  /// (`for (int c : StaticsProblem(model).columns())` is safe).
+  const StiffnessSet& stiffness() const& { return stiffness_; }
+  StiffnessSet stiffness() && { return std::move(stiffness_); }
   /// m, the model's coordinates (columns of J).
   int coordinate_count() const { return static_cast<int>(use_.size()); }
   /// @throws std::out_of_range for a column outside [0, m).
@@ -149,14 +153,18 @@ class StaticsProblem {
   const char* RoleLabel(int column) const;
   /// The columns of K (every coordinate that is not locked), ascending: column i of the reduced
   /// problem is coordinate columns()[i].
-  const std::vector<int>& columns() const { return columns_; }
+  const std::vector<int>& columns() const& { return columns_; }
+  std::vector<int> columns() && { return std::move(columns_); }
   /// The columns of K without a spring (use kFree), ascending.
-  const std::vector<int>& spring_free_columns() const { return spring_free_; }
+  const std::vector<int>& spring_free_columns() const& { return spring_free_; }
+  std::vector<int> spring_free_columns() && { return std::move(spring_free_); }
   /// The locked coordinates, ascending.
-  const std::vector<int>& locked_columns() const { return locked_; }
+  const std::vector<int>& locked_columns() const& { return locked_; }
+  std::vector<int> locked_columns() && { return std::move(locked_); }
   /// The columns of K with role kBase (base translation dofs), ascending. With base dofs the
   /// classic answers (ClassicWrench) treat the base springs as free joints and mean nothing.
-  const std::vector<int>& base_columns() const { return base_; }
+  const std::vector<int>& base_columns() const& { return base_; }
+  std::vector<int> base_columns() && { return std::move(base_); }
   /// Names of the locked coordinates, in column order.
   std::vector<std::string> LockedNames() const;
   /// Leg length (m): Model::chain_length(), the length through the joint centres.

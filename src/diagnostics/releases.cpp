@@ -88,8 +88,12 @@ struct Systems {
   WrenchEvaluation evaluation;
 };
 
+// The system with base dofs is built only when the range has a base stiffness > 0 (it is a
+// second Model with three more joints).
 Systems BuildSystems(const Model& model, const Eigen::VectorXd& q, const std::string& muscle,
-                     double activation, const StaticsOptions& statics) {
+                     double activation, const StaticsOptions& statics, const StiffnessRange& range) {
+  const bool need_base = std::any_of(range.base_stiffness.begin(), range.base_stiffness.end(),
+                                     [](double k) { return k > 0; });
   Systems out;
   out.evaluation = EvaluateWrench(model, q, muscle, activation, statics);
   out.R_W_T = out.evaluation.R_W_T;
@@ -99,6 +103,7 @@ Systems BuildSystems(const Model& model, const Eigen::VectorXd& q, const std::st
     out.rigid = WithoutColumns(out.model, out.model.base_columns);
   } else {
     out.rigid = out.model;
+    if (!need_base) return out;
     Model base_model(WithBaseStiffness(model.description(), 1.0));
     Eigen::VectorXd qb = Eigen::VectorXd::Zero(base_model.dof_count());
     for (int i = 0; i < model.dof_count(); ++i)
@@ -408,7 +413,7 @@ ReleaseAssessment AssessRelease(const Model& model, const Eigen::VectorXd& q,
                                 const std::string& muscle, const ReleaseCandidate& candidate,
                                 const ReleaseOptions& options) {
   const double L = diagnostics::LengthScale(model, options.length_scale);
-  Systems sys = BuildSystems(model, q, muscle, options.activation, options.statics);
+  Systems sys = BuildSystems(model, q, muscle, options.activation, options.statics, options.range);
   return Assess(model, sys, candidate, options, L);
 }
 
@@ -449,7 +454,7 @@ ReleaseComparison CompareReleases(const Model& model, const Eigen::VectorXd& q,
   out.muscle = muscle;
   out.length_scale = diagnostics::LengthScale(model, options.length_scale);
   out.range_description = options.range.Describe();
-  Systems sys = BuildSystems(model, q, muscle, options.activation, options.statics);
+  Systems sys = BuildSystems(model, q, muscle, options.activation, options.statics, options.range);
   out.baseline =
       Assess(model, sys, {"none", ReleaseKind::kNone, Eigen::Vector3d::Zero(), "baseline"}, options,
              out.length_scale);
