@@ -57,10 +57,11 @@ struct JointMotion {
 
 /// A direction of null(J_r^T): a wrench on the restrained dofs the joints cannot feel.
 struct InternalWrench {
-  Vector6d direction = Vector6d::Zero();  ///< N and N·m, transducer axes; released rows 0;
-                                          ///< largest |force| = 1 N (or largest |moment| = 1 N·m)
-  std::vector<int> components;            ///< indices (x..rz = 0..5) the direction touches
-  std::string description;                ///< e.g. "fx +1.000 N, fy -0.532 N, mz +0.0123 N·m"
+  /// N and N·m, transducer axes; released rows and untouched components exactly 0; largest
+  /// |force| = 1 N when forces dominate (|f|_max >= |m|_max / L), else largest |moment| = 1 N·m.
+  Vector6d direction = Vector6d::Zero();
+  std::vector<int> components;  ///< indices (x..rz = 0..5) the direction touches
+  std::string description;      ///< e.g. "fx +1.000 N, fy -0.532 N, mz +0.0123 N·m"
 };
 
 /// A revolute joint centre: consecutive joints that share one world position, named by their
@@ -75,9 +76,14 @@ struct JointCentre {
 /// @throws Error if q has the wrong size or a non-finite entry.
 std::vector<JointCentre> FindJointCentres(const Model& model, const Eigen::VectorXd& q);
 
-/// Posture-only analysis of J_r (no muscle): rank, class, self-motions, internal wrenches.
+/// Posture-only analysis of J_r (no muscle): rank, class, self-motions, internal wrenches. J_r is
+/// J on the restrained rows and on the columns of K (StaticsProblem::columns(): every coordinate
+/// that is not locked).
 struct ConstraintAnalysis {
-  int joint_count = 0;              ///< m, movable joints (all roles)
+  /// m, the joint dofs of the restrained limb: the coordinates that are columns of K (all roles;
+  /// locked coordinates are rigid and not counted, StaticsProblem::columns()).
+  int joint_count = 0;
+  std::vector<std::string> locked;  ///< the locked coordinates left out of J_r
   int restrained_count = 0;         ///< n, restrained transducer dofs
   DofMask restrained;               ///< which they are (names(): x y z rx ry rz)
   int rank = 0;                     ///< rank of J_r
@@ -86,8 +92,9 @@ struct ConstraintAnalysis {
   double rank_tolerance = 0.0;      ///< the option used
   double rank_threshold = 0.0;      ///< rank_tolerance * sigma_max
   ConstraintClass constraint_class = ConstraintClass::kMatched;
-  std::string explanation;               ///< one sentence: what the class means for this limb
-  std::vector<JointMotion> self_motion;  ///< basis of null(J_r)
+  std::string explanation;  ///< one sentence: what the class means for this limb
+  /// Basis of null(J_r), each direction over all coordinates (0 on locked ones).
+  std::vector<JointMotion> self_motion;
   std::vector<InternalWrench> internal_wrench;  ///< basis of null(J_r^T) on the restrained rows
   /// The same classification on the columns without a joint spring (S_p = 0): this one says
   /// whether W depends on the compliances (springs hold their joints, so base dofs or a
@@ -155,7 +162,8 @@ enum class LargeDeflectionStatus {
 };
 const char* LargeDeflectionStatusName(LargeDeflectionStatus s);
 
-/// Nonlinear equilibrium of the restrained limb with forward kinematics updated:
+/// Nonlinear equilibrium of the restrained limb with forward kinematics updated (the unknowns
+/// are the columns of K, StaticsProblem::columns(): locked coordinates stay at q):
 /// minimise U(theta) = 1/2 e^T S_t e + 1/2 dtheta^T S_p dtheta + F (L(theta) - L(theta0)),
 /// e = [R_T^T (p - p0); R_T^T log(R R0^T)] the endpoint pose error in transducer axes
 /// (translation, rotation vector from the log map), the transducer fixed at the initial pose.
@@ -173,6 +181,12 @@ struct LargeDeflectionResult {
   double displacement = 0.0;  ///< |dtheta_lin|_inf (rad / m), the size of the motion
   /// |D (W_nl - W_lin)| / |D W_lin|, D = diag(1,1,1,1/L,1/L,1/L).
   double wrench_relative_difference = 0.0;
+  /// A nonlinear equilibrium was found (kConverged or kUnstable). Otherwise dtheta_nonlinear and
+  /// wrench_nonlinear are the last iterate, no answer: reports print no wrench for them.
+  bool found() const {
+    return status == LargeDeflectionStatus::kConverged ||
+           status == LargeDeflectionStatus::kUnstable;
+  }
 };
 
 /// Solve the nonlinear equilibrium for `muscle` at activation `activation` from posture q.
@@ -198,6 +212,9 @@ struct DiagnosisOptions {
   double activation = 1.0;
   bool large_deflection = true;  ///< run SolveLargeDeflection too
   LargeDeflectionOptions large_deflection_options;
+  /// W depends on the compliances when some relative sensitivity |D dW| / |D W| (per e-fold of
+  /// a stiffness) > sensitivity_tolerance (the release comparison's spread_tolerance).
+  double sensitivity_tolerance = 1e-6;
 };
 
 /// DiagnoseLimb's result for one muscle at one posture.
@@ -207,12 +224,22 @@ struct Diagnosis {
   std::vector<JointMotion> stiffness_null;  ///< basis of null(K): self-motion no spring holds
   /// The part of W the compliances set: W - W_classic (pinv(J_r^T) tau, Eq. 15) written on the
   /// internal-wrench basis, W - W_classic ~ sum_i c_i direction_i (c_i dimensionless, since
-  /// each direction is in N and N·m). Empty when there is no internal wrench.
+  /// each direction is in N and N·m). Empty when there is no internal wrench, no equilibrium,
+  /// or base dofs (the classic answer treats their springs as free joints and means nothing).
   Eigen::VectorXd internal_coefficients;
+  /// False with base dofs (StaticsProblem::base_columns()): the classic answer treats their
+  /// springs as free joints and means nothing; reports then omit it.
+  bool classic_meaningful = true;
   /// |D (W - W_classic - sum c_i direction_i)| / |D W| (D as in StiffnessSensitivity): 0 when
   /// all of the difference is internal, i.e. when the spring-free joints carry all of tau.
   double internal_residual = 0.0;
   SensitivityResult sensitivity;
+  /// Whether W depends on the compliances, read from the sensitivities (not from the constraint
+  /// class: internal wrench directions the muscle does not load leave W unchanged): the largest
+  /// relative sensitivity > DiagnosisOptions::sensitivity_tolerance. False without a unique W.
+  bool compliance_dependent = false;
+  /// One sentence: which compliance moves W most and by how much, or that none does.
+  std::string compliance_verdict;
   bool large_deflection_run = false;
   LargeDeflectionResult large_deflection;
 };
@@ -311,7 +338,10 @@ struct ReleaseComparison {
   std::vector<ReleaseAssessment> candidates;  ///< in input order
   ForbiddenAxes forbidden_rotations;          ///< rotations about axes through the endpoint
   ForbiddenAxes forbidden_translations;
-  int recommended = -1;        ///< index into candidates, -1 if none is safe
+  /// False when the baseline already gives a W that does not depend on the compliances (spread
+  /// <= ReleaseOptions::spread_tolerance, no self-motion): then nothing is recommended.
+  bool release_needed = true;
+  int recommended = -1;        ///< index into candidates, -1 if none is safe or none is needed
   std::string recommendation;  ///< the reason, one paragraph
 };
 

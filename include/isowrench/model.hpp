@@ -374,6 +374,13 @@ LimbDescription WithExtraJoint(LimbDescription description, const std::string& a
                                const std::string& new_joint, const Eigen::Vector3d& axis,
                                double stiffness);
 
+/// Lock exactly the named coordinates (CoordinateSpec::locked: held rigid by the statics,
+/// StaticsProblem) and unlock every other one, like WithReleasedDofs replaces the released set:
+/// {} or {"none"} unlocks all. A joint carrying its own coordinate is named by its joint name.
+/// @throws Error naming an unknown or driven name (see FindCoordinate).
+LimbDescription WithLockedCoordinates(LimbDescription description,
+                                      const std::vector<std::string>& locked);
+
 /// Set the transducer's released dofs to `released` (the empty set: none released), e.g.
 /// WithReleasedDofs(d, {"rz"}) or WithReleasedDofs(d, DofMask::Parse("rx,ry")).
 LimbDescription WithReleasedDofs(LimbDescription description, const DofMask& released);
@@ -427,8 +434,12 @@ class Model {
   /// LimbDescription::nominal_posture.
   Eigen::VectorXd nominal_posture() const;
 
-  /// Sum of the distances between consecutive joint origins plus the endpoint offset (m):
-  /// the "leg length" the small-motion rule is relative to.
+  /// Leg length (m): the length of the limb from the first revolute joint's centre through each
+  /// revolute joint's centre, in chain order, to the endpoint, at the nominal posture (for the
+  /// rat: hip to knee to ankle), whatever fixed offsets or coupled translations carry the
+  /// centres; fixed offsets before the first movable joint (a clamp) do not count
+  /// (docs/model.md "Leg length"). The small-motion rule and the diagnostics' length scale are
+  /// relative to it (StaticsProblem::leg_length()).
   double chain_length() const;
 
   /// True for revolute columns, false for prismatic ones. @throws std::out_of_range.

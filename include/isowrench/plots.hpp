@@ -130,14 +130,23 @@ struct LimbDrawingOptions {
   double view_px = 420.0;
   /// Title above the views; empty = "<model name> at <posture>".
   std::string title;
+  /// Muscles to draw (names); empty = every muscle. @throws Error (from LimbStickFigureSvg)
+  /// naming an unknown muscle.
+  std::vector<std::string> muscles;
 };
 
 /// Two-view stick figure of `model` at posture `q`: top view (world x-y, looking down -z) and
 /// side view (world x-z, looking along +y), same scale, with a 10 mm (or suitable) scale bar.
 /// Draws joint centres (circles, labelled with the joints located there), joint axes as short
 /// segments through the centres, bones between consecutive joint centres and the endpoint, every
-/// muscle path, the endpoint frame (x, y, z in green, blue, red) and the transducer axes when
-/// they differ from it. Uses EndpointPose / PointPosition.
+/// muscle path (or those named in options.muscles), the endpoint frame (x, y, z in green, blue,
+/// red) and the transducer axes when they differ from it. Labels never overlap: each (endpoint,
+/// joint centres, then muscles) goes to the first free place around its point or along its
+/// path, a label of n characters at f px taken as 0.62 n f px wide and 1.1 f px high plus 1 px
+/// clearance; a label with no free place is left out and counted under the view (class
+/// "label-note", names in data-left-out separated by ';'); a label put away from its point gets a
+/// thin leader line, and a joint centre whose list of joints would take over half the view's width
+/// is labelled "<first joint> +N joints". Uses EndpointPose / PointPosition.
 /// @throws Error for a posture of the wrong size or non-finite entries.
 std::string LimbStickFigureSvg(const Model& model, const Eigen::VectorXd& q,
                                const LimbDrawingOptions& options = {});

@@ -8,6 +8,7 @@
 
 #include <Eigen/Core>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "isowrench/kinematics.hpp"
@@ -27,7 +28,8 @@ struct StaticsOptions {
   /// Small-motion rule, rotation: |dtheta_i| <= max_joint_rotation (rad) for revolute joints,
   /// and |dtheta_i| <= max_endpoint_fraction * leg length for prismatic ones.
   double max_joint_rotation = 0.01;
-  /// Leg length (m) for the translation rule; <= 0 means "use Model::chain_length()".
+  /// Leg length (m) for the translation rule; <= 0 means the model's (Model::chain_length(),
+  /// StaticsProblem::leg_length()).
   double leg_length = 0.0;
 };
 
@@ -108,6 +110,94 @@ struct ClassicResult {
 ClassicResult ClassicWrench(const Matrix6Xd& J, const DofMask& released, const Eigen::VectorXd& tau,
                             double rank_tolerance = 1e-10);
 
+// ---- The statics problem of a model: one definition every solver and report reads ----------
+
+/// What the statics does with one coordinate (one column of J, tau and S_p).
+enum class CoordinateUse {
+  kFree,    ///< a column of K without a spring (S_p entry 0): only the transducer holds it
+  kSpring,  ///< a column of K held by its own spring (S_p entry > 0): base, extra, stiff joints
+  kLocked,  ///< held rigid (CoordinateSpec::locked): not a column of K; dtheta = 0 there
+};
+/// "free", "spring", "locked".
+const char* CoordinateUseName(CoordinateUse use);
+
+/// The statics problem of a Model with one set of compliances (docs/model.md "Locked
+/// coordinates"): which coordinates are columns of K = J^T S_t J + S_p (free or held by a spring)
+/// and which are locked (rigid, no column), the effective stiffnesses (S_t with released dofs 0,
+/// S_p per coordinate) and the leg length the small-motion rule and the diagnostics' scaling use.
+/// Every solver asks it (EvaluateWrench, the diagnostics, the release comparison, the fit's
+/// effects), so that a locked coordinate means the same everywhere: the reduced problem has the
+/// K columns only, and results map back to all m coordinates with 0 on the locked ones.
+/// Cheap to build (copies the Model handle and a few vectors).
+class StaticsProblem {
+ public:
+  /// The model's own compliances (Model::model_stiffness()).
+  explicit StaticsProblem(const Model& model);
+  /// Other compliances on the same model (locks, roles and leg length are the model's).
+  /// @throws Error if stiffness.s_p does not have model.dof_count() entries.
+  StaticsProblem(const Model& model, const StiffnessSet& stiffness);
+
+  const Model& model() const { return model_; }
+  /// S_t diagonal with released dofs 0 (N/m, N·m/rad), S_p per coordinate (m entries).
+  /// The accessors returning containers return a copy when called on a temporary
+  /// (`for (int c : StaticsProblem(model).columns())` is safe).
+  const StiffnessSet& stiffness() const& { return stiffness_; }
+  StiffnessSet stiffness() && { return std::move(stiffness_); }
+  /// m, the model's coordinates (columns of J).
+  int coordinate_count() const { return static_cast<int>(use_.size()); }
+  /// @throws std::out_of_range for a column outside [0, m).
+  CoordinateUse use(int column) const { return use_.at(static_cast<size_t>(column)); }
+  bool locked(int column) const { return use(column) == CoordinateUse::kLocked; }
+  /// What reports print as a coordinate's role: "locked" for a locked coordinate, otherwise
+  /// RoleName() of its role ("limb", "base", "extra", "release").
+  const char* RoleLabel(int column) const;
+  /// The columns of K (every coordinate that is not locked), ascending: column i of the reduced
+  /// problem is coordinate columns()[i].
+  const std::vector<int>& columns() const& { return columns_; }
+  std::vector<int> columns() && { return std::move(columns_); }
+  /// The columns of K without a spring (use kFree), ascending.
+  const std::vector<int>& spring_free_columns() const& { return spring_free_; }
+  std::vector<int> spring_free_columns() && { return std::move(spring_free_); }
+  /// The locked coordinates, ascending.
+  const std::vector<int>& locked_columns() const& { return locked_; }
+  std::vector<int> locked_columns() && { return std::move(locked_); }
+  /// The columns of K with role kBase (base translation dofs), ascending. With base dofs the
+  /// classic answers (ClassicWrench) treat the base springs as free joints and mean nothing.
+  const std::vector<int>& base_columns() const& { return base_; }
+  std::vector<int> base_columns() && { return std::move(base_); }
+  /// Names of the locked coordinates, in column order.
+  std::vector<std::string> LockedNames() const;
+  /// Leg length (m): Model::chain_length(), the length through the joint centres.
+  double leg_length() const;
+
+  /// J (6 x m) on the columns of K: 6 x columns().size().
+  Matrix6Xd Reduce(const Matrix6Xd& J) const;
+  /// A per-coordinate vector (m entries: tau, S_p, q) on the columns of K.
+  Eigen::VectorXd Reduce(const Eigen::VectorXd& v) const;
+  /// S_p on the columns of K.
+  Eigen::VectorXd reduced_s_p() const { return Reduce(Eigen::VectorXd(stiffness_.s_p)); }
+  /// true for revolute columns of K (the small-motion rule's flags).
+  std::vector<bool> reduced_revolute() const;
+  /// Back to all m coordinates: `reduced` (columns().size() entries) with 0 on locked ones.
+  Eigen::VectorXd Expand(const Eigen::VectorXd& reduced) const;
+  /// The same for the rows of a matrix (e.g. a self-motion basis, one column per direction).
+  Eigen::MatrixXd ExpandRows(const Eigen::MatrixXd& reduced) const;
+
+  /// Eq. 10 on the columns of K (SolveStatics on the reduced J, S_p and tau), with dtheta and
+  /// the self-motion basis mapped back to m rows (0 on locked coordinates). J: 6 x m in
+  /// transducer axes; tau: m entries. options.leg_length <= 0 means leg_length(). Never throws.
+  StaticsResult Solve(const Matrix6Xd& J, const Eigen::VectorXd& tau,
+                      const StaticsOptions& options = {}) const;
+  /// ClassicWrench on the columns of K and the model's restrained rows.
+  ClassicResult Classic(const Matrix6Xd& J, const Eigen::VectorXd& tau) const;
+
+ private:
+  Model model_;
+  StiffnessSet stiffness_;
+  std::vector<CoordinateUse> use_;
+  std::vector<int> columns_, spring_free_, locked_, base_;
+};
+
 /// Everything about one muscle at one posture on a model: kinematics, muscle torque, statics
 /// with the model's S_t, S_p and released dofs, and the classic comparison.
 struct WrenchEvaluation {
@@ -119,13 +209,16 @@ struct WrenchEvaluation {
   double muscle_force = 0.0;   ///< N
   Eigen::VectorXd tau;         ///< N·m / N
   Vector6d s_t;                ///< effective S_t diagonal (0 on released dofs)
-  Eigen::VectorXd s_p;
+  Eigen::VectorXd s_p;         ///< S_p per coordinate (locked ones are rigid whatever it says)
+  /// Per coordinate: true when locked (held rigid; dtheta 0 there): StaticsProblem::locked().
+  std::vector<bool> locked;
   StaticsResult statics;                     ///< W in transducer axes
   Vector6d wrench_world = Vector6d::Zero();  ///< W rotated to world axes
   ClassicResult classic;                     ///< J^-T / pinv comparison on the restrained rows
 };
 
 /// Evaluate `muscle` (by name) at posture q with activation in [0, 1] (force scale; > 1 allowed).
+/// The statics is StaticsProblem(model).Solve(): locked coordinates are rigid.
 /// @throws Error for unknown muscle names or a posture of the wrong size / non-finite.
 WrenchEvaluation EvaluateWrench(const Model& model, const Eigen::VectorXd& q,
                                 const std::string& muscle, double activation = 1.0,

@@ -13,6 +13,7 @@
 
 #include <cmath>
 #include <filesystem>
+#include <limits>
 #include <memory>
 #include <string>
 #include <thread>
@@ -84,12 +85,15 @@ Eigen::VectorXd Posture(const Model& model, const py::object& q) {
   return out;
 }
 
-/// The model with the transducer stiffness and released dofs given in Python, or the model
-/// itself when both are None. transducer: a preset name or 6 values (N/m, N·m/rad); released: a
-/// list of dof names (x y z rx ry rz), a comma-separated string, or [] / "none" for none.
+/// The model with the transducer stiffness, released dofs and locked coordinates given in Python,
+/// or the model itself when all are None. transducer: a preset name or 6 values (N/m, N·m/rad);
+/// released: a list of dof names (x y z rx ry rz), a comma-separated string, or [] / "none" for
+/// none; locked: a list of coordinate names (a comma-separated string), replacing the model's
+/// locks as the CLI's --lock does ([] / "none": nothing locked).
 std::shared_ptr<PyModel> Variant(const std::shared_ptr<PyModel>& m, const py::object& transducer,
-                                 const py::object& released) {
-  if (transducer.is_none() && released.is_none()) return m;
+                                 const py::object& released,
+                                 const py::object& locked = py::none()) {
+  if (transducer.is_none() && released.is_none() && locked.is_none()) return m;
   LimbDescription d = m->model.description();
   if (!transducer.is_none()) {
     if (py::isinstance<py::str>(transducer)) {
@@ -111,6 +115,24 @@ std::shared_ptr<PyModel> Variant(const std::shared_ptr<PyModel>& m, const py::ob
                          py::isinstance<py::str>(released)
                              ? DofMask::Parse(released.cast<std::string>())
                              : DofMask::FromNames(released.cast<std::vector<std::string>>()));
+  }
+  if (!locked.is_none()) {
+    std::vector<std::string> names;
+    if (py::isinstance<py::str>(locked)) {
+      // "a,b" or "a b", as the CLI's --lock.
+      std::string item;
+      for (char c : locked.cast<std::string>() + ",") {
+        if (c == ',' || c == ' ') {
+          if (!item.empty()) names.push_back(item);
+          item.clear();
+        } else {
+          item += c;
+        }
+      }
+    } else {
+      names = locked.cast<std::vector<std::string>>();
+    }
+    d = WithLockedCoordinates(std::move(d), names);
   }
   return std::make_shared<PyModel>(Model(std::move(d)), m->path);
 }
@@ -181,9 +203,17 @@ struct PyWrench {
   std::vector<std::string> coordinates;
 };
 
+/// A result that exists only at an equilibrium: NaN entries without one (never zeros).
+py::array_t<double> EquilibriumArray(const PyWrench& w, const Eigen::VectorXd& v) {
+  if (w.e.statics.ok()) return Array(v);
+  return Array(Eigen::VectorXd(
+      Eigen::VectorXd::Constant(v.size(), std::numeric_limits<double>::quiet_NaN())));
+}
+
 PyWrench Wrench(const std::shared_ptr<PyModel>& m0, const std::string& muscle, const py::object& q,
-                const py::object& transducer, const py::object& released, double activation) {
-  std::shared_ptr<PyModel> m = Variant(m0, transducer, released);
+                const py::object& transducer, const py::object& released, double activation,
+                const py::object& locked) {
+  std::shared_ptr<PyModel> m = Variant(m0, transducer, released, locked);
   return {EvaluateWrench(m->model, Posture(m->model, q), muscle, activation),
           m->model.joint_names()};
 }
@@ -219,8 +249,9 @@ CArray Postures(const Model& model, const py::object& Q) {
 
 py::object WrenchBatch(const std::shared_ptr<PyModel>& m0, const std::string& muscle,
                        const py::object& Q, double activation, const py::object& transducer,
-                       const py::object& released, int threads, bool return_status) {
-  std::shared_ptr<PyModel> m = Variant(m0, transducer, released);
+                       const py::object& released, int threads, bool return_status,
+                       const py::object& locked) {
+  std::shared_ptr<PyModel> m = Variant(m0, transducer, released, locked);
   const int muscle_index = m->model.MuscleIndex(muscle);
   CArray postures = Postures(m->model, Q);
   const py::ssize_t count = postures.shape(0);
@@ -234,6 +265,7 @@ py::object WrenchBatch(const std::shared_ptr<PyModel>& m0, const std::string& mu
   double* w = out.mutable_data();
   std::uint8_t* s = status.mutable_data();
   const double* q = postures.data();
+  py::ssize_t no_equilibrium = 0;
   {
     py::gil_scoped_release release;
     if (count > 0) {
@@ -244,11 +276,24 @@ py::object WrenchBatch(const std::shared_ptr<PyModel>& m0, const std::string& mu
       options.threads = threads > 0 ? threads : std::max(1u, std::thread::hardware_concurrency());
       EvaluateBatch(m->model, columns, muscle_index, {m->model.model_stiffness()}, results,
                     activation, options);
+      // No equilibrium (or invalid input) is never a number: NaN rows, counted for a warning.
+      constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
       for (py::ssize_t p = 0; p < count; ++p) {
-        for (int k = 0; k < 6; ++k) w[p * 6 + k] = results[static_cast<size_t>(p)].wrench[k];
-        s[p] = static_cast<std::uint8_t>(results[static_cast<size_t>(p)].status);
+        const WrenchResult& r = results[static_cast<size_t>(p)];
+        const bool equilibrium =
+            r.status == StaticsStatus::kOk || r.status == StaticsStatus::kSelfMotionHeld;
+        if (!equilibrium) ++no_equilibrium;
+        for (int k = 0; k < 6; ++k) w[p * 6 + k] = equilibrium ? r.wrench[k] : kNaN;
+        s[p] = static_cast<std::uint8_t>(r.status);
       }
     }
+  }
+  if (no_equilibrium > 0) {
+    const std::string text =
+        std::to_string(no_equilibrium) + " of " + std::to_string(count) + " postures of '" +
+        muscle + "' have no equilibrium (the muscle drives a self-motion, or invalid input): " +
+        "their rows are NaN; return_status=True says which";
+    if (PyErr_WarnEx(PyExc_RuntimeWarning, text.c_str(), 1) != 0) throw py::error_already_set();
   }
   if (return_status) return py::make_tuple(out, status);
   return std::move(out);
@@ -261,7 +306,13 @@ py::dict WrenchDict(const Vector6d& w) {
   return d;
 }
 
-py::dict AssessmentDict(const ReleaseAssessment& a) {
+/// A wrench dict, or None where there is no equilibrium (never zeros).
+py::object WrenchOrNone(bool valid, const Vector6d& w) {
+  return valid ? py::object(WrenchDict(w)) : py::object(py::none());
+}
+
+py::dict AssessmentDict(const ReleaseAssessment& a, int grid_points) {
+  const bool range = a.range_failures < grid_points;  // some grid point had an equilibrium
   py::dict d;
   d["name"] = a.candidate.name;
   d["kind"] = a.candidate.kind == ReleaseKind::kNone       ? "none"
@@ -279,10 +330,11 @@ py::dict AssessmentDict(const ReleaseAssessment& a) {
   d["torques_recoverable"] = a.torques_recoverable;
   d["statics_status"] = StatusName(a.statics.status);
   d["small_motion_valid"] = a.statics.small_motion_valid;
-  d["wrench"] = WrenchDict(a.statics.wrench);
-  d["wrench_min"] = WrenchDict(a.wrench_min);
-  d["wrench_max"] = WrenchDict(a.wrench_max);
-  d["spread"] = a.spread;
+  d["equilibrium"] = a.statics.ok();
+  d["wrench"] = WrenchOrNone(a.statics.ok(), a.statics.wrench);
+  d["wrench_min"] = WrenchOrNone(range, a.wrench_min);
+  d["wrench_max"] = WrenchOrNone(range, a.wrench_max);
+  d["spread"] = a.statics.ok() ? py::object(py::float_(a.spread)) : py::object(py::none());
   d["range_failures"] = a.range_failures;
   d["rank_order"] = a.rank_order;
   d["verdict"] = a.verdict;
@@ -297,20 +349,28 @@ py::dict ForbiddenDict(const ForbiddenAxes& f) {
   return d;
 }
 
-py::dict Releases(const PyModel& m, const std::string& muscle, const py::object& q) {
-  ReleaseComparison c = CompareReleases(m.model, Posture(m.model, q), muscle);
+py::dict Releases(const std::shared_ptr<PyModel>& m0, const std::string& muscle,
+                  const py::object& q, const py::object& transducer, const py::object& released,
+                  const py::object& locked) {
+  std::shared_ptr<PyModel> m = Variant(m0, transducer, released, locked);
+  const ReleaseOptions options;
+  const int grid_points = static_cast<int>(options.range.rotational_ratios.size() *
+                                           options.range.base_stiffness.size());
+  ReleaseComparison c = CompareReleases(m->model, Posture(m->model, q), muscle, {}, options);
   py::dict d;
   d["muscle"] = c.muscle;
-  d["baseline"] = AssessmentDict(c.baseline);
+  d["baseline"] = AssessmentDict(c.baseline, grid_points);
   py::list list;
-  for (const ReleaseAssessment& a : c.candidates) list.append(AssessmentDict(a));
+  for (const ReleaseAssessment& a : c.candidates) list.append(AssessmentDict(a, grid_points));
   d["candidates"] = list;
   d["recommended"] =
       c.recommended >= 0
           ? py::object(py::str(c.candidates[static_cast<size_t>(c.recommended)].candidate.name))
           : py::object(py::none());
+  d["release_needed"] = c.release_needed;
   d["recommendation"] = c.recommendation;
   d["length_scale_m"] = c.length_scale;
+  d["locked"] = StaticsProblem(m->model).LockedNames();
   d["stiffness_range"] = c.range_description;
   d["forbidden_rotations"] = ForbiddenDict(c.forbidden_rotations);
   d["forbidden_translations"] = ForbiddenDict(c.forbidden_translations);
@@ -325,16 +385,19 @@ py::dict MotionDict(const JointMotion& m) {
   return d;
 }
 
-py::dict Diagnose(const PyModel& m, const std::string& muscle, const py::object& q,
-                  bool large_deflection) {
+py::dict Diagnose(const std::shared_ptr<PyModel>& m0, const std::string& muscle,
+                  const py::object& q, bool large_deflection, const py::object& transducer,
+                  const py::object& released, const py::object& locked) {
+  std::shared_ptr<PyModel> m = Variant(m0, transducer, released, locked);
   DiagnosisOptions options;
   options.large_deflection = large_deflection;
-  Diagnosis d = DiagnoseLimb(m.model, Posture(m.model, q), muscle, options);
+  Diagnosis d = DiagnoseLimb(m->model, Posture(m->model, q), muscle, options);
   const ConstraintAnalysis& a = d.constraints;
   py::dict constraints;
   constraints["class"] = ConstraintClassName(a.constraint_class);
   constraints["explanation"] = a.explanation;
   constraints["joint_dofs"] = a.joint_count;
+  constraints["locked"] = a.locked;
   constraints["restrained_dofs"] = a.restrained_count;
   constraints["restrained"] = a.restrained.names();
   constraints["rank"] = a.rank;
@@ -362,7 +425,11 @@ py::dict Diagnose(const PyModel& m, const std::string& muscle, const py::object&
   out["muscle"] = e.muscle;
   out["force_N"] = e.muscle_force;
   out["tau"] = Array(e.tau);
-  out["wrench"] = WrenchDict(e.statics.wrench);
+  const bool equilibrium = e.statics.ok();
+  out["equilibrium"] = equilibrium;
+  out["wrench"] = WrenchOrNone(equilibrium, e.statics.wrench);
+  out["compliance_dependent"] = d.compliance_dependent;
+  out["compliance_verdict"] = d.compliance_verdict;
   py::dict statics;
   statics["status"] = StatusName(e.statics.status);
   statics["message"] = e.statics.message;
@@ -374,7 +441,7 @@ py::dict Diagnose(const PyModel& m, const std::string& muscle, const py::object&
   out["stiffness_null"] = null_k;
   out["internal_coefficients"] = Array(d.internal_coefficients);
   out["internal_residual"] = d.internal_residual;
-  out["classic_wrench"] = WrenchDict(e.classic.wrench);
+  out["classic_wrench"] = WrenchOrNone(d.classic_meaningful, e.classic.wrench);
   py::dict sensitivity;
   sensitivity["ok"] = d.sensitivity.ok;
   sensitivity["message"] = d.sensitivity.message;
@@ -397,13 +464,19 @@ py::dict Diagnose(const PyModel& m, const std::string& muscle, const py::object&
     ld["status"] = LargeDeflectionStatusName(l.status);
     ld["message"] = l.message;
     ld["iterations"] = l.iterations;
-    ld["wrench_linear"] = WrenchDict(l.wrench_linear);
-    ld["wrench_nonlinear"] = WrenchDict(l.wrench_nonlinear);
-    ld["wrench_relative_difference"] = l.wrench_relative_difference;
-    ld["displacement"] = l.displacement;
-    ld["dtheta_difference"] = l.dtheta_difference;
-    ld["dtheta_nonlinear"] = Array(l.dtheta_nonlinear);
-    ld["dtheta_linear"] = Array(l.dtheta_linear);
+    // As the CLI's JSON: None where there is no equilibrium to report.
+    const bool both = l.found() && equilibrium;
+    auto number = [](bool valid, double v) {
+      return valid ? py::object(py::float_(v)) : py::object(py::none());
+    };
+    ld["wrench_linear"] = WrenchOrNone(equilibrium, l.wrench_linear);
+    ld["wrench_nonlinear"] = WrenchOrNone(l.found(), l.wrench_nonlinear);
+    ld["wrench_relative_difference"] = number(both, l.wrench_relative_difference);
+    ld["displacement"] = number(equilibrium, l.displacement);
+    ld["dtheta_difference"] = number(both, l.dtheta_difference);
+    ld["dtheta_nonlinear"] =
+        l.found() ? py::object(Array(l.dtheta_nonlinear)) : py::object(py::none());
+    ld["dtheta_linear"] = equilibrium ? py::object(Array(l.dtheta_linear)) : py::object(py::none());
     out["large_deflection"] = ld;
   }
   return out;
@@ -482,6 +555,10 @@ py::dict Fit(const PyModel& m, const std::string& csv, int max_fit_trials,
 std::string WrenchRepr(const PyWrench& w) {
   const Vector6d& t = w.e.statics.wrench;
   char buffer[256];
+  if (!w.e.statics.ok()) {
+    return "<isowrench.Wrench " + w.e.muscle + ": no equilibrium, status '" +
+           StatusName(w.e.statics.status) + "'>";
+  }
   std::snprintf(buffer, sizeof(buffer),
                 "<isowrench.Wrench %s: fx=%.6g fy=%.6g fz=%.6g N, mx=%.6g my=%.6g mz=%.6g N·m "
                 "(transducer axes), "
@@ -522,19 +599,37 @@ PYBIND11_MODULE(_core, mod) {
       "behind it. Returned by Model.wrench().")
       .def_property_readonly(
           "transducer",
-          [](const PyWrench& w) { return Array(Eigen::VectorXd(w.e.statics.wrench)); },
-          "(6,) [fx fy fz mx my mz] in the transducer's axes (N, N·m); released rows are 0; zeros "
-          "when status is 'self-motion' (no equilibrium).")
+          [](const PyWrench& w) {
+            return EquilibriumArray(w, Eigen::VectorXd(w.e.statics.wrench));
+          },
+          "(6,) [fx fy fz mx my mz] in the transducer's axes (N, N·m); released rows are 0; NaN "
+          "when there is no equilibrium (status 'self-motion' or 'invalid input').")
       .def_property_readonly(
-          "world", [](const PyWrench& w) { return Array(Eigen::VectorXd(w.e.wrench_world)); },
-          "(6,) the same wrench in world axes (N, N·m).")
+          "world",
+          [](const PyWrench& w) { return EquilibriumArray(w, Eigen::VectorXd(w.e.wrench_world)); },
+          "(6,) the same wrench in world axes (N, N·m); NaN without equilibrium.")
+      .def_property_readonly(
+          "equilibrium", [](const PyWrench& w) { return w.e.statics.ok(); },
+          "True when the statics has an equilibrium (status 'ok' or 'self-motion (not "
+          "excited)'); False: the wrench, world and dtheta are NaN.")
       .def_property_readonly(
           "classic", [](const PyWrench& w) { return Array(Eigen::VectorXd(w.e.classic.wrench)); },
           "(6,) the classic answer without compliance, J^-T tau (Eq. 11) or pinv(J^T) tau (Eq. "
           "15), transducer axes (N, N·m).")
       .def_property_readonly(
-          "dtheta", [](const PyWrench& w) { return Array(w.e.statics.dtheta); },
-          "(n,) equilibrium displacement K^+ tau per coordinate (rad, or m for prismatic ones).")
+          "dtheta", [](const PyWrench& w) { return EquilibriumArray(w, w.e.statics.dtheta); },
+          "(n,) equilibrium displacement K^+ tau per coordinate (rad, or m for prismatic ones); "
+          "0 on locked coordinates, NaN without equilibrium.")
+      .def_property_readonly(
+          "locked",
+          [](const PyWrench& w) {
+            std::vector<std::string> out;
+            for (size_t i = 0; i < w.e.locked.size(); ++i)
+              if (w.e.locked[i]) out.push_back(w.coordinates[i]);
+            return out;
+          },
+          "Names of the locked coordinates (held rigid: no dof of the statics, dtheta 0), as the "
+          "CLI's JSON \"locked\".")
       .def_property_readonly(
           "tau", [](const PyWrench& w) { return Array(w.e.tau); },
           "(n,) muscle generalized force -F dL/dq per coordinate (N·m, or N for prismatic ones).")
@@ -546,7 +641,7 @@ PYBIND11_MODULE(_core, mod) {
       .def_property_readonly(
           "status", [](const PyWrench& w) { return std::string(StatusName(w.e.statics.status)); },
           "'ok', 'self-motion (not excited)' (W still unique), 'self-motion' (no equilibrium, W "
-          "is zeros) or 'invalid input'.")
+          "is NaN) or 'invalid input'.")
       .def_property_readonly(
           "message", [](const PyWrench& w) { return w.e.statics.message; },
           "The statics' one-sentence explanation of the status.")
@@ -620,7 +715,13 @@ PYBIND11_MODULE(_core, mod) {
           "Released transducer dofs (names among x y z rx ry rz).")
       .def_property_readonly(
           "leg_length_m", [](const PyModel& m) { return m.model.chain_length(); },
-          "Sum of joint-to-joint distances plus the endpoint offset (m).")
+          "Leg length (m): from the first joint centre through each joint centre to the endpoint "
+          "at the default posture (hip, knee, ankle for a hindlimb); the small-motion limit and "
+          "the diagnostics' length scale.")
+      .def_property_readonly(
+          "locked", [](const PyModel& m) { return StaticsProblem(m.model).LockedNames(); },
+          "Locked coordinates (held rigid by the statics; a URDF's locked=\"true\", or the "
+          "locked= argument).")
       .def("kinematics", &Kinematics, py::arg("q") = py::none(),
            "kinematics(q=None) -> dict\n\n"
            "Endpoint position, endpoint Jacobian and every muscle's length and moment arm at "
@@ -634,8 +735,9 @@ PYBIND11_MODULE(_core, mod) {
            "same numbers as `isowrench kinematics --json`.\nRaises ValueError for a bad posture.")
       .def("wrench", &Wrench, py::arg("muscle"), py::arg("q") = py::none(),
            py::arg("transducer") = py::none(), py::arg("released") = py::none(),
-           py::arg("activation") = 1.0,
-           "wrench(muscle, q=None, transducer=None, released=None, activation=1.0) -> Wrench\n\n"
+           py::arg("activation") = 1.0, py::arg("locked") = py::none(),
+           "wrench(muscle, q=None, transducer=None, released=None, activation=1.0, locked=None) "
+           "-> Wrench\n\n"
            "The Eq. 10 wrench muscle `muscle` applies through the limb to the transducer at "
            "posture q (None: default "
            "posture; n values in rad / m; or a dict {coordinate: value}). transducer: None (the "
@@ -644,40 +746,48 @@ PYBIND11_MODULE(_core, mod) {
            "released: None (the "
            "model's), a list of dof names among x y z rx ry rz, or [] for none. activation scales "
            "the force "
-           "(F = activation x max_force). Same numbers as `isowrench wrench --json`.\n"
+           "(F = activation x max_force). locked: None (the model's locks) or the coordinates to "
+           "hold rigid, replacing the model's ([] for none), as the CLI's --lock. Same numbers as "
+           "`isowrench wrench --json`.\n"
            "Raises ValueError for an unknown muscle, a bad posture or bad stiffnesses.")
       .def("wrench_batch", &WrenchBatch, py::arg("muscle"), py::arg("Q"),
            py::arg("activation") = 1.0, py::arg("transducer") = py::none(),
            py::arg("released") = py::none(), py::arg("threads") = 0,
-           py::arg("return_status") = false,
+           py::arg("return_status") = false, py::arg("locked") = py::none(),
            "wrench_batch(muscle, Q, activation=1.0, transducer=None, released=None, threads=0, "
-           "return_status=False)"
+           "return_status=False, locked=None)"
            " -> ndarray (N, 6)\n\n"
            "The Eq. 10 wrench at every posture (row) of Q (N, n) in rad / m: row i = [fx fy fz mx "
            "my mz] (N, N·m) in "
            "transducer axes, equal to wrench(muscle, Q[i]).transducer to rounding. Runs the C++ "
            "batch kernel with "
            "the GIL released on `threads` threads (0: every core). Rows without equilibrium are "
-           "zeros; with "
+           "NaN (a RuntimeWarning says how many); with "
            "return_status=True a uint8 status array (N,) is returned too, indexing "
            "isowrench.STATUS_NAMES.\n"
            "Raises ValueError for an unknown muscle, Q of the wrong shape (not (N, n)) or a "
            "non-finite entry.")
       .def("releases", &Releases, py::arg("muscle"), py::arg("q") = py::none(),
-           "releases(muscle, q=None) -> dict\n\n"
+           py::arg("transducer") = py::none(), py::arg("released") = py::none(),
+           py::arg("locked") = py::none(),
+           "releases(muscle, q=None, transducer=None, released=None, locked=None) -> dict\n\n"
            "Which extra transducer dof to release (CompareReleases): the baseline and every "
            "default candidate "
            "assessed, the forbidden axes and the recommendation; the keys of `isowrench releases "
            "--json` for one "
-           "muscle (wrenches as {fx..mz} dicts, N and N·m; axes as numpy arrays).")
+           "muscle (wrenches as {fx..mz} dicts, N and N·m, None without equilibrium; axes as numpy "
+           "arrays). transducer, released and locked as for wrench().")
       .def("diagnose", &Diagnose, py::arg("muscle"), py::arg("q") = py::none(),
-           py::arg("large_deflection") = true,
-           "diagnose(muscle, q=None, large_deflection=True) -> dict\n\n"
+           py::arg("large_deflection") = true, py::arg("transducer") = py::none(),
+           py::arg("released") = py::none(), py::arg("locked") = py::none(),
+           "diagnose(muscle, q=None, large_deflection=True, transducer=None, released=None, "
+           "locked=None) -> dict\n\n"
            "DiagnoseLimb: constraint class, self-motions and internal wrenches ('constraints'), "
            "the Eq. 10 wrench "
            "and classic answer, sensitivities dW/dlog k and (optionally) the nonlinear "
            "equilibrium; the keys of "
-           "`isowrench diagnose --json` for one muscle.")
+           "`isowrench diagnose --json` for one muscle (wrenches None without equilibrium). "
+           "transducer, released and locked as for wrench().")
       .def("__repr__", [](const PyModel& m) {
         return "<isowrench.Model '" + m.model.name() + "': " + std::to_string(m.model.dof_count()) +
                " coordinates (" + CoordinateList(m.model) + "), " +

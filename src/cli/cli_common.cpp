@@ -46,6 +46,11 @@ void AddModelOptions(CLI::App& app, ModelOptions& o, bool with_muscle) {
   app.add_option("--joint-stiffness", o.joint_stiffness,
                  "Passive joint stiffness joint=value (N·m/rad, or N/m for prismatic); repeatable")
       ->delimiter(',');
+  app.add_option("--lock", o.lock,
+                 "Locked coordinates (held rigid by the statics), replacing the URDF's locks: "
+                 "coord,coord,...; 'none' locks nothing")
+      ->delimiter(',')
+      ->each([&o](const std::string&) { o.lock_given = true; });
   if (with_muscle) {
     app.add_option("--muscle", o.muscle, "Muscle name (default: the first muscle in the URDF)");
     app.add_option("--activation", o.activation,
@@ -91,6 +96,8 @@ Model LoadModel(const ModelOptions& o) {
     CheckStiffnessValue(k, "--joint-stiffness " + joint);
     d = WithJointStiffness(std::move(d), joint, k);
   }
+  // Last, so that --lock can name the base dofs --base-stiffness added.
+  if (o.lock_given) d = WithLockedCoordinates(std::move(d), o.lock);
   return Model(std::move(d));
 }
 

@@ -40,7 +40,9 @@ struct ModelOptions {
   double base_stiffness = 0;         ///< N/m, used when base_given
   bool base_given = false;
   std::vector<std::string> joint_stiffness;  ///< "joint=value"
-  std::string muscle;                        ///< empty = the first muscle
+  std::vector<std::string> lock;             ///< locked coordinates ("none" unlocks all)
+  bool lock_given = false;
+  std::string muscle;  ///< empty = the first muscle
   double activation = 1.0;
   StaticsOptions statics;
 };

@@ -59,6 +59,7 @@ nlohmann::json ConstraintsJson(const ConstraintAnalysis& a) {
   return {{"class", ConstraintClassName(a.constraint_class)},
           {"explanation", a.explanation},
           {"joint_dofs", a.joint_count},
+          {"locked", a.locked},
           {"restrained_dofs", a.restrained_count},
           {"restrained", a.restrained.names()},
           {"rank", a.rank},
@@ -83,11 +84,16 @@ nlohmann::json MuscleJson(const Diagnosis& d) {
                     {"dW_dlogk", WrenchJson(s.dW_dlogk)},
                     {"relative", s.relative}});
   }
+  // No equilibrium: no wrench (null), never zeros.
+  const bool equilibrium = e.statics.ok();
   nlohmann::json j = {
       {"muscle", e.muscle},
       {"force_N", e.muscle_force},
       {"tau", ToJson(e.tau)},
-      {"wrench", WrenchJson(e.statics.wrench)},
+      {"equilibrium", equilibrium},
+      {"wrench", equilibrium ? WrenchJson(e.statics.wrench) : nlohmann::json(nullptr)},
+      {"compliance_dependent", d.compliance_dependent},
+      {"compliance_verdict", d.compliance_verdict},
       {"wrench_sign",
        "wrench the limb applies to the transducer; moment about the endpoint; transducer axes"},
       {"statics",
@@ -98,7 +104,8 @@ nlohmann::json MuscleJson(const Diagnosis& d) {
       {"stiffness_null", null_k},
       {"internal_coefficients", ToJson(d.internal_coefficients)},
       {"internal_residual", d.internal_residual},
-      {"classic_wrench", WrenchJson(e.classic.wrench)},
+      {"classic_wrench",
+       d.classic_meaningful ? WrenchJson(e.classic.wrench) : nlohmann::json(nullptr)},
       {"sensitivity",
        {{"ok", d.sensitivity.ok},
         {"message", d.sensitivity.message},
@@ -107,17 +114,19 @@ nlohmann::json MuscleJson(const Diagnosis& d) {
   };
   if (d.large_deflection_run) {
     const LargeDeflectionResult& l = d.large_deflection;
+    const bool found = l.found(), both = found && equilibrium;
+    auto number = [](bool valid, double v) { return valid ? nlohmann::json(v) : nullptr; };
     j["large_deflection"] = {
         {"status", LargeDeflectionStatusName(l.status)},
         {"message", l.message},
         {"iterations", l.iterations},
-        {"wrench_linear", WrenchJson(l.wrench_linear)},
-        {"wrench_nonlinear", WrenchJson(l.wrench_nonlinear)},
-        {"wrench_relative_difference", l.wrench_relative_difference},
-        {"displacement", l.displacement},
-        {"dtheta_difference", l.dtheta_difference},
-        {"dtheta_nonlinear", ToJson(l.dtheta_nonlinear)},
-        {"dtheta_linear", ToJson(l.dtheta_linear)},
+        {"wrench_linear", equilibrium ? WrenchJson(l.wrench_linear) : nlohmann::json(nullptr)},
+        {"wrench_nonlinear", found ? WrenchJson(l.wrench_nonlinear) : nlohmann::json(nullptr)},
+        {"wrench_relative_difference", number(both, l.wrench_relative_difference)},
+        {"displacement", number(equilibrium, l.displacement)},
+        {"dtheta_difference", number(both, l.dtheta_difference)},
+        {"dtheta_nonlinear", found ? ToJson(l.dtheta_nonlinear) : nlohmann::json(nullptr)},
+        {"dtheta_linear", equilibrium ? ToJson(l.dtheta_linear) : nlohmann::json(nullptr)},
         {"units", "dtheta and displacement: rad (m for prismatic joints), max norm"}};
   }
   return j;
@@ -160,12 +169,22 @@ void PrintMuscle(const Diagnosis& d) {
   if (!e.statics.validity_message.empty())
     std::cout << "    warning      " << e.statics.validity_message << "\n";
   const int w = 34;
-  std::cout << "  " << WrenchHeader(w) << "\n  "
-            << WrenchRow("  W, Eq. 10 (limb on transducer)", e.statics.wrench, w) << "\n";
+  if (!e.statics.ok()) {
+    // No equilibrium: no wrench to print (the statics line says why).
+    std::cout << "    W, Eq. 10      none: there is no equilibrium\n";
+  } else {
+    std::cout << "  " << WrenchHeader(w) << "\n  "
+              << WrenchRow("  W, Eq. 10 (limb on transducer)", e.statics.wrench, w) << "\n"
+              << "    compliances  " << d.compliance_verdict << "\n";
+  }
   for (Eigen::Index i = 0; i < d.internal_coefficients.size(); ++i) {
     std::cout << "    internal part of W: W - pinv(J_r^T) tau = " << N(d.internal_coefficients[i])
               << " x internal wrench " << i + 1 << " (residual " << N(d.internal_residual, 2)
               << " of |W|)\n";
+  }
+  if (!d.classic_meaningful && !d.constraints.internal_wrench.empty() && e.statics.ok()) {
+    std::cout << "    internal part of W not shown: the model has base dofs, and the classic "
+                 "pinv(J_r^T) tau it is measured from treats their springs as free joints\n";
   }
   PrintMotions("  null(K), self-motion no stiffness holds", d.stiffness_null, "none");
   std::cout << "    sensitivity dW/dlog(k): " << d.sensitivity.message << "\n";
@@ -181,17 +200,27 @@ void PrintMuscle(const Diagnosis& d) {
   if (d.large_deflection_run) {
     const LargeDeflectionResult& l = d.large_deflection;
     std::cout << "    large deflection: " << LargeDeflectionStatusName(l.status) << ": "
-              << l.message << "\n"
-              << "  "
-              << WrenchRow(l.status == LargeDeflectionStatus::kConverged
-                               ? "  W nonlinear (updated kinematics)"
-                               : "  W at the last iterate",
-                           l.wrench_nonlinear, w)
-              << "\n"
-              << "      linear motion max |dtheta| = " << N(l.displacement, 3)
-              << " rad; |dtheta_nonlinear - dtheta_linear| = " << N(l.dtheta_difference, 3)
-              << " rad; wrench difference " << N(100 * l.wrench_relative_difference, 3)
-              << "% of |W|\n";
+              << l.message << "\n";
+    if (l.found()) {
+      std::cout << "  "
+                << WrenchRow(l.status == LargeDeflectionStatus::kConverged
+                                 ? "  W nonlinear (updated kinematics)"
+                                 : "  W at the unstable point",
+                             l.wrench_nonlinear, w)
+                << "\n";
+      if (e.statics.ok()) {
+        std::cout << "      linear motion max |dtheta| = " << N(l.displacement, 3)
+                  << " rad; |dtheta_nonlinear - dtheta_linear| = " << N(l.dtheta_difference, 3)
+                  << " rad; wrench difference " << N(100 * l.wrench_relative_difference, 3)
+                  << "% of |W|\n";
+      } else {
+        std::cout << "      (Eq. 10 has no equilibrium to compare with; the nonlinear one is "
+                     "reached after max |dtheta| = "
+                  << N(l.dtheta_nonlinear.cwiseAbs().maxCoeff(), 3) << " rad)\n";
+      }
+    } else {
+      std::cout << "      no nonlinear equilibrium found: no wrench to compare with Eq. 10\n";
+    }
   }
 }
 

@@ -30,12 +30,17 @@ const bool kDrawRegistered = RegisterCommand({
           "--axis-length", *axis_mm,
           "Length of joint-axis segments and frame axes in mm (default: 12% of the leg length)");
       app.add_option("--title", *title, "Title above the views (default: model name and posture)");
-      return [options, output, axis_mm, title]() {
+      auto muscles = std::make_shared<std::vector<std::string>>();
+      app.add_option("--muscle", *muscles,
+                     "Draw only these muscles: name,name,... (default: every muscle)")
+          ->delimiter(',');
+      return [options, output, axis_mm, title, muscles]() {
         Model model = LoadModel(*options);
         Eigen::VectorXd q = LoadPosture(model, *options);
         LimbDrawingOptions drawing;
         drawing.axis_length = *axis_mm * 1e-3;
         drawing.title = *title;
+        drawing.muscles = *muscles;
         const std::string svg = LimbStickFigureSvg(model, q, drawing);
         if (*output == "-") {
           std::cout << svg;
@@ -45,8 +50,14 @@ const bool kDrawRegistered = RegisterCommand({
         std::cout << "wrote " << *output << ": " << model.name() << " at "
                   << FormatPosture(model, q) << " (" << model.dof_count() << " joints, "
                   << model.muscle_count() << " muscle" << (model.muscle_count() == 1 ? "" : "s")
+                  << (muscles->empty() ? "" : ", " + std::to_string(muscles->size()) + " drawn")
                   << ", leg length " << util::FormatNumber(model.chain_length() * 1e3, 4)
                   << " mm)\n";
+        const size_t note = svg.find("class=\"label-note\"");
+        if (note != std::string::npos) {
+          std::cout << "  some labels were left out where they would overlap (see the note under "
+                       "each view); draw fewer muscles with --muscle\n";
+        }
         return 0;
       };
     },

@@ -2,10 +2,12 @@
 // model as an isowrench URDF (include/isowrench/opensim.hpp, docs/opensim.md).
 
 #include <iostream>
+#include <memory>
 
 #include "cli/command.hpp"
 #include "isowrench/error.hpp"
 #include "isowrench/io.hpp"
+#include "isowrench/kinematics.hpp"
 #include "isowrench/opensim.hpp"
 
 namespace isowrench::cli {
@@ -22,6 +24,45 @@ void ParseEndpoint(const std::string& text, OpenSimImportOptions& options) {
   }
   for (int i = 0; i < 3; ++i) {
     options.endpoint_point[i] = util::ParseDoubleOrThrow(parts[i], "--endpoint '" + text + "'");
+  }
+}
+
+// What the engine can evaluate, checked before anything is written: the URDF text read back
+// builds a Model (the joint and coordinate limits, couplings and muscles all validated), which
+// has a movable joint and a muscle, and each muscle has a length and moment arms at the default
+// posture (a muscle whose path points coincide there gets a warning: only it cannot be
+// evaluated). @throws Error naming what fails; nothing is written then.
+void CheckEvaluable(OpenSimImport& import, const OpenSimImportOptions& options,
+                    const std::string& output) {
+  const LimbDescription& d = import.description;
+  const std::string chain =
+      "the chain from '" + options.clamp_body + "' to '" + options.endpoint_body + "'";
+  const std::string nothing = "; nothing was written to " + output;
+  std::unique_ptr<Model> model;
+  try {
+    model = std::make_unique<Model>(ReadUrdfString(WriteUrdfString(d), output));
+  } catch (const Error& e) {
+    throw Error("the imported model cannot be evaluated: " + std::string(e.what()) + nothing);
+  }
+  if (model->dof_count() == 0) {
+    throw Error(chain + " has no movable joint: nothing can move, so no wrench can be computed" +
+                nothing + " (choose a clamp body proximal to the joints)");
+  }
+  if (model->muscle_count() == 0) {
+    throw Error(chain +
+                " carries no muscle path (no muscle has points on it and on ground or "
+                "the clamped body)" +
+                nothing);
+  }
+  Data data(*model);
+  const Eigen::VectorXd q = model->nominal_posture();
+  for (int m = 0; m < model->muscle_count(); ++m) {
+    try {
+      ComputeMuscleTorque(*model, data, q, m);
+    } catch (const Error& e) {
+      import.warnings.push_back("muscle '" + model->muscle(m).name +
+                                "' cannot be evaluated at the default posture: " + e.what());
+    }
   }
 }
 
@@ -59,8 +100,9 @@ const bool kImportRegistered = RegisterCommand({
       return [a]() {
         ParseEndpoint(a->endpoint, a->options);
         a->options.unlock = a->unlock;
-        const OpenSimImport import = ImportOpenSimFile(a->osim, a->options);
+        OpenSimImport import = ImportOpenSimFile(a->osim, a->options);
         const LimbDescription& d = import.description;
+        CheckEvaluable(import, a->options, a->output);
         WriteUrdfFile(d, a->output);
         if (a->json) {
           nlohmann::json tables = nlohmann::json::object();

@@ -9,6 +9,7 @@
 #include "isowrench/io.hpp"
 #include "isowrench/kinematics.hpp"
 #include "isowrench/posture.hpp"
+#include "isowrench/statics.hpp"
 
 namespace isowrench::cli {
 namespace {
@@ -110,7 +111,12 @@ std::string Table(const Model& model, const std::vector<PostureKinematics>& resu
   const int n = model.dof_count();
   const int label = 10;
   std::ostringstream o;
-  o << "model " << model.name() << ": " << n << " coordinates (columns), world axes\n";
+  o << "model " << model.name() << ": " << n << " coordinates (columns), world axes";
+  const std::vector<std::string> locked = StaticsProblem(model).LockedNames();
+  if (!locked.empty()) {
+    o << "; locked (rigid in the statics, still columns here): " << util::Join(locked, ", ");
+  }
+  o << "\n";
   std::string header = std::string(label, ' ');
   for (const std::string& name : model.joint_names())
     header += std::string(name.size() < 11 ? 11 - name.size() : 1, ' ') + name;

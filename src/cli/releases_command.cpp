@@ -69,7 +69,13 @@ const char* Kind(ReleaseKind k) {
 
 nlohmann::json AxisJson(const Eigen::Vector3d& a) { return {a.x(), a.y(), a.z()}; }
 
-nlohmann::json AssessmentJson(const ReleaseAssessment& a) {
+// No equilibrium is never a number: null instead of a wrench.
+nlohmann::json WrenchOrNull(bool valid, const Vector6d& w) {
+  return valid ? WrenchJson(w) : nlohmann::json(nullptr);
+}
+
+nlohmann::json AssessmentJson(const ReleaseAssessment& a, int grid_points) {
+  const bool range = a.range_failures < grid_points;  // some grid point had an equilibrium
   return {{"name", a.candidate.name},
           {"kind", Kind(a.candidate.kind)},
           {"source", a.candidate.source},
@@ -84,10 +90,11 @@ nlohmann::json AssessmentJson(const ReleaseAssessment& a) {
           {"torques_recoverable", a.torques_recoverable},
           {"statics_status", StatusName(a.statics.status)},
           {"small_motion_valid", a.statics.small_motion_valid},
-          {"wrench", WrenchJson(a.statics.wrench)},
-          {"wrench_min", WrenchJson(a.wrench_min)},
-          {"wrench_max", WrenchJson(a.wrench_max)},
-          {"spread", a.spread},
+          {"equilibrium", a.statics.ok()},
+          {"wrench", WrenchOrNull(a.statics.ok(), a.statics.wrench)},
+          {"wrench_min", WrenchOrNull(range, a.wrench_min)},
+          {"wrench_max", WrenchOrNull(range, a.wrench_max)},
+          {"spread", a.statics.ok() ? nlohmann::json(a.spread) : nlohmann::json(nullptr)},
           {"range_failures", a.range_failures},
           {"rank_order", a.rank_order},
           {"verdict", a.verdict}};
@@ -105,15 +112,17 @@ nlohmann::json ForbiddenJson(const ForbiddenAxes& f) {
 void PrintRow(const ReleaseAssessment& a) {
   char line[400];
   std::string rank = a.rank_order > 0 ? std::to_string(a.rank_order) : "-";
+  char spread[32] = "         -";  // no equilibrium: no spread
+  if (a.statics.ok()) std::snprintf(spread, sizeof(spread), "%10.3g", 100 * a.spread);
   std::snprintf(
-      line, sizeof(line), "  %-4s %-22s %-11s %-24s %9.3g  %d/%-3d %-8s %10.3g   %s\n",
-      rank.c_str(), a.candidate.name.c_str(), Kind(a.candidate.kind),
+      line, sizeof(line), "  %-4s %-22s %-11s %-24s %9.3g  %d/%-3d %-8s %s   %s\n", rank.c_str(),
+      a.candidate.name.c_str(), Kind(a.candidate.kind),
       a.candidate.kind == ReleaseKind::kNone ? "" : AxisText(a.candidate.axis_world).c_str(),
       a.margin, a.rank, a.columns,
       a.self_motion       ? "-"
       : a.internal_wrench ? "yes"
                           : "no",
-      100 * a.spread, a.verdict.c_str());
+      spread, a.verdict.c_str());
   std::cout << line;
 }
 
@@ -176,6 +185,9 @@ const bool kReleasesRegistered = RegisterCommand({
         ReleaseOptions options = o->release;
         options.activation = o->activation;
         options.statics = o->model.statics;
+        const int grid_points = static_cast<int>(options.range.rotational_ratios.size() *
+                                                 options.range.base_stiffness.size());
+        const std::vector<std::string> locked = StaticsProblem(model).LockedNames();
 
         nlohmann::json jp = nlohmann::json::array();
         if (!o->json)
@@ -190,19 +202,22 @@ const bool kReleasesRegistered = RegisterCommand({
             ReleaseComparison c = CompareReleases(model, p.q, muscle, candidates, options);
             if (o->json) {
               nlohmann::json list = nlohmann::json::array();
-              for (const ReleaseAssessment& a : c.candidates) list.push_back(AssessmentJson(a));
+              for (const ReleaseAssessment& a : c.candidates)
+                list.push_back(AssessmentJson(a, grid_points));
               jm.push_back(
                   {{"muscle", muscle},
-                   {"baseline", AssessmentJson(c.baseline)},
+                   {"baseline", AssessmentJson(c.baseline, grid_points)},
                    {"candidates", list},
                    {"recommended",
                     c.recommended >= 0
                         ? nlohmann::json(
                               c.candidates[static_cast<size_t>(c.recommended)].candidate.name)
                         : nlohmann::json(nullptr)},
+                   {"release_needed", c.release_needed},
                    {"recommendation", c.recommendation}});
               if (first) {
                 jsweep = {{"length_scale_m", c.length_scale},
+                          {"locked", locked},
                           {"stiffness_range", c.range_description},
                           {"forbidden_rotations", ForbiddenJson(c.forbidden_rotations)},
                           {"forbidden_translations", ForbiddenJson(c.forbidden_translations)}};
@@ -219,6 +234,10 @@ const bool kReleasesRegistered = RegisterCommand({
                              "j_release] "
                              "(translation rows / L, L = "
                           << N(c.length_scale * 1e3, 4) << " mm)\n";
+                if (!locked.empty()) {
+                  std::cout << "  locked coordinates (rigid, not joint dofs here): "
+                            << util::Join(locked, ", ") << "\n";
+                }
               }
               std::cout << "\n  muscle " << muscle << ":\n"
                         << "  rank candidate              kind        axis (world)                "
@@ -227,16 +246,21 @@ const bool kReleasesRegistered = RegisterCommand({
               PrintRow(c.baseline);
               for (const ReleaseAssessment& a : c.candidates) PrintRow(a);
               const int w = 30;
+              // A row without equilibrium shows no numbers.
+              auto row = [w](const std::string& label, const StaticsResult& r) {
+                if (r.ok()) return WrenchRow(label, r.wrench, w);
+                std::string line = label;
+                line.resize(static_cast<size_t>(std::max<int>(w, static_cast<int>(line.size()))),
+                            ' ');
+                return line + "no equilibrium (" + StatusName(r.status) + ")";
+              };
               std::cout << "\n  Wrench the limb applies to the transducer with each release (Eq. "
                            "10, model "
                            "stiffness, transducer axes):\n  "
-                        << WrenchHeader(w) << "\n  "
-                        << WrenchRow("none (baseline)", c.baseline.statics.wrench, w) << "\n";
+                        << WrenchHeader(w) << "\n  " << row("none (baseline)", c.baseline.statics)
+                        << "\n";
               for (const ReleaseAssessment& a : c.candidates) {
-                std::cout << "  "
-                          << WrenchRow(a.candidate.name,
-                                       a.statics.ok() ? a.statics.wrench : Vector6d::Zero(), w)
-                          << (a.statics.ok() ? "" : "  (no equilibrium: self-motion)") << "\n";
+                std::cout << "  " << row(a.candidate.name, a.statics) << "\n";
               }
               std::cout << "\n  recommendation: " << c.recommendation << "\n";
             }

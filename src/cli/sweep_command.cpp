@@ -213,9 +213,12 @@ const bool kSweepRegistered = RegisterCommand({
               Append(out, r[static_cast<size_t>(s)]);
               out += ',';
               out += StatusWord(w.status);
+              // No equilibrium is never a number: the wrench cells stay empty.
+              const bool equilibrium =
+                  w.status == StaticsStatus::kOk || w.status == StaticsStatus::kSelfMotionHeld;
               for (int k = 0; k < 6; ++k) {
                 out += ',';
-                Append(out, w.wrench[k]);
+                if (equilibrium) Append(out, w.wrench[k]);
               }
               out += ',';
               out += std::to_string(w.self_motion_count);
@@ -251,6 +254,7 @@ const bool kSweepRegistered = RegisterCommand({
                                       {"compute_seconds", compute_seconds},
                                       {"total_seconds", total_seconds},
                                       {"status_counts", status_counts},
+                                      {"locked", StaticsProblem(model).LockedNames()},
                                       {"output", *output}}
                            .dump(2)
                     << "\n";
@@ -266,7 +270,13 @@ const bool kSweepRegistered = RegisterCommand({
                     << " ns per evaluation per thread), " << util::FormatNumber(total_seconds, 3)
                     << " s with the CSV\n  status:";
           for (const auto& [status, n] : counts) std::cout << " " << StatusWord(status) << " " << n;
-          std::cout << "\n  wrote " << *output << " (W in N and N·m, transducer axes)\n";
+          const std::vector<std::string> locked = StaticsProblem(model).LockedNames();
+          if (!locked.empty()) {
+            std::cout << "\n  locked (rigid, no dof): " << util::Join(locked, ", ");
+          }
+          std::cout << "\n  wrote " << *output
+                    << " (W in N and N·m, transducer axes; empty where there is no "
+                       "equilibrium)\n";
         }
         return 0;
       };

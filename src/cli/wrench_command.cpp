@@ -25,9 +25,8 @@ double NoNegativeZero(double v) { return v == 0.0 ? 0.0 : v; }
 /// (J^-T tau / pinv(J^T) tau) meaningless: it has no compliance to share the load with.
 std::vector<std::string> BaseDofs(const Model& model) {
   std::vector<std::string> names;
-  for (int i = 0; i < model.dof_count(); ++i) {
-    if (model.joint(i).role == JointRole::kBase) names.push_back(model.joint_names()[i]);
-  }
+  const StaticsProblem problem(model);
+  for (int i : problem.base_columns()) names.push_back(model.joint_names()[i]);
   return names;
 }
 
@@ -44,11 +43,13 @@ nlohmann::json EvaluationJson(const Model& model, const WrenchEvaluation& e,
   const StaticsResult& s = e.statics;
   nlohmann::json joints = nlohmann::json::array();
   for (int i = 0; i < model.dof_count(); ++i) {
+    const bool locked = e.locked[static_cast<size_t>(i)];
     joints.push_back(
         {{"name", model.joint_names()[i]},
          {"role", RoleName(model.joint(i).role)},
+         {"locked", locked},
          {"q", NoNegativeZero(e.q[i])},
-         {"stiffness", e.s_p[i]},
+         {"stiffness", locked ? nlohmann::json(nullptr) : nlohmann::json(e.s_p[i])},
          {"tau", NoNegativeZero(e.tau[i])},
          {"dtheta",
           NoEquilibrium(s) ? nlohmann::json(nullptr) : nlohmann::json(NoNegativeZero(s.dtheta[i]))},
@@ -74,9 +75,14 @@ nlohmann::json EvaluationJson(const Model& model, const WrenchEvaluation& e,
                                     {"rank", e.classic.rank},
                                     {"residual", e.classic.residual}}
                    : nlohmann::json{{"method", nullptr}, {"omitted", ClassicOmitted(base)}};
+  std::vector<std::string> locked;
+  for (int i = 0; i < model.dof_count(); ++i) {
+    if (e.locked[static_cast<size_t>(i)]) locked.push_back(model.joint_names()[i]);
+  }
   return {
       {"model", model.name()},
       {"urdf", urdf},
+      {"locked", locked},
       {"muscle", {{"name", e.muscle}, {"force_N", e.muscle_force}, {"length_m", e.muscle_length}}},
       {"transducer",
        {{"stiffness", ToJson(e.s_t)},
@@ -120,15 +126,19 @@ void PrintEvaluation(const Model& model, const WrenchEvaluation& e, const std::s
             << "  transducer   S_t = " << StiffnessText(t.stiffness) << ", axes "
             << (t.axes_in_world ? "world" : "of link " + t.link)
             << ", released: " << ReleasedText(t) << "\n";
-  std::vector<std::string> springs;
+  std::vector<std::string> springs, locked;
   for (int i = 0; i < model.dof_count(); ++i) {
-    if (e.s_p[i] > 0) {
+    if (e.locked[static_cast<size_t>(i)]) {
+      locked.push_back(model.joint_names()[i]);
+    } else if (e.s_p[i] > 0) {
       springs.push_back(model.joint_names()[i] + " " + util::FormatNumber(e.s_p[i], 4) +
                         Unit(model, i, " N·m/rad", " N/m"));
     }
   }
-  std::cout << "  S_p          "
-            << (springs.empty() ? "none (all joints free)" : util::Join(springs, ", ")) << "\n"
+  std::string s_p = springs.empty() ? (locked.empty() ? "none (all joints free)" : "none")
+                                    : util::Join(springs, ", ");
+  if (!locked.empty()) s_p += "; locked (rigid, no dof): " + util::Join(locked, ", ");
+  std::cout << "  S_p          " << s_p << "\n"
             << "  statics      " << StatusName(s.status) << ": " << s.message << "\n";
   for (int c = 0; c < s.self_motion.cols(); ++c) {
     std::cout << "  self-motion  " << DescribeJointMotion(model, s.self_motion.col(c)) << "\n";
@@ -182,10 +192,18 @@ void PrintEvaluation(const Model& model, const WrenchEvaluation& e, const std::s
       std::snprintf(dtheta, sizeof(dtheta), "%11.4g %-4s", NoNegativeZero(s.dtheta[i]),
                     Unit(model, i, "rad", "m").c_str());
     }
-    std::snprintf(line, sizeof(line), "  %-12s %-8s %11.4g %-4s %s %10.4g %s\n",
-                  model.joint_names()[i].c_str(), RoleName(model.joint(i).role),
-                  NoNegativeZero(e.tau[i]), Unit(model, i, "N·m", "N").c_str(), dtheta,
-                  NoNegativeZero(e.s_p[i]), Unit(model, i, "N·m/rad", "N/m").c_str());
+    const bool is_locked = e.locked[static_cast<size_t>(i)];
+    char stiffness[64];
+    if (is_locked) {
+      std::snprintf(stiffness, sizeof(stiffness), "%10s", "rigid");
+    } else {
+      std::snprintf(stiffness, sizeof(stiffness), "%10.4g %s", NoNegativeZero(e.s_p[i]),
+                    Unit(model, i, "N·m/rad", "N/m").c_str());
+    }
+    std::snprintf(line, sizeof(line), "  %-12s %-8s %11.4g %-4s %s %s\n",
+                  model.joint_names()[i].c_str(),
+                  is_locked ? "locked" : RoleName(model.joint(i).role), NoNegativeZero(e.tau[i]),
+                  Unit(model, i, "N·m", "N").c_str(), dtheta, stiffness);
     std::cout << line;
   }
 }

@@ -11,6 +11,7 @@
 #include "isowrench/error.hpp"
 #include "isowrench/kinematics.hpp"
 #include "isowrench/posture.hpp"
+#include "isowrench/statics.hpp"
 #include "util/eigen_instantiations.hpp"
 #include "util/text.hpp"
 
@@ -143,16 +144,21 @@ ConstraintAnalysis AnalyzeConstraints(const Model& model, const Eigen::VectorXd&
   const double L = a.length_scale;
   Data ws(model);
   a.jacobian = EndpointJacobian(model, ws, q);
+  // The columns of K: locked coordinates are rigid and are no dof of the restrained limb.
+  const StaticsProblem problem(model);
+  const std::vector<int>& columns = problem.columns();
+  a.locked = problem.LockedNames();
   std::vector<int> rows = diagnostics::RestrainedRows(model);
-  std::vector<bool> prismatic = diagnostics::PrismaticColumns(model);
+  std::vector<bool> prismatic = diagnostics::PrismaticColumns(model, columns);
   const int n = static_cast<int>(rows.size());
-  const int m = model.dof_count();
+  const int m = static_cast<int>(columns.size());
   a.joint_count = m;
   a.restrained_count = n;
   for (int r : rows) a.restrained.set(r);
   a.rank_tolerance = options.rank_tolerance;
 
-  Eigen::MatrixXd Js = diagnostics::ScaledRows(a.jacobian, rows, prismatic, L);
+  Eigen::MatrixXd Js =
+      diagnostics::ScaledRows(diagnostics::SelectColumns(a.jacobian, columns), rows, prismatic, L);
   const diagnostics::FullSvd svd = diagnostics::ComputeFullSvd(Js);
   a.singular_values = svd.singular_values;
   const double sigma_max = a.singular_values.size() ? a.singular_values[0] : 0.0;
@@ -166,8 +172,13 @@ ConstraintAnalysis AnalyzeConstraints(const Model& model, const Eigen::VectorXd&
                        : internal       ? ConstraintClass::kOverConstrained
                        : self           ? ConstraintClass::kUnderConstrained
                                         : ConstraintClass::kMatched;
-  const std::string counts = std::to_string(m) + " joint dofs, " + std::to_string(n) +
-                             " restrained dofs, rank " + std::to_string(a.rank);
+  std::string counts = std::to_string(m) + " joint dofs";
+  if (!a.locked.empty()) {
+    counts += " (" + std::to_string(a.locked.size()) + " locked coordinate" +
+              (a.locked.size() == 1 ? "" : "s") + " not counted: " + util::Join(a.locked, ", ") +
+              ")";
+  }
+  counts += ", " + std::to_string(n) + " restrained dofs, rank " + std::to_string(a.rank);
   switch (a.constraint_class) {
     case ConstraintClass::kMatched:
       a.explanation = counts +
@@ -175,9 +186,9 @@ ConstraintAnalysis AnalyzeConstraints(const Model& model, const Eigen::VectorXd&
                       "transducer or base compliance (joint springs aside)";
       break;
     case ConstraintClass::kOverConstrained:
-      a.explanation =
-          counts + ": " + std::to_string(n - a.rank) +
-          " internal wrench direction(s) the muscle does not determine; the compliances do";
+      a.explanation = counts + ": " + std::to_string(n - a.rank) +
+                      " internal wrench direction(s) the joint torques do not determine: W along "
+                      "them is set by the compliances, or is 0 where the muscle does not load them";
       break;
     case ConstraintClass::kUnderConstrained:
       a.explanation = counts + ": " + std::to_string(m - a.rank) +
@@ -190,15 +201,11 @@ ConstraintAnalysis AnalyzeConstraints(const Model& model, const Eigen::VectorXd&
       break;
   }
 
-  // Spring-free columns.
+  // Spring-free columns (not locked, S_p = 0).
   {
-    const Eigen::VectorXd s_p = model.joint_stiffness();
-    std::vector<int> free;
-    for (int c = 0; c < m; ++c) {
-      if (!(s_p[c] > 0)) free.push_back(c);
-    }
-    Eigen::MatrixXd Jf(n, static_cast<Eigen::Index>(free.size()));
-    for (size_t k = 0; k < free.size(); ++k) Jf.col(static_cast<Eigen::Index>(k)) = Js.col(free[k]);
+    const std::vector<int>& free = problem.spring_free_columns();
+    Eigen::MatrixXd Jf = diagnostics::ScaledRows(diagnostics::SelectColumns(a.jacobian, free), rows,
+                                                 diagnostics::PrismaticColumns(model, free), L);
     a.free_joint_count = static_cast<int>(free.size());
     a.free_rank = 0;
     if (Jf.cols() > 0 && n > 0) {
@@ -219,7 +226,8 @@ ConstraintAnalysis AnalyzeConstraints(const Model& model, const Eigen::VectorXd&
           (a.free_class == ConstraintClass::kMatched ? ", so W does not depend on the compliances"
            : a.free_class == ConstraintClass::kUnderConstrained
                ? ", so a self-motion no stiffness holds exists"
-               : ", so W depends on the compliances");
+               : ", so W can depend on the compliances (each muscle's sensitivities say whether "
+                 "it does)");
     }
   }
 
@@ -232,8 +240,9 @@ ConstraintAnalysis AnalyzeConstraints(const Model& model, const Eigen::VectorXd&
     }
     d /= d.cwiseAbs().maxCoeff();
     CanonicalSign(d);
+    const Eigen::VectorXd full = problem.Expand(d);  // 0 on locked coordinates
     a.self_motion.push_back(
-        {d, DescribeJointMotion(model, d), InterpretMotion(model, q, d, centres, L)});
+        {full, DescribeJointMotion(model, full), InterpretMotion(model, q, full, centres, L)});
   }
   const Eigen::MatrixXd& U = svd.U;
   for (int c = a.rank; c < n; ++c) {
@@ -241,17 +250,18 @@ ConstraintAnalysis AnalyzeConstraints(const Model& model, const Eigen::VectorXd&
     CanonicalSign(u);
     InternalWrench iw;
     for (int k = 0; k < n; ++k) {
+      if (std::abs(u[k]) <= options.component_cutoff) continue;  // rounding of an exact zero
       const int row = rows[static_cast<size_t>(k)];
       iw.direction[row] = row < 3 ? u[k] / L : u[k];  // w = D u
-      if (std::abs(u[k]) > options.component_cutoff) iw.components.push_back(row);
+      iw.components.push_back(row);
     }
-    double largest_force = iw.direction.head<3>().cwiseAbs().maxCoeff();
-    iw.direction /=
-        largest_force > 0 ? largest_force : iw.direction.tail<3>().cwiseAbs().maxCoeff();
-    for (int k = 0; k < 6; ++k) {
-      if (std::find(iw.components.begin(), iw.components.end(), k) == iw.components.end())
-        iw.direction[k] = 0.0;
-    }
+    // Largest |force| = 1 N when forces dominate in the D metric (|f| >= |m| / L), otherwise
+    // largest |moment| = 1 N·m: no component exceeds max(1, 1 / L). The components the
+    // direction does not touch are exactly 0, so rounding cannot set the scale.
+    const double largest_force = iw.direction.head<3>().cwiseAbs().maxCoeff();
+    const double largest_moment = iw.direction.tail<3>().cwiseAbs().maxCoeff();
+    const double norm = largest_force >= largest_moment / L ? largest_force : largest_moment;
+    if (norm > 0) iw.direction /= norm;
     iw.description = diagnostics::DescribeWrench(iw.direction, 0.0);
     a.internal_wrench.push_back(iw);
   }
@@ -260,6 +270,10 @@ ConstraintAnalysis AnalyzeConstraints(const Model& model, const Eigen::VectorXd&
 
 Diagnosis DiagnoseLimb(const Model& model, const Eigen::VectorXd& q, const std::string& muscle,
                        const DiagnosisOptions& options) {
+  if (!std::isfinite(options.sensitivity_tolerance) || options.sensitivity_tolerance < 0) {
+    throw Error("sensitivity tolerance " + util::FormatNumber(options.sensitivity_tolerance) +
+                " must be finite and >= 0");
+  }
   Diagnosis d;
   d.constraints = AnalyzeConstraints(model, q, options.constraints);
   d.evaluation = EvaluateWrench(model, q, muscle, options.activation, options.statics);
@@ -271,7 +285,10 @@ Diagnosis DiagnoseLimb(const Model& model, const Eigen::VectorXd& q, const std::
     d.stiffness_null.push_back({v, DescribeJointMotion(model, v),
                                 InterpretMotion(model, q, v, centres, d.constraints.length_scale)});
   }
-  if (!d.constraints.internal_wrench.empty() && d.evaluation.statics.ok()) {
+  // The decomposition against the classic answer needs a classic answer: with base dofs it
+  // treats the base springs as free joints and means nothing (as `wrench` says).
+  d.classic_meaningful = StaticsProblem(model).base_columns().empty();
+  if (!d.constraints.internal_wrench.empty() && d.evaluation.statics.ok() && d.classic_meaningful) {
     const double L = d.constraints.length_scale;
     const Eigen::Index k = static_cast<Eigen::Index>(d.constraints.internal_wrench.size());
     Eigen::MatrixXd N(6, k);
@@ -288,6 +305,26 @@ Diagnosis DiagnoseLimb(const Model& model, const Eigen::VectorXd& q, const std::
   }
   d.sensitivity = ComputeStiffnessSensitivity(model, d.evaluation, d.constraints.length_scale,
                                               options.statics.rank_tolerance);
+  if (!d.sensitivity.ok) {
+    d.compliance_verdict = "no unique W, so no dependence on the compliances to state";
+  } else if (d.sensitivity.entries.empty()) {
+    d.compliance_verdict = "no compliance to vary";
+  } else {
+    const StiffnessSensitivity* largest = &d.sensitivity.entries.front();
+    for (const StiffnessSensitivity& e : d.sensitivity.entries) {
+      if (e.relative > largest->relative) largest = &e;
+    }
+    const std::string tol = util::FormatNumber(options.sensitivity_tolerance, 3);
+    d.compliance_dependent = largest->relative > options.sensitivity_tolerance;
+    d.compliance_verdict =
+        d.compliance_dependent
+            ? "W depends on the compliances: " + largest->parameter + " moves it by " +
+                  util::FormatNumber(100 * largest->relative, 3) +
+                  "% per e-fold, the most (relative sensitivity > " + tol + ")"
+            : "W does not depend on any compliance: the largest relative sensitivity is " +
+                  util::FormatNumber(largest->relative, 3) + " (" + largest->parameter +
+                  ", <= " + tol + ")";
+  }
   if (options.large_deflection) {
     d.large_deflection_run = true;
     d.large_deflection = SolveLargeDeflection(model, q, muscle, options.activation,

@@ -11,6 +11,7 @@
 #include "isowrench/error.hpp"
 #include "isowrench/kinematics.hpp"
 #include "isowrench/posture.hpp"
+#include "isowrench/statics.hpp"
 #include "util/eigen_instantiations.hpp"
 #include "util/text.hpp"
 
@@ -61,11 +62,9 @@ struct Problem {
       : model(m), ws(m), q0(q), muscle_index(muscle), activation(act) {
     X0 = EndpointPose(model, ws, q0);
     R_T = TransducerRotation(model, ws, q0);
-    s_t = model.transducer().stiffness;
-    for (int i = 0; i < 6; ++i) {
-      if (model.transducer().released[i]) s_t[i] = 0.0;
-    }
-    s_p = model.joint_stiffness();
+    const StaticsProblem problem(model);  // the effective S_t (released rows 0) and S_p
+    s_t = problem.stiffness().s_t;
+    s_p = problem.stiffness().s_p;
     L0 = ComputeMuscleTorque(model, ws, q0, muscle_index, activation).length;
   }
 
@@ -121,27 +120,46 @@ LargeDeflectionResult SolveLargeDeflection(const Model& model, const Eigen::Vect
     r.message = "the model has no movable joints";
     return r;
   }
-  const double Ls = model.chain_length() > 0 ? model.chain_length() : 1.0;
+  // The unknowns are the columns of K: locked coordinates stay at q (StaticsProblem).
+  const StaticsProblem problem(model);
+  const std::vector<int>& columns = problem.columns();
+  const int n = static_cast<int>(columns.size());
+  const double Ls = problem.leg_length() > 0 ? problem.leg_length() : 1.0;
   // Linear answer for comparison.
   WrenchEvaluation lin = EvaluateWrench(model, q, muscle, activation);
   r.dtheta_linear = lin.statics.dtheta;
   r.wrench_linear = lin.statics.wrench;
   r.displacement = r.dtheta_linear.cwiseAbs().maxCoeff();
   r.dtheta_nonlinear = Eigen::VectorXd::Zero(m);
-
-  // Per-column scale: 1 for revolute (rad), L for prismatic (m).
-  Eigen::VectorXd scale = Eigen::VectorXd::Ones(m);
-  for (int i = 0; i < m; ++i) {
-    if (model.joint(i).type == JointType::kPrismatic) scale[i] = Ls;
+  if (n == 0) {
+    r.status = LargeDeflectionStatus::kFailed;
+    r.message = "every coordinate is locked: nothing moves";
+    return r;
   }
+
+  // Per-unknown scale: 1 for revolute (rad), L for prismatic (m).
+  Eigen::VectorXd scale = Eigen::VectorXd::Ones(n);
+  for (int i = 0; i < n; ++i) {
+    if (model.joint(columns[static_cast<size_t>(i)]).type == JointType::kPrismatic) scale[i] = Ls;
+  }
+  // theta = q + the unknowns on the columns of K; the gradient on them.
+  auto posture = [&](const Eigen::VectorXd& x) {
+    Eigen::VectorXd t = q;
+    for (int i = 0; i < n; ++i) t[columns[static_cast<size_t>(i)]] += x[i];
+    return t;
+  };
+  Eigen::VectorXd x = Eigen::VectorXd::Zero(n);
   Eigen::VectorXd theta = q;
   Vector6d W = Vector6d::Zero();
   try {
     Problem p(model, q, muscle_index, activation);
-    const double tau_norm = std::max(lin.tau.cwiseAbs().maxCoeff(), 1e-300);
+    const double tau_norm = std::max(problem.Reduce(lin.tau).cwiseAbs().maxCoeff(), 1e-300);
+    auto gradient = [&](const Eigen::VectorXd& y, double* U_out, Vector6d* W_out) {
+      return problem.Reduce(p.Gradient(posture(y), U_out, W_out));
+    };
     double U = 0.0;
-    Eigen::VectorXd g = p.Gradient(theta, &U, &W);
-    Eigen::MatrixXd H(m, m);
+    Eigen::VectorXd g = gradient(x, &U, &W);
+    Eigen::MatrixXd H(n, n);
     double previous_step = INFINITY;
     bool converged = false;
     bool failed = false;
@@ -152,12 +170,12 @@ LargeDeflectionResult SolveLargeDeflection(const Model& model, const Eigen::Vect
       }
       // Hessian by central differences of the analytic gradient (it only sets the step; the
       // solution is where the analytic gradient vanishes).
-      for (int c = 0; c < m; ++c) {
+      for (int c = 0; c < n; ++c) {
         const double h = 1e-6 * scale[c];
-        Eigen::VectorXd tp = theta, tm = theta;
+        Eigen::VectorXd tp = x, tm = x;
         tp[c] += h;
         tm[c] -= h;
-        H.col(c) = (p.Gradient(tp, nullptr, nullptr) - p.Gradient(tm, nullptr, nullptr)) / (2 * h);
+        H.col(c) = (gradient(tp, nullptr, nullptr) - gradient(tm, nullptr, nullptr)) / (2 * h);
       }
       H = 0.5 * (H + H.transpose()).eval();
       // Levenberg damping until H + mu I is positive definite.
@@ -174,14 +192,14 @@ LargeDeflectionResult SolveLargeDeflection(const Model& model, const Eigen::Vect
         }
         mu = mu == 0.0 ? 1e-10 * h_scale : mu * 10;
       }
-      if (step.size() != m || !step.allFinite()) {
+      if (step.size() != n || !step.allFinite()) {
         r.message = "no descent direction (the Hessian could not be made positive definite)";
         break;
       }
       // Limit wild steps (large-deflection cases start far from equilibrium).
       const double largest = step.cwiseQuotient(scale).cwiseAbs().maxCoeff();
       if (largest > options.max_step) step *= options.max_step / largest;
-      const double dtheta_size = (theta - q).cwiseQuotient(scale).cwiseAbs().maxCoeff();
+      const double dtheta_size = x.cwiseQuotient(scale).cwiseAbs().maxCoeff();
       const double step_size = step.cwiseQuotient(scale).cwiseAbs().maxCoeff();
       // Backtracking on U (Armijo). Near the solution, U differences fall below rounding;
       // a step a millionth of the displacement is then taken whole.
@@ -191,9 +209,9 @@ LargeDeflectionResult SolveLargeDeflection(const Model& model, const Eigen::Vect
       bool accepted = false;
       std::string broken;
       for (int k = 0; k < 40; ++k) {
-        Eigen::VectorXd trial = theta + alpha * step;
+        Eigen::VectorXd trial = x + alpha * step;
         try {
-          g_new = p.Gradient(trial, &U_new, &W_new);
+          g_new = gradient(trial, &U_new, &W_new);
         } catch (const Error& e) {
           // The trial posture is degenerate (e.g. a muscle of zero length): shorten the step.
           broken = e.what();
@@ -202,7 +220,8 @@ LargeDeflectionResult SolveLargeDeflection(const Model& model, const Eigen::Vect
         }
         if (U_new <= U + 1e-4 * alpha * g.dot(step) || step_size <= 1e-6 * dtheta_size) {
           accepted = true;
-          theta = trial;
+          x = trial;
+          theta = posture(x);
           break;
         }
         alpha *= 0.5;

@@ -12,6 +12,7 @@
 #include "isowrench/error.hpp"
 #include "isowrench/kinematics.hpp"
 #include "isowrench/posture.hpp"
+#include "isowrench/statics.hpp"
 #include "util/text.hpp"
 
 namespace isowrench {
@@ -28,24 +29,34 @@ std::string AxisText(const Eigen::Vector3d& a) {
 }
 
 // Everything about one muscle at one posture that a release assessment needs: J (transducer
-// axes), tau, S_p and the column kinds, with and without base translation dofs.
+// axes), tau, S_p and the column kinds on the columns of K (StaticsProblem::columns(): locked
+// coordinates are rigid and are no column), with and without base translation dofs.
 struct System {
   Matrix6Xd J;
   Eigen::VectorXd tau, s_p;
   std::vector<bool> prismatic;
-  std::vector<int> base_columns;
+  std::vector<int> base_columns;  // indices into the system's columns
+  std::vector<int> coordinates;   // the model coordinate of each column (before any release)
 };
 
-System MakeSystem(const WrenchEvaluation& e, const Model& model) {
+System MakeSystem(const Matrix6Xd& J, const Eigen::VectorXd& tau, const Model& model) {
+  const StaticsProblem problem(model);
   System s;
-  s.J = e.jacobian;
-  s.tau = e.tau;
-  s.s_p = e.s_p;
-  s.prismatic = diagnostics::PrismaticColumns(model);
-  for (int i = 0; i < model.dof_count(); ++i) {
-    if (model.joint(i).role == JointRole::kBase) s.base_columns.push_back(i);
+  s.J = problem.Reduce(J);
+  s.tau = problem.Reduce(tau);
+  s.s_p = problem.reduced_s_p();
+  s.coordinates = problem.columns();
+  s.prismatic = diagnostics::PrismaticColumns(model, s.coordinates);
+  for (size_t i = 0; i < s.coordinates.size(); ++i) {
+    const std::vector<int>& base = problem.base_columns();
+    if (std::find(base.begin(), base.end(), s.coordinates[i]) != base.end())
+      s.base_columns.push_back(static_cast<int>(i));
   }
   return s;
+}
+
+System MakeSystem(const WrenchEvaluation& e, const Model& model) {
+  return MakeSystem(e.jacobian, e.tau, model);
 }
 
 System WithoutColumns(const System& s, const std::vector<int>& drop) {
@@ -59,10 +70,13 @@ System WithoutColumns(const System& s, const std::vector<int>& drop) {
   out.tau.resize(k);
   out.s_p.resize(k);
   for (Eigen::Index i = 0; i < k; ++i) {
-    out.J.col(i) = s.J.col(keep[static_cast<size_t>(i)]);
-    out.tau[i] = s.tau[keep[static_cast<size_t>(i)]];
-    out.s_p[i] = s.s_p[keep[static_cast<size_t>(i)]];
-    out.prismatic.push_back(s.prismatic[static_cast<size_t>(keep[static_cast<size_t>(i)])]);
+    const int c = keep[static_cast<size_t>(i)];
+    out.J.col(i) = s.J.col(c);
+    out.tau[i] = s.tau[c];
+    out.s_p[i] = s.s_p[c];
+    out.prismatic.push_back(s.prismatic[static_cast<size_t>(c)]);
+    if (static_cast<size_t>(c) < s.coordinates.size())
+      out.coordinates.push_back(s.coordinates[static_cast<size_t>(c)]);
   }
   return out;
 }
@@ -74,8 +88,12 @@ struct Systems {
   WrenchEvaluation evaluation;
 };
 
+// The system with base dofs is built only when the range has a base stiffness > 0 (it is a
+// second Model with three more joints).
 Systems BuildSystems(const Model& model, const Eigen::VectorXd& q, const std::string& muscle,
-                     double activation, const StaticsOptions& statics) {
+                     double activation, const StaticsOptions& statics, const StiffnessRange& range) {
+  const bool need_base = std::any_of(range.base_stiffness.begin(), range.base_stiffness.end(),
+                                     [](double k) { return k > 0; });
   Systems out;
   out.evaluation = EvaluateWrench(model, q, muscle, activation, statics);
   out.R_W_T = out.evaluation.R_W_T;
@@ -85,6 +103,7 @@ Systems BuildSystems(const Model& model, const Eigen::VectorXd& q, const std::st
     out.rigid = WithoutColumns(out.model, out.model.base_columns);
   } else {
     out.rigid = out.model;
+    if (!need_base) return out;
     Model base_model(WithBaseStiffness(model.description(), 1.0));
     Eigen::VectorXd qb = Eigen::VectorXd::Zero(base_model.dof_count());
     for (int i = 0; i < model.dof_count(); ++i)
@@ -201,12 +220,10 @@ ReleaseAssessment Assess(const Model& model, const Systems& sys, const ReleaseCa
   a.internal_wrench = mg.rank < n;
   a.torques_recoverable = !a.self_motion;
 
-  Vector6d s_t = model.transducer().stiffness;
-  for (int i = 0; i < 6; ++i) {
-    if (model.transducer().released[i]) s_t[i] = 0.0;
-  }
+  const StaticsProblem problem(model);
+  const Vector6d s_t = problem.stiffness().s_t;  // released rows 0
   StaticsOptions so = options.statics;
-  if (so.leg_length <= 0) so.leg_length = model.chain_length();
+  if (so.leg_length <= 0) so.leg_length = problem.leg_length();
   a.statics = SolveStatics(expanded.J, s_t, expanded.s_p, expanded.tau, so, Revolute(expanded));
 
   // Spread over the stiffness range.
@@ -261,7 +278,10 @@ ReleaseAssessment Assess(const Model& model, const Systems& sys, const ReleaseCa
   } else if (a.self_motion) {
     std::string motion;
     if (mg.null_direction.size() == expanded.J.cols()) {
-      Eigen::VectorXd joints = mg.null_direction.head(model.dof_count());
+      // Back to the model's coordinates (0 on locked ones; the release column left out).
+      Eigen::VectorXd joints = Eigen::VectorXd::Zero(model.dof_count());
+      for (size_t i = 0; i < sys.model.coordinates.size(); ++i)
+        joints[sys.model.coordinates[i]] = mg.null_direction[static_cast<Eigen::Index>(i)];
       if (joints.cwiseAbs().maxCoeff() > 0)
         motion = "; self-motion: " + DescribeJointMotion(model, joints);
     }
@@ -272,9 +292,17 @@ ReleaseAssessment Assess(const Model& model, const Systems& sys, const ReleaseCa
     a.verdict = "near self-motion: margin " + N3(a.margin) + " <= " + N3(options.margin_warning) +
                 "; the wrench amplifies small stiffness and geometry errors";
   } else if (a.internal_wrench) {
-    a.verdict = "still over-constrained (" + std::to_string(n - a.rank) +
-                " internal wrench direction(s)): W moves by up to " + N3(100 * a.spread) +
-                "% over the stiffness range";
+    const std::string over = std::string(cand.kind == ReleaseKind::kNone ? "" : "still ") +
+                             "over-constrained (" + std::to_string(n - a.rank) +
+                             " internal wrench direction(s))";
+    if (a.statics.ok() && a.range_failures == 0 && a.spread <= options.spread_tolerance) {
+      // The internal wrench directions exist but this muscle does not load them.
+      a.verdict = over + " but W does not depend on the compliances: it moves by " +
+                  N3(100 * a.spread) +
+                  "% over the stiffness range (<= " + N3(100 * options.spread_tolerance) + "%)";
+    } else {
+      a.verdict = over + ": W moves by up to " + N3(100 * a.spread) + "% over the stiffness range";
+    }
   } else {
     a.verdict = "matched: W = J_e^-T [tau; 0] whatever the compliances (spread " +
                 N3(100 * a.spread) + "% over the range), margin " + N3(a.margin);
@@ -385,7 +413,7 @@ ReleaseAssessment AssessRelease(const Model& model, const Eigen::VectorXd& q,
                                 const std::string& muscle, const ReleaseCandidate& candidate,
                                 const ReleaseOptions& options) {
   const double L = diagnostics::LengthScale(model, options.length_scale);
-  Systems sys = BuildSystems(model, q, muscle, options.activation, options.statics);
+  Systems sys = BuildSystems(model, q, muscle, options.activation, options.statics, options.range);
   return Assess(model, sys, candidate, options, L);
 }
 
@@ -398,17 +426,10 @@ std::pair<ForbiddenAxes, ForbiddenAxes> FindForbiddenAxes(const Model& model,
   const Matrix6Xd J = EndpointJacobian(model, ws, q);
   const Eigen::Matrix3d R = TransducerRotation(model, ws, q);
   const std::vector<int> rows = diagnostics::RestrainedRows(model);
-  const Eigen::VectorXd s_p = model.joint_stiffness();
-  std::vector<bool> all_prismatic = diagnostics::PrismaticColumns(model), prismatic;
-  std::vector<int> free;
-  for (int c = 0; c < model.dof_count(); ++c) {
-    if (!(s_p[c] > 0)) {
-      free.push_back(c);
-      prismatic.push_back(all_prismatic[static_cast<size_t>(c)]);
-    }
-  }
-  Matrix6Xd Jf(6, static_cast<Eigen::Index>(free.size()));
-  for (size_t k = 0; k < free.size(); ++k) Jf.col(static_cast<Eigen::Index>(k)) = J.col(free[k]);
+  // Only the spring-free columns of K can carry a self-motion (locked ones are no column).
+  const std::vector<int> free = StaticsProblem(model).spring_free_columns();
+  const std::vector<bool> prismatic = diagnostics::PrismaticColumns(model, free);
+  const Matrix6Xd Jf = diagnostics::SelectColumns(J, free);
   Eigen::MatrixXd Js = diagnostics::ScaledRows(Jf, rows, prismatic, L);
   // Release columns in scaled coordinates: rotation [0; R^T a], translation [R^T a; 0] (the
   // translation column is scaled by L like a prismatic joint, cancelling the row scaling).
@@ -433,7 +454,7 @@ ReleaseComparison CompareReleases(const Model& model, const Eigen::VectorXd& q,
   out.muscle = muscle;
   out.length_scale = diagnostics::LengthScale(model, options.length_scale);
   out.range_description = options.range.Describe();
-  Systems sys = BuildSystems(model, q, muscle, options.activation, options.statics);
+  Systems sys = BuildSystems(model, q, muscle, options.activation, options.statics, options.range);
   out.baseline =
       Assess(model, sys, {"none", ReleaseKind::kNone, Eigen::Vector3d::Zero(), "baseline"}, options,
              out.length_scale);
@@ -459,7 +480,18 @@ ReleaseComparison CompareReleases(const Model& model, const Eigen::VectorXd& q,
   for (size_t r = 0; r < order.size(); ++r)
     out.candidates[static_cast<size_t>(order[r])].rank_order = static_cast<int>(r + 1);
 
-  if (order.empty() || out.candidates[static_cast<size_t>(order[0])].near_self_motion) {
+  const ReleaseAssessment& base = out.baseline;
+  if (base.statics.ok() && !base.self_motion && !base.near_self_motion &&
+      base.range_failures == 0 && base.spread <= options.spread_tolerance) {
+    // W already does not depend on the compliances: a release can only remove a restraint.
+    out.recommended = -1;
+    out.release_needed = false;
+    out.recommendation =
+        "no release needed: W already does not depend on the compliances (it moves by " +
+        N3(100 * base.spread) +
+        "% over the stiffness range, <= " + N3(100 * options.spread_tolerance) +
+        "%); keep the current restraint";
+  } else if (order.empty() || out.candidates[static_cast<size_t>(order[0])].near_self_motion) {
     out.recommended = -1;
     out.recommendation =
         "no candidate is safe: every one allows (or nearly allows) a self-motion; " +
@@ -503,11 +535,8 @@ AxisSweep SweepReleaseAxes(const Model& model, const Eigen::VectorXd& q, int cou
   ValidatePosture(model, q);
   const double L = diagnostics::LengthScale(model, options.length_scale);
   Data ws(model);
-  System s;
-  s.J = EndpointJacobian(model, ws, q);
-  s.prismatic = diagnostics::PrismaticColumns(model);
-  s.tau = Eigen::VectorXd::Zero(model.dof_count());
-  s.s_p = model.joint_stiffness();
+  const System s =
+      MakeSystem(EndpointJacobian(model, ws, q), Eigen::VectorXd::Zero(model.dof_count()), model);
   const Eigen::Matrix3d R = TransducerRotation(model, ws, q);
   const std::vector<int> rows = diagnostics::RestrainedRows(model);
   AxisSweep out;

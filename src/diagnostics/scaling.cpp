@@ -5,6 +5,7 @@
 #include <cstdio>
 
 #include "isowrench/error.hpp"
+#include "isowrench/statics.hpp"
 #include "util/eigen_instantiations.hpp"
 #include "util/text.hpp"
 
@@ -22,7 +23,7 @@ double LengthScale(const Model& model, double length_scale) {
   if (!std::isfinite(length_scale)) {
     throw Error("length scale " + util::FormatNumber(length_scale) + " m is not finite");
   }
-  double L = length_scale > 0 ? length_scale : model.chain_length();
+  double L = length_scale > 0 ? length_scale : StaticsProblem(model).leg_length();
   if (!(L > 0))
     throw Error("model '" + model.name() + "' has zero chain length; give a length scale");
   return L;
@@ -61,6 +62,19 @@ std::vector<bool> PrismaticColumns(const Model& model) {
   for (int i = 0; i < model.dof_count(); ++i)
     p[static_cast<size_t>(i)] = model.joint(i).type == JointType::kPrismatic;
   return p;
+}
+
+std::vector<bool> PrismaticColumns(const Model& model, const std::vector<int>& columns) {
+  std::vector<bool> p;
+  for (int c : columns) p.push_back(model.joint(c).type == JointType::kPrismatic);
+  return p;
+}
+
+Matrix6Xd SelectColumns(const Matrix6Xd& J, const std::vector<int>& columns) {
+  Matrix6Xd out(6, static_cast<Eigen::Index>(columns.size()));
+  for (size_t k = 0; k < columns.size(); ++k)
+    out.col(static_cast<Eigen::Index>(k)) = J.col(columns[k]);
+  return out;
 }
 
 double ScaledWrenchNorm(const Vector6d& w, double L) {

@@ -16,7 +16,8 @@ namespace isowrench::diagnostics {
 /// Rows of the restrained transducer dofs, in order.
 std::vector<int> RestrainedRows(const Model& model);
 
-/// L: `length_scale` if > 0, else model.chain_length(). @throws Error if not finite.
+/// L: `length_scale` if > 0, else the leg length (StaticsProblem::leg_length(),
+/// Model::chain_length()). @throws Error if not finite.
 double LengthScale(const Model& model, double length_scale);
 
 /// J_s on the given rows: (rows.size() x J.cols()); `prismatic` flags columns (may be longer
@@ -35,6 +36,12 @@ FullSvd ComputeFullSvd(const Eigen::MatrixXd& A);
 
 /// Column flags from the model.
 std::vector<bool> PrismaticColumns(const Model& model);
+
+/// Prismatic flags of the model's columns `columns` (e.g. StaticsProblem::columns()).
+std::vector<bool> PrismaticColumns(const Model& model, const std::vector<int>& columns);
+
+/// J's columns `columns`, in that order (6 x columns.size()).
+Matrix6Xd SelectColumns(const Matrix6Xd& J, const std::vector<int>& columns);
 
 /// |D v| for a wrench v with D = diag(1, 1, 1, 1/L, 1/L, 1/L) (forces in N, moments / L).
 double ScaledWrenchNorm(const Vector6d& w, double L);

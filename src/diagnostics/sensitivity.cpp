@@ -21,17 +21,30 @@ SensitivityResult ComputeStiffnessSensitivity(const Model& model, const WrenchEv
                   "): " + e.statics.message;
     return out;
   }
-  const Matrix6Xd& J = e.jacobian;
-  const Eigen::Index m = J.cols();
-  if (m != model.dof_count() || e.tau.size() != m || e.s_p.size() != m) {
+  if (e.jacobian.cols() != model.dof_count() || e.tau.size() != model.dof_count() ||
+      e.s_p.size() != model.dof_count()) {
     out.message = "the evaluation does not belong to this model (column counts differ)";
     return out;
   }
-  double L = length_scale > 0 && std::isfinite(length_scale) ? length_scale : model.chain_length();
+  // The columns of K (locked coordinates are rigid: no column, and their stiffness changes
+  // nothing), with the evaluation's compliances.
+  StiffnessSet stiffness;
+  stiffness.s_t = e.s_t;
+  stiffness.s_p = e.s_p;
+  const StaticsProblem problem(model, stiffness);
+  const Matrix6Xd J = problem.Reduce(e.jacobian);
+  const Eigen::VectorXd s_p = problem.reduced_s_p();
+  const Eigen::VectorXd tau = problem.Reduce(e.tau);
+  const Eigen::Index m = J.cols();
+  if (m == 0) {
+    out.message = "every coordinate is locked: no stiffness to vary";
+    return out;
+  }
+  double L = length_scale > 0 && std::isfinite(length_scale) ? length_scale : problem.leg_length();
   if (!(L > 0)) L = 1.0;
 
   Eigen::MatrixXd K = J.transpose() * e.s_t.asDiagonal() * J;
-  K.diagonal() += e.s_p;
+  K.diagonal() += s_p;
   Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(K);
   const Eigen::VectorXd& lambda = eig.eigenvalues();
   const Eigen::MatrixXd& V = eig.eigenvectors();
@@ -43,7 +56,7 @@ SensitivityResult ComputeStiffnessSensitivity(const Model& model, const WrenchEv
     }
     return y;
   };
-  const Eigen::VectorXd dtheta = K_pinv(e.tau);
+  const Eigen::VectorXd dtheta = K_pinv(tau);
   const Vector6d Jd = J * dtheta;
   const Vector6d W = e.s_t.cwiseProduct(Jd);
   const double w_norm = diagnostics::ScaledWrenchNorm(W, L);
@@ -73,20 +86,20 @@ SensitivityResult ComputeStiffnessSensitivity(const Model& model, const WrenchEv
   bool any_base = false;
   double base_k = 0.0;
   for (Eigen::Index j = 0; j < m; ++j) {
-    const double k = e.s_p[j];
+    const double k = s_p[j];
     if (!(k > 0)) continue;
     Eigen::VectorXd a = Eigen::VectorXd::Zero(m);
     a[j] = k * dtheta[j];
     Vector6d dW = e.s_t.cwiseProduct(J * (-K_pinv(a)));
-    const JointSpec& spec = model.joint(static_cast<int>(j));
+    const JointSpec& spec = model.joint(problem.columns()[static_cast<size_t>(j)]);
     const bool base = spec.role == JointRole::kBase;
     if (base) {
       base_sum += a;
       any_base = true;
       base_k = std::max(base_k, k);
     }
-    add(spec.name, base ? "base" : "joint", k,
-        spec.type == JointType::kPrismatic ? "N/m" : "N·m/rad", dW);
+    add(model.joint_names()[static_cast<size_t>(problem.columns()[static_cast<size_t>(j)])],
+        base ? "base" : "joint", k, spec.type == JointType::kPrismatic ? "N/m" : "N·m/rad", dW);
   }
   if (any_base) {
     Vector6d dW = e.s_t.cwiseProduct(J * (-K_pinv(base_sum)));

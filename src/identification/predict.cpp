@@ -10,6 +10,7 @@
 #include "isowrench/engine.hpp"
 #include "isowrench/error.hpp"
 #include "isowrench/kinematics.hpp"
+#include "isowrench/statics.hpp"
 #include "isowrench/trial_csv.hpp"
 #include "util/text.hpp"
 
@@ -364,8 +365,14 @@ void ForEachSimulatedTrial(const Model& nominal, const AugmentedModel& truth,
   // chunk with three copies of the stream positioned where each pass starts (a posture draw
   // takes one step per limb joint plus one for the activation; the noise pass is replayed once
   // ahead when there are outliers), so the data equal the all-in-memory order exactly.
+  // The postures vary the limb coordinates a lab moves: not the compliance dofs (base, extra,
+  // release) and not the locked ones (held rigid at the centre's value; StaticsProblem).
+  const StaticsProblem problem(nominal);
+  auto varied = [&](int j) {
+    return nominal.joint(j).role == JointRole::kLimb && !problem.locked(j);
+  };
   int limb = 0;
-  for (int j = 0; j < nominal.dof_count(); ++j) limb += nominal.joint(j).role == JointRole::kLimb;
+  for (int j = 0; j < nominal.dof_count(); ++j) limb += varied(j);
   ident::Random posture_rng(o.seed);
   ident::Random noise_rng(o.seed);
   noise_rng.Skip(static_cast<std::uint64_t>(o.postures) * static_cast<std::uint64_t>(limb + 1));
@@ -410,7 +417,7 @@ void ForEachSimulatedTrial(const Model& nominal, const AugmentedModel& truth,
       t.joint_names = names;
       t.q = center;
       for (int j = 0; j < nominal.dof_count(); ++j) {
-        if (nominal.joint(j).role != JointRole::kLimb) continue;
+        if (!varied(j)) continue;
         double r =
             nominal.joint(j).type == JointType::kPrismatic ? o.prismatic_range : o.joint_range;
         t.q[j] += posture_rng.Uniform(-r, r);

@@ -134,6 +134,59 @@ Eigen::Matrix3Xd PointJacobian(const Model& model, Data& ws, const Eigen::Vector
   return J;
 }
 
+double ComputeLegLength(const Model& model) {
+  const Eigen::VectorXd q = model.nominal_posture();
+  const LimbDescription& d = model.description();
+  Data ws(model);
+  // A joint frame's origin before the joint's motion: <origin> on the parent link.
+  auto origin = [&](const JointSpec& j) {
+    return PointPosition(model, ws, q, j.parent_link, j.origin.translation());
+  };
+  const Matrix6Xd J = EndpointJacobianWorld(model, ws, q);  // columns [v; w] at the endpoint
+  const Eigen::Vector3d p_E = EndpointPose(model, ws, q).translation();
+  std::vector<Eigen::Vector3d> points;
+  for (int c = 0; c < model.dof_count(); ++c) {
+    // The first revolute joint the coordinate drives: where its joint centre is looked for.
+    const JointSpec* first = nullptr;
+    for (const JointSpec& j : d.joints) {
+      if (j.type == JointType::kRevolute && j.coordinate == model.joint_names()[c]) {
+        first = &j;
+        break;
+      }
+    }
+    if (!first) continue;  // a translation: no joint centre
+    const Eigen::Vector3d ref = origin(*first);
+    // The coordinate's instantaneous screw axis (its column is a twist referenced at the
+    // endpoint): it passes through p_E + w x v / |w|^2 along w. With coupled translations (an
+    // OpenSim knee whose femur length lives in them) the joint frame is not the centre of the
+    // motion; the point of the axis nearest the joint frame is.
+    const Eigen::Vector3d v = J.col(c).head<3>(), w = J.col(c).tail<3>();
+    // Below this (rad per rad) the coupling turns nothing at this posture: keep the frame.
+    constexpr double kNoRotation = 1e-9;
+    if (w.norm() <= kNoRotation) {
+      points.push_back(ref);
+      continue;
+    }
+    const Eigen::Vector3d on_axis = p_E + w.cross(v) / w.squaredNorm();
+    const Eigen::Vector3d u = w.normalized();
+    points.push_back(on_axis + u * u.dot(ref - on_axis));
+  }
+  if (points.empty()) {
+    // Prismatic joints only: from the first movable joint.
+    for (const JointSpec& j : d.joints) {
+      if (j.type != JointType::kFixed) {
+        points.push_back(origin(j));
+        break;
+      }
+    }
+  }
+  if (points.empty()) return 0.0;
+  points.push_back(p_E);
+  double length = 0.0;
+  for (size_t i = 1; i < points.size(); ++i) length += (points[i] - points[i - 1]).norm();
+  return length;
+}
+
 MuscleTorque ComputeMuscleTorque(const Model& model, Data& ws, const Eigen::VectorXd& q,
                                  int muscle_index, double activation) {
   if (muscle_index < 0 || muscle_index >= model.muscle_count()) {

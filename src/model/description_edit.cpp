@@ -275,6 +275,17 @@ LimbDescription WithExtraJoint(LimbDescription d, const std::string& after_joint
   return NormalizeCoordinates(std::move(d));
 }
 
+LimbDescription WithLockedCoordinates(LimbDescription d, const std::vector<std::string>& locked) {
+  d = NormalizeCoordinates(std::move(d));
+  std::set<std::string> names;
+  for (const std::string& name : locked) {
+    if (name == "none") continue;
+    names.insert(FindCoordinate(d, name).name);  // throws for unknown or driven names
+  }
+  for (CoordinateSpec& c : d.coordinates) c.locked = names.count(c.name) > 0;
+  return d;
+}
+
 LimbDescription WithReleasedDofs(LimbDescription d, const DofMask& released) {
   d.transducer.released = released;
   return d;

@@ -13,6 +13,7 @@
 #include "isowrench/engine.hpp"
 #include "isowrench/error.hpp"
 #include "isowrench/input_checks.hpp"
+#include "kinematics/kinematics_impl.hpp"
 #include "model/function_impl.hpp"
 #include "model/model_impl.hpp"
 #include "util/text.hpp"
@@ -436,8 +437,6 @@ Model::Model(LimbDescription description) {
   wrap_impl::WarnWrapsNotEvaluatedOnce(description);
   auto impl = std::make_shared<Impl>();
   impl->flat = Compile(description);
-  double length = 0.0;
-  for (const JointSpec& j : description.joints) length += j.origin.translation().norm();
   for (const CoordinateSpec& c : description.coordinates) {
     impl->joint_names.push_back(c.name);
     impl->revolute.push_back(c.type == JointType::kRevolute);
@@ -462,7 +461,6 @@ Model::Model(LimbDescription description) {
     column.stiffness = c.stiffness;
     impl->columns.push_back(column);
   }
-  impl->chain_length = length + description.transducer.endpoint.norm();
   impl->stiffness.s_t = description.transducer.stiffness;
   for (int i = 0; i < 6; ++i) {
     if (description.transducer.released[i]) impl->stiffness.s_t[i] = 0.0;
@@ -473,6 +471,9 @@ Model::Model(LimbDescription description) {
   }
   impl->description = std::move(description);
   impl_ = impl;
+  // The leg length through the joint centres (docs/model.md "Leg length"): kinematics of the
+  // compiled chain at the nominal posture.
+  impl->chain_length = ComputeLegLength(*this);
 }
 
 Model Model::FromUrdfFile(const std::string& path) { return Model(ReadUrdfFile(path)); }

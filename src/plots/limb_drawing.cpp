@@ -51,7 +51,8 @@ struct Geometry {
   Eigen::Matrix3d transducer;
 };
 
-Geometry Collect(const Model& model, const Eigen::VectorXd& q, double axis_length) {
+Geometry Collect(const Model& model, const Eigen::VectorXd& q, double axis_length,
+                 const std::vector<std::string>& muscles) {
   Data ws(model);
   Geometry g;
   const LimbDescription& d = model.description();
@@ -79,10 +80,16 @@ Geometry Collect(const Model& model, const Eigen::VectorXd& q, double axis_lengt
   if ((g.endpoint.translation() - g.bones.back()).norm() > kSameCentre)
     g.bones.push_back(g.endpoint.translation());
   g.transducer = TransducerRotation(model, ws, q);
+  std::vector<int> drawn;  // all muscles, or the named ones in the model's order
   for (int m = 0; m < model.muscle_count(); ++m) {
-    const MuscleSpec& spec = model.muscle(m);
-    g.muscles.push_back({spec.name, MusclePathPoints(model, ws, q, m)});
+    if (muscles.empty() ||
+        std::find(muscles.begin(), muscles.end(), model.muscle(m).name) != muscles.end()) {
+      drawn.push_back(m);
+    }
   }
+  for (const std::string& name : muscles) model.MuscleIndex(name);  // throws listing the muscles
+  for (int m : drawn)
+    g.muscles.push_back({model.muscle(m).name, MusclePathPoints(model, ws, q, m)});
   return g;
 }
 
@@ -108,6 +115,84 @@ double NiceScaleBar(double max_m) {
 
 const char* kAxisName[3] = {"x", "y", "z"};
 
+// Text boxes for placing labels without overlap. A label of n characters at font size f (px)
+// is taken as n * kLabelCharWidth * f wide (wider than the average sans-serif glyph, 0.5-0.55 em)
+// and from kLabelAscent * f above to kLabelDescent * f below its baseline.
+constexpr double kLabelCharWidth = 0.62;
+constexpr double kLabelAscent = 0.85;
+constexpr double kLabelDescent = 0.25;
+constexpr double kLabelGap = 1.0;  // px kept free around every label
+
+struct Box {
+  double x0, y0, x1, y1;
+  bool Overlaps(const Box& o) const {
+    return x0 < o.x1 + kLabelGap && o.x0 < x1 + kLabelGap && y0 < o.y1 + kLabelGap &&
+           o.y0 < y1 + kLabelGap;
+  }
+};
+
+// Characters of UTF-8 text (continuation bytes are not counted).
+size_t Characters(const std::string& text) {
+  size_t n = 0;
+  for (unsigned char c : text) n += (c & 0xC0) != 0x80;
+  return n;
+}
+
+Box TextBox(double x, double y, const std::string& text, double size) {
+  return {x, y - kLabelAscent * size,
+          x + kLabelCharWidth * size * static_cast<double>(Characters(text)),
+          y + kLabelDescent * size};
+}
+
+// Labels of one view: each is put at the first of its candidate positions (baseline, start
+// anchor) whose box stays inside the view and overlaps no label placed before; a label with no
+// free position is left out (and listed by the caller).
+class LabelPlacer {
+ public:
+  explicit LabelPlacer(const Box& area) : area_(area) {}
+  /// Reserve a box that is drawn whatever happens (e.g. the endpoint frame's axis letters).
+  void Reserve(const Box& b) { placed_.push_back(b); }
+  /// The index of the first free candidate (now taken), or -1.
+  int Place(const std::string& text, double size, const std::vector<Eigen::Vector2d>& candidates) {
+    for (size_t i = 0; i < candidates.size(); ++i) {
+      const Box b = TextBox(candidates[i].x(), candidates[i].y(), text, size);
+      if (b.x0 < area_.x0 || b.x1 > area_.x1 || b.y0 < area_.y0 || b.y1 > area_.y1) continue;
+      bool free = true;
+      for (const Box& p : placed_) free = free && !b.Overlaps(p);
+      if (!free) continue;
+      placed_.push_back(b);
+      return static_cast<int>(i);
+    }
+    return -1;
+  }
+
+ private:
+  Box area_;
+  std::vector<Box> placed_;
+};
+
+// Points at fractions of a polyline's length (screen coordinates).
+Eigen::Vector2d AlongPolyline(const std::vector<Eigen::Vector2d>& p, double fraction) {
+  double total = 0;
+  for (size_t i = 1; i < p.size(); ++i) total += (p[i] - p[i - 1]).norm();
+  double left = fraction * total;
+  for (size_t i = 1; i < p.size(); ++i) {
+    const double d = (p[i] - p[i - 1]).norm();
+    if (left <= d && d > 0) return p[i - 1] + (p[i] - p[i - 1]) * (left / d);
+    left -= d;
+  }
+  return p.back();
+}
+
+// Candidate label positions around a point: right-above, right-below, left-above, left-below.
+void AddAround(std::vector<Eigen::Vector2d>& out, const Eigen::Vector2d& p, double width, double dx,
+               double above, double below) {
+  out.push_back({p.x() + dx, p.y() - above});
+  out.push_back({p.x() + dx, p.y() + below});
+  out.push_back({p.x() - dx - width, p.y() - above});
+  out.push_back({p.x() - dx - width, p.y() + below});
+}
+
 }  // namespace
 
 std::string LimbStickFigureSvg(const Model& model, const Eigen::VectorXd& q,
@@ -118,7 +203,7 @@ std::string LimbStickFigureSvg(const Model& model, const Eigen::VectorXd& q,
   if (!std::isfinite(options.axis_length)) throw Error("draw: axis length must be finite");
   const double axis_length =
       options.axis_length > 0 ? options.axis_length : kAxisFraction * model.chain_length();
-  const Geometry g = Collect(model, q, axis_length);
+  const Geometry g = Collect(model, q, axis_length, options.muscles);
 
   // Everything that must fit in the views.
   std::vector<Eigen::Vector3d> all = g.bones;
@@ -220,9 +305,6 @@ std::string LimbStickFigureSvg(const Model& model, const Eigen::VectorXd& q,
                                {"fill", "none"},
                                {"stroke", "#c0102a"},
                                {"stroke-width", "1.8"}});
-      Eigen::Vector2d mid = 0.5 * (v.Screen(m.points.front()) + v.Screen(m.points.back()));
-      svg.Text(mid.x() + 4, mid.y() - 4, m.name, 10, "start",
-               {{"class", "muscle-label"}, {"fill", "#c0102a"}});
     }
     // Joint centres.
     for (const auto& c : g.centres) {
@@ -235,29 +317,106 @@ std::string LimbStickFigureSvg(const Model& model, const Eigen::VectorXd& q,
                              {"fill", "white"},
                              {"stroke", "black"},
                              {"stroke-width", "1.2"}});
-      svg.Text(s.x() + 7, s.y() + 12, util::Join(c.joints, ", "), 9, "start",
-               {{"class", "joint-label"}});
     }
     // Endpoint frame, and the transducer axes when they differ.
+    const Box area{options.view_px * i + 6, kBannerHeight + kViewTitle + 2,
+                   options.view_px * (i + 1) - 6, height - kFooter};
+    LabelPlacer labels(area);
+    std::vector<std::string> left_out;
+    // A label at the first free candidate (LabelPlacer); `anchors[k]` is what candidate k labels,
+    // and a label put further than kLeaderDistance from it gets a thin leader line to it.
+    auto place = [&](const std::string& text, double size, const std::vector<Eigen::Vector2d>& at,
+                     const std::vector<Eigen::Vector2d>& anchors, const std::string& colour,
+                     plots::Attributes attributes) {
+      const int k = labels.Place(text, size, at);
+      if (k < 0) {
+        left_out.push_back(text);
+        return;
+      }
+      const Eigen::Vector2d p = at[static_cast<size_t>(k)];
+      const Eigen::Vector2d anchor = anchors[static_cast<size_t>(k)];
+      const Box b = TextBox(p.x(), p.y(), text, size);
+      const Eigen::Vector2d nearest(std::clamp(anchor.x(), b.x0, b.x1),
+                                    std::clamp(anchor.y(), b.y0, b.y1));
+      constexpr double kLeaderDistance = 16;  // px; nearer labels are read as their point's
+      if ((nearest - anchor).norm() > kLeaderDistance) {
+        svg.Line(anchor.x(), anchor.y(), nearest.x(), nearest.y(), colour, 0.5,
+                 {{"class", "label-leader"}});
+      }
+      attributes.push_back({"fill", colour});
+      svg.Text(p.x(), p.y(), text, size, "start", attributes);
+    };
+    // Candidates around `p`: right-above, right-below, left-above, left-below at `dx`, then
+    // (far = true) stacked further up and down the view, 12 px apart, with a leader line.
+    auto around = [&](std::vector<Eigen::Vector2d>& at, std::vector<Eigen::Vector2d>& anchors,
+                      const Eigen::Vector2d& p, double width, double dx, double above, double below,
+                      bool far) {
+      AddAround(at, p, width, dx, above, below);
+      if (far) {
+        for (double step = 12; step < area.y1 - area.y0; step += 12) {
+          AddAround(at, p, width, dx, above + step, below + step);
+        }
+      }
+      anchors.resize(at.size(), p);
+    };
     const Eigen::Vector3d e = g.endpoint.translation();
     const bool transducer_differs = !g.transducer.isApprox(g.endpoint.linear(), 1e-9);
     for (int k = 0; k < 3; ++k) {
       Eigen::Vector2d s0 = v.Screen(e), s1 = v.Screen(e + axis_length * g.endpoint.linear().col(k));
       svg.Line(s0.x(), s0.y(), s1.x(), s1.y(), kAxisColors[k], 2.0,
                {{"class", "endpoint-axis"}, {"data-axis", kAxisName[k]}});
-      svg.Text(s1.x() + 3, s1.y() - 2, kAxisName[k], 10, "start", {{"fill", kAxisColors[k]}});
+      std::vector<Eigen::Vector2d> at, anchors;
+      around(at, anchors, s1, TextBox(0, 0, kAxisName[k], 10).x1, 3, 2, 9, false);
+      place(kAxisName[k], 10, at, anchors, kAxisColors[k], {{"class", "axis-label"}});
       if (transducer_differs) {
         Eigen::Vector2d t1 = v.Screen(e + axis_length * g.transducer.col(k));
         svg.Line(s0.x(), s0.y(), t1.x(), t1.y(), kAxisColors[k], 1.2,
                  {{"class", "transducer-axis"},
                   {"data-axis", kAxisName[k]},
                   {"stroke-dasharray", "3,2"}});
-        svg.Text(t1.x() + 3, t1.y() + 9, std::string("T") + kAxisName[k], 9, "start",
-                 {{"fill", kAxisColors[k]}});
+        const std::string name = std::string("T") + kAxisName[k];
+        at.clear();
+        anchors.clear();
+        around(at, anchors, t1, TextBox(0, 0, name, 9).x1, 3, 2, 9, false);
+        place(name, 9, at, anchors, kAxisColors[k], {{"class", "axis-label"}});
       }
     }
-    Eigen::Vector2d se = v.Screen(e);
-    svg.Text(se.x() + 6, se.y() + 14, "endpoint", 9, "start", {{"class", "endpoint-label"}});
+    // Labels, most important first, each where it overlaps no other (LabelPlacer).
+    {
+      std::vector<Eigen::Vector2d> at, anchors;
+      around(at, anchors, v.Screen(e), TextBox(0, 0, "endpoint", 9).x1, 6, 6, 14, true);
+      place("endpoint", 9, at, anchors, "black", {{"class", "endpoint-label"}});
+    }
+    for (const auto& c : g.centres) {
+      // A centre of many joints (an OpenSim knee's translations and rotations): its first joint
+      // and how many more, when the list would take more than half the view's width (the full
+      // list is the circle's data-joints).
+      std::string text = util::Join(c.joints, ", ");
+      if (TextBox(0, 0, text, 9).x1 > 0.5 * (area.x1 - area.x0) && c.joints.size() > 1) {
+        text = c.joints.front() + " +" + std::to_string(c.joints.size() - 1) + " joints";
+      }
+      std::vector<Eigen::Vector2d> at, anchors;
+      around(at, anchors, v.Screen(c.p), TextBox(0, 0, text, 9).x1, 7, 6, 12, true);
+      place(text, 9, at, anchors, "black", {{"class", "joint-label"}});
+    }
+    for (const auto& m : g.muscles) {
+      std::vector<Eigen::Vector2d> screen;
+      for (const Eigen::Vector3d& p : m.points) screen.push_back(v.Screen(p));
+      std::vector<Eigen::Vector2d> at, anchors;
+      const double w = TextBox(0, 0, m.name, 10).x1;
+      const std::vector<double> fractions = {0.5, 0.35, 0.65, 0.2, 0.8, 0.1, 0.9, 0.0, 1.0};
+      for (double f : fractions) around(at, anchors, AlongPolyline(screen, f), w, 4, 4, 12, false);
+      for (double f : fractions) around(at, anchors, AlongPolyline(screen, f), w, 4, 4, 12, true);
+      place(m.name, 10, at, anchors, "#c0102a",
+            {{"class", "muscle-label"}, {"data-muscle", m.name}});
+    }
+    if (!left_out.empty()) {
+      // Counted under the scale bar; the names are in the note's data-left-out.
+      svg.Text(options.view_px * i + 14, height - 4,
+               std::to_string(left_out.size()) + " label" + (left_out.size() == 1 ? "" : "s") +
+                   " left out where they would overlap (draw fewer muscles with --muscle)",
+               9, "start", {{"class", "label-note"}, {"data-left-out", util::Join(left_out, ";")}});
+    }
     // Scale bar.
     const double bar_m = NiceScaleBar(0.3 * inner / scale);
     const double bar_y = height - 18;

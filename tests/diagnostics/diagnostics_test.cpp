@@ -12,6 +12,7 @@
 #include <Eigen/Geometry>
 #include <Eigen/SVD>
 #include <cmath>
+#include <functional>
 #include <random>
 #include <string>
 
@@ -28,6 +29,7 @@ using isowrench::Model;
 using isowrench::ReleaseKind;
 using isowrench::Vector6d;
 using ::testing::HasSubstr;
+using ::testing::Not;
 using ::testing::ThrowsMessage;
 
 constexpr double kPi = 3.14159265358979323846;
@@ -508,6 +510,285 @@ TEST(LargeDeflection, PaperLiteralJr3StiffnessDepartsFromLinear) {
   EXPECT_TRUE(departs) << r.message << " relative difference " << r.wrench_relative_difference;
   EXPECT_GT(r.dtheta_difference, 0.1);
   EXPECT_FALSE(r.message.empty());
+}
+
+// ---- locked coordinates: every diagnostic agrees with EvaluateWrench (issue 25) --------------
+
+// urdf/rat_hindlimb_6dof.urdf with knee_rx locked.
+Model LockedRat() {
+  return Model::FromUrdfFile(std::string(ISOWRENCH_TEST_DATA_DIR) +
+                             "/rat_hindlimb_6dof_locked.urdf");
+}
+
+// The same model with a description edit applied.
+Model Edited(const Model& model,
+             const std::function<isowrench::LimbDescription(isowrench::LimbDescription)>& edit) {
+  return Model(edit(model.description()));
+}
+
+TEST(Locks, ConstraintClassCountsOnlyTheColumnsOfK) {
+  Model model = LockedRat();
+  const Eigen::VectorXd q = model.nominal_posture();
+  const int locked = model.JointIndex("knee_rx");
+  ASSERT_TRUE(model.coordinate(locked).locked);
+  auto a = isowrench::AnalyzeConstraints(model, q);
+  // Independent reference: the scaled J_r without the locked column, by its own SVD.
+  isowrench::Data ws(model);
+  isowrench::Matrix6Xd J = isowrench::EndpointJacobian(model, ws, q);
+  Eigen::MatrixXd Jk(6, 5);
+  for (int c = 0, k = 0; c < 6; ++c) {
+    if (c != locked) Jk.col(k++) = J.col(c);
+  }
+  Jk.topRows<3>() /= model.chain_length();
+  Eigen::JacobiSVD<Eigen::MatrixXd> svd(Jk);
+  int rank = 0;
+  for (int i = 0; i < 5; ++i) rank += svd.singularValues()[i] > 1e-9 * svd.singularValues()[0];
+  EXPECT_EQ(rank, 5);
+  EXPECT_EQ(a.joint_count, 5);
+  EXPECT_EQ(a.rank, rank);
+  ASSERT_EQ(a.singular_values.size(), 5);
+  for (int i = 0; i < 5; ++i) EXPECT_NEAR(a.singular_values[i], svd.singularValues()[i], 1e-12);
+  // 5 dofs, 6 restrained, rank 5: over-constrained, and no self-motion (the unlocked 6-dof limb
+  // has the femur's axial rotation).
+  EXPECT_EQ(a.constraint_class, isowrench::ConstraintClass::kOverConstrained);
+  EXPECT_TRUE(a.self_motion.empty());
+  EXPECT_EQ(a.locked, std::vector<std::string>{"knee_rx"});
+  EXPECT_THAT(a.explanation, HasSubstr("5 joint dofs (1 locked coordinate not counted: knee_rx)"));
+  // Spring-free columns: hip rz ry rx and knee rz (knee_ry has a spring, knee_rx is locked).
+  EXPECT_EQ(a.free_joint_count, 4);
+}
+
+TEST(Locks, SensitivitiesAreDifferencesOfTheWrench) {
+  // A stiffness on the locked coordinate must change nothing.
+  Model model = Edited(LockedRat(), [](isowrench::LimbDescription d) {
+    return isowrench::WithJointStiffness(d, "knee_rx", 2.0);
+  });
+  const Eigen::VectorXd q = model.nominal_posture();
+  auto e = isowrench::EvaluateWrench(model, q, "GP");
+  ASSERT_TRUE(e.statics.ok());
+  auto s = isowrench::ComputeStiffnessSensitivity(model, e);
+  ASSERT_TRUE(s.ok) << s.message;
+  const double L = model.chain_length();
+  const double scale = ScaledNorm(e.statics.wrench, L);
+  bool knee_ry = false;
+  for (const auto& entry : s.entries) {
+    EXPECT_NE(entry.parameter, "knee_rx");  // locked: its stiffness is no parameter of W
+    knee_ry = knee_ry || entry.parameter == "knee_ry";
+    // Central difference of EvaluateWrench in log k: step h = 1e-4, truncation h^2/6 |W'''|
+    // ~ 1e-9 |W|, rounding eps cond(K) / h ~ 1e-12 cond(K) |W| (cond ~ 1e3..1e7 here).
+    auto wrench = [&](double factor) {
+      Model edited = Edited(model, [&](isowrench::LimbDescription d) {
+        if (entry.kind == "transducer") {
+          int dof = 0;
+          while (std::string("S_t ") + isowrench::DofName(dof) != entry.parameter) ++dof;
+          Vector6d st = model.transducer().stiffness;
+          st[dof] *= factor;
+          return isowrench::WithTransducerStiffness(d, st);
+        }
+        return isowrench::WithJointStiffness(d, entry.parameter, entry.stiffness * factor);
+      });
+      return isowrench::EvaluateWrench(edited, q, "GP").statics.wrench;
+    };
+    const double h = 1e-4;
+    const Vector6d fd = (wrench(std::exp(h)) - wrench(std::exp(-h))) / (2 * h);
+    EXPECT_LT(ScaledNorm(entry.dW_dlogk - fd, L), 1e-6 * scale) << entry.parameter;
+  }
+  EXPECT_TRUE(knee_ry);
+  // And the locked coordinate's stiffness changes nothing in EvaluateWrench either.
+  Model stiffer = Edited(model, [](isowrench::LimbDescription d) {
+    return isowrench::WithJointStiffness(d, "knee_rx", 2e3);
+  });
+  EXPECT_EQ(isowrench::EvaluateWrench(stiffer, q, "GP").statics.wrench, e.statics.wrench);
+}
+
+TEST(Locks, LargeDeflectionLeavesLockedJointsAtZero) {
+  Model model = LockedRat();
+  const Eigen::VectorXd q = model.nominal_posture();
+  const int locked = model.JointIndex("knee_rx");
+  auto r = isowrench::SolveLargeDeflection(model, q, "GP");
+  ASSERT_EQ(r.status, isowrench::LargeDeflectionStatus::kConverged) << r.message;
+  EXPECT_EQ(r.dtheta_nonlinear[locked], 0.0);
+  EXPECT_EQ(r.dtheta_linear[locked], 0.0);
+  // Balanced 1e7 transducer: motion ~1e-7 rad, so the nonlinear answer is the linear one to
+  // O(motion) relative (LargeDeflection.ConvergesToLinearWithErrorQuadraticInDisplacement).
+  EXPECT_LT(r.wrench_relative_difference, 1e-5);
+  EXPECT_LT(r.dtheta_difference, 1e-9);
+}
+
+// For each transducer-axis candidate, the verdict of CompareReleases against EvaluateWrench of
+// the model with that dof released, under the balanced and the ATI Mini40 transducer:
+// forbidden = K singular; matched = the same W under both; depending on the compliances = not.
+void ExpectVerdictsMatchWrench(const Model& model) {
+  const Eigen::VectorXd q = model.nominal_posture();
+  auto c = isowrench::CompareReleases(model, q, "GP");
+  const int columns = static_cast<int>(isowrench::StaticsProblem(model).columns().size());
+  const double L = model.chain_length();
+  int checked = 0;
+  for (const auto& a : c.candidates) {
+    if (a.candidate.source != "transducer axis") continue;
+    SCOPED_TRACE(a.candidate.name + ": " + a.verdict);
+    isowrench::DofMask released = model.transducer().released;
+    for (int dof = 0; dof < 6; ++dof) {
+      if (a.candidate.name == isowrench::DofName(dof)) released.set(dof);
+    }
+    ASSERT_EQ(released.count(), model.transducer().released.count() + 1);
+    auto under = [&](const char* preset) {
+      Model m(isowrench::WithTransducerStiffness(
+          isowrench::WithReleasedDofs(model.description(), released),
+          isowrench::TransducerPreset(preset)));
+      return isowrench::EvaluateWrench(m, q, "GP").statics;
+    };
+    const isowrench::StaticsResult balanced = under("balanced"), mini40 = under("ati-mini40");
+    if (a.self_motion) {
+      // Forbidden: the limb moves without loading the transducer, whatever its stiffness.
+      EXPECT_LT(balanced.k_rank, columns);
+      EXPECT_LT(mini40.k_rank, columns);
+    } else {
+      ASSERT_TRUE(balanced.ok() && mini40.ok());
+      const double difference =
+          ScaledNorm(balanced.wrench - mini40.wrench, L) / ScaledNorm(balanced.wrench, L);
+      if (!a.internal_wrench) {
+        // Matched: W = J_e^-T [tau; 0] whatever S_t; two solves with cond(K) <= 1e8 agree to
+        // 1e-7 relative.
+        EXPECT_LT(difference, 1e-7);
+      } else if (a.spread > 1e-6) {
+        // The compliances move W over the range: balanced and Mini40 differ (by percent).
+        EXPECT_GT(difference, 1e-4);
+      }
+    }
+    ++checked;
+  }
+  EXPECT_EQ(checked, 6);
+}
+
+TEST(Locks, ReleaseVerdictsMatchTheWrenchUnderTwoTransducers) {
+  Model model = LockedRat();
+  ExpectVerdictsMatchWrench(model);
+  // The verdict on rz differs from the unlocked limb's (urdf/rat_hindlimb_6dof.urdf, knee_rx
+  // free and without a spring): there the 5 spring-free joints and the release column make J_e
+  // square (6 x 6) and regular: matched, W = J_e^-T [tau; 0] whatever the compliances. With
+  // knee_rx locked only 4 spring-free joints remain: 5 columns on 6 rows, one internal wrench
+  // direction, and W moves with the compliances.
+  auto locked = isowrench::CompareReleases(model, model.nominal_posture(), "GP");
+  Model unlocked = Edited(model, [](isowrench::LimbDescription d) {
+    return isowrench::WithJointStiffness(isowrench::WithLockedCoordinates(d, {}), "knee_rx", 0.0);
+  });
+  auto free = isowrench::CompareReleases(unlocked, unlocked.nominal_posture(), "GP");
+  auto find = [](const isowrench::ReleaseComparison& c, const std::string& name) {
+    for (const auto& a : c.candidates) {
+      if (a.candidate.name == name) return a;
+    }
+    ADD_FAILURE() << "no candidate " << name;
+    return isowrench::ReleaseAssessment();
+  };
+  EXPECT_TRUE(find(locked, "rz").internal_wrench);
+  EXPECT_GT(find(locked, "rz").spread, 1e-4);
+  EXPECT_FALSE(find(free, "rz").internal_wrench);
+  EXPECT_FALSE(find(free, "rz").self_motion);
+  EXPECT_LT(find(free, "rz").spread, 1e-6);
+  ExpectVerdictsMatchWrench(unlocked);
+}
+
+TEST(Locks, WithLockedCoordinatesReplacesTheLocksAndNamesBadNames) {
+  Model model = LockedRat();
+  Model other = Edited(model, [](isowrench::LimbDescription d) {
+    return isowrench::WithLockedCoordinates(d, {"hip_rx", "knee_rz"});
+  });
+  EXPECT_FALSE(other.coordinate(other.JointIndex("knee_rx")).locked);
+  EXPECT_TRUE(other.coordinate(other.JointIndex("hip_rx")).locked);
+  EXPECT_TRUE(other.coordinate(other.JointIndex("knee_rz")).locked);
+  EXPECT_EQ(isowrench::StaticsProblem(other).LockedNames(),
+            (std::vector<std::string>{"hip_rx", "knee_rz"}));
+  Model none = Edited(model, [](isowrench::LimbDescription d) {
+    return isowrench::WithLockedCoordinates(d, {"none"});
+  });
+  EXPECT_TRUE(isowrench::StaticsProblem(none).locked_columns().empty());
+  EXPECT_THAT([&] { isowrench::WithLockedCoordinates(model.description(), {"kne_rx"}); },
+              ThrowsMessage<Error>(HasSubstr("kne_rx")));
+}
+
+// ---- what diagnose and releases say agrees with their numbers (issue 25 item 5) ------------
+
+// A planar cat hindlimb with base dofs and an in-plane muscle: over-constrained (fz, mx, my are
+// internal wrench directions of the spring-free limb) but W depends on no stiffness.
+Model PlanarCat() {
+  return Model::FromUrdfFile(std::string(ISOWRENCH_TEST_DATA_DIR) + "/planar_cat_base.urdf");
+}
+
+TEST(Diagnosis, ComplianceVerdictFollowsTheSensitivitiesNotTheClass) {
+  Model cat = PlanarCat();
+  const Eigen::VectorXd q = cat.nominal_posture();
+  auto d = isowrench::DiagnoseLimb(cat, q, "gastrocnemius");
+  EXPECT_EQ(d.constraints.free_class, isowrench::ConstraintClass::kOverConstrained);
+  EXPECT_THAT(d.constraints.explanation, Not(HasSubstr("so W depends on the compliances")));
+  EXPECT_FALSE(d.compliance_dependent) << d.compliance_verdict;
+  EXPECT_THAT(d.compliance_verdict, HasSubstr("does not depend on any compliance"));
+  // Independently: W under other transducers and base stiffnesses (1e3 .. 1e12 N/m) is the same.
+  const Vector6d w = d.evaluation.statics.wrench;
+  const double L = cat.chain_length();
+  for (const char* preset : {"balanced", "ati-mini40"}) {
+    for (double k : {1e3, 1e12}) {
+      Model other(
+          isowrench::WithBaseStiffness(isowrench::WithTransducerStiffness(
+                                           cat.description(), isowrench::TransducerPreset(preset)),
+                                       k));
+      const Vector6d wk = isowrench::EvaluateWrench(other, q, "gastrocnemius").statics.wrench;
+      // Rounding of solves with cond(K) up to 1e12 / 1e3 ~ 1e9: 1e-6 relative.
+      EXPECT_LT(ScaledNorm(wk - w, L), 1e-6 * ScaledNorm(w, L)) << preset << " " << k;
+    }
+  }
+  // The over-constrained rat limb's W does depend on the compliances, and says so.
+  Model rat = Load("rat_hindlimb_5dof.urdf");
+  auto r = isowrench::DiagnoseLimb(rat, rat.nominal_posture(), "GP");
+  EXPECT_TRUE(r.compliance_dependent);
+  EXPECT_THAT(r.compliance_verdict, HasSubstr("W depends on the compliances: S_t"));
+  // The classic answer means nothing with base dofs: no internal part against it.
+  EXPECT_FALSE(d.classic_meaningful);
+  EXPECT_EQ(d.internal_coefficients.size(), 0);
+  EXPECT_TRUE(r.classic_meaningful);
+}
+
+TEST(Constraints, InternalWrenchDirectionsAreNormalisedOnTheirComponents) {
+  for (const Model& model : {PlanarCat(), Load("rat_hindlimb_5dof.urdf"), LockedRat()}) {
+    const Eigen::VectorXd q = model.nominal_posture();
+    auto a = isowrench::AnalyzeConstraints(model, q);
+    ASSERT_FALSE(a.internal_wrench.empty()) << model.name();
+    const double L = a.length_scale;
+    const isowrench::StaticsProblem problem(model);
+    for (const auto& w : a.internal_wrench) {
+      SCOPED_TRACE(model.name() + ": " + w.description);
+      const double f = w.direction.head<3>().cwiseAbs().maxCoeff();
+      const double m = w.direction.tail<3>().cwiseAbs().maxCoeff();
+      // Largest force 1 N when forces dominate in the D metric, else largest moment 1 N·m.
+      EXPECT_DOUBLE_EQ(f >= m / L ? f : m, 1.0);
+      EXPECT_LE(w.direction.cwiseAbs().maxCoeff(), std::max(1.0, 1.0 / L) * (1 + 1e-15));
+      // A wrench the joints do not feel: J^T w = 0 on the columns of K (N·m per unit).
+      const Eigen::VectorXd feel =
+          problem.Reduce(isowrench::Matrix6Xd(a.jacobian)).transpose() * w.direction;
+      EXPECT_LT(feel.cwiseAbs().maxCoeff(), 1e-12 * std::max(1.0, L));
+      for (int k = 0; k < 6; ++k) {
+        const bool touched =
+            std::find(w.components.begin(), w.components.end(), k) != w.components.end();
+        if (!touched) {
+          EXPECT_EQ(w.direction[k], 0.0) << k;
+        }
+      }
+    }
+  }
+}
+
+TEST(Releases, NoReleaseNeededWhenWDoesNotDependOnTheCompliances) {
+  Model cat = PlanarCat();
+  auto c = isowrench::CompareReleases(cat, cat.nominal_posture(), "gastrocnemius");
+  EXPECT_FALSE(c.release_needed);
+  EXPECT_EQ(c.recommended, -1);
+  EXPECT_THAT(c.recommendation, HasSubstr("no release needed"));
+  EXPECT_LE(c.baseline.spread, 1e-6);
+  EXPECT_THAT(c.baseline.verdict, HasSubstr("but W does not depend on the compliances"));
+  Model rat = Load("rat_hindlimb_5dof.urdf");
+  auto r = isowrench::CompareReleases(rat, rat.nominal_posture(), "GP");
+  EXPECT_TRUE(r.release_needed);
+  EXPECT_GE(r.recommended, 0);
 }
 
 // ---- diagnosis and posture table ---------------------------------------------------------

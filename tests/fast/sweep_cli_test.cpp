@@ -128,4 +128,44 @@ TEST(SweepCli, NonPositiveStepAndRatioAreRejected) {
   EXPECT_FALSE(std::filesystem::exists(csv));
 }
 
+TEST(SweepCli, NoEquilibriumLeavesTheWrenchCellsEmptyAndLocksAreHonoured) {
+  const auto dir = TempDir("no_equilibrium");
+  const std::string urdf = std::string(ISOWRENCH_TEST_URDF_DIR) + "/rat_hindlimb_5dof.urdf";
+  const std::string csv = (dir / "out.csv").string();
+  // Released x and y: the in-plane hip-knee motion is a self-motion GP drives (no equilibrium).
+  CliRun run = RunCli("sweep " + urdf + " --release x,y --grid knee_rz=100:110:10 -o " + csv, dir);
+  ASSERT_EQ(run.exit_code, 0) << run.output;
+  std::ifstream in(csv);
+  std::string line;
+  std::getline(in, line);  // header
+  int rows = 0;
+  for (; std::getline(in, line); ++rows) {
+    const std::vector<std::string> cells = SplitCsv(line + ",");  // keep a trailing empty cell
+    ASSERT_GE(cells.size(), 10u) << line;
+    EXPECT_EQ(cells[2], "self_motion") << line;
+    for (int k = 3; k < 9; ++k) EXPECT_EQ(cells[static_cast<size_t>(k)], "") << line;
+  }
+  EXPECT_EQ(rows, 2);
+  // Locking hip_rz removes the self-motion (knee_rz alone cannot move the ankle in x-y without
+  // loading the transducer): every row has an equilibrium and equals EvaluateWrench.
+  run = RunCli("sweep " + urdf + " --release x,y --lock hip_rz --grid knee_rz=105:105:1 -o " + csv,
+               dir);
+  ASSERT_EQ(run.exit_code, 0) << run.output;
+  EXPECT_THAT(run.output, ::testing::HasSubstr("locked (rigid, no dof): hip_rz"));
+  std::ifstream locked(csv);
+  std::getline(locked, line);
+  std::getline(locked, line);
+  const std::vector<std::string> cells = SplitCsv(line);
+  ASSERT_GE(cells.size(), 9u) << line;
+  EXPECT_EQ(cells[2], "ok") << line;
+  isowrench::Model model(isowrench::WithLockedCoordinates(
+      isowrench::WithReleasedDofs(isowrench::ReadUrdfFile(urdf), {"x", "y"}), {"hip_rz"}));
+  const isowrench::Vector6d w =
+      isowrench::EvaluateWrench(model, model.nominal_posture(), "GP").statics.wrench;
+  for (int k = 0; k < 6; ++k) {
+    // Ten significant digits in the CSV.
+    EXPECT_NEAR(std::stod(cells[static_cast<size_t>(3 + k)]), w[k], 1e-9 * w.norm()) << k;
+  }
+}
+
 }  // namespace

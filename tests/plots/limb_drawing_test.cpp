@@ -6,7 +6,11 @@
 #include <gtest/gtest.h>
 #include <tinyxml2.h>
 
+#include <algorithm>
 #include <cmath>
+#include <cstdlib>
+#include <string>
+#include <vector>
 
 #include "isowrench/error.hpp"
 #include "isowrench/model.hpp"
@@ -145,6 +149,89 @@ TEST(LimbStickFigureSvg, WrongPostureSizeIsRefused) {
   Eigen::VectorXd q = model.nominal_posture();
   q[0] = std::nan("");
   EXPECT_THROW(isowrench::LimbStickFigureSvg(model, q), isowrench::Error);
+}
+
+// The rat's limb with 38 muscles crowded between the same few places (as an imported OpenSim
+// hindlimb has): every label would sit on the others if put where the first one goes.
+isowrench::Model CrowdedRat(int muscles) {
+  isowrench::LimbDescription d = Rat().description();
+  d.muscles.clear();
+  for (int i = 0; i < muscles; ++i) {
+    isowrench::MuscleSpec m;
+    m.name = "R_muscle_" + std::to_string(i);
+    m.max_force = 1.0;
+    const double s = 1e-4 * i;
+    m.path.push_back({"ground", Eigen::Vector3d(0.012 + s, -0.010 + 0.5 * s, -0.004)});
+    m.path.push_back({"tibia", Eigen::Vector3d(0.015 - 0.5 * s, -0.004 + s, -0.003)});
+    d.muscles.push_back(m);
+  }
+  return isowrench::Model(d);
+}
+
+// A text element's box as the drawing documents it: n characters at f px are 0.62 n f wide,
+// from 0.85 f above to 0.25 f below the baseline (start anchor).
+struct TextBox {
+  double x0, y0, x1, y1;
+  std::string text;
+};
+TextBox BoxOf(const tinyxml2::XMLElement* e) {
+  const std::string text = e->GetText() ? e->GetText() : "";
+  size_t n = 0;
+  for (unsigned char c : text) n += (c & 0xC0) != 0x80;
+  const double f = Num(e, "font-size"), x = Num(e, "x"), y = Num(e, "y");
+  return {x, y - 0.85 * f, x + 0.62 * f * static_cast<double>(n), y + 0.25 * f, text};
+}
+
+TEST(LimbStickFigureSvg, LabelsOfA38MuscleLimbDoNotOverlap) {
+  const isowrench::Model model = CrowdedRat(38);
+  tinyxml2::XMLDocument doc;
+  const std::string svg = isowrench::LimbStickFigureSvg(model, model.nominal_posture());
+  ASSERT_EQ(doc.Parse(svg.c_str()), tinyxml2::XML_SUCCESS) << doc.ErrorStr();
+  for (const char* name : {"top", "side"}) {
+    SCOPED_TRACE(name);
+    const View v = ReadView(doc.RootElement(), name);
+    std::vector<TextBox> boxes;
+    int muscle_labels = 0, left_out = 0;
+    for (const auto* t : ByTag(v.g, "text")) {
+      if (HasClass(t, "view-title") || HasClass(t, "scale-label")) continue;
+      if (HasClass(t, "label-note")) {
+        // "N labels left out ...", the names in data-left-out (separated by ';').
+        left_out = std::atoi(t->GetText());
+        const std::string names = t->Attribute("data-left-out");
+        EXPECT_EQ(static_cast<int>(std::count(names.begin(), names.end(), ';')) + 1, left_out);
+        continue;
+      }
+      muscle_labels += HasClass(t, "muscle-label");
+      boxes.push_back(BoxOf(t));
+    }
+    for (size_t i = 0; i < boxes.size(); ++i) {
+      for (size_t j = i + 1; j < boxes.size(); ++j) {
+        const TextBox &a = boxes[i], &b = boxes[j];
+        const bool overlap = a.x0 < b.x1 && b.x0 < a.x1 && a.y0 < b.y1 && b.y0 < a.y1;
+        EXPECT_FALSE(overlap) << "'" << a.text << "' and '" << b.text << "'";
+      }
+    }
+    // Every muscle is labelled or counted as left out; crowded as they are, each gets a label
+    // (stacked beside the paths with leader lines where needed).
+    EXPECT_EQ(muscle_labels + left_out, 38);
+    EXPECT_EQ(muscle_labels, 38);
+  }
+}
+
+TEST(LimbStickFigureSvg, MuscleFilterDrawsOnlyTheNamedMuscles) {
+  const isowrench::Model model = CrowdedRat(5);
+  isowrench::LimbDrawingOptions options;
+  options.muscles = {"R_muscle_3", "R_muscle_1"};
+  tinyxml2::XMLDocument doc;
+  const std::string svg = isowrench::LimbStickFigureSvg(model, model.nominal_posture(), options);
+  ASSERT_EQ(doc.Parse(svg.c_str()), tinyxml2::XML_SUCCESS) << doc.ErrorStr();
+  const View top = ReadView(doc.RootElement(), "top");
+  std::vector<std::string> drawn;
+  for (const auto* m : ByClass(top.g, "muscle")) drawn.push_back(m->Attribute("data-muscle"));
+  EXPECT_EQ(drawn, (std::vector<std::string>{"R_muscle_1", "R_muscle_3"}));  // model order
+  options.muscles = {"R_muscle_1", "nosuch"};
+  EXPECT_THAT([&] { isowrench::LimbStickFigureSvg(model, model.nominal_posture(), options); },
+              ThrowsMessage<isowrench::Error>(HasSubstr("nosuch")));
 }
 
 }  // namespace

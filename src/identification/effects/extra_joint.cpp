@@ -68,7 +68,9 @@ class ExtraJoint final : public EffectType {
         std::vector<Eigen::Vector3d> axes;
         Eigen::Matrix3d R = Eigen::Matrix3d::Identity();
         for (size_t k = stop; k-- > start;) {
-          axes.push_back(R * movable[k]->axis);
+          // A locked joint is rigid: its axis can still give (an extra joint about it).
+          if (!FindCoordinate(d, movable[k]->coordinate).locked)
+            axes.push_back(R * movable[k]->axis);
           if (k > start) R = R * movable[k]->origin.linear().transpose();
         }
         const JointSpec& last = *movable[stop - 1];
