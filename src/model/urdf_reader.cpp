@@ -5,7 +5,6 @@
 // for the standard robot model. Numbers are parsed with std::from_chars (locale independent).
 
 #include <tinyxml2.h>
-#include <urdf_parser/urdf_parser.h>
 
 #include <algorithm>
 #include <cmath>
@@ -20,6 +19,7 @@
 #include "model/function_xml.hpp"
 #include "model/urdf_checks.hpp"
 #include "model/urdf_coordinates.hpp"
+#include "model/urdf_standard.hpp"
 #include "util/text.hpp"
 
 namespace isowrench {
@@ -321,6 +321,9 @@ LimbDescription ReadUrdfString(const std::string& xml, const std::string& source
   // Before anything walks the joints: urdfdom and the chain walk below loop forever on a
   // joint loop, so the tree structure is checked first; then every isowrench: attribute.
   urdf_checks::CheckJointTree(*robot, r.source);
+  // Everything urdfdom would reject (it only logs why, and some of its messages use the file's
+  // text as a printf format: urdf_standard.hpp), then every isowrench: attribute.
+  urdf_standard::CheckStandardElements(*robot, r.source);
   urdf_checks::CheckExtensionAttributes(*robot, r.source);
 
   // Pass 1 (tinyxml2): joint types we refuse, line numbers for messages.
@@ -344,13 +347,13 @@ LimbDescription ReadUrdfString(const std::string& xml, const std::string& source
     link_elements[r.Attribute(e, "name", true)] = e;
   }
 
-  // Pass 2 (urdfdom): the standard robot model.
-  urdf::ModelInterfaceSharedPtr urdf_model = urdf::parseURDF(xml);
+  // Pass 2 (urdfdom, silenced): the standard robot model.
+  urdf::ModelInterfaceSharedPtr urdf_model = urdf_standard::ParseQuietly(xml);
   if (!urdf_model) {
     throw Error(r.source +
-                ": urdfdom rejected the robot description (a joint without "
-                "<limit>, a link with two parents, or a missing link; see the "
-                "message printed above)");
+                ": urdfdom rejected the robot description although isowrench's checks of it "
+                "passed (its XML parser, TinyXML 1, may read this file differently); please "
+                "report it with the file");
   }
   urdf::LinkConstSharedPtr root = urdf_model->getRoot();
   if (!root) throw Error(r.source + ": the URDF has no root link");
