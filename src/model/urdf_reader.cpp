@@ -324,6 +324,7 @@ LimbDescription ReadUrdfString(const std::string& xml, const std::string& source
   // Everything urdfdom would reject (it only logs why, and some of its messages use the file's
   // text as a printf format: urdf_standard.hpp), then every isowrench: attribute.
   urdf_standard::CheckStandardElements(*robot, r.source);
+  urdf_checks::CheckDeclarations(*robot, r.source);
   urdf_checks::CheckExtensionAttributes(*robot, r.source);
 
   // Pass 1 (tinyxml2): joint types we refuse, line numbers for messages.
@@ -505,6 +506,13 @@ LimbDescription ReadUrdfString(const std::string& xml, const std::string& source
       if (role.empty() || role == "limb") {
         j.role = JointRole::kLimb;
       } else if (role == "base") {
+        if (j.type != JointType::kPrismatic) {
+          r.Fail(e, "joint '" + j.name + "' (line " +
+                        std::to_string(joint_elements.at(j.name)->GetLineNum()) +
+                        ") is revolute but has role=\"base\": base dofs are the translations of "
+                        "the skeleton's fixation, prismatic joints (docs/urdf-extensions.md); a "
+                        "rotation held by a stiffness is role=\"extra\"");
+        }
         j.role = JointRole::kBase;
       } else if (role == "extra") {
         j.role = JointRole::kExtra;
