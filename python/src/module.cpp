@@ -13,7 +13,9 @@
 
 #include <cmath>
 #include <filesystem>
+#include <limits>
 #include <memory>
+#include <mutex>
 #include <string>
 #include <thread>
 #include <vector>
@@ -22,6 +24,7 @@
 #include "isowrench/engine.hpp"
 #include "isowrench/error.hpp"
 #include "isowrench/identification.hpp"
+#include "isowrench/input_checks.hpp"
 #include "isowrench/kinematics.hpp"
 #include "isowrench/model.hpp"
 #include "isowrench/opensim.hpp"
@@ -39,6 +42,60 @@ using CArray = py::array_t<double, py::array::c_style | py::array::forcecast>;
 [[noreturn]] void ThrowFileNotFound(const std::string& path) {
   PyErr_SetString(PyExc_FileNotFoundError, ("no such file: '" + path + "'").c_str());
   throw py::error_already_set();
+}
+
+// ---- isowrench warnings -> Python UserWarning (issue 26) ---------------------------------------
+// The library reports implausible input through isowrench::Warn
+// (include/isowrench/input_checks.hpp), possibly from a thread without the GIL (fit and simulate
+// release it): the module's handler only queues the message, and each binding that can warn issues
+// the queue as UserWarnings when it holds the GIL again (FlushWarnings), before it returns or
+// raises.
+
+std::mutex& PendingWarningsMutex() {
+  static std::mutex mutex;
+  return mutex;
+}
+
+std::vector<std::string>& PendingWarnings() {
+  static std::vector<std::string> pending;
+  return pending;
+}
+
+void QueueWarning(const std::string& message) {
+  std::lock_guard<std::mutex> lock(PendingWarningsMutex());
+  PendingWarnings().push_back(message);
+}
+
+/// Issue `messages` as UserWarnings (GIL held). @throws py::error_already_set when a warnings
+/// filter turns one into an exception (python -W error).
+void RaiseWarnings(const std::vector<std::string>& messages) {
+  for (const std::string& m : messages) {
+    if (PyErr_WarnEx(PyExc_UserWarning, m.c_str(), 1) < 0) throw py::error_already_set();
+  }
+}
+
+void FlushWarnings() {
+  std::vector<std::string> pending;
+  {
+    std::lock_guard<std::mutex> lock(PendingWarningsMutex());
+    pending.swap(PendingWarnings());
+  }
+  RaiseWarnings(pending);
+}
+
+/// f(), then the queued warnings, also when f throws (the warnings first, then the error).
+template <typename F>
+auto Flushing(F&& f) -> decltype(f()) {
+  try {
+    auto result = f();
+    FlushWarnings();
+    return result;
+  } catch (const py::error_already_set&) {
+    throw;
+  } catch (...) {
+    FlushWarnings();
+    throw;
+  }
 }
 
 /// A loaded model: the immutable Model and the file it came from.
@@ -81,6 +138,15 @@ Eigen::VectorXd Posture(const Model& model, const py::object& q) {
                   std::to_string(out[i]) + "; posture values must be finite (rad / m)");
     }
   }
+  // Plausibility of what the caller gave (degrees passed as radians...): UserWarnings.
+  std::vector<std::string> given;
+  if (py::isinstance<py::dict>(q)) {
+    for (const auto& item : q.cast<py::dict>()) {
+      given.push_back(FindCoordinate(model.description(), py::str(item.first)).name);
+    }
+  }
+  RaiseWarnings(PostureWarnings(
+      model.description(), out, [](const std::string& c) { return "q['" + c + "']"; }, given));
   return out;
 }
 
@@ -115,8 +181,16 @@ std::shared_ptr<PyModel> Variant(const std::shared_ptr<PyModel>& m, const py::ob
   return std::make_shared<PyModel>(Model(std::move(d)), m->path);
 }
 
+std::shared_ptr<PyModel> LoadUnflushed(const std::string& path, const py::object& clamp,
+                                       const py::object& endpoint);
+
 std::shared_ptr<PyModel> Load(const std::string& path, const py::object& clamp,
                               const py::object& endpoint) {
+  return Flushing([&] { return LoadUnflushed(path, clamp, endpoint); });
+}
+
+std::shared_ptr<PyModel> LoadUnflushed(const std::string& path, const py::object& clamp,
+                                       const py::object& endpoint) {
   if (!std::filesystem::exists(path)) ThrowFileNotFound(path);
   const std::string ext = std::filesystem::path(path).extension().string();
   if (ext == ".osim") {
@@ -133,9 +207,7 @@ std::shared_ptr<PyModel> Load(const std::string& path, const py::object& clamp,
     options.clamp_body = clamp.cast<std::string>();
     options.endpoint_body = endpoint.cast<std::string>();
     OpenSimImport imported = ImportOpenSimFile(path, options);
-    for (const std::string& w : imported.warnings) {
-      PyErr_WarnEx(PyExc_UserWarning, (path + ": " + w).c_str(), 1);
-    }
+    for (const std::string& w : imported.warnings) QueueWarning(path + ": " + w);
     return std::make_shared<PyModel>(Model(std::move(imported.description)), path);
   }
   return std::make_shared<PyModel>(Model::FromUrdfFile(path), path);
@@ -204,6 +276,8 @@ CArray Postures(const Model& model, const py::object& Q) {
   }
   const double* data = a.data();
   const py::ssize_t rows = a.shape(0);
+  Eigen::VectorXd low = Eigen::VectorXd::Constant(n, std::numeric_limits<double>::infinity());
+  Eigen::VectorXd high = -low;
   for (py::ssize_t r = 0; r < rows; ++r) {
     for (long c = 0; c < n; ++c) {
       const double v = data[r * n + c];
@@ -212,8 +286,20 @@ CArray Postures(const Model& model, const py::object& Q) {
                     model.joint_names()[c] + ") is " + std::to_string(v) +
                     "; postures must be finite (rad / m)");
       }
+      low[c] = std::min(low[c], v);
+      high[c] = std::max(high[c], v);
     }
   }
+  // Plausibility per column, from its extremes (one UserWarning per column at most).
+  const double limb = LimbLength(model.description());
+  std::vector<std::string> warnings;
+  for (long c = 0; rows > 0 && c < n; ++c) {
+    const std::string where = "Q[:, " + std::to_string(c) + "]";
+    std::string w = CoordinateValueWarning(model.coordinate(c), low[c], limb, where);
+    if (w.empty()) w = CoordinateValueWarning(model.coordinate(c), high[c], limb, where);
+    if (!w.empty()) warnings.push_back(w);
+  }
+  RaiseWarnings(warnings);
   return a;
 }
 
@@ -424,12 +510,13 @@ std::string Simulate(const PyModel& m, const std::string& output,
   options.muscles = muscles;
   options.center = m.model.nominal_posture();
   std::vector<Trial> trials;
-  {
+  Flushing([&] {
     py::gil_scoped_release release;
     AugmentedModel truth = ApplyEffects(m.model.description(), applied);
     trials = SimulateTrials(m.model, truth, options);
     WriteTrialsCsv(m.model, trials, output);
-  }
+    return 0;
+  });
   return output;
 }
 
@@ -437,13 +524,14 @@ py::dict Fit(const PyModel& m, const std::string& csv, int max_fit_trials,
              unsigned long long sample_seed) {
   if (!std::filesystem::exists(csv)) ThrowFileNotFound(csv);
   FitReport report;
-  {
+  Flushing([&] {
     py::gil_scoped_release release;
     FitOptions options;
     options.max_fit_trials = max_fit_trials;
     options.sample_seed = sample_seed;
     report = FitEffectsCsv(m.model, csv, options);
-  }
+    return 0;
+  });
   py::dict out;
   out["verdict"] = FitVerdictName(report.verdict);
   out["verdict_message"] = report.verdict_message;
@@ -506,6 +594,7 @@ PYBIND11_MODULE(_core, mod) {
       StatusName(StaticsStatus::kOk), StatusName(StaticsStatus::kSelfMotionHeld),
       StatusName(StaticsStatus::kSelfMotion), StatusName(StaticsStatus::kInvalidInput));
 
+  SetWarningHandler(QueueWarning);  // isowrench::Warn -> UserWarning (FlushWarnings)
   py::register_exception_translator([](std::exception_ptr p) {
     try {
       if (p) std::rethrow_exception(p);

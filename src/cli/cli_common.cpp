@@ -95,7 +95,10 @@ Model LoadModel(const ModelOptions& o) {
 }
 
 Eigen::VectorXd LoadPosture(const Model& model, const ModelOptions& o) {
-  return ApplyPostureAssignments(model, model.nominal_posture(), o.posture);
+  std::vector<std::string> warnings;
+  Eigen::VectorXd q = ApplyPostureAssignments(model, model.nominal_posture(), o.posture, &warnings);
+  WarnAll(warnings);
+  return q;
 }
 
 std::string ChooseMuscle(const Model& model, const ModelOptions& o) {

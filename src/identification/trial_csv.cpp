@@ -186,6 +186,7 @@ struct TrialReader::Impl {
   int sd_column[6] = {-1, -1, -1, -1, -1, -1};
   bool has_sd = false;
   Eigen::VectorXd nominal;
+  double limb_length = 0;  ///< LimbLength of the model (plausibility of prismatic columns)
   std::shared_ptr<const std::vector<std::string>> joint_names;
 
   std::string Where(int column) const {
@@ -202,6 +203,7 @@ TrialReader::TrialReader(const Model& model, std::istream& input, std::string so
   m.input = &input;
   m.source = std::move(source_name);
   m.nominal = model.nominal_posture();
+  m.limb_length = LimbLength(model.description());
   m.joint_names = std::make_shared<const std::vector<std::string>>(model.joint_names());
   m.records = std::make_unique<CsvRecords>(input, m.source);
   if (!m.records->Next(&m.columns, &m.line_number)) {
@@ -350,21 +352,24 @@ bool TrialReader::Next(Trial* trial) {
     double v = number(col);
     JointType type = m.model->joint(j).type;
     bool revolute = type == JointType::kRevolute;
-    // Beyond a full turn (or 2 m of travel) no limb joint goes: radians in a degree column, a
-    // typo, or another file. Values that cannot be an angle at all are errors.
+    // Values that cannot be a joint position at all are errors; implausible ones (outside the
+    // joint's limits, beyond a full turn, a translation longer than the limb) warn, once per
+    // column, from the one place every reader asks (CoordinateValueWarning).
     double full = revolute ? 360.0 : 2000.0;
     if (std::abs(v) > 1e3 * full) {
       throw Error(m.Where(col) + ": " + fields[c] + (revolute ? " deg" : " mm") +
                   " cannot be a joint position (|value| > " + util::FormatNumber(1e3 * full) + ")");
     }
-    if (std::abs(v) > full && !m.warned[c]) {
-      m.warned[c] = true;
-      Warn(m.Where(col) + ": " + fields[c] +
-           (revolute ? " deg is more than a full turn" : " mm is more than 2 m") +
-           " from 0, far outside any limb joint's range (later rows of this column are not "
-           "reported)");
-    }
     t.q[j] = JointValueFromUserUnits(type, v);
+    if (!m.warned[c]) {
+      const std::string w =
+          CoordinateValueWarning(m.model->coordinate(j), t.q[j], m.limb_length, m.Where(col),
+                                 /*typed_in_user_units=*/true);
+      if (!w.empty()) {
+        m.warned[c] = true;
+        Warn(w + " (later rows of this column are not reported)");
+      }
+    }
   }
   t.muscle = fields[m.muscle_column];
   try {

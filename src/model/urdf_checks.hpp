@@ -1,8 +1,9 @@
 #pragma once
 // Private checks of a URDF before and after it is read (src/model/urdf_reader.cpp calls them):
 // the joint tree's structure (so urdfdom never sees a loop), the attributes of every isowrench:
-// element (one table per element, with "did you mean" suggestions), and the plausibility of the
-// limb's dimensions (warnings).
+// element (one table per element, with "did you mean" suggestions), and declarations made twice
+// or where nothing reads them. Plausibility warnings are DescriptionWarnings()
+// (include/isowrench/input_checks.hpp), shared with every other reader.
 
 #include <tinyxml2.h>
 
@@ -43,10 +44,5 @@ void CheckDeclarations(const tinyxml2::XMLElement& robot, const std::string& sou
 /// The attribute names an isowrench element (local name, e.g. "joint") accepts; empty for an
 /// element without a table.
 const std::vector<std::string>& AllowedAttributes(const std::string& local_name);
-
-/// Warn (isowrench::Warn) about segment lengths and muscle lengths outside the plausible ranges
-/// of include/isowrench/input_checks.hpp. `where(joint_name)` gives "file:line" for messages.
-void WarnImplausibleDimensions(const LimbDescription& d,
-                               const std::function<std::string(const std::string&)>& where);
 
 }  // namespace isowrench::urdf_checks

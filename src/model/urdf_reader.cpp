@@ -457,7 +457,8 @@ LimbDescription ReadUrdfString(const std::string& xml, const std::string& source
   TransducerSpec& t = d.transducer;
   t.link = endpoint_link;
   t.endpoint = r.Vector3(transducer, "xyz");
-  t.rotation = RotationFromRpy(r.Vector3(transducer, "rpy"));
+  const Eigen::Vector3d transducer_rpy = r.Vector3(transducer, "rpy");
+  t.rotation = RotationFromRpy(transducer_rpy);
   std::string axes = r.Attribute(transducer, "axes", false);
   if (axes.empty() || axes == "world") {
     t.axes_in_world = true;
@@ -596,18 +597,55 @@ LimbDescription ReadUrdfString(const std::string& xml, const std::string& source
   ReadWrapObjects(r, *robot, d, check_link);
   CheckPathWraps(r, d, path_wrap_elements);
   urdf_coordinates::ApplyJointTags(*robot, r.source, d);
-  urdf_checks::WarnImplausibleDimensions(d, [&](const std::string& joint) {
-    if (joint.rfind("muscle:", 0) == 0) {
-      std::string muscle = joint.substr(7);
+  // Plausibility (warnings, never errors): rotations written in degrees, then the description's
+  // dimensions and nominal posture, each located at its line.
+  std::vector<std::string> warnings;
+  for (const JointSpec& j : d.joints) {
+    const tinyxml2::XMLElement* origin = joint_elements.at(j.name)->FirstChildElement("origin");
+    const char* rpy = origin ? origin->Attribute("rpy") : nullptr;
+    std::vector<std::string> parts = rpy ? util::Split(rpy, " ") : std::vector<std::string>();
+    if (parts.size() != 3) continue;
+    Eigen::Vector3d angles;
+    for (int k = 0; k < 3; ++k) util::ParseDouble(parts[static_cast<size_t>(k)], &angles[k]);
+    std::string w =
+        RotationWarning(angles, r.Where(origin) + ": joint '" + j.name + "': <origin> rpy");
+    if (!w.empty()) warnings.push_back(w);
+  }
+  {
+    std::string w =
+        RotationWarning(transducer_rpy, r.Where(transducer) + ": <isowrench:transducer> rpy");
+    if (!w.empty()) warnings.push_back(w + "; the wrench header shows the rotation it gives");
+  }
+  auto where = [&](const std::string& name) -> std::string {
+    if (name.rfind("muscle:", 0) == 0) {
+      const std::string muscle = name.substr(7);
       for (auto* e = robot->FirstChildElement("isowrench:muscle"); e;
            e = e->NextSiblingElement("isowrench:muscle")) {
         const char* n = e->Attribute("name");
         if (n && muscle == n) return r.Where(e);
       }
     }
-    auto it = joint_elements.find(joint);
+    if (name.rfind("posture:", 0) == 0) {
+      const std::string coordinate = name.substr(8);
+      for (auto* e = robot->FirstChildElement("isowrench:posture"); e;
+           e = e->NextSiblingElement("isowrench:posture")) {
+        const char* n = e->Attribute("joint");
+        if (n && coordinate == n) return r.Where(e) + ": <isowrench:posture>";
+      }
+      for (auto* e = robot->FirstChildElement("isowrench:coordinate"); e;
+           e = e->NextSiblingElement("isowrench:coordinate")) {
+        const char* n = e->Attribute("name");
+        if (n && coordinate == n) return r.Where(e) + ": default";
+      }
+      auto it = joint_elements.find(coordinate);
+      return it != joint_elements.end() ? r.Where(it->second) + ": nominal posture"
+                                        : r.source + ": nominal posture";
+    }
+    auto it = joint_elements.find(name);
     return it != joint_elements.end() ? r.Where(it->second) : r.Where(transducer);
-  });
+  };
+  for (std::string& w : DescriptionWarnings(d, where)) warnings.push_back(std::move(w));
+  WarnAll(warnings);
   return d;
 }
 

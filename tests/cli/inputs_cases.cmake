@@ -43,3 +43,25 @@ file(WRITE ${_in26}/base_role_revolute.urdf "${_text}")
 input_cli_exit(urdf_base_role_on_revolute 1
   "isowrench: error: [^\n]*base_role_revolute.urdf:47: joint 'knee_rx' \\(line 31\\) is revolute but has role=\"base\""
   wrench ${_in26}/base_role_revolute.urdf)
+
+# ---- item 1: plausibility warnings (exit 0: a legal value is never an error) -----------------
+# (expect_exit.cmake matches stdout followed by stderr, where the warnings are.)
+input_cli_exit(warn_urdf_posture_in_radians 0
+  "isowrench: warning: [^\n]*cat_slips.urdf:26: <isowrench:posture>: hip_rz = -3437.75° \\(-60 rad\\) is outside the joint's limits -143.239° \\(-2.5 rad\\) .. 28.6479° \\(0.5 rad\\) and more than a full turn \\(degrees where radians were meant\\?\\)"
+  wrench ${data}/cat_slips.urdf)
+input_cli_exit(warn_mimic_in_m_per_rad 0
+  "isowrench: warning: [^\n]*cat_slips.urdf:27: <isowrench:posture>: joint 'knee_slide', driven by knee_rz = 50° \\(0.872665 rad\\), is 872.665 mm \\(0.872665 m\\), which moves the endpoint 872.7 mm, more than the limb's own length 270 mm"
+  kinematics ${data}/cat_slips.urdf)
+input_cli_exit(warn_posture_option_full_turn 0
+  "statics +ok.*isowrench: warning: --posture hip_rz=-3437: hip_rz = -3437° \\(-59.987 rad\\) is more than a full turn"
+  wrench ${rat5} --posture hip_rz=-3437)
+string(REPLACE "rpy=\"0 0 0\" axes=\"world\"" "rpy=\"0 0 90\" axes=\"world\"" _text "${_rat5_text}")
+file(WRITE ${_in26}/rpy_degrees.urdf "${_text}")
+input_cli_exit(warn_transducer_rpy_in_degrees 0
+  "transducer   S_t = [^\n]*axes world, rpy 0 0 2.035 rad \\(0° 0° 116.6°\\).*isowrench: warning: [^\n]*rpy_degrees.urdf:37: <isowrench:transducer> rpy = 0 0 90 rad turns more than a full turn about an axis: degrees written where radians are meant\\?"
+  wrench ${_in26}/rpy_degrees.urdf)
+input_cli_exit(wrench_header_shows_unrotated_axes 0 "axes world, not rotated, released" wrench ${rat5})
+input_cli_exit(warn_import_endpoint_in_mm 0
+  "! endpoint point 0,-5,20 \\(m in body 'foot'\\): the endpoint sits 20.6155 m from the origin of link 'foot', outside the plausible segment length"
+  import ${PROJECT_SOURCE_DIR}/tests/opensim/data/hindlimb.osim -o ${_in26}/hindlimb_mm.urdf
+  --clamp pelvis --endpoint foot:0,-5,20)

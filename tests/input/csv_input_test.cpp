@@ -120,7 +120,9 @@ TEST(TrialCsv, AnglesBeyondAFullTurnWarnOncePerColumn) {
   Read(kHeader + "-110,0,0,400,0,GP,1,0,0,0,0,0,0\n-110,0,0,500,0,GP,1,0,0,0,0,0,0\n");
   ASSERT_EQ(warnings.warnings().size(), 1u);
   EXPECT_THAT(warnings.text(),
-              AllOf(HasSubstr("t.csv:2, column 4 'knee_rz'"), HasSubstr("400 deg")));
+              AllOf(HasSubstr("t.csv:2, column 4 'knee_rz': knee_rz = 400° (6.98132 rad) is "
+                              "more than a full turn"),
+                    HasSubstr("(later rows of this column are not reported)")));
 }
 
 TEST(TrialCsv, WriterAndStreamingReaderRoundTrip) {
