@@ -14,6 +14,7 @@
 #include <cmath>
 #include <filesystem>
 #include <limits>
+#include <map>
 #include <memory>
 #include <mutex>
 #include <string>
@@ -23,6 +24,7 @@
 #include "isowrench/diagnostics.hpp"
 #include "isowrench/engine.hpp"
 #include "isowrench/error.hpp"
+#include "isowrench/frontend.hpp"
 #include "isowrench/identification.hpp"
 #include "isowrench/input_checks.hpp"
 #include "isowrench/kinematics.hpp"
@@ -115,13 +117,12 @@ std::string CoordinateList(const Model& model) {
 /// The posture argument: None (the model's default posture), a sequence / 1-D array of n values
 /// (rad / m), or a dict {coordinate: value} applied over the default posture.
 Eigen::VectorXd Posture(const Model& model, const py::object& q) {
-  Eigen::VectorXd out = model.nominal_posture();
-  if (q.is_none()) return out;
+  if (q.is_none()) return model.nominal_posture();
+  std::vector<std::pair<std::string, double>> values;
+  Eigen::VectorXd all;
   if (py::isinstance<py::dict>(q)) {
     for (const auto& item : q.cast<py::dict>()) {
-      const std::string name = py::str(item.first);
-      out[model.JointIndex(FindCoordinate(model.description(), name).name)] =
-          item.second.cast<double>();
+      values.emplace_back(py::str(item.first), item.second.cast<double>());
     }
   } else {
     CArray a = CArray::ensure(q);
@@ -130,23 +131,13 @@ Eigen::VectorXd Posture(const Model& model, const py::object& q) {
                   std::to_string(model.dof_count()) + " values in rad / m for the coordinates " +
                   CoordinateList(model));
     }
-    for (int i = 0; i < model.dof_count(); ++i) out[i] = a.at(i);
+    all = Eigen::Map<const Eigen::VectorXd>(a.data(), model.dof_count());
   }
-  for (int i = 0; i < model.dof_count(); ++i) {
-    if (!std::isfinite(out[i])) {
-      throw Error("q[" + std::to_string(i) + "] (" + model.joint_names()[i] + ") is " +
-                  std::to_string(out[i]) + "; posture values must be finite (rad / m)");
-    }
-  }
-  // Plausibility of what the caller gave (degrees passed as radians...): UserWarnings.
-  std::vector<std::string> given;
-  if (py::isinstance<py::dict>(q)) {
-    for (const auto& item : q.cast<py::dict>()) {
-      given.push_back(FindCoordinate(model.description(), py::str(item.first)).name);
-    }
-  }
-  RaiseWarnings(PostureWarnings(
-      model.description(), out, [](const std::string& c) { return "q['" + c + "']"; }, given));
+  // The library's posture from values (sizes, finiteness, plausibility): as the CLI's.
+  std::vector<std::string> warnings;
+  Eigen::VectorXd out = PostureFromValues(model, model.nominal_posture(), values,
+                                          all.size() ? &all : nullptr, &warnings, "q");
+  RaiseWarnings(warnings);
   return out;
 }
 
@@ -156,10 +147,12 @@ Eigen::VectorXd Posture(const Model& model, const py::object& q) {
 std::shared_ptr<PyModel> Variant(const std::shared_ptr<PyModel>& m, const py::object& transducer,
                                  const py::object& released) {
   if (transducer.is_none() && released.is_none()) return m;
-  LimbDescription d = m->model.description();
+  // The library's overrides (isowrench/frontend.hpp), as the CLI's --transducer,
+  // --transducer-stiffness and --release.
+  ModelOverrides overrides;
   if (!transducer.is_none()) {
     if (py::isinstance<py::str>(transducer)) {
-      d = WithTransducerStiffness(std::move(d), TransducerPreset(transducer.cast<std::string>()));
+      overrides.transducer_preset = transducer.cast<std::string>();
     } else {
       CArray a = CArray::ensure(transducer);
       if (!a || a.ndim() != 1 || a.shape(0) != 6) {
@@ -169,16 +162,16 @@ std::shared_ptr<PyModel> Variant(const std::shared_ptr<PyModel>& m, const py::ob
       }
       Vector6d s;
       for (int i = 0; i < 6; ++i) s[i] = a.at(i);
-      d = WithTransducerStiffness(std::move(d), s);
+      overrides.transducer_stiffness = s;
     }
   }
   if (!released.is_none()) {
-    d = WithReleasedDofs(std::move(d),
-                         py::isinstance<py::str>(released)
+    overrides.released = py::isinstance<py::str>(released)
                              ? DofMask::Parse(released.cast<std::string>())
-                             : DofMask::FromNames(released.cast<std::vector<std::string>>()));
+                             : DofMask::FromNames(released.cast<std::vector<std::string>>());
   }
-  return std::make_shared<PyModel>(Model(std::move(d)), m->path);
+  return std::make_shared<PyModel>(
+      Model(ApplyOverrides(m->model.description(), overrides, OptionStyle::kPython)), m->path);
 }
 
 std::shared_ptr<PyModel> LoadUnflushed(const std::string& path, const py::object& clamp,
@@ -192,25 +185,21 @@ std::shared_ptr<PyModel> Load(const std::string& path, const py::object& clamp,
 std::shared_ptr<PyModel> LoadUnflushed(const std::string& path, const py::object& clamp,
                                        const py::object& endpoint) {
   if (!std::filesystem::exists(path)) ThrowFileNotFound(path);
-  const std::string ext = std::filesystem::path(path).extension().string();
-  if (ext == ".osim") {
-    if (clamp.is_none() || endpoint.is_none()) {
-      throw Error(
-          "loading an OpenSim model needs clamp_body= and endpoint_body= (the bolted body and the "
-          "body "
-          "carrying the transducer), e.g. isowrench.load('" +
-          path +
-          "', clamp_body='pelvis', "
-          "endpoint_body='tibia')");
-    }
-    OpenSimImportOptions options;
+  OpenSimImportOptions options;
+  const bool osim = std::filesystem::path(path).extension() == ".osim";
+  if (osim && (clamp.is_none() || endpoint.is_none())) {
+    throw Error(
+        "loading an OpenSim model needs clamp_body= and endpoint_body= (the bolted body and the "
+        "body carrying the transducer), e.g. isowrench.load('" +
+        path + "', clamp_body='pelvis', endpoint_body='tibia')");
+  }
+  if (osim) {
     options.clamp_body = clamp.cast<std::string>();
     options.endpoint_body = endpoint.cast<std::string>();
-    OpenSimImport imported = ImportOpenSimFile(path, options);
-    for (const std::string& w : imported.warnings) QueueWarning(path + ": " + w);
-    return std::make_shared<PyModel>(Model(std::move(imported.description)), path);
   }
-  return std::make_shared<PyModel>(Model::FromUrdfFile(path), path);
+  // The library's loader (isowrench/frontend.hpp), as the CLI's; its warnings are queued and
+  // raised as UserWarnings by Load.
+  return std::make_shared<PyModel>(Model(LoadLimb(path, osim ? &options : nullptr)), path);
 }
 
 py::array_t<double> Array(const Eigen::VectorXd& v) {
@@ -496,25 +485,20 @@ py::dict Diagnose(const PyModel& m, const std::string& muscle, const py::object&
 }
 
 std::string Simulate(const PyModel& m, const std::string& output,
-                     const std::vector<std::string>& effects, int n, unsigned long long seed,
+                     const std::vector<std::string>& effects, int trials, unsigned long long seed,
                      double noise_force, double noise_moment, double joint_range,
                      const std::vector<std::string>& muscles) {
-  std::vector<AppliedEffect> applied;
-  for (const std::string& text : effects) applied.push_back(ParseEffectAssignment(m.model, text));
-  SimulationOptions options;
-  options.postures = n;
+  SimulationOptions options;  // the CLI's defaults too (isowrench simulate)
+  options.postures = trials;
   options.seed = seed;
   options.noise_force = noise_force;
   options.noise_moment = noise_moment;
   options.joint_range = joint_range;
   options.muscles = muscles;
   options.center = m.model.nominal_posture();
-  std::vector<Trial> trials;
   Flushing([&] {
     py::gil_scoped_release release;
-    AugmentedModel truth = ApplyEffects(m.model.description(), applied);
-    trials = SimulateTrials(m.model, truth, options);
-    WriteTrialsCsv(m.model, trials, output);
+    SimulateToCsv(m.model, effects, options, output);
     return 0;
   });
   return output;
@@ -767,22 +751,52 @@ PYBIND11_MODULE(_core, mod) {
            "and classic answer, sensitivities dW/dlog k and (optionally) the nonlinear "
            "equilibrium; the keys of "
            "`isowrench diagnose --json` for one muscle.")
+      .def(
+          "with_overrides",
+          [](const std::shared_ptr<PyModel>& m, const py::object& released,
+             const py::object& transducer, const py::object& base_stiffness,
+             const std::map<std::string, double>& joint_stiffness) {
+            // The library's overrides (isowrench/frontend.hpp ApplyOverrides), as the CLI's
+            // --release, --transducer(-stiffness), --base-stiffness and --joint-stiffness.
+            std::shared_ptr<PyModel> v = Variant(m, transducer, released);
+            ModelOverrides overrides;
+            if (!base_stiffness.is_none()) overrides.base_stiffness = base_stiffness.cast<double>();
+            for (const auto& [joint, k] : joint_stiffness) {
+              overrides.joint_stiffness.emplace_back(joint, k);
+            }
+            if (overrides.empty()) return v;
+            return std::make_shared<PyModel>(
+                Model(ApplyOverrides(v->model.description(), overrides, OptionStyle::kPython)),
+                m->path);
+          },
+          py::arg("released") = py::none(), py::arg("transducer") = py::none(),
+          py::arg("base_stiffness") = py::none(),
+          py::arg("joint_stiffness") = std::map<std::string, double>{},
+          "with_overrides(released=None, transducer=None, base_stiffness=None, "
+          "joint_stiffness={}) -> Model\n\n"
+          "A new Model with the overrides the CLI's --release, --transducer / "
+          "--transducer-stiffness, --base-stiffness (N/m; inserts base_x/y/z when the limb has "
+          "none) and --joint-stiffness {coordinate: N·m/rad or N/m} apply, through the same "
+          "library function (ApplyOverrides). The model itself is unchanged.\n"
+          "Raises ValueError naming the keyword and the value (a negative or huge stiffness, an "
+          "unknown coordinate).")
       .def("__repr__", [](const PyModel& m) {
         return "<isowrench.Model '" + m.model.name() + "': " + std::to_string(m.model.dof_count()) +
                " coordinates (" + CoordinateList(m.model) + "), " +
                std::to_string(m.model.muscle_count()) + " muscles>";
       });
 
+  const SimulationOptions defaults;  // the library's, which the CLI's simulate uses too
   mod.def("simulate", &Simulate, py::arg("model"), py::arg("path"),
-          py::arg("effects") = std::vector<std::string>{}, py::arg("n") = 60, py::arg("seed") = 7,
-          py::arg("noise_force") = 0.002, py::arg("noise_moment") = 5e-5,
-          py::arg("joint_range") = 15.0 * 3.14159265358979323846 / 180.0,
+          py::arg("effects") = std::vector<std::string>{}, py::arg("trials") = defaults.postures,
+          py::arg("seed") = defaults.seed, py::arg("noise_force") = defaults.noise_force,
+          py::arg("noise_moment") = defaults.noise_moment,
+          py::arg("joint_range") = defaults.joint_range,
           py::arg("muscles") = std::vector<std::string>{},
-          "simulate(model, path, effects=[], n=60, seed=7, noise_force=0.002, noise_moment=5e-5, "
-          "joint_range=0.2618, "
-          "muscles=[]) -> str\n\n"
-          "Synthetic trials (SimulateTrials, as `isowrench simulate`): n postures drawn uniformly "
-          "within +- joint_range "
+          "simulate(model, path, effects=[], trials=50, seed=1, noise_force=0.002, "
+          "noise_moment=5e-5, joint_range=0.2618, muscles=[]) -> str\n\n"
+          "Synthetic trials (SimulateToCsv, as `isowrench simulate`, with its defaults): trials "
+          "postures drawn uniformly within +- joint_range "
           "(rad) of the default posture, wrenches of the model with `effects` applied (strings "
           "'NAME=V1,V2' in the "
           "CLI's user units, e.g. 'base_isotropic=2e5'; `isowrench fit --list-effects` lists them) "

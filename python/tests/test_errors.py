@@ -126,3 +126,20 @@ def test_reader_warnings_become_user_warnings(tmp_path):
     with pytest.warns(UserWarning, match=r"rpy_in_degrees\.urdf:37: <isowrench:transducer> rpy = 0 0 90 rad turns more than a full turn"):
         m = isowrench.load(str(path))
     assert m.name == "rat_hindlimb_5dof"
+
+
+def test_overrides_are_the_clis(cli, rat):
+    # The CLI's --base-stiffness / --joint-stiffness / --release / --transducer through the same
+    # library function: the same wrench, and errors naming the Python keyword.
+    m = rat.with_overrides(released=["rz"], transducer="ati-mini40", base_stiffness=2e5,
+                           joint_stiffness={"knee_rx": 3.0})
+    j = cli("wrench", URDF / "rat_hindlimb_5dof.urdf", "--json", "--release", "rz", "--transducer",
+            "ati-mini40", "--base-stiffness", "2e5", "--joint-stiffness", "knee_rx=3")
+    w = m.wrench("GP")
+    np.testing.assert_allclose(w.transducer, [j["wrench"][k] for k in ("fx", "fy", "fz", "mx", "my", "mz")],
+                               rtol=1e-12, atol=1e-15)
+    assert m.released == ["rz"] and rat.released == []
+    with pytest.raises(ValueError, match=r"base_stiffness: stiffness 1e\+308 exceeds the physical maximum"):
+        rat.with_overrides(base_stiffness=1e308)
+    with pytest.raises(ValueError, match=r"joint_stiffness knee_rx: stiffness -1 is negative"):
+        rat.with_overrides(joint_stiffness={"knee_rx": -1.0})

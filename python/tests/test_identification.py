@@ -8,15 +8,23 @@ import isowrench
 from conftest import URDF
 
 
+def test_simulate_defaults_are_the_clis(cli, rat, tmp_path):
+    # One set of defaults (SimulationOptions{}): 50 trials, seed 1, in Python and on the command line.
+    ours = isowrench.simulate(rat, str(tmp_path / "py.csv"))
+    summary = cli("simulate", URDF / "rat_hindlimb_5dof.urdf", "-o", tmp_path / "cli.csv", "--json")
+    assert summary["trials"] == 50 and summary["seed"] == 1
+    assert open(ours).read() == (tmp_path / "cli.csv").read_text()
+
+
 def test_simulate_writes_the_cli_file(cli, rat, tmp_path):
-    ours = isowrench.simulate(rat, str(tmp_path / "py.csv"), effects=["base_isotropic=2e5"], n=40, seed=3)
+    ours = isowrench.simulate(rat, str(tmp_path / "py.csv"), effects=["base_isotropic=2e5"], trials=40, seed=3)
     cli("simulate", URDF / "rat_hindlimb_5dof.urdf", "--effect", "base_isotropic=2e5", "--postures", 40,
         "--seed", 3, "-o", tmp_path / "cli.csv", "--json")
     assert open(ours).read() == (tmp_path / "cli.csv").read_text()
 
 
 def test_fit_recovers_a_planted_base_stiffness(rat, tmp_path):
-    path = isowrench.simulate(rat, str(tmp_path / "data.csv"), effects=["base_isotropic=2e5"], n=60, seed=7)
+    path = isowrench.simulate(rat, str(tmp_path / "data.csv"), effects=["base_isotropic=2e5"], trials=60, seed=7)
     fit = isowrench.fit(rat, path)
     assert fit["verdict"] == "explained"
     assert fit["trial_count"] == 60
@@ -42,7 +50,7 @@ def test_fit_errors(rat, tmp_path):
 
 
 def test_fit_a_sample_of_the_rows(rat, tmp_path):
-    path = isowrench.simulate(rat, str(tmp_path / "data.csv"), effects=["base_isotropic=2e5"], n=120, seed=7)
+    path = isowrench.simulate(rat, str(tmp_path / "data.csv"), effects=["base_isotropic=2e5"], trials=120, seed=7)
     fit = isowrench.fit(rat, path, max_fit_trials=40, sample_seed=3)
     assert fit["trial_count"] == 120 and fit["fitted_trial_count"] == 40
     assert "40 of 120 trials fitted" in fit["sampling"] and "seed 3" in fit["sampling"]

@@ -12,6 +12,7 @@
 #include <string>
 #include <vector>
 
+#include "isowrench/frontend.hpp"
 #include "isowrench/model.hpp"
 #include "isowrench/statics.hpp"
 
@@ -48,7 +49,9 @@ struct ModelOptions {
 /// Add the shared options (positional <urdf> included) to a subcommand.
 void AddModelOptions(CLI::App& app, ModelOptions& options, bool with_muscle = true);
 
-/// Load the URDF and apply the overrides. @throws isowrench::Error.
+/// The overrides the options ask for (parsed with the library's parsers, isowrench/frontend.hpp).
+ModelOverrides Overrides(const ModelOptions& options);
+/// Load the limb (LoadLimb) and apply the overrides (ApplyOverrides). @throws isowrench::Error.
 Model LoadModel(const ModelOptions& options);
 /// Nominal posture with --posture applied.
 Eigen::VectorXd LoadPosture(const Model& model, const ModelOptions& options);
