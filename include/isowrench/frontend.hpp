@@ -121,4 +121,29 @@ SimulationRun SimulateToCsv(const Model& model, const std::vector<std::string>& 
                             const SimulationOptions& options, const std::string& path,
                             const TrialProgress& progress = {});
 
+/// The trials a posture sheet asks for (simulate --postures, Python simulate(postures=),
+/// design --postures; isowrench design -o writes such a sheet): one trial per row at the row's
+/// posture (coordinate columns in degrees / mm, others at the nominal posture), with the row's
+/// muscle when the sheet has a `muscle` column and its activation when it has an `activation`
+/// column (NaN otherwise: "draw it"). Measured columns are not read. TrialReader with
+/// TrialSheetOptions::postures_only (the fields of `sheet` otherwise apply).
+/// @throws Error "<path>:<line>: ..." as TrialReader, or for a sheet without rows.
+std::vector<Trial> ReadPostureSheet(const Model& model, const std::string& path,
+                                    TrialSheetOptions sheet = {});
+
+/// Set `options` to simulate at the postures of the posture sheet `path` (simulate --postures,
+/// Python simulate(postures=)): options->at = ReadPostureSheet(model, path); one trial per row
+/// unless `trials` > 0 (rows cycled); exactly at each row unless `keep_ranges` (the ranges are
+/// then the jitter around each row).
+/// @throws Error as ReadPostureSheet.
+void SimulateAtPostureSheet(const Model& model, const std::string& path, int trials,
+                            bool keep_ranges, SimulationOptions* options);
+
+/// The header and rows of a posture sheet for `trials` (columns of `model`, degrees / mm, the
+/// muscle and activation of each trial), with empty measured columns fx ... mz for the lab to
+/// fill in: what isowrench design -o writes, ReadPostureSheet and (filled in) the fit read.
+/// `comment` becomes the first line ("# ...").
+std::string PostureSheetText(const Model& model, const std::vector<Trial>& trials,
+                             const std::string& comment);
+
 }  // namespace isowrench

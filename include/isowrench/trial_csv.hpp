@@ -25,6 +25,21 @@ namespace isowrench {
 /// Largest CSV record (one row, quoted line breaks included) the reader accepts, bytes.
 constexpr size_t kMaxCsvRecordBytes = size_t(1) << 20;
 
+/// What kind of sheet TrialReader reads, and how it is laid out. The CLI's options and Python's
+/// keywords set these fields (docs/identification.md "Trial CSV").
+struct TrialSheetOptions {
+  /// A posture sheet: the trials to record or simulate (isowrench design -o writes one;
+  /// simulate --postures reads one). The measured wrench columns (fx ... mz, sd_*) are not
+  /// required and are not read when present (design's sheet has them empty, for the lab to
+  /// fill in); neither is `muscle` (Trial::muscle empty) nor `activation` (Trial::activation
+  /// NaN: "not given"), and empty cells mean "not given" (a coordinate at its nominal value).
+  bool postures_only = false;
+};
+
+/// ReadTrialsCsv for a sheet laid out as `sheet` says. @throws Error as TrialReader.
+std::vector<Trial> ReadTrialsCsv(const Model& model, const std::string& path,
+                                 const TrialSheetOptions& sheet);
+
 /// Progress of a long read: rows so far and the fraction of the file's bytes consumed (0..1,
 /// or -1 when the size is unknown).
 using TrialProgress = std::function<void(long rows, double fraction)>;
@@ -34,6 +49,11 @@ using TrialProgress = std::function<void(long rows, double fraction)>;
 /// @returns the number of trials. @throws Error as TrialReader, or if the file cannot be
 ///          opened or holds no trial.
 long ForEachTrial(const Model& model, const std::string& path,
+                  const std::function<void(const Trial&)>& on_trial,
+                  const TrialProgress& progress = {}, long progress_every = 100000);
+
+/// ForEachTrial for a sheet laid out as `sheet` says.
+long ForEachTrial(const Model& model, const std::string& path, const TrialSheetOptions& sheet,
                   const std::function<void(const Trial&)>& on_trial,
                   const TrialProgress& progress = {}, long progress_every = 100000);
 

@@ -485,17 +485,24 @@ py::dict Diagnose(const PyModel& m, const std::string& muscle, const py::object&
 }
 
 std::string Simulate(const PyModel& m, const std::string& output,
-                     const std::vector<std::string>& effects, int trials, unsigned long long seed,
-                     double noise_force, double noise_moment, double joint_range,
-                     const std::vector<std::string>& muscles) {
+                     const std::vector<std::string>& effects, const py::object& trials,
+                     unsigned long long seed, double noise_force, double noise_moment,
+                     const py::object& joint_range, const std::vector<std::string>& muscles,
+                     const py::object& postures) {
   SimulationOptions options;  // the CLI's defaults too (isowrench simulate)
-  options.postures = trials;
+  if (!trials.is_none()) options.postures = trials.cast<int>();
   options.seed = seed;
   options.noise_force = noise_force;
   options.noise_moment = noise_moment;
-  options.joint_range = joint_range;
+  if (!joint_range.is_none()) options.joint_range = joint_range.cast<double>();
   options.muscles = muscles;
   options.center = m.model.nominal_posture();
+  if (!postures.is_none()) {
+    const std::string sheet = postures.cast<std::string>();
+    if (!std::filesystem::exists(sheet)) ThrowFileNotFound(sheet);
+    SimulateAtPostureSheet(m.model, sheet, trials.is_none() ? 0 : options.postures,
+                           !joint_range.is_none(), &options);
+  }
   Flushing([&] {
     py::gil_scoped_release release;
     SimulateToCsv(m.model, effects, options, output);
@@ -788,21 +795,23 @@ PYBIND11_MODULE(_core, mod) {
 
   const SimulationOptions defaults;  // the library's, which the CLI's simulate uses too
   mod.def("simulate", &Simulate, py::arg("model"), py::arg("path"),
-          py::arg("effects") = std::vector<std::string>{}, py::arg("trials") = defaults.postures,
+          py::arg("effects") = std::vector<std::string>{}, py::arg("trials") = py::none(),
           py::arg("seed") = defaults.seed, py::arg("noise_force") = defaults.noise_force,
-          py::arg("noise_moment") = defaults.noise_moment,
-          py::arg("joint_range") = defaults.joint_range,
-          py::arg("muscles") = std::vector<std::string>{},
-          "simulate(model, path, effects=[], trials=50, seed=1, noise_force=0.002, "
-          "noise_moment=5e-5, joint_range=0.2618, muscles=[]) -> str\n\n"
-          "Synthetic trials (SimulateToCsv, as `isowrench simulate`, with its defaults): trials "
+          py::arg("noise_moment") = defaults.noise_moment, py::arg("joint_range") = py::none(),
+          py::arg("muscles") = std::vector<std::string>{}, py::arg("postures") = py::none(),
+          "simulate(model, path, effects=[], trials=None, seed=1, noise_force=0.002, "
+          "noise_moment=5e-5, joint_range=None, muscles=[], postures=None) -> str\n\n"
+          "Synthetic trials (SimulateToCsv, as `isowrench simulate`, with its defaults: trials "
+          "None = 50, joint_range None = 0.2618 rad): trials "
           "postures drawn uniformly within +- joint_range "
           "(rad) of the default posture, wrenches of the model with `effects` applied (strings "
           "'NAME=V1,V2' in the "
           "CLI's user units, e.g. 'base_isotropic=2e5'; `isowrench fit --list-effects` lists them) "
           "plus Gaussian "
           "noise (N, N·m); written as a trial CSV at `path` (the file isowrench.fit and `isowrench "
-          "fit` read). "
+          "fit` read). With postures= (a posture sheet, e.g. from `isowrench design -o`; "
+          "simulate --postures) the trials are at its rows, with their muscles and activations "
+          "(one per row unless trials=, exactly unless joint_range=). "
           "Returns path. Same seed, same data.");
   mod.def("fit", &Fit, py::arg("model"), py::arg("csv"),
           py::arg("max_fit_trials") = FitOptions().max_fit_trials,

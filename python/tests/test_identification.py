@@ -18,7 +18,7 @@ def test_simulate_defaults_are_the_clis(cli, rat, tmp_path):
 
 def test_simulate_writes_the_cli_file(cli, rat, tmp_path):
     ours = isowrench.simulate(rat, str(tmp_path / "py.csv"), effects=["base_isotropic=2e5"], trials=40, seed=3)
-    cli("simulate", URDF / "rat_hindlimb_5dof.urdf", "--effect", "base_isotropic=2e5", "--postures", 40,
+    cli("simulate", URDF / "rat_hindlimb_5dof.urdf", "--effect", "base_isotropic=2e5", "--trials", 40,
         "--seed", 3, "-o", tmp_path / "cli.csv", "--json")
     assert open(ours).read() == (tmp_path / "cli.csv").read_text()
 
@@ -61,3 +61,17 @@ def test_fit_a_sample_of_the_rows(rat, tmp_path):
     assert every["fitted_trial_count"] == 120 and every["sampling"] == "every trial fitted"
     with pytest.raises(ValueError, match="max_fit_trials"):
         isowrench.fit(rat, path, max_fit_trials=-1)
+
+
+def test_simulate_at_a_posture_sheet_is_the_clis(cli, rat, tmp_path):
+    # design -o writes a posture sheet; Python's simulate(postures=) and the CLI's
+    # simulate --postures read it alike (one library function).
+    cli("design", URDF / "rat_hindlimb_5dof.urdf", "--effects", "base_isotropic", "--n", 6,
+        "--grid", 50, "-o", tmp_path / "d.csv", "--json")
+    ours = isowrench.simulate(rat, str(tmp_path / "py.csv"), effects=["base_isotropic=3e6"],
+                              postures=str(tmp_path / "d.csv"))
+    cli("simulate", URDF / "rat_hindlimb_5dof.urdf", "--postures", tmp_path / "d.csv",
+        "--effect", "base_isotropic=3e6", "-o", tmp_path / "cli.csv", "--json")
+    text = open(ours).read()
+    assert text == (tmp_path / "cli.csv").read_text()
+    assert len([l for l in text.splitlines() if l[:1] in "-0123456789"]) == 6

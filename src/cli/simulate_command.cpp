@@ -1,6 +1,8 @@
 // `isowrench simulate <urdf>`: synthetic measured wrenches from a model with undeclared effects.
 
+#include <algorithm>
 #include <cmath>
+#include <fstream>
 #include <iostream>
 
 #include "cli/command.hpp"
@@ -22,7 +24,10 @@ struct SimulateOptions {
   std::vector<std::string> effects;
   double noise_force = kSimulationDefaults.noise_force;
   double noise_moment = kSimulationDefaults.noise_moment;
-  int postures = kSimulationDefaults.postures;
+  int trials = kSimulationDefaults.postures;
+  bool trials_given = false;
+  std::string postures;  ///< a posture sheet to simulate at
+  bool range_given = false;
   unsigned long long seed = kSimulationDefaults.seed;
   double range_deg = kSimulationDefaults.joint_range * 180.0 / M_PI;
   double range_mm = kSimulationDefaults.prismatic_range * 1e3;
@@ -56,7 +61,25 @@ const bool kSimulateRegistered = RegisterCommand(
                       "Gaussian noise sd per force component, N" + Default(o->noise_force));
        app.add_option("--noise-moment", o->noise_moment,
                       "Gaussian noise sd per moment component, N·m" + Default(o->noise_moment));
-       app.add_option("--postures", o->postures, "Number of trials" + Default(o->postures));
+       app.add_option("--trials", o->trials,
+                      "Number of trials" + Default(o->trials) +
+                          "; with --postures, the sheet's rows are cycled (default: each row once)")
+           ->each([o](const std::string&) { o->trials_given = true; });
+       app.add_option("--postures", o->postures,
+                      "Simulate at the postures of this sheet (FILE: coordinate columns in "
+                      "degrees / mm, optional muscle and activation columns, e.g. from `isowrench "
+                      "design -o`), exactly (--range 0 unless given) instead of drawn around the "
+                      "nominal posture")
+           ->check([](const std::string& value) -> std::string {
+             // --postures used to be the count: say where the count went.
+             const bool number =
+                 !value.empty() && value.find_first_not_of("0123456789") == std::string::npos;
+             if (number && !std::ifstream(value)) {
+               return "takes a posture sheet (a CSV file); '" + value +
+                      "' is a number: the number of trials is --trials " + value;
+             }
+             return "";
+           });
        app.add_option("--noise-dof", o->noise_dof,
                       "Student-t noise with this many degrees of freedom (> 2), scaled to the "
                       "stated sd (default 0: "
@@ -71,15 +94,19 @@ const bool kSimulateRegistered = RegisterCommand(
                           Default(static_cast<double>(o->seed)));
        app.add_option("--range", o->range_deg,
                       "Each limb joint is drawn uniformly in nominal ± this many degrees" +
-                          Default(o->range_deg));
+                          Default(o->range_deg) + "; with --postures, around each row (default 0)")
+           ->each([o](const std::string&) { o->range_given = true; });
        app.add_option("--range-mm", o->range_mm,
-                      "Same for prismatic limb joints, mm" + Default(o->range_mm));
+                      "Same for prismatic limb joints, mm" + Default(o->range_mm))
+           ->each([o](const std::string&) { o->range_given = true; });
        app.add_option("--activation-min", o->activation_min,
                       "Lowest activation" + Default(o->activation_min));
        app.add_option("--activation-max", o->activation_max,
                       "Highest activation" + Default(o->activation_max));
        app.add_option("--muscle", o->muscles,
-                      "Muscles to stimulate, cycled over trials (default: all)");
+                      "Muscles to stimulate, comma-separated or repeated, cycled over trials "
+                      "(default: all; a --postures sheet's muscle column comes first)")
+           ->delimiter(',');
        app.add_option("-o,--output", o->output, "Output CSV file (written atomically)")->required();
        app.add_flag("--json", o->json, "Print a JSON summary instead of text");
        app.add_flag("--progress", o->progress,
@@ -88,7 +115,7 @@ const bool kSimulateRegistered = RegisterCommand(
        return [o]() {
          Model model = LoadModel(o->model);
          SimulationOptions s;
-         s.postures = o->postures;
+         s.postures = o->trials;
          s.seed = o->seed;
          s.joint_range = o->range_deg * M_PI / 180.0;
          s.prismatic_range = o->range_mm * 1e-3;
@@ -101,20 +128,34 @@ const bool kSimulateRegistered = RegisterCommand(
          s.outlier_fraction = o->outliers;
          s.outlier_size = o->outlier_size;
          s.center = LoadPosture(model, o->model);
+         if (!o->postures.empty()) {
+           SimulateAtPostureSheet(model, o->postures, o->trials_given ? o->trials : 0,
+                                  o->range_given, &s);
+           o->range_deg = s.joint_range * 180.0 / M_PI;
+         }
          const SimulationRun run =
              SimulateToCsv(model, o->effects, s, o->output,
                            TerminalProgress("simulate " + o->output, o->progress));
          const std::vector<AppliedEffect>& effects = run.effects;
+         const bool sheet_activations =
+             !s.at.empty() && std::all_of(s.at.begin(), s.at.end(), [](const Trial& t) {
+               return std::isfinite(t.activation);
+             });
          const long written = run.trials;
          if (o->json) {
            std::cout << run.json << "\n";
            return 0;
          }
          std::cout << "isowrench simulate: " << model.name() << " (" << o->model.urdf << ")\n"
-                   << "  trials       " << written << ", limb joints nominal ± "
+                   << "  trials       " << written
+                   << (o->postures.empty() ? ", limb joints nominal ± "
+                                           : " at the " + std::to_string(s.at.size()) +
+                                                 " postures of " + o->postures + " ± ")
                    << util::FormatNumber(o->range_deg, 4) << "°, activation "
-                   << util::FormatNumber(o->activation_min, 3) << " to "
-                   << util::FormatNumber(o->activation_max, 3) << ", seed " << o->seed << "\n"
+                   << (sheet_activations ? "from " + o->postures
+                                         : util::FormatNumber(o->activation_min, 3) + " to " +
+                                               util::FormatNumber(o->activation_max, 3))
+                   << ", seed " << o->seed << "\n"
                    << "  noise        " << util::FormatNumber(o->noise_force, 4) << " N (forces), "
                    << util::FormatNumber(o->noise_moment, 4) << " N·m (moments), Gaussian sd\n";
          if (effects.empty()) std::cout << "  effects      none (data follow the URDF)\n";

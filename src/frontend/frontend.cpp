@@ -191,4 +191,37 @@ SimulationRun SimulateToCsv(const Model& model, const std::vector<std::string>& 
   return run;
 }
 
+std::vector<Trial> ReadPostureSheet(const Model& model, const std::string& path,
+                                    TrialSheetOptions sheet) {
+  sheet.postures_only = true;
+  return ReadTrialsCsv(model, path, sheet);
+}
+
+void SimulateAtPostureSheet(const Model& model, const std::string& path, int trials,
+                            bool keep_ranges, SimulationOptions* options) {
+  options->at = ReadPostureSheet(model, path);
+  options->postures = trials > 0 ? trials : static_cast<int>(options->at.size());
+  if (!keep_ranges) options->joint_range = options->prismatic_range = 0;
+}
+
+std::string PostureSheetText(const Model& model, const std::vector<Trial>& trials,
+                             const std::string& comment) {
+  std::string text = "# " + comment + "\n";
+  std::vector<std::string> header = model.joint_names();
+  for (const char* c : {"muscle", "activation", "fx", "fy", "fz", "mx", "my", "mz"}) {
+    header.push_back(c);
+  }
+  text += util::Join(header, ",") + "\n";
+  for (const Trial& t : trials) {
+    std::vector<std::string> row;
+    for (int j = 0; j < model.dof_count(); ++j) {
+      row.push_back(util::FormatNumber(JointValueToUserUnits(model.joint(j).type, t.q[j]), 10));
+    }
+    row.push_back(t.muscle);
+    row.push_back(util::FormatNumber(std::isfinite(t.activation) ? t.activation : 1.0, 10));
+    text += util::Join(row, ",") + ",,,,,,\n";
+  }
+  return text;
+}
+
 }  // namespace isowrench

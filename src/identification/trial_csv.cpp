@@ -12,6 +12,7 @@
 #include <cstdio>
 #include <fstream>
 #include <iostream>
+#include <limits>
 #include <map>
 #include <memory>
 #include <sstream>
@@ -172,6 +173,7 @@ const char* kSeparatorAdvice =
 
 struct TrialReader::Impl {
   const Model* model = nullptr;
+  TrialSheetOptions sheet;
   std::istream* input = nullptr;
   std::string source;
   std::unique_ptr<CsvRecords> records;
@@ -197,9 +199,14 @@ struct TrialReader::Impl {
 };
 
 TrialReader::TrialReader(const Model& model, std::istream& input, std::string source_name)
+    : TrialReader(model, input, std::move(source_name), TrialSheetOptions()) {}
+
+TrialReader::TrialReader(const Model& model, std::istream& input, std::string source_name,
+                         const TrialSheetOptions& sheet)
     : impl_(std::make_unique<Impl>()) {
   Impl& m = *impl_;
   m.model = &model;
+  m.sheet = sheet;
   m.input = &input;
   m.source = std::move(source_name);
   m.nominal = model.nominal_posture();
@@ -276,23 +283,38 @@ TrialReader::TrialReader(const Model& model, std::istream& input, std::string so
                   ") nor one of muscle, activation, fx fy fz mx my mz, sd_fx ... sd_mz");
     }
   }
-  std::vector<std::string> missing;
-  if (m.muscle_column < 0) missing.push_back("muscle");
-  for (int i = 0; i < 6; ++i) {
-    if (m.wrench_column[i] < 0) missing.push_back(kWrenchColumns[i]);
-  }
-  int sd_count = 0;
-  for (int i = 0; i < 6; ++i) sd_count += m.sd_column[i] >= 0;
-  if (sd_count != 0 && sd_count != 6) {
+  if (m.sheet.postures_only) {
+    // A posture sheet: measured columns are the lab's to fill in, not read here.
+    for (int i = 0; i < 6; ++i) m.wrench_column[i] = m.sd_column[i] = -1;
+  } else {
+    std::vector<std::string> missing;
+    if (m.muscle_column < 0) missing.push_back("muscle");
+    int wrench_count = 0;
     for (int i = 0; i < 6; ++i) {
-      if (m.sd_column[i] < 0) missing.push_back(kSdColumns[i]);
+      wrench_count += m.wrench_column[i] >= 0;
+      if (m.wrench_column[i] < 0) missing.push_back(kWrenchColumns[i]);
     }
+    int sd_count = 0;
+    for (int i = 0; i < 6; ++i) sd_count += m.sd_column[i] >= 0;
+    if (sd_count != 0 && sd_count != 6) {
+      for (int i = 0; i < 6; ++i) {
+        if (m.sd_column[i] < 0) missing.push_back(kSdColumns[i]);
+      }
+    }
+    if (wrench_count == 0 && m.muscle_column >= 0) {
+      throw Error(m.Where(-1) +
+                  ": no measured wrench columns (fx fy fz mx my mz): this is a posture sheet, "
+                  "the trials to record (isowrench design -o writes one). Record each row and "
+                  "add the measured fx ... mz (N, N·m), or simulate it: isowrench simulate "
+                  "<urdf> --postures " +
+                  m.source + " -o data.csv");
+    }
+    if (!missing.empty()) {
+      throw Error(m.Where(-1) + ": header lacks required column(s) " + util::Join(missing, ", ") +
+                  " (sd columns: all six or none)");
+    }
+    m.has_sd = sd_count == 6;
   }
-  if (!missing.empty()) {
-    throw Error(m.Where(-1) + ": header lacks required column(s) " + util::Join(missing, ", ") +
-                " (sd columns: all six or none)");
-  }
-  m.has_sd = sd_count == 6;
   // A limb joint without a column silently takes the nominal posture: say so. Base, extra and
   // release dofs are compliance dofs, not measured angles: their absence is normal.
   for (size_t j = 0; j < joints.size(); ++j) {
@@ -348,6 +370,7 @@ bool TrialReader::Next(Trial* trial) {
   for (size_t c = 0; c < fields.size(); ++c) {
     int j = m.joint_column[c];
     if (j < 0) continue;
+    if (m.sheet.postures_only && fields[c].empty()) continue;  // the nominal value
     int col = static_cast<int>(c);
     double v = number(col);
     JointType type = m.model->joint(j).type;
@@ -371,21 +394,30 @@ bool TrialReader::Next(Trial* trial) {
       }
     }
   }
-  t.muscle = fields[m.muscle_column];
-  try {
-    m.model->MuscleIndex(t.muscle);
-  } catch (const Error& e) {
-    throw Error(m.Where(m.muscle_column) + ": " + e.what());
+  t.muscle = m.muscle_column >= 0 ? fields[m.muscle_column] : std::string();
+  if (!(m.sheet.postures_only && t.muscle.empty())) {
+    try {
+      m.model->MuscleIndex(t.muscle);
+    } catch (const Error& e) {
+      throw Error(m.Where(m.muscle_column) + ": " + e.what());
+    }
   }
-  if (m.activation_column >= 0) {
+  if (m.sheet.postures_only && (m.activation_column < 0 || fields[m.activation_column].empty())) {
+    t.activation = std::numeric_limits<double>::quiet_NaN();  // not given
+  } else if (m.activation_column >= 0) {
     t.activation = number(m.activation_column);
     if (!(t.activation >= 0 && t.activation <= 1)) {
       throw Error(m.Where(m.activation_column) + ": activation " + fields[m.activation_column] +
                   " must be in [0, 1] (a fraction of the muscle's max_force)");
     }
   }
-  for (int i = 0; i < 6; ++i) {
+  for (int i = 0; i < 6 && !m.sheet.postures_only; ++i) {
     int c = m.wrench_column[i];
+    if (fields[c].empty()) {
+      throw Error(m.Where(c) + ": empty: this row's trial has no measured " + kWrenchColumns[i] +
+                  " (a posture sheet lists the trials to record: fill in every measured "
+                  "column, or delete the rows not recorded)");
+    }
     t.wrench[i] = number(c);
     if (std::abs(t.wrench[i]) > kMaxMeasuredWrench) {
       throw Error(m.Where(c) + ": " + fields[c] +
@@ -451,12 +483,23 @@ std::vector<Trial> TrialReservoir::Take() {
 }
 
 std::vector<Trial> ReadTrialsCsv(const Model& model, const std::string& path) {
+  return ReadTrialsCsv(model, path, TrialSheetOptions());
+}
+
+std::vector<Trial> ReadTrialsCsv(const Model& model, const std::string& path,
+                                 const TrialSheetOptions& sheet) {
   std::vector<Trial> trials;
-  ForEachTrial(model, path, [&](const Trial& t) { trials.push_back(t); });
+  ForEachTrial(model, path, sheet, [&](const Trial& t) { trials.push_back(t); });
   return trials;
 }
 
 long ForEachTrial(const Model& model, const std::string& path,
+                  const std::function<void(const Trial&)>& on_trial, const TrialProgress& progress,
+                  long progress_every) {
+  return ForEachTrial(model, path, TrialSheetOptions(), on_trial, progress, progress_every);
+}
+
+long ForEachTrial(const Model& model, const std::string& path, const TrialSheetOptions& sheet,
                   const std::function<void(const Trial&)>& on_trial, const TrialProgress& progress,
                   long progress_every) {
   std::ifstream file(path, std::ios::binary);
@@ -468,7 +511,7 @@ long ForEachTrial(const Model& model, const std::string& path,
     file.seekg(0, std::ios::beg);
     if (end > 0) size = static_cast<double>(end);
   }
-  TrialReader reader(model, file, path);
+  TrialReader reader(model, file, path, sheet);
   Trial t;
   long rows = 0;
   if (progress_every < 1) progress_every = 1;
@@ -480,7 +523,10 @@ long ForEachTrial(const Model& model, const std::string& path,
       progress(rows, size > 0 && at >= 0 ? static_cast<double>(at) / size : -1.0);
     }
   }
-  if (rows == 0) throw Error(path + ": no trials (only a header)");
+  if (rows == 0) {
+    throw Error(path + (sheet.postures_only ? ": no postures (only a header)"
+                                            : ": no trials (only a header)"));
+  }
   if (progress) progress(rows, 1.0);
   return rows;
 }

@@ -65,3 +65,30 @@ input_cli_exit(warn_import_endpoint_in_mm 0
   "! endpoint point 0,-5,20 \\(m in body 'foot'\\): the endpoint sits 20.6155 m from the origin of link 'foot', outside the plausible segment length"
   import ${PROJECT_SOURCE_DIR}/tests/opensim/data/hindlimb.osim -o ${_in26}/hindlimb_mm.urdf
   --clamp pelvis --endpoint foot:0,-5,20)
+
+# ---- item 4: one meaning per option -------------------------------------------------------------
+add_test(NAME cli_design_simulate_fit_chain
+  COMMAND ${CMAKE_COMMAND} -DCLI=${cli} -DURDF=${rat5} -DWORK=${_in26}/chain
+          -P ${CMAKE_CURRENT_SOURCE_DIR}/design_chain.cmake)
+set_tests_properties(cli_design_simulate_fit_chain PROPERTIES TIMEOUT 60)
+input_cli_exit(simulate_postures_is_a_sheet_not_a_count 2
+  "--postures: takes a posture sheet \\(a CSV file\\); '60' is a number: the number of trials is --trials 60"
+  simulate ${rat5} --postures 60 -o ${_in26}/never.csv)
+input_cli_exit(simulate_trials_count 0 "trials       7, limb joints nominal"
+  simulate ${rat5} --trials 7 -o ${_in26}/seven.csv)
+input_cli_exit(simulate_muscle_list_comma_separated 0 "trials       4, "
+  simulate ${urdf}/planar_2r.urdf --trials 4 --muscle biarticular,elbow_flexor -o ${_in26}/two.csv)
+input_cli_exit(simulate_muscle_list_names_unknown 1 "isowrench: error: [^\n]*'flexor'"
+  simulate ${urdf}/planar_2r.urdf --trials 4 --muscle biarticular,flexor -o ${_in26}/two.csv)
+input_cli_exit(unknown_command_with_help_is_usage_error 2
+  "isowrench: error: unknown command 'nosuchcommand'; the commands are wrench, "
+  nosuchcommand --help)
+input_cli_exit(unknown_command_suggests 2 "unknown command 'wrnch' \\(did you mean 'wrench'\\?\\)" wrnch ${rat5})
+file(WRITE ${_in26}/design_sheet.csv "# a design sheet not yet recorded\nhip_rz,knee_rz,muscle,activation,fx,fy,fz,mx,my,mz\n-110,105,GP,1,,,,,,\n")
+input_cli_exit(fit_of_an_unrecorded_design_sheet 1
+  "isowrench: error: [^\n]*design_sheet.csv:3, column 5 'fx': empty: this row's trial has no measured fx \\(a posture sheet lists the trials to record"
+  fit ${rat5} ${_in26}/design_sheet.csv)
+file(WRITE ${_in26}/posture_sheet.csv "hip_rz,knee_rz,muscle\n-110,105,GP\n")
+input_cli_exit(fit_of_a_posture_sheet 1
+  "isowrench: error: [^\n]*posture_sheet.csv:1: no measured wrench columns \\(fx fy fz mx my mz\\): this is a posture sheet[^\n]*isowrench simulate <urdf> --postures [^\n]*posture_sheet.csv -o data.csv"
+  fit ${rat5} ${_in26}/posture_sheet.csv)

@@ -7,12 +7,14 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <cstdio>
 #include <fstream>
 #include <sstream>
 
 #include "isowrench/error.hpp"
 #include "isowrench/input_checks.hpp"
+#include "isowrench/statics.hpp"
 
 namespace {
 
@@ -118,6 +120,67 @@ TEST(Frontend, SimulationToCsvIsTheStreamedWriterWithTheLibraryDefaults) {
   written << in.rdbuf();
   EXPECT_EQ(written.str(), expected.str());
   std::remove(path.c_str());
+}
+
+}  // namespace
+
+namespace {
+
+// simulate --postures: with no noise and no jitter, each simulated trial is the true model's
+// Eq. 10 wrench at the sheet's posture, muscle and activation (EvaluateWrench, independently).
+TEST(PostureSheet, SimulationAtASheetIsTheTrueWrenchAtEachRow) {
+  const isowrench::Model m =
+      isowrench::Model::FromUrdfFile(std::string(ISOWRENCH_TEST_URDF_DIR) + "/planar_2r.urdf");
+  const std::string sheet = ::testing::TempDir() + "sheet.csv";
+  {
+    std::ofstream out(sheet);
+    out << "# two rows, two muscles, one without an activation, empty measured columns\n"
+        << "shoulder,elbow,muscle,activation,fx,fy,fz,mx,my,mz\n"
+        << "10,80,elbow_flexor,0.5,,,,,,\n"
+        << "-20,45,biarticular,,,,,,,\n";
+  }
+  const std::vector<isowrench::Trial> rows = isowrench::ReadPostureSheet(m, sheet);
+  ASSERT_EQ(rows.size(), 2u);
+  EXPECT_EQ(rows[0].muscle, "elbow_flexor");
+  EXPECT_EQ(rows[0].activation, 0.5);
+  EXPECT_TRUE(std::isnan(rows[1].activation));  // not given: drawn by the simulation
+  isowrench::SimulationOptions o;
+  o.noise_force = o.noise_moment = 0;
+  o.activation_min = o.activation_max = 0.8;  // what a row without activation gets
+  isowrench::SimulateAtPostureSheet(m, sheet, 0, /*keep_ranges=*/false, &o);
+  EXPECT_EQ(o.postures, 2);
+  EXPECT_EQ(o.joint_range, 0.0);
+  const std::vector<isowrench::Trial> simulated =
+      isowrench::SimulateTrials(m, isowrench::ApplyEffects(m.description(), {}), o);
+  ASSERT_EQ(simulated.size(), 2u);
+  const double activation[2] = {0.5, 0.8};
+  for (int i = 0; i < 2; ++i) {
+    const isowrench::Trial& t = simulated[static_cast<size_t>(i)];
+    EXPECT_EQ(t.muscle, rows[static_cast<size_t>(i)].muscle);
+    EXPECT_EQ(t.q, rows[static_cast<size_t>(i)].q);
+    const isowrench::WrenchEvaluation e =
+        isowrench::EvaluateWrench(m, t.q, t.muscle, activation[i]);
+    EXPECT_LE((t.wrench - e.statics.wrench).cwiseAbs().maxCoeff(),
+              1e-12 * e.statics.wrench.cwiseAbs().maxCoeff())
+        << t.wrench.transpose() << "\n"
+        << e.statics.wrench.transpose();
+  }
+  // The rows in degrees: shoulder 10°, elbow 80° of the first row.
+  EXPECT_NEAR(rows[0].q[0], 10 * M_PI / 180, 1e-15);
+  EXPECT_NEAR(rows[0].q[1], 80 * M_PI / 180, 1e-15);
+  // design -o writes what ReadPostureSheet reads back.
+  const std::string written = ::testing::TempDir() + "written.csv";
+  {
+    std::ofstream out(written);
+    out << isowrench::PostureSheetText(m, rows, "a test");
+  }
+  const std::vector<isowrench::Trial> back = isowrench::ReadPostureSheet(m, written);
+  ASSERT_EQ(back.size(), 2u);
+  EXPECT_LE((back[0].q - rows[0].q).cwiseAbs().maxCoeff(), 1e-9);
+  EXPECT_EQ(back[1].muscle, "biarticular");
+  EXPECT_EQ(back[1].activation, 1.0);  // written as 1 where the source had none
+  std::remove(sheet.c_str());
+  std::remove(written.c_str());
 }
 
 }  // namespace
