@@ -75,6 +75,10 @@ std::vector<std::string> ParseList(const std::string& text);
 ///         the value that is not a number.
 std::pair<std::string, double> ParseAssignment(const std::string& text, const std::string& option);
 
+/// A sheet's field separator as a user names it: ",", ";", "\t" or "tab", "|", or "comma",
+/// "semicolon", "pipe" (names survive shells and CMake lists). @throws Error for anything else.
+char DelimiterChar(const std::string& text);
+
 /// "kx,ky,kz,krx,kry,krz" (N/m, N·m/rad) -> the S_t diagonal, each value checked
 /// (CheckStiffnessValue). @throws Error naming `option` and the dof.
 Vector6d ParseTransducerStiffness(const std::string& text, const std::string& option);
@@ -137,7 +141,8 @@ std::vector<Trial> ReadPostureSheet(const Model& model, const std::string& path,
 /// then the jitter around each row).
 /// @throws Error as ReadPostureSheet.
 void SimulateAtPostureSheet(const Model& model, const std::string& path, int trials,
-                            bool keep_ranges, SimulationOptions* options);
+                            bool keep_ranges, SimulationOptions* options,
+                            const TrialSheetOptions& sheet = {});
 
 /// The header and rows of a posture sheet for `trials` (columns of `model`, degrees / mm, the
 /// muscle and activation of each trial), with empty measured columns fx ... mz for the lab to

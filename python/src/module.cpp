@@ -484,11 +484,24 @@ py::dict Diagnose(const PyModel& m, const std::string& muscle, const py::object&
   return out;
 }
 
+/// The sheet keywords of fit and simulate (the CLI's --delimiter, --decimal-comma,
+/// --ignore-columns, --skip-rows): TrialSheetOptions.
+TrialSheetOptions Sheet(const std::string& delimiter, bool decimal_comma,
+                        const std::vector<std::string>& ignore_columns, int skip_rows) {
+  TrialSheetOptions sheet;
+  sheet.delimiter = DelimiterChar(delimiter);  // the CLI's --delimiter syntax
+  sheet.decimal_comma = decimal_comma;
+  sheet.ignore_columns = ignore_columns;
+  sheet.skip_rows = skip_rows;
+  return sheet;
+}
+
 std::string Simulate(const PyModel& m, const std::string& output,
                      const std::vector<std::string>& effects, const py::object& trials,
                      unsigned long long seed, double noise_force, double noise_moment,
                      const py::object& joint_range, const std::vector<std::string>& muscles,
-                     const py::object& postures) {
+                     const py::object& postures, const std::string& delimiter, bool decimal_comma,
+                     const std::vector<std::string>& ignore_columns, int skip_rows) {
   SimulationOptions options;  // the CLI's defaults too (isowrench simulate)
   if (!trials.is_none()) options.postures = trials.cast<int>();
   options.seed = seed;
@@ -501,7 +514,8 @@ std::string Simulate(const PyModel& m, const std::string& output,
     const std::string sheet = postures.cast<std::string>();
     if (!std::filesystem::exists(sheet)) ThrowFileNotFound(sheet);
     SimulateAtPostureSheet(m.model, sheet, trials.is_none() ? 0 : options.postures,
-                           !joint_range.is_none(), &options);
+                           !joint_range.is_none(), &options,
+                           Sheet(delimiter, decimal_comma, ignore_columns, skip_rows));
   }
   Flushing([&] {
     py::gil_scoped_release release;
@@ -512,15 +526,17 @@ std::string Simulate(const PyModel& m, const std::string& output,
 }
 
 py::dict Fit(const PyModel& m, const std::string& csv, int max_fit_trials,
-             unsigned long long sample_seed) {
+             unsigned long long sample_seed, const std::string& delimiter, bool decimal_comma,
+             const std::vector<std::string>& ignore_columns, int skip_rows) {
   if (!std::filesystem::exists(csv)) ThrowFileNotFound(csv);
+  const TrialSheetOptions sheet = Sheet(delimiter, decimal_comma, ignore_columns, skip_rows);
   FitReport report;
   Flushing([&] {
     py::gil_scoped_release release;
     FitOptions options;
     options.max_fit_trials = max_fit_trials;
     options.sample_seed = sample_seed;
-    report = FitEffectsCsv(m.model, csv, options);
+    report = FitEffectsCsv(m.model, csv, sheet, options);
     return 0;
   });
   py::dict out;
@@ -799,8 +815,11 @@ PYBIND11_MODULE(_core, mod) {
           py::arg("seed") = defaults.seed, py::arg("noise_force") = defaults.noise_force,
           py::arg("noise_moment") = defaults.noise_moment, py::arg("joint_range") = py::none(),
           py::arg("muscles") = std::vector<std::string>{}, py::arg("postures") = py::none(),
+          py::arg("delimiter") = ",", py::arg("decimal_comma") = false,
+          py::arg("ignore_columns") = std::vector<std::string>{}, py::arg("skip_rows") = 0,
           "simulate(model, path, effects=[], trials=None, seed=1, noise_force=0.002, "
-          "noise_moment=5e-5, joint_range=None, muscles=[], postures=None) -> str\n\n"
+          "noise_moment=5e-5, joint_range=None, muscles=[], postures=None, delimiter=',', "
+          "decimal_comma=False, ignore_columns=[], skip_rows=0) -> str\n\n"
           "Synthetic trials (SimulateToCsv, as `isowrench simulate`, with its defaults: trials "
           "None = 50, joint_range None = 0.2618 rad): trials "
           "postures drawn uniformly within +- joint_range "
@@ -815,8 +834,14 @@ PYBIND11_MODULE(_core, mod) {
           "Returns path. Same seed, same data.");
   mod.def("fit", &Fit, py::arg("model"), py::arg("csv"),
           py::arg("max_fit_trials") = FitOptions().max_fit_trials,
-          py::arg("sample_seed") = FitOptions().sample_seed,
-          "fit(model, csv, max_fit_trials=20000, sample_seed=1) -> dict\n\n"
+          py::arg("sample_seed") = FitOptions().sample_seed, py::arg("delimiter") = ",",
+          py::arg("decimal_comma") = false, py::arg("ignore_columns") = std::vector<std::string>{},
+          py::arg("skip_rows") = 0,
+          "fit(model, csv, max_fit_trials=20000, sample_seed=1, delimiter=',', "
+          "decimal_comma=False, ignore_columns=[], skip_rows=0) -> dict\n\n"
+          "The sheet keywords are the CLI's --delimiter (',', ';', '\\t' or '|'), "
+          "--decimal-comma, --ignore-columns and --skip-rows (TrialSheetOptions); units in the "
+          "header ('fx (N)', 'mx (N·mm)', 'hip_rz (rad)') or a units row are read and converted.\n"
           "FitEffectsCsv on a trial CSV (as `isowrench fit`): which unmodelled effects explain the "
           "measured wrenches. With more rows than max_fit_trials (0 = no limit) a uniform random "
           "sample of that many is fitted (reservoir sampling, sample_seed) and every row is "

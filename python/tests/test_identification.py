@@ -5,7 +5,7 @@ import pytest
 
 import isowrench
 
-from conftest import URDF
+from conftest import REPO, URDF
 
 
 def test_simulate_defaults_are_the_clis(cli, rat, tmp_path):
@@ -75,3 +75,33 @@ def test_simulate_at_a_posture_sheet_is_the_clis(cli, rat, tmp_path):
     text = open(ours).read()
     assert text == (tmp_path / "cli.csv").read_text()
     assert len([l for l in text.splitlines() if l[:1] in "-0123456789"]) == 6
+
+
+def test_fit_reads_lab_sheets_as_the_cli(rat, tmp_path):
+    # The CLI's --delimiter / --decimal-comma / --ignore-columns / --skip-rows as keywords: a
+    # spreadsheet export (';' and decimal commas, a trial id column, a preamble) gives the
+    # plain file's fit.
+    plain = isowrench.simulate(rat, str(tmp_path / "plain.csv"), effects=["base_isotropic=3e6"],
+                               trials=40, seed=9)
+    lines = open(plain).read().splitlines()
+    excel = ["ATI export", "# comment"] + [
+        ("trial;" if i == 1 else "{};".format(i)) + l.replace(",", ";").replace(".", ",")
+        for i, l in enumerate(lines) if not l.startswith("#")]
+    (tmp_path / "excel.csv").write_text("\n".join(excel) + "\n")
+    ours = isowrench.fit(rat, str(tmp_path / "excel.csv"), delimiter=";", decimal_comma=True,
+                         ignore_columns=["trial"], skip_rows=1)
+    reference = isowrench.fit(rat, plain)
+    assert ours["verdict_message"] == reference["verdict_message"]
+    np.testing.assert_array_equal(ours["rms_after"], reference["rms_after"])
+    with pytest.raises(ValueError, match="uses ';' as the separator"):
+        isowrench.fit(rat, str(tmp_path / "excel.csv"), skip_rows=1)
+    with pytest.raises(ValueError, match="delimiter 'x' is not one of"):
+        isowrench.fit(rat, plain, delimiter="x")
+
+
+def test_fit_names_the_radians_slip(rat):
+    # At load (a UserWarning) and in the verdict.
+    with pytest.warns(UserWarning, match=r"trials_radians\.csv: the angles of hip_rz, .* recorded in radians\?"):
+        fit = isowrench.fit(rat, str(REPO / "tests" / "data" / "trials_radians.csv"))
+    assert "likely slip: the angles of hip_rz" in fit["verdict_message"]
+    assert "recorded in radians?" in fit["verdict_message"]

@@ -23,6 +23,25 @@ bool RegisterCommand(Command command) {
   return true;
 }
 
+void AddSheetOptions(CLI::App& app, TrialSheetOptions& sheet, const std::string& what) {
+  app.add_option_function<std::string>(
+         "--delimiter",
+         [&sheet](const std::string& text) { sheet.delimiter = DelimiterChar(text); },
+         "Field separator of " + what +
+             ": , (default) ; tab or | (or by name: comma, semicolon, tab, pipe)")
+      ->check(CLI::IsMember({",", ";", "tab", "\\t", "|", "comma", "semicolon", "pipe"}));
+  app.add_flag("--decimal-comma", sheet.decimal_comma,
+               "Numbers of " + what + " are written 1,5 (with --delimiter ';' or tab)");
+  app.add_option("--ignore-columns", sheet.ignore_columns,
+                 "Columns of " + what +
+                     " not to read (trial id, date, comment...), comma-separated; other "
+                     "unknown columns are ignored with a warning naming them")
+      ->delimiter(',');
+  app.add_option("--skip-rows", sheet.skip_rows,
+                 "Lines before the header of " + what + " to skip (an instrument's preamble)")
+      ->check(CLI::NonNegativeNumber);
+}
+
 void AddModelOptions(CLI::App& app, ModelOptions& o, bool with_muscle) {
   app.add_option("urdf", o.urdf,
                  "Limb URDF with isowrench extension tags (e.g. urdf/rat_hindlimb_5dof.urdf)")

@@ -15,6 +15,7 @@
 #include "isowrench/frontend.hpp"
 #include "isowrench/model.hpp"
 #include "isowrench/statics.hpp"
+#include "isowrench/trial_csv.hpp"
 
 namespace isowrench::cli {
 
@@ -45,6 +46,10 @@ struct ModelOptions {
   double activation = 1.0;
   StaticsOptions statics;
 };
+
+/// --delimiter, --decimal-comma, --ignore-columns, --skip-rows: how the trial or posture sheet
+/// a command reads is laid out (TrialSheetOptions). `what` names the file in the help text.
+void AddSheetOptions(CLI::App& app, TrialSheetOptions& sheet, const std::string& what);
 
 /// Add the shared options (positional <urdf> included) to a subcommand.
 void AddModelOptions(CLI::App& app, ModelOptions& options, bool with_muscle = true);

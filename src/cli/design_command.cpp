@@ -30,6 +30,7 @@ struct DesignCommandOptions {
   std::vector<std::string> muscles;
   std::string output;
   bool json = false;
+  TrialSheetOptions sheet;
 };
 
 // Candidate trials from a posture sheet: rows with a muscle as they are, rows without one once
@@ -40,7 +41,7 @@ std::vector<Trial> CandidatesFromFile(const Model& model, const DesignCommandOpt
     for (int i = 0; i < model.muscle_count(); ++i) muscles.push_back(model.muscle(i).name);
   }
   std::vector<Trial> out;
-  for (Trial t : ReadPostureSheet(model, o.postures)) {
+  for (Trial t : ReadPostureSheet(model, o.postures, o.sheet)) {
     if (!std::isfinite(t.activation)) t.activation = 1.0;
     if (!t.muscle.empty()) {
       out.push_back(t);
@@ -69,6 +70,7 @@ const bool kDesignRegistered = RegisterCommand(
        app.add_option("--postures", o->postures,
                       "Candidate postures: a posture sheet (coordinate columns in degrees / mm, "
                       "optional muscle and activation columns; default: a random grid)");
+       AddSheetOptions(app, o->sheet, "the --postures sheet");
        app.add_option("--grid", o->grid,
                       "Random grid size when no --postures file is given (default 400)");
        app.add_option("--seed", o->seed, "Grid seed (default 1)");

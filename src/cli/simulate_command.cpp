@@ -27,6 +27,7 @@ struct SimulateOptions {
   int trials = kSimulationDefaults.postures;
   bool trials_given = false;
   std::string postures;  ///< a posture sheet to simulate at
+  TrialSheetOptions sheet;
   bool range_given = false;
   unsigned long long seed = kSimulationDefaults.seed;
   double range_deg = kSimulationDefaults.joint_range * 180.0 / M_PI;
@@ -80,6 +81,7 @@ const bool kSimulateRegistered = RegisterCommand(
              }
              return "";
            });
+       AddSheetOptions(app, o->sheet, "the --postures sheet");
        app.add_option("--noise-dof", o->noise_dof,
                       "Student-t noise with this many degrees of freedom (> 2), scaled to the "
                       "stated sd (default 0: "
@@ -130,7 +132,7 @@ const bool kSimulateRegistered = RegisterCommand(
          s.center = LoadPosture(model, o->model);
          if (!o->postures.empty()) {
            SimulateAtPostureSheet(model, o->postures, o->trials_given ? o->trials : 0,
-                                  o->range_given, &s);
+                                  o->range_given, &s, o->sheet);
            o->range_deg = s.joint_range * 180.0 / M_PI;
          }
          const SimulationRun run =

@@ -79,6 +79,15 @@ std::pair<std::string, double> ParseAssignment(const std::string& text, const st
   return {name, util::ParseDoubleOrThrow(text.substr(eq + 1), option + " " + name)};
 }
 
+char DelimiterChar(const std::string& text) {
+  if (text == "," || text == "comma") return ',';
+  if (text == ";" || text == "semicolon") return ';';
+  if (text == "\t" || text == "\\t" || text == "tab") return '\t';
+  if (text == "|" || text == "pipe") return '|';
+  throw Error("delimiter '" + text +
+              "' is not one of ',' ';' tab '|' (or comma, semicolon, tab, pipe)");
+}
+
 Vector6d ParseTransducerStiffness(const std::string& text, const std::string& option) {
   const std::vector<std::string> items = util::Split(text, ", ");
   if (items.size() != 6) {
@@ -198,8 +207,9 @@ std::vector<Trial> ReadPostureSheet(const Model& model, const std::string& path,
 }
 
 void SimulateAtPostureSheet(const Model& model, const std::string& path, int trials,
-                            bool keep_ranges, SimulationOptions* options) {
-  options->at = ReadPostureSheet(model, path);
+                            bool keep_ranges, SimulationOptions* options,
+                            const TrialSheetOptions& sheet) {
+  options->at = ReadPostureSheet(model, path, sheet);
   options->postures = trials > 0 ? trials : static_cast<int>(options->at.size());
   if (!keep_ranges) options->joint_range = options->prismatic_range = 0;
 }

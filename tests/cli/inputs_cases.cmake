@@ -92,3 +92,17 @@ file(WRITE ${_in26}/posture_sheet.csv "hip_rz,knee_rz,muscle\n-110,105,GP\n")
 input_cli_exit(fit_of_a_posture_sheet 1
   "isowrench: error: [^\n]*posture_sheet.csv:1: no measured wrench columns \\(fx fy fz mx my mz\\): this is a posture sheet[^\n]*isowrench simulate <urdf> --postures [^\n]*posture_sheet.csv -o data.csv"
   fit ${rat5} ${_in26}/posture_sheet.csv)
+
+# ---- item 3: lab sheets --------------------------------------------------------------------------
+add_test(NAME cli_fit_sheet_dialects
+  COMMAND ${CMAKE_COMMAND} -DCLI=${cli} -DURDF=${rat5} -DWORK=${_in26}/dialects
+          -P ${CMAKE_CURRENT_SOURCE_DIR}/sheet_dialects.cmake)
+set_tests_properties(cli_fit_sheet_dialects PROPERTIES TIMEOUT 60)
+input_cli_exit(fit_names_radians_slip 0
+  "likely slip: the angles of hip_rz, hip_ry, hip_rx, knee_rz, knee_rx all stay within ±[0-9.]+° of 0 while the model's posture is hip_rz = -110°, knee_rz = 105°: recorded in radians\\?.*isowrench: warning: [^\n]*trials_radians.csv: the angles of"
+  fit ${rat5} ${data}/trials_radians.csv)
+input_cli_exit(fit_names_moments_slip 0
+  "likely slip: measured = 1000 x predicted on mx, my, mz \\(least-squares factors [^)]*\\): moments in N·mm\\?"
+  fit ${rat5} ${data}/trials_moments_nmm.csv)
+input_cli_exit(fit_reads_declared_units 0 "verdict      nominal model fits: the nominal model explains the data to the noise"
+  fit ${rat5} ${data}/trials_declared_units.csv)

@@ -79,7 +79,8 @@ TEST(TrialCsv, SemicolonSeparatorsAreNamed) {
   std::string text = "hip_rz;knee_rz;muscle;fx;fy;fz;mx;my;mz\n-110;105;GP;0,1;0;0;0;0;0\n";
   EXPECT_THAT([&] { Read(text); },
               ThrowsMessage<Error>(AllOf(HasSubstr("t.csv:1"), HasSubstr("';' as the separator"),
-                                         HasSubstr("'.' as the decimal point"))));
+                                         HasSubstr("--delimiter ';' --decimal-comma"),
+                                         HasSubstr("delimiter=';', decimal_comma=True"))));
 }
 
 TEST(TrialCsv, DecimalCommasAreNamed) {
