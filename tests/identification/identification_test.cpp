@@ -3,7 +3,6 @@
 // alarms, two effects, an effect outside the library, unidentifiable effects).
 
 #include "isowrench/identification.hpp"
-#include "isowrench/input_checks.hpp"
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
@@ -17,6 +16,7 @@
 #include <sstream>
 
 #include "isowrench/error.hpp"
+#include "isowrench/input_checks.hpp"
 #include "isowrench/statics.hpp"
 
 namespace isowrench {
