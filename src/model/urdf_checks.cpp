@@ -137,6 +137,8 @@ const std::map<std::string, std::vector<std::string>>& Placement() {
       {"coupling", {"robot"}},
       {"point", {"isowrench:muscle"}},
       {"moving", {"isowrench:point"}},
+      {"wrap", {"robot"}},
+      {"path_wrap", {"isowrench:muscle"}},
   };
   return kPlacement;
 }
@@ -145,8 +147,8 @@ const std::map<std::string, std::vector<std::string>>& Placement() {
 /// an element declared at most once at all).
 const std::map<std::string, std::string>& UniqueKeys() {
   static const std::map<std::string, std::string> kUnique = {
-      {"joint", "name"},    {"transducer", ""},     {"muscle", "name"},
-      {"posture", "joint"}, {"coordinate", "name"}, {"coupling", "joint"},
+      {"joint", "name"},      {"transducer", ""},    {"muscle", "name"}, {"posture", "joint"},
+      {"coordinate", "name"}, {"coupling", "joint"}, {"wrap", "name"},
   };
   return kUnique;
 }

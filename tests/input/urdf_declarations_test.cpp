@@ -77,6 +77,18 @@ TEST(UrdfDeclarations, MuscleDeclaredTwiceNamesBothLines) {
               {"d.urdf:47: <isowrench:muscle> 'GP' is declared twice", "(first at line 41)"});
 }
 
+TEST(UrdfDeclarations, WrapObjectDeclaredTwiceNamesBothLines) {
+  ExpectError(Rat5With("<isowrench:wrap name=\"knee_cyl\" link=\"femur\" shape=\"sphere\" "
+                       "radius=\"0.003\"/>\n  <isowrench:wrap name=\"knee_cyl\" link=\"tibia\" "
+                       "shape=\"sphere\" radius=\"0.002\"/>"),
+              {"d.urdf:48: <isowrench:wrap> 'knee_cyl' is declared twice", "(first at line 47)"});
+  // A path_wrap inside a standard element is read by nothing: an error naming where it belongs.
+  ExpectError(Edit(Shipped("rat_hindlimb_5dof.urdf"), "<link name=\"tibia\"/>",
+                   "<link name=\"tibia\"><isowrench:path_wrap object=\"knee_cyl\"/></link>"),
+              {"d.urdf:13: <isowrench:path_wrap> stands inside <link> (line 13)",
+               "directly inside <isowrench:muscle>"});
+}
+
 TEST(UrdfDeclarations, BaseRoleOnARevoluteJointNamesBothLines) {
   ExpectError(Rat5With("<isowrench:joint name=\"knee_rx\" role=\"base\" stiffness=\"1e5\"/>"),
               {"d.urdf:47: joint 'knee_rx' (line 31) is revolute but has role=\"base\"",
