@@ -88,6 +88,13 @@ void CheckStiffnessValue(double stiffness, const std::string& where);
 /// -3437.75 deg), or an angle typed in the wrong file.
 constexpr double kFullTurn = 2 * 3.14159265358979323846;
 
+/// Beyond these a value cannot be a joint position at all (an error, not a warning): a
+/// thousand turns (rad) for a revolute coordinate, 2 km (m) for a prismatic one. Posture
+/// options, posture and trial CSVs refuse them; they also keep the conversion from user units
+/// finite (-1e308 deg overflowed to -inf: posture_fuzzer).
+constexpr double kImpossibleRevolute = 1e3 * kFullTurn;
+constexpr double kImpossiblePrismatic = 2000.0;
+
 /// The limb's own length (m): the distances between consecutive joint origins along the chain
 /// plus the endpoint offset (the definition of Model::chain_length, computed from a
 /// description so that readers can use it before a Model exists).

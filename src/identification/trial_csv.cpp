@@ -640,8 +640,8 @@ bool TrialReader::Next(Trial* trial) {
     // Values that cannot be a joint position at all are errors; implausible ones (outside the
     // joint's limits, beyond a full turn, a translation longer than the limb) warn, once per
     // column, from the one place every reader asks (CoordinateValueWarning).
-    const double impossible = revolute ? 1e3 * kFullTurn : 2000.0;  // rad, m
-    if (std::abs(v) > impossible) {
+    const double impossible = revolute ? kImpossibleRevolute : kImpossiblePrismatic;
+    if (!(std::abs(v) <= impossible)) {
       throw Error(m.Where(col) + ": " + fields[c] + " " +
                   (m.unit[c].empty() ? (revolute ? "deg" : "mm") : m.unit[c]) +
                   " cannot be a joint position (|value| > " +

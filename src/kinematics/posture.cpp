@@ -28,7 +28,8 @@ void ValidatePosture(const Model& model, const Eigen::VectorXd& q) {
 }
 
 double JointValueFromUserUnits(JointType type, double user_value) {
-  return type == JointType::kPrismatic ? user_value * 1e-3 : user_value * M_PI / 180.0;
+  // One constant factor: user_value * M_PI / 180 overflowed to inf above 5.7e307 deg.
+  return type == JointType::kPrismatic ? user_value * 1e-3 : user_value * (M_PI / 180.0);
 }
 
 double JointValueToUserUnits(JointType type, double model_value) {
@@ -39,7 +40,16 @@ void SetJointFromUserUnits(const Model& model, Eigen::VectorXd& q, const std::st
                            double value) {
   const CoordinateSpec& coordinate = FindCoordinate(model.description(), joint);
   if (!std::isfinite(value)) throw Error("posture of coordinate '" + joint + "' is not finite");
-  q[model.JointIndex(coordinate.name)] = JointValueFromUserUnits(coordinate.type, value);
+  const double q_value = JointValueFromUserUnits(coordinate.type, value);
+  const bool prismatic = coordinate.type == JointType::kPrismatic;
+  if (!(std::abs(q_value) <= (prismatic ? kImpossiblePrismatic : kImpossibleRevolute))) {
+    throw Error("posture of coordinate '" + joint + "': " + util::FormatNumber(value) +
+                (prismatic ? " mm" : " deg") + " cannot be a joint position (|value| > " +
+                util::FormatNumber(JointValueToUserUnits(
+                    coordinate.type, prismatic ? kImpossiblePrismatic : kImpossibleRevolute)) +
+                (prismatic ? " mm)" : " deg)"));
+  }
+  q[model.JointIndex(coordinate.name)] = q_value;
 }
 
 Eigen::VectorXd ApplyPostureAssignments(const Model& model, Eigen::VectorXd q,
@@ -132,7 +142,13 @@ std::vector<Eigen::VectorXd> ParsePostureCsv(const Model& model, const std::stri
                     "' is not a finite number (" +
                     (columns[c]->type == JointType::kPrismatic ? "mm" : "degrees") + ")");
       }
-      q[model.JointIndex(columns[c]->name)] = JointValueFromUserUnits(columns[c]->type, value);
+      const double q_value = JointValueFromUserUnits(columns[c]->type, value);
+      const bool prismatic = columns[c]->type == JointType::kPrismatic;
+      if (!(std::abs(q_value) <= (prismatic ? kImpossiblePrismatic : kImpossibleRevolute))) {
+        throw Error(where() + "column '" + names[c] + "': " + fields[c] +
+                    (prismatic ? " mm" : " deg") + " cannot be a joint position");
+      }
+      q[model.JointIndex(columns[c]->name)] = q_value;
     }
     // Plausibility (warnings: input_checks.hpp), once per column.
     for (size_t c = 0; c < columns.size(); ++c) {

@@ -112,6 +112,32 @@ TEST(Plausibility, PostureOptionBeyondAFullTurnWarnsNamingTheItem) {
   EXPECT_THAT(warnings, IsEmpty());
 }
 
+// Found by posture_fuzzer once its dictionary held "1e308" (issue 26): -1e308 deg overflowed to
+// -inf in the conversion to radians (x pi first, / 180 second) and was accepted as a posture.
+// Beyond a thousand turns a value is an error; below, the conversion stays finite.
+TEST(Plausibility, AngleBeyondAThousandTurnsIsAnErrorNotInfinity) {
+  isowrench::Model model(isowrench::ReadUrdfString(Cat("degrees=\"-60\"", kSlideMm), "cat.urdf"));
+  EXPECT_THAT(
+      [&] {
+        isowrench::ApplyPostureAssignments(model, model.nominal_posture(),
+                                           "hip_rz=-10,knee_rz=110,knee_rz=-1e308");
+      },
+      ::testing::ThrowsMessage<isowrench::Error>(
+          HasSubstr("posture of coordinate 'knee_rz': -1e+308 deg cannot be a joint position "
+                    "(|value| > 360000 deg)")));
+  EXPECT_THAT(
+      [&] {
+        isowrench::ParsePostureCsv(model, "hip_rz\n1e308\n", "p.csv", model.nominal_posture());
+      },
+      ::testing::ThrowsMessage<isowrench::Error>(
+          HasSubstr("p.csv:2: column 'hip_rz': 1e308 deg cannot be a joint position")));
+  EXPECT_TRUE(
+      std::isfinite(isowrench::JointValueFromUserUnits(isowrench::JointType::kRevolute, 1e308)));
+  isowrench::WarningCollector warnings;  // a thousand turns is still a (warned) posture
+  EXPECT_NO_THROW(
+      isowrench::ApplyPostureAssignments(model, model.nominal_posture(), "knee_rz=359999"));
+}
+
 TEST(Plausibility, RotationsInDegreesWarnNamingTheElement) {
   isowrench::WarningCollector warnings;
   isowrench::LimbDescription d =
