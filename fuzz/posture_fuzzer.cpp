@@ -4,6 +4,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <string>
+#include <vector>
 
 #include "isowrench/error.hpp"
 #include "isowrench/input_checks.hpp"
@@ -24,8 +25,9 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   if (size > 4096) return -1;
   std::string text(reinterpret_cast<const char*>(data), size);
   try {
+    std::vector<std::string> warnings;  // the plausibility checks run too (PostureWarnings)
     Eigen::VectorXd q =
-        isowrench::ApplyPostureAssignments(*g_model, g_model->nominal_posture(), text);
+        isowrench::ApplyPostureAssignments(*g_model, g_model->nominal_posture(), text, &warnings);
     if (!q.allFinite()) __builtin_trap();
   } catch (const isowrench::Error&) {
   }

@@ -43,6 +43,8 @@ struct Trial {
   long line = 0;  ///< 1-based CSV line number (0 when built in code)
 };
 
+struct TrialSheetOptions;  // isowrench/trial_csv.hpp: the sheet's dialect and kind
+
 /// Streaming CSV reader (format in docs/identification.md): one row per trial, a header naming
 /// the columns. Joint columns by joint name (degrees for revolute joints, mm for prismatic),
 /// `muscle`, optional `activation`, `fx fy fz mx my mz` (N, N·m, transducer axes), optional
@@ -53,6 +55,9 @@ class TrialReader {
   /// Reads and checks the header. @throws Error naming the source, line and column for a
   /// missing header, unknown joint columns, duplicate or missing required columns.
   TrialReader(const Model& model, std::istream& input, std::string source_name);
+  /// The same for a sheet laid out as `sheet` says (isowrench/trial_csv.hpp).
+  TrialReader(const Model& model, std::istream& input, std::string source_name,
+              const TrialSheetOptions& sheet);
   ~TrialReader();
   TrialReader(const TrialReader&) = delete;
   TrialReader& operator=(const TrialReader&) = delete;
@@ -283,6 +288,12 @@ struct SimulationOptions {
   /// Centre of the posture sampling in the columns of the nominal model (rad / m); empty =
   /// the nominal posture.
   Eigen::VectorXd center;
+  /// Trials to simulate at instead of around `center` (a posture sheet: simulate --postures,
+  /// design's output; ReadPostureSheet of isowrench/frontend.hpp): trial i uses at[i % size]:
+  /// its posture (columns of the nominal model, rad / m) as the centre of the draw (set the
+  /// ranges to 0 for exactly that posture), its muscle when not empty (else `muscles`, cycled),
+  /// its activation when finite (else drawn). The random stream is the same either way.
+  std::vector<Trial> at;
 };
 
 /// Synthetic measured data: postures sampled around the nominal posture of `nominal`, wrenches

@@ -6,10 +6,13 @@
 /// mistake (a 45 m phalanx, a CSV without a joint column, an angle far outside the joint's
 /// range) and let the run continue. Every warning is a complete sentence naming the culprit.
 
+#include <Eigen/Core>
 #include <functional>
 #include <memory>
 #include <string>
 #include <vector>
+
+#include "isowrench/model.hpp"
 
 namespace isowrench {
 
@@ -73,6 +76,72 @@ class WarningCollector {
 /// @throws Error "<where>: stiffness <value> <unit> ..." naming the rule that failed; `where`
 ///         says where the value came from (file:line and element, a CLI option, an API call).
 void CheckStiffnessValue(double stiffness, const std::string& where);
+
+// ---- Plausibility: one place for every reader and option -----------------------------------
+// The URDF reader, --posture, Python's q, the trial CSV reader and the OpenSim importer all ask
+// these functions and only these, so a value means the same everywhere and the thresholds and
+// wording live here. They return complete sentences and never throw for a legal value: callers
+// print them (Warn: "isowrench: warning: ..." on stderr) or raise them as Python UserWarnings.
+
+/// Largest plausible value of a revolute coordinate or joint, rad: a full turn. Beyond it no
+/// limb joint goes; it is usually degrees written where radians are meant (-60 "rad" is
+/// -3437.75 deg), or an angle typed in the wrong file.
+constexpr double kFullTurn = 2 * 3.14159265358979323846;
+
+/// Beyond these a value cannot be a joint position at all (an error, not a warning): a
+/// thousand turns (rad) for a revolute coordinate, 2 km (m) for a prismatic one. Posture
+/// options, posture and trial CSVs refuse them; they also keep the conversion from user units
+/// finite (-1e308 deg overflowed to -inf: posture_fuzzer).
+constexpr double kImpossibleRevolute = 1e3 * kFullTurn;
+constexpr double kImpossiblePrismatic = 2000.0;
+
+/// The limb's own length (m): the distances between consecutive joint origins along the chain
+/// plus the endpoint offset (the definition of Model::chain_length, computed from a
+/// description so that readers can use it before a Model exists).
+double LimbLength(const LimbDescription& description);
+
+/// The warning for one coordinate value (rad for revolute, m for prismatic), or "" when it is
+/// plausible: outside the coordinate's URDF limits [lower, upper]; beyond a full turn
+/// (revolute); moving the endpoint more than `limb_length` (prismatic; ignored when
+/// limb_length <= 0). The sentence starts with `where` ("limb.urdf:47", "--posture", "q") and
+/// gives the value in user units (deg, mm) and model units (rad, m), and the likely slip:
+/// degrees or millimetres typed where radians or metres are read, unless the value was typed in
+/// user units (`typed_in_user_units`: --posture, a posture or trial CSV), where it is a typo or
+/// another column.
+std::string CoordinateValueWarning(const CoordinateSpec& coordinate, double value,
+                                   double limb_length, const std::string& where,
+                                   bool typed_in_user_units = false);
+
+/// Warnings about posture `q` (rad / m, one entry per coordinate of `description` in column
+/// order, as Model::nominal_posture): CoordinateValueWarning for each coordinate in `only` (all
+/// when empty), then for each joint driven by one of them through a coupling (a <mimic> or an
+/// <isowrench:coupling>), its value at q: a revolute joint beyond a full turn, a prismatic joint
+/// moving the endpoint more than the limb's own length (a mimic multiplier in m/rad where
+/// mm/rad was meant). `where(coordinate)` starts each sentence; when empty, "posture".
+/// `typed_in_user_units` as for CoordinateValueWarning.
+/// @throws Error if q does not have one entry per coordinate.
+std::vector<std::string> PostureWarnings(
+    const LimbDescription& description, const Eigen::VectorXd& q,
+    const std::function<std::string(const std::string& coordinate)>& where = {},
+    const std::vector<std::string>& only = {}, bool typed_in_user_units = false);
+
+/// The warning for a rotation written as URDF roll-pitch-yaw (rad), or "" when no component
+/// exceeds a full turn (degrees written where radians are meant: rpy="0 0 90" turns 90 rad).
+/// `what` names it ("limb.urdf:37: <isowrench:transducer> rpy").
+std::string RotationWarning(const Eigen::Vector3d& rpy, const std::string& what);
+
+/// Warnings about a whole description: each joint origin's distance and the endpoint offset
+/// outside the plausible segment length (kMinSegmentLength .. kMaxSegmentLength), each muscle's
+/// path length at the nominal posture outside kMinMuscleLength .. kMaxMuscleLength, and the
+/// nominal posture (PostureWarnings with the limb's length). `where(name)` gives the location
+/// (file:line) of joint `name`, of muscle "muscle:<name>", of the nominal posture of coordinate
+/// "posture:<name>", or of the transducer (""); when empty, the description's source.
+std::vector<std::string> DescriptionWarnings(
+    const LimbDescription& description,
+    const std::function<std::string(const std::string& name)>& where = {});
+
+/// Warn() each message, in order.
+void WarnAll(const std::vector<std::string>& messages);
 
 /// The name in `candidates` closest to `name` by edit distance (Levenshtein, case-insensitive),
 /// or "" if none is close (distance > max(2, |name| / 3)).

@@ -3,19 +3,20 @@
 /// Streaming access to trial CSV files (format in docs/identification.md), beside TrialReader,
 /// ReadTrialsCsv and WriteTrialsCsv of isowrench/identification.hpp.
 ///
-/// Reading follows RFC 4180: comma separators, fields optionally in double quotes (a quote
-/// inside a quoted field is doubled; quoted fields may hold commas and line breaks), CRLF or LF
-/// line ends, and a UTF-8 byte-order mark before the header is skipped (spreadsheets and pandas
-/// write it). Files that use ';' separators or decimal commas are refused with a message saying
-/// so. Measured values are range-checked (|force| and |moment| <= kMaxMeasuredWrench,
-/// activation in [0, 1]); a missing limb joint column and angles beyond a full turn warn through
-/// isowrench::Warn. Memory does not grow with the number of rows; one record is limited to
-/// kMaxCsvRecordBytes.
+/// Reading follows RFC 4180: comma separators (or the TrialSheetOptions delimiter), fields
+/// optionally in double quotes (a quote inside a quoted field is doubled; quoted fields may hold
+/// separators and line breaks), CRLF or LF line ends, and a UTF-8 byte-order mark before the
+/// header is skipped (spreadsheets and pandas write it). A file with ';' separators or decimal
+/// commas read without declaring them is refused with a message saying how to declare them.
+/// Measured values are range-checked (|force| and |moment| <= kMaxMeasuredWrench, activation in [0,
+/// 1]); a missing limb joint column and angles beyond a full turn warn through isowrench::Warn.
+/// Memory does not grow with the number of rows; one record is limited to kMaxCsvRecordBytes.
 
 #include <functional>
 #include <memory>
 #include <ostream>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "isowrench/identification.hpp"
@@ -24,6 +25,67 @@ namespace isowrench {
 
 /// Largest CSV record (one row, quoted line breaks included) the reader accepts, bytes.
 constexpr size_t kMaxCsvRecordBytes = size_t(1) << 20;
+
+/// What kind of sheet TrialReader reads, and how it is laid out. The CLI's options and Python's
+/// keywords set these fields (docs/identification.md "Trial CSV").
+struct TrialSheetOptions {
+  /// Field separator: ',' (default), ';' (spreadsheets in locales with decimal commas), '\t'
+  /// or '|'.
+  char delimiter = ',';
+  /// Numbers written with a decimal comma ("1,5" is 1.5); needs a delimiter other than ','.
+  bool decimal_comma = false;
+  /// Columns not to read, by name as written or without its unit ("trial", "date",
+  /// "comment"). Other columns isowrench does not know are ignored too, with one warning
+  /// naming them (and the closest known name).
+  std::vector<std::string> ignore_columns;
+  /// Physical lines to skip before the header (an instrument's preamble), >= 0.
+  int skip_rows = 0;
+  /// A posture sheet: the trials to record or simulate (isowrench design -o writes one;
+  /// simulate --postures reads one). The measured wrench columns (fx ... mz, sd_*) are not
+  /// required and are not read when present (design's sheet has them empty, for the lab to
+  /// fill in); neither is `muscle` (Trial::muscle empty) nor `activation` (Trial::activation
+  /// NaN: "not given"), and empty cells mean "not given" (a coordinate at its nominal value).
+  bool postures_only = false;
+};
+
+// Units in the header are read and converted: "name (unit)" or "name [unit]", or a units row
+// right under the header (every cell a unit or empty). Joint columns: deg (default) or rad,
+// mm (default), cm or m; forces N (default), mN, kN; moments N·m (default; also written N.m,
+// Nm, N m), N·mm, N·cm, mN·m, kN·m; activation 1 or %. This is what isowrench writes itself
+// (`sweep`: "knee_rz (deg)", "fx (N)", "mx (N·m)").
+
+/// The warning for angles that look recorded in radians and read as degrees, or "": every
+/// revolute column of `largest` (coordinate index, largest |value| read, rad) stays within
+/// kRadianSlipDegrees of 0 while the model's nominal posture has a column beyond
+/// kRadianSlipNominalDegrees. TrialReader issues it (Warn) at the end of a file.
+std::string RadianSlipWarning(const Model& model,
+                              const std::vector<std::pair<int, double>>& largest);
+
+/// Radian values read as degrees stay within 2 pi "degrees" of 0.
+constexpr double kRadianSlipDegrees = 6.3;
+/// ... while the model's posture has an angle at least this far from 0 (degrees).
+constexpr double kRadianSlipNominalDegrees = 20.0;
+
+/// A unit or sign slip: the least-squares factor of measured on predicted within this
+/// fraction of the slip's factor (-1, 1000, -1000, 0.001) ...
+constexpr double kSlipFactorTolerance = 0.1;
+/// ... leaving at most this fraction of the measured sum of squares unexplained, on all three
+/// forces or all three moments (a slip is the file's, not one axis's).
+constexpr double kSlipUnexplainedFraction = 0.1;
+
+/// The likely unit or sign slips behind measured data, one sentence each (empty when none):
+/// angles recorded in radians (RadianSlipWarning over the coordinates the trials set), and
+/// forces or moments whose measured values are -1 x ("sign convention?"), 1000 x ("moments in
+/// N·mm?", "forces in mN?"), -1000 x or 0.001 x the model's prediction on all three axes
+/// (kSlipFactorTolerance, kSlipUnexplainedFraction).
+/// `predicted`: the nominal model's prediction of each trial (N, N·m). The fit's verdict
+/// appends them.
+std::vector<std::string> UnitSlips(const Model& nominal, const std::vector<Trial>& trials,
+                                   const std::vector<Vector6d>& predicted);
+
+/// ReadTrialsCsv for a sheet laid out as `sheet` says. @throws Error as TrialReader.
+std::vector<Trial> ReadTrialsCsv(const Model& model, const std::string& path,
+                                 const TrialSheetOptions& sheet);
 
 /// Progress of a long read: rows so far and the fraction of the file's bytes consumed (0..1,
 /// or -1 when the size is unknown).
@@ -34,6 +96,11 @@ using TrialProgress = std::function<void(long rows, double fraction)>;
 /// @returns the number of trials. @throws Error as TrialReader, or if the file cannot be
 ///          opened or holds no trial.
 long ForEachTrial(const Model& model, const std::string& path,
+                  const std::function<void(const Trial&)>& on_trial,
+                  const TrialProgress& progress = {}, long progress_every = 100000);
+
+/// ForEachTrial for a sheet laid out as `sheet` says.
+long ForEachTrial(const Model& model, const std::string& path, const TrialSheetOptions& sheet,
                   const std::function<void(const Trial&)>& on_trial,
                   const TrialProgress& progress = {}, long progress_every = 100000);
 
@@ -63,6 +130,14 @@ void ForEachSimulatedTrial(const Model& nominal, const AugmentedModel& truth,
 ///         the passes.
 FitReport FitEffectsCsv(const Model& nominal, const std::string& path,
                         const FitOptions& options = {}, const TrialProgress& read_progress = {},
+                        const TrialProgress& check_progress = {},
+                        std::vector<Trial>* fitted = nullptr);
+
+/// FitEffectsCsv on a sheet laid out as `sheet` says (delimiter, decimal comma, units, ignored
+/// columns, skipped rows).
+FitReport FitEffectsCsv(const Model& nominal, const std::string& path,
+                        const TrialSheetOptions& sheet, const FitOptions& options = {},
+                        const TrialProgress& read_progress = {},
                         const TrialProgress& check_progress = {},
                         std::vector<Trial>* fitted = nullptr);
 

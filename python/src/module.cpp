@@ -14,7 +14,9 @@
 #include <cmath>
 #include <filesystem>
 #include <limits>
+#include <map>
 #include <memory>
+#include <mutex>
 #include <string>
 #include <thread>
 #include <vector>
@@ -22,7 +24,9 @@
 #include "isowrench/diagnostics.hpp"
 #include "isowrench/engine.hpp"
 #include "isowrench/error.hpp"
+#include "isowrench/frontend.hpp"
 #include "isowrench/identification.hpp"
+#include "isowrench/input_checks.hpp"
 #include "isowrench/kinematics.hpp"
 #include "isowrench/model.hpp"
 #include "isowrench/opensim.hpp"
@@ -42,6 +46,60 @@ using CArray = py::array_t<double, py::array::c_style | py::array::forcecast>;
   throw py::error_already_set();
 }
 
+// ---- isowrench warnings -> Python UserWarning (issue 26) ---------------------------------------
+// The library reports implausible input through isowrench::Warn
+// (include/isowrench/input_checks.hpp), possibly from a thread without the GIL (fit and simulate
+// release it): the module's handler only queues the message, and each binding that can warn issues
+// the queue as UserWarnings when it holds the GIL again (FlushWarnings), before it returns or
+// raises.
+
+std::mutex& PendingWarningsMutex() {
+  static std::mutex mutex;
+  return mutex;
+}
+
+std::vector<std::string>& PendingWarnings() {
+  static std::vector<std::string> pending;
+  return pending;
+}
+
+void QueueWarning(const std::string& message) {
+  std::lock_guard<std::mutex> lock(PendingWarningsMutex());
+  PendingWarnings().push_back(message);
+}
+
+/// Issue `messages` as UserWarnings (GIL held). @throws py::error_already_set when a warnings
+/// filter turns one into an exception (python -W error).
+void RaiseWarnings(const std::vector<std::string>& messages) {
+  for (const std::string& m : messages) {
+    if (PyErr_WarnEx(PyExc_UserWarning, m.c_str(), 1) < 0) throw py::error_already_set();
+  }
+}
+
+void FlushWarnings() {
+  std::vector<std::string> pending;
+  {
+    std::lock_guard<std::mutex> lock(PendingWarningsMutex());
+    pending.swap(PendingWarnings());
+  }
+  RaiseWarnings(pending);
+}
+
+/// f(), then the queued warnings, also when f throws (the warnings first, then the error).
+template <typename F>
+auto Flushing(F&& f) -> decltype(f()) {
+  try {
+    auto result = f();
+    FlushWarnings();
+    return result;
+  } catch (const py::error_already_set&) {
+    throw;
+  } catch (...) {
+    FlushWarnings();
+    throw;
+  }
+}
+
 /// A loaded model: the immutable Model and the file it came from.
 struct PyModel {
   Model model;
@@ -59,13 +117,12 @@ std::string CoordinateList(const Model& model) {
 /// The posture argument: None (the model's default posture), a sequence / 1-D array of n values
 /// (rad / m), or a dict {coordinate: value} applied over the default posture.
 Eigen::VectorXd Posture(const Model& model, const py::object& q) {
-  Eigen::VectorXd out = model.nominal_posture();
-  if (q.is_none()) return out;
+  if (q.is_none()) return model.nominal_posture();
+  std::vector<std::pair<std::string, double>> values;
+  Eigen::VectorXd all;
   if (py::isinstance<py::dict>(q)) {
     for (const auto& item : q.cast<py::dict>()) {
-      const std::string name = py::str(item.first);
-      out[model.JointIndex(FindCoordinate(model.description(), name).name)] =
-          item.second.cast<double>();
+      values.emplace_back(py::str(item.first), item.second.cast<double>());
     }
   } else {
     CArray a = CArray::ensure(q);
@@ -74,14 +131,13 @@ Eigen::VectorXd Posture(const Model& model, const py::object& q) {
                   std::to_string(model.dof_count()) + " values in rad / m for the coordinates " +
                   CoordinateList(model));
     }
-    for (int i = 0; i < model.dof_count(); ++i) out[i] = a.at(i);
+    all = Eigen::Map<const Eigen::VectorXd>(a.data(), model.dof_count());
   }
-  for (int i = 0; i < model.dof_count(); ++i) {
-    if (!std::isfinite(out[i])) {
-      throw Error("q[" + std::to_string(i) + "] (" + model.joint_names()[i] + ") is " +
-                  std::to_string(out[i]) + "; posture values must be finite (rad / m)");
-    }
-  }
+  // The library's posture from values (sizes, finiteness, plausibility): as the CLI's.
+  std::vector<std::string> warnings;
+  Eigen::VectorXd out = PostureFromValues(model, model.nominal_posture(), values,
+                                          all.size() ? &all : nullptr, &warnings, "q");
+  RaiseWarnings(warnings);
   return out;
 }
 
@@ -94,10 +150,12 @@ std::shared_ptr<PyModel> Variant(const std::shared_ptr<PyModel>& m, const py::ob
                                  const py::object& released,
                                  const py::object& locked = py::none()) {
   if (transducer.is_none() && released.is_none() && locked.is_none()) return m;
-  LimbDescription d = m->model.description();
+  // The library's overrides (isowrench/frontend.hpp), as the CLI's --transducer,
+  // --transducer-stiffness, --release and --lock.
+  ModelOverrides overrides;
   if (!transducer.is_none()) {
     if (py::isinstance<py::str>(transducer)) {
-      d = WithTransducerStiffness(std::move(d), TransducerPreset(transducer.cast<std::string>()));
+      overrides.transducer_preset = transducer.cast<std::string>();
     } else {
       CArray a = CArray::ensure(transducer);
       if (!a || a.ndim() != 1 || a.shape(0) != 6) {
@@ -107,14 +165,13 @@ std::shared_ptr<PyModel> Variant(const std::shared_ptr<PyModel>& m, const py::ob
       }
       Vector6d s;
       for (int i = 0; i < 6; ++i) s[i] = a.at(i);
-      d = WithTransducerStiffness(std::move(d), s);
+      overrides.transducer_stiffness = s;
     }
   }
   if (!released.is_none()) {
-    d = WithReleasedDofs(std::move(d),
-                         py::isinstance<py::str>(released)
+    overrides.released = py::isinstance<py::str>(released)
                              ? DofMask::Parse(released.cast<std::string>())
-                             : DofMask::FromNames(released.cast<std::vector<std::string>>()));
+                             : DofMask::FromNames(released.cast<std::vector<std::string>>());
   }
   if (!locked.is_none()) {
     std::vector<std::string> names;
@@ -132,35 +189,38 @@ std::shared_ptr<PyModel> Variant(const std::shared_ptr<PyModel>& m, const py::ob
     } else {
       names = locked.cast<std::vector<std::string>>();
     }
-    d = WithLockedCoordinates(std::move(d), names);
+    overrides.locked = names;
   }
-  return std::make_shared<PyModel>(Model(std::move(d)), m->path);
+  return std::make_shared<PyModel>(
+      Model(ApplyOverrides(m->model.description(), overrides, OptionStyle::kPython)), m->path);
 }
+
+std::shared_ptr<PyModel> LoadUnflushed(const std::string& path, const py::object& clamp,
+                                       const py::object& endpoint);
 
 std::shared_ptr<PyModel> Load(const std::string& path, const py::object& clamp,
                               const py::object& endpoint) {
+  return Flushing([&] { return LoadUnflushed(path, clamp, endpoint); });
+}
+
+std::shared_ptr<PyModel> LoadUnflushed(const std::string& path, const py::object& clamp,
+                                       const py::object& endpoint) {
   if (!std::filesystem::exists(path)) ThrowFileNotFound(path);
-  const std::string ext = std::filesystem::path(path).extension().string();
-  if (ext == ".osim") {
-    if (clamp.is_none() || endpoint.is_none()) {
-      throw Error(
-          "loading an OpenSim model needs clamp_body= and endpoint_body= (the bolted body and the "
-          "body "
-          "carrying the transducer), e.g. isowrench.load('" +
-          path +
-          "', clamp_body='pelvis', "
-          "endpoint_body='tibia')");
-    }
-    OpenSimImportOptions options;
+  OpenSimImportOptions options;
+  const bool osim = std::filesystem::path(path).extension() == ".osim";
+  if (osim && (clamp.is_none() || endpoint.is_none())) {
+    throw Error(
+        "loading an OpenSim model needs clamp_body= and endpoint_body= (the bolted body and the "
+        "body carrying the transducer), e.g. isowrench.load('" +
+        path + "', clamp_body='pelvis', endpoint_body='tibia')");
+  }
+  if (osim) {
     options.clamp_body = clamp.cast<std::string>();
     options.endpoint_body = endpoint.cast<std::string>();
-    OpenSimImport imported = ImportOpenSimFile(path, options);
-    for (const std::string& w : imported.warnings) {
-      PyErr_WarnEx(PyExc_UserWarning, (path + ": " + w).c_str(), 1);
-    }
-    return std::make_shared<PyModel>(Model(std::move(imported.description)), path);
   }
-  return std::make_shared<PyModel>(Model::FromUrdfFile(path), path);
+  // The library's loader (isowrench/frontend.hpp), as the CLI's; its warnings are queued and
+  // raised as UserWarnings by Load.
+  return std::make_shared<PyModel>(Model(LoadLimb(path, osim ? &options : nullptr)), path);
 }
 
 py::array_t<double> Array(const Eigen::VectorXd& v) {
@@ -234,6 +294,8 @@ CArray Postures(const Model& model, const py::object& Q) {
   }
   const double* data = a.data();
   const py::ssize_t rows = a.shape(0);
+  Eigen::VectorXd low = Eigen::VectorXd::Constant(n, std::numeric_limits<double>::infinity());
+  Eigen::VectorXd high = -low;
   for (py::ssize_t r = 0; r < rows; ++r) {
     for (long c = 0; c < n; ++c) {
       const double v = data[r * n + c];
@@ -242,8 +304,20 @@ CArray Postures(const Model& model, const py::object& Q) {
                     model.joint_names()[c] + ") is " + std::to_string(v) +
                     "; postures must be finite (rad / m)");
       }
+      low[c] = std::min(low[c], v);
+      high[c] = std::max(high[c], v);
     }
   }
+  // Plausibility per column, from its extremes (one UserWarning per column at most).
+  const double limb = LimbLength(model.description());
+  std::vector<std::string> warnings;
+  for (long c = 0; rows > 0 && c < n; ++c) {
+    const std::string where = "Q[:, " + std::to_string(c) + "]";
+    std::string w = CoordinateValueWarning(model.coordinate(c), low[c], limb, where);
+    if (w.empty()) w = CoordinateValueWarning(model.coordinate(c), high[c], limb, where);
+    if (!w.empty()) warnings.push_back(w);
+  }
+  RaiseWarnings(warnings);
   return a;
 }
 
@@ -482,41 +556,61 @@ py::dict Diagnose(const std::shared_ptr<PyModel>& m0, const std::string& muscle,
   return out;
 }
 
+/// The sheet keywords of fit and simulate (the CLI's --delimiter, --decimal-comma,
+/// --ignore-columns, --skip-rows): TrialSheetOptions.
+TrialSheetOptions Sheet(const std::string& delimiter, bool decimal_comma,
+                        const std::vector<std::string>& ignore_columns, int skip_rows) {
+  TrialSheetOptions sheet;
+  sheet.delimiter = DelimiterChar(delimiter);  // the CLI's --delimiter syntax
+  sheet.decimal_comma = decimal_comma;
+  sheet.ignore_columns = ignore_columns;
+  sheet.skip_rows = skip_rows;
+  return sheet;
+}
+
 std::string Simulate(const PyModel& m, const std::string& output,
-                     const std::vector<std::string>& effects, int n, unsigned long long seed,
-                     double noise_force, double noise_moment, double joint_range,
-                     const std::vector<std::string>& muscles) {
-  std::vector<AppliedEffect> applied;
-  for (const std::string& text : effects) applied.push_back(ParseEffectAssignment(m.model, text));
-  SimulationOptions options;
-  options.postures = n;
+                     const std::vector<std::string>& effects, const py::object& trials,
+                     unsigned long long seed, double noise_force, double noise_moment,
+                     const py::object& joint_range, const std::vector<std::string>& muscles,
+                     const py::object& postures, const std::string& delimiter, bool decimal_comma,
+                     const std::vector<std::string>& ignore_columns, int skip_rows) {
+  SimulationOptions options;  // the CLI's defaults too (isowrench simulate)
+  if (!trials.is_none()) options.postures = trials.cast<int>();
   options.seed = seed;
   options.noise_force = noise_force;
   options.noise_moment = noise_moment;
-  options.joint_range = joint_range;
+  if (!joint_range.is_none()) options.joint_range = joint_range.cast<double>();
   options.muscles = muscles;
   options.center = m.model.nominal_posture();
-  std::vector<Trial> trials;
-  {
-    py::gil_scoped_release release;
-    AugmentedModel truth = ApplyEffects(m.model.description(), applied);
-    trials = SimulateTrials(m.model, truth, options);
-    WriteTrialsCsv(m.model, trials, output);
+  if (!postures.is_none()) {
+    const std::string sheet = postures.cast<std::string>();
+    if (!std::filesystem::exists(sheet)) ThrowFileNotFound(sheet);
+    SimulateAtPostureSheet(m.model, sheet, trials.is_none() ? 0 : options.postures,
+                           !joint_range.is_none(), &options,
+                           Sheet(delimiter, decimal_comma, ignore_columns, skip_rows));
   }
+  Flushing([&] {
+    py::gil_scoped_release release;
+    SimulateToCsv(m.model, effects, options, output);
+    return 0;
+  });
   return output;
 }
 
 py::dict Fit(const PyModel& m, const std::string& csv, int max_fit_trials,
-             unsigned long long sample_seed) {
+             unsigned long long sample_seed, const std::string& delimiter, bool decimal_comma,
+             const std::vector<std::string>& ignore_columns, int skip_rows) {
   if (!std::filesystem::exists(csv)) ThrowFileNotFound(csv);
+  const TrialSheetOptions sheet = Sheet(delimiter, decimal_comma, ignore_columns, skip_rows);
   FitReport report;
-  {
+  Flushing([&] {
     py::gil_scoped_release release;
     FitOptions options;
     options.max_fit_trials = max_fit_trials;
     options.sample_seed = sample_seed;
-    report = FitEffectsCsv(m.model, csv, options);
-  }
+    report = FitEffectsCsv(m.model, csv, sheet, options);
+    return 0;
+  });
   py::dict out;
   out["verdict"] = FitVerdictName(report.verdict);
   out["verdict_message"] = report.verdict_message;
@@ -583,6 +677,7 @@ PYBIND11_MODULE(_core, mod) {
       StatusName(StaticsStatus::kOk), StatusName(StaticsStatus::kSelfMotionHeld),
       StatusName(StaticsStatus::kSelfMotion), StatusName(StaticsStatus::kInvalidInput));
 
+  SetWarningHandler(QueueWarning);  // isowrench::Warn -> UserWarning (FlushWarnings)
   py::register_exception_translator([](std::exception_ptr p) {
     try {
       if (p) std::rethrow_exception(p);
@@ -788,33 +883,78 @@ PYBIND11_MODULE(_core, mod) {
            "equilibrium; the keys of "
            "`isowrench diagnose --json` for one muscle (wrenches None without equilibrium). "
            "transducer, released and locked as for wrench().")
+      .def(
+          "with_overrides",
+          [](const std::shared_ptr<PyModel>& m, const py::object& released,
+             const py::object& transducer, const py::object& base_stiffness,
+             const std::map<std::string, double>& joint_stiffness, const py::object& locked) {
+            // The library's overrides (isowrench/frontend.hpp ApplyOverrides), as the CLI's
+            // --release, --transducer(-stiffness), --base-stiffness, --joint-stiffness and
+            // --lock (last, as the CLI applies it, so that it can name the base dofs).
+            std::shared_ptr<PyModel> v = Variant(m, transducer, released);
+            ModelOverrides overrides;
+            if (!base_stiffness.is_none()) overrides.base_stiffness = base_stiffness.cast<double>();
+            for (const auto& [joint, k] : joint_stiffness) {
+              overrides.joint_stiffness.emplace_back(joint, k);
+            }
+            if (!overrides.empty()) {
+              v = std::make_shared<PyModel>(
+                  Model(ApplyOverrides(v->model.description(), overrides, OptionStyle::kPython)),
+                  m->path);
+            }
+            return Variant(v, py::none(), py::none(), locked);
+          },
+          py::arg("released") = py::none(), py::arg("transducer") = py::none(),
+          py::arg("base_stiffness") = py::none(),
+          py::arg("joint_stiffness") = std::map<std::string, double>{},
+          py::arg("locked") = py::none(),
+          "with_overrides(released=None, transducer=None, base_stiffness=None, "
+          "joint_stiffness={}, locked=None) -> Model\n\n"
+          "A new Model with the overrides the CLI's --release, --transducer / "
+          "--transducer-stiffness, --base-stiffness (N/m; inserts base_x/y/z when the limb has "
+          "none), --joint-stiffness {coordinate: N·m/rad or N/m} and --lock [coordinates] apply, through the same "
+          "library function (ApplyOverrides). The model itself is unchanged.\n"
+          "Raises ValueError naming the keyword and the value (a negative or huge stiffness, an "
+          "unknown coordinate).")
       .def("__repr__", [](const PyModel& m) {
         return "<isowrench.Model '" + m.model.name() + "': " + std::to_string(m.model.dof_count()) +
                " coordinates (" + CoordinateList(m.model) + "), " +
                std::to_string(m.model.muscle_count()) + " muscles>";
       });
 
+  const SimulationOptions defaults;  // the library's, which the CLI's simulate uses too
   mod.def("simulate", &Simulate, py::arg("model"), py::arg("path"),
-          py::arg("effects") = std::vector<std::string>{}, py::arg("n") = 60, py::arg("seed") = 7,
-          py::arg("noise_force") = 0.002, py::arg("noise_moment") = 5e-5,
-          py::arg("joint_range") = 15.0 * 3.14159265358979323846 / 180.0,
-          py::arg("muscles") = std::vector<std::string>{},
-          "simulate(model, path, effects=[], n=60, seed=7, noise_force=0.002, noise_moment=5e-5, "
-          "joint_range=0.2618, "
-          "muscles=[]) -> str\n\n"
-          "Synthetic trials (SimulateTrials, as `isowrench simulate`): n postures drawn uniformly "
-          "within +- joint_range "
+          py::arg("effects") = std::vector<std::string>{}, py::arg("trials") = py::none(),
+          py::arg("seed") = defaults.seed, py::arg("noise_force") = defaults.noise_force,
+          py::arg("noise_moment") = defaults.noise_moment, py::arg("joint_range") = py::none(),
+          py::arg("muscles") = std::vector<std::string>{}, py::arg("postures") = py::none(),
+          py::arg("delimiter") = ",", py::arg("decimal_comma") = false,
+          py::arg("ignore_columns") = std::vector<std::string>{}, py::arg("skip_rows") = 0,
+          "simulate(model, path, effects=[], trials=None, seed=1, noise_force=0.002, "
+          "noise_moment=5e-5, joint_range=None, muscles=[], postures=None, delimiter=',', "
+          "decimal_comma=False, ignore_columns=[], skip_rows=0) -> str\n\n"
+          "Synthetic trials (SimulateToCsv, as `isowrench simulate`, with its defaults: trials "
+          "None = 50, joint_range None = 0.2618 rad): trials "
+          "postures drawn uniformly within +- joint_range "
           "(rad) of the default posture, wrenches of the model with `effects` applied (strings "
           "'NAME=V1,V2' in the "
           "CLI's user units, e.g. 'base_isotropic=2e5'; `isowrench fit --list-effects` lists them) "
           "plus Gaussian "
           "noise (N, N·m); written as a trial CSV at `path` (the file isowrench.fit and `isowrench "
-          "fit` read). "
+          "fit` read). With postures= (a posture sheet, e.g. from `isowrench design -o`; "
+          "simulate --postures) the trials are at its rows, with their muscles and activations "
+          "(one per row unless trials=, exactly unless joint_range=). "
           "Returns path. Same seed, same data.");
   mod.def("fit", &Fit, py::arg("model"), py::arg("csv"),
           py::arg("max_fit_trials") = FitOptions().max_fit_trials,
-          py::arg("sample_seed") = FitOptions().sample_seed,
-          "fit(model, csv, max_fit_trials=20000, sample_seed=1) -> dict\n\n"
+          py::arg("sample_seed") = FitOptions().sample_seed, py::arg("delimiter") = ",",
+          py::arg("decimal_comma") = false, py::arg("ignore_columns") = std::vector<std::string>{},
+          py::arg("skip_rows") = 0,
+          "fit(model, csv, max_fit_trials=20000, sample_seed=1, delimiter=',', "
+          "decimal_comma=False, ignore_columns=[], skip_rows=0) -> dict\n\n"
+          "The sheet keywords are the CLI's --delimiter (',', ';', '\\t' or '|'), "
+          "--decimal-comma, --ignore-columns and --skip-rows (TrialSheetOptions); units in the "
+          "header ('fx (N)', 'mx (N·mm)', 'hip_rz (rad)') or a units row are read and converted.\n"
           "FitEffectsCsv on a trial CSV (as `isowrench fit`): which unmodelled effects explain the "
           "measured wrenches. With more rows than max_fit_trials (0 = no limit) a uniform random "
           "sample of that many is fitted (reservoir sampling, sample_seed) and every row is "

@@ -8,6 +8,8 @@ import isowrench
 from conftest import URDF
 
 
+# Postures drawn beyond the base dofs' limits on purpose: their plausibility warnings are expected.
+@pytest.mark.filterwarnings("ignore:.*outside the joint's limits:UserWarning")
 @pytest.mark.parametrize("name", ["rat_hindlimb_5dof.urdf", "rat_hindlimb_6dof.urdf",
                                   "rat_hindlimb_5dof_base.urdf", "rat_hindlimb_coupled_knee.urdf"])
 def test_batch_equals_single_calls(name):

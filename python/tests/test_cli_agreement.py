@@ -34,6 +34,8 @@ def test_kinematics_equals_cli_json(cli, name):
         np.testing.assert_allclose(k["muscles"][muscle]["moment_arm_m"], entry["moment_arm_m"], rtol=0, atol=TOL)
 
 
+# base_x=20 (mm) is beyond the base's +-10 mm limits: the warning is expected.
+@pytest.mark.filterwarnings("ignore:.*outside the joint's limits:UserWarning")
 @pytest.mark.parametrize("name", MODELS)
 @pytest.mark.parametrize("options", [[], ["--transducer", "ati-mini40", "--release", "rz"],
                                      ["--transducer-stiffness", "1e6,2e6,3e6,40,50,60", "--release", "none"]])

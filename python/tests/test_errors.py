@@ -81,3 +81,65 @@ def test_osim_needs_bodies(tmp_path):
     osim.write_text("<OpenSimDocument Version='40000'/>")
     with pytest.raises(ValueError, match="clamp_body"):
         isowrench.load(str(osim))
+
+
+# ---- issue 26: plausibility warnings are UserWarnings, never errors ---------------------------
+
+def test_posture_in_degrees_warns_naming_the_coordinate(rat):
+    import warnings as _w
+    with pytest.warns(UserWarning, match=r"q\['hip_rz'\]: hip_rz = -6302\.54° \(-110 rad\) is more than a full turn \(degrees where radians were meant\?\)"):
+        w = rat.wrench("GP", {"hip_rz": -110.0})
+    assert w.status == "ok"  # a legal value: evaluated as given
+    with _w.catch_warnings():
+        _w.simplefilter("error")
+        rat.wrench("GP", {"hip_rz": -1.9})  # plausible: no warning
+        rat.wrench("GP")
+    # An array in degrees: every implausible coordinate is named.
+    with pytest.warns(UserWarning) as record:
+        rat.kinematics([-110.0, 0.0, 0.0, 105.0, 0.0])
+    texts = [str(r.message) for r in record]
+    assert any("q['hip_rz']: hip_rz = -6302.54° (-110 rad)" in t for t in texts), texts
+    assert any("q['knee_rz']: knee_rz = 6016.06° (105 rad)" in t for t in texts), texts
+
+
+def test_batch_posture_in_degrees_warns_once_per_column(rat):
+    Q = np.tile(rat.default_posture, (10, 1))
+    Q[:, 3] = np.linspace(100, 110, 10)  # degrees in a radian column
+    with pytest.warns(UserWarning, match=r"Q\[:, 3\]: knee_rz = 5729\.58° \(100 rad\) is more than a full turn") as record:
+        rat.wrench_batch("GP", Q)
+    assert len(record) == 1
+
+
+def test_warnings_as_errors_raise_the_warning(rat):
+    import warnings as _w
+    with _w.catch_warnings():
+        _w.simplefilter("error")
+        with pytest.raises(UserWarning, match="more than a full turn"):
+            rat.wrench("GP", {"hip_rz": -110.0})
+
+
+def test_reader_warnings_become_user_warnings(tmp_path):
+    text = (URDF / "rat_hindlimb_5dof.urdf").read_text()
+    text = text.replace('rpy="0 0 0" axes="world"', 'rpy="0 0 90" axes="world"')
+    path = tmp_path / "rpy_in_degrees.urdf"
+    path.write_text(text)
+    with pytest.warns(UserWarning, match=r"rpy_in_degrees\.urdf:37: <isowrench:transducer> rpy = 0 0 90 rad turns more than a full turn"):
+        m = isowrench.load(str(path))
+    assert m.name == "rat_hindlimb_5dof"
+
+
+def test_overrides_are_the_clis(cli, rat):
+    # The CLI's --base-stiffness / --joint-stiffness / --release / --transducer through the same
+    # library function: the same wrench, and errors naming the Python keyword.
+    m = rat.with_overrides(released=["rz"], transducer="ati-mini40", base_stiffness=2e5,
+                           joint_stiffness={"knee_rx": 3.0})
+    j = cli("wrench", URDF / "rat_hindlimb_5dof.urdf", "--json", "--release", "rz", "--transducer",
+            "ati-mini40", "--base-stiffness", "2e5", "--joint-stiffness", "knee_rx=3")
+    w = m.wrench("GP")
+    np.testing.assert_allclose(w.transducer, [j["wrench"][k] for k in ("fx", "fy", "fz", "mx", "my", "mz")],
+                               rtol=1e-12, atol=1e-15)
+    assert m.released == ["rz"] and rat.released == []
+    with pytest.raises(ValueError, match=r"base_stiffness: stiffness 1e\+308 exceeds the physical maximum"):
+        rat.with_overrides(base_stiffness=1e308)
+    with pytest.raises(ValueError, match=r"joint_stiffness knee_rx: stiffness -1 is negative"):
+        rat.with_overrides(joint_stiffness={"knee_rx": -1.0})

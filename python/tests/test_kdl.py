@@ -67,6 +67,8 @@ def kdl_jacobian(chain, q):
 
 
 # Models whose coordinates are their joints (the coupled knee's columns are coordinates, J C).
+# Postures drawn beyond the base dofs' limits on purpose: their plausibility warnings are expected.
+@pytest.mark.filterwarnings("ignore:.*outside the joint's limits:UserWarning")
 @pytest.mark.parametrize("name", ["rat_hindlimb_5dof.urdf", "rat_hindlimb_6dof.urdf",
                                   "rat_hindlimb_5dof_base.urdf", "planar_2r.urdf", "planar_4r.urdf"])
 def test_jacobian_equals_pykdl(name):

@@ -6,6 +6,7 @@
 
 #include "cli/command.hpp"
 #include "isowrench/error.hpp"
+#include "isowrench/frontend.hpp"
 #include "isowrench/input_checks.hpp"
 #include "isowrench/io.hpp"
 #include "isowrench/posture.hpp"
@@ -20,6 +21,25 @@ std::vector<Command>& RegisteredCommands() {
 bool RegisterCommand(Command command) {
   RegisteredCommands().push_back(std::move(command));
   return true;
+}
+
+void AddSheetOptions(CLI::App& app, TrialSheetOptions& sheet, const std::string& what) {
+  app.add_option_function<std::string>(
+         "--delimiter",
+         [&sheet](const std::string& text) { sheet.delimiter = DelimiterChar(text); },
+         "Field separator of " + what +
+             ": , (default) ; tab or | (or by name: comma, semicolon, tab, pipe)")
+      ->check(CLI::IsMember({",", ";", "tab", "\\t", "|", "comma", "semicolon", "pipe"}));
+  app.add_flag("--decimal-comma", sheet.decimal_comma,
+               "Numbers of " + what + " are written 1,5 (with --delimiter ';' or tab)");
+  app.add_option("--ignore-columns", sheet.ignore_columns,
+                 "Columns of " + what +
+                     " not to read (trial id, date, comment...), comma-separated; other "
+                     "unknown columns are ignored with a warning naming them")
+      ->delimiter(',');
+  app.add_option("--skip-rows", sheet.skip_rows,
+                 "Lines before the header of " + what + " to skip (an instrument's preamble)")
+      ->check(CLI::NonNegativeNumber);
 }
 
 void AddModelOptions(CLI::App& app, ModelOptions& o, bool with_muscle) {
@@ -64,45 +84,31 @@ void AddModelOptions(CLI::App& app, ModelOptions& o, bool with_muscle) {
                  "Eigenvalue of K counts as zero when <= this x the largest (default 1e-12)");
 }
 
-Model LoadModel(const ModelOptions& o) {
-  LimbDescription d = ReadUrdfFile(o.urdf);
-  if (o.release_given) d = WithReleasedDofs(std::move(d), DofMask::FromNames(o.release));
-  if (!o.transducer.empty() && !o.transducer_stiffness.empty()) {
-    throw Error("give either --transducer or --transducer-stiffness, not both");
-  }
-  if (!o.transducer.empty())
-    d = WithTransducerStiffness(std::move(d), TransducerPreset(o.transducer));
+ModelOverrides Overrides(const ModelOptions& o) {
+  ModelOverrides overrides;
+  if (o.release_given) overrides.released = DofMask::FromNames(o.release);
+  overrides.transducer_preset = o.transducer;
   if (!o.transducer_stiffness.empty()) {
-    std::vector<std::string> items = util::Split(o.transducer_stiffness, ", ");
-    if (items.size() != 6) {
-      throw Error("--transducer-stiffness needs 6 values kx,ky,kz,krx,kry,krz; got '" +
-                  o.transducer_stiffness + "'");
-    }
-    Vector6d s;
-    for (int i = 0; i < 6; ++i) {
-      s[i] =
-          util::ParseDoubleOrThrow(items[i], std::string("--transducer-stiffness ") + DofName(i));
-      CheckStiffnessValue(s[i], std::string("--transducer-stiffness ") + DofName(i));
-    }
-    d = WithTransducerStiffness(std::move(d), s);
+    overrides.transducer_stiffness =
+        ParseTransducerStiffness(o.transducer_stiffness, "--transducer-stiffness");
   }
-  if (o.base_given) CheckStiffnessValue(o.base_stiffness, "--base-stiffness");
-  if (o.base_given) d = WithBaseStiffness(std::move(d), o.base_stiffness);
+  if (o.base_given) overrides.base_stiffness = o.base_stiffness;
   for (const std::string& item : o.joint_stiffness) {
-    size_t eq = item.find('=');
-    if (eq == std::string::npos) throw Error("--joint-stiffness '" + item + "' is not joint=value");
-    std::string joint = util::Trim(item.substr(0, eq));
-    double k = util::ParseDoubleOrThrow(item.substr(eq + 1), "--joint-stiffness " + joint);
-    CheckStiffnessValue(k, "--joint-stiffness " + joint);
-    d = WithJointStiffness(std::move(d), joint, k);
+    overrides.joint_stiffness.push_back(ParseAssignment(item, "--joint-stiffness"));
   }
-  // Last, so that --lock can name the base dofs --base-stiffness added.
-  if (o.lock_given) d = WithLockedCoordinates(std::move(d), o.lock);
-  return Model(std::move(d));
+  if (o.lock_given) overrides.locked = o.lock;
+  return overrides;
+}
+
+Model LoadModel(const ModelOptions& o) {
+  return Model(ApplyOverrides(LoadLimb(o.urdf), Overrides(o)));
 }
 
 Eigen::VectorXd LoadPosture(const Model& model, const ModelOptions& o) {
-  return ApplyPostureAssignments(model, model.nominal_posture(), o.posture);
+  std::vector<std::string> warnings;
+  Eigen::VectorXd q = PostureFromUserText(model, model.nominal_posture(), o.posture, &warnings);
+  WarnAll(warnings);
+  return q;
 }
 
 std::string ChooseMuscle(const Model& model, const ModelOptions& o) {

@@ -12,8 +12,10 @@
 #include <string>
 #include <vector>
 
+#include "isowrench/frontend.hpp"
 #include "isowrench/model.hpp"
 #include "isowrench/statics.hpp"
+#include "isowrench/trial_csv.hpp"
 
 namespace isowrench::cli {
 
@@ -47,10 +49,16 @@ struct ModelOptions {
   StaticsOptions statics;
 };
 
+/// --delimiter, --decimal-comma, --ignore-columns, --skip-rows: how the trial or posture sheet
+/// a command reads is laid out (TrialSheetOptions). `what` names the file in the help text.
+void AddSheetOptions(CLI::App& app, TrialSheetOptions& sheet, const std::string& what);
+
 /// Add the shared options (positional <urdf> included) to a subcommand.
 void AddModelOptions(CLI::App& app, ModelOptions& options, bool with_muscle = true);
 
-/// Load the URDF and apply the overrides. @throws isowrench::Error.
+/// The overrides the options ask for (parsed with the library's parsers, isowrench/frontend.hpp).
+ModelOverrides Overrides(const ModelOptions& options);
+/// Load the limb (LoadLimb) and apply the overrides (ApplyOverrides). @throws isowrench::Error.
 Model LoadModel(const ModelOptions& options);
 /// Nominal posture with --posture applied.
 Eigen::VectorXd LoadPosture(const Model& model, const ModelOptions& options);

@@ -2,11 +2,13 @@
 // so that the named effects can be identified and told apart (D-optimal on the Fisher
 // information at the nominal model).
 
+#include <cmath>
 #include <cstdio>
 #include <iostream>
 
 #include "cli/command.hpp"
 #include "isowrench/error.hpp"
+#include "isowrench/frontend.hpp"
 #include "isowrench/identification.hpp"
 #include "isowrench/io.hpp"
 #include "isowrench/plots.hpp"
@@ -28,25 +30,25 @@ struct DesignCommandOptions {
   std::vector<std::string> muscles;
   std::string output;
   bool json = false;
+  TrialSheetOptions sheet;
 };
 
+// Candidate trials from a posture sheet: rows with a muscle as they are, rows without one once
+// per muscle (--muscle, default all), at activation 1 unless the sheet gives one.
 std::vector<Trial> CandidatesFromFile(const Model& model, const DesignCommandOptions& o) {
-  std::vector<Eigen::VectorXd> postures =
-      ReadPostureCsv(model, o.postures, model.nominal_posture());
   std::vector<std::string> muscles = o.muscles;
   if (muscles.empty()) {
     for (int i = 0; i < model.muscle_count(); ++i) muscles.push_back(model.muscle(i).name);
   }
-  auto names = std::make_shared<const std::vector<std::string>>(model.joint_names());
   std::vector<Trial> out;
-  for (size_t k = 0; k < postures.size(); ++k) {
+  for (Trial t : ReadPostureSheet(model, o.postures, o.sheet)) {
+    if (!std::isfinite(t.activation)) t.activation = 1.0;
+    if (!t.muscle.empty()) {
+      out.push_back(t);
+      continue;
+    }
     for (const std::string& m : muscles) {
-      Trial t;
-      t.q = postures[k];
-      t.joint_names = names;
       t.muscle = m;
-      t.activation = 1.0;
-      t.line = static_cast<long>(k + 1);
       out.push_back(t);
     }
   }
@@ -66,8 +68,9 @@ const bool kDesignRegistered = RegisterCommand(
            ->required();
        app.add_option("--n", o->n, "Number of trials to choose (default 20)");
        app.add_option("--postures", o->postures,
-                      "Candidate postures, CSV with coordinate columns in degrees / mm (default: a "
-                      "random grid)");
+                      "Candidate postures: a posture sheet (coordinate columns in degrees / mm, "
+                      "optional muscle and activation columns; default: a random grid)");
+       AddSheetOptions(app, o->sheet, "the --postures sheet");
        app.add_option("--grid", o->grid,
                       "Random grid size when no --postures file is given (default 400)");
        app.add_option("--seed", o->seed, "Grid seed (default 1)");
@@ -77,16 +80,17 @@ const bool kDesignRegistered = RegisterCommand(
                       "Expected noise sd per force component, N (default 0.002)");
        app.add_option("--noise-moment", o->noise_moment,
                       "Expected noise sd per moment component, N·m (default 5e-5)");
-       app.add_option("--muscle", o->muscles, "Muscles to stimulate (default: all)");
+       app.add_option("--muscle", o->muscles,
+                      "Muscles to stimulate, comma-separated or repeated (default: all)")
+           ->delimiter(',');
        app.add_option("-o,--output", o->output,
-                      "Write the chosen trials as a posture CSV (degrees / mm) here");
+                      "Write the chosen trials here as a posture sheet: coordinates (degrees / "
+                      "mm), muscle, activation and empty fx ... mz columns to fill in; `simulate "
+                      "--postures` and, once filled in, `fit` read it as is");
        app.add_flag("--json", o->json, "Print everything as JSON");
        return [o]() {
          Model model = LoadModel(o->model);
-         std::vector<std::string> ids;
-         for (const std::string& id : util::Split(o->effects, ",")) {
-           if (!util::Trim(id).empty()) ids.push_back(util::Trim(id));
-         }
+         const std::vector<std::string> ids = ParseList(o->effects);
          DesignOptions d;
          d.postures = o->n;
          d.candidates = o->grid;
@@ -100,22 +104,14 @@ const bool kDesignRegistered = RegisterCommand(
          DesignResult r =
              DesignExperiment(model, ids, o->postures.empty() ? nullptr : &candidates, d);
          if (!o->output.empty()) {
-           std::vector<std::string> muscles;
-           for (const Trial& t : r.chosen) muscles.push_back(t.muscle);
-           std::string csv = "# isowrench design: " + util::Join(ids, ",") +
-                             "; stimulate, row by row: " + util::Join(muscles, " ") + "\n";
-           std::vector<std::string> header;
-           for (const std::string& name : model.joint_names()) header.push_back(name);
-           csv += util::Join(header, ",") + "\n";
-           for (const Trial& t : r.chosen) {
-             std::vector<std::string> row;
-             for (int j = 0; j < model.dof_count(); ++j) {
-               row.push_back(
-                   util::FormatNumber(JointValueToUserUnits(model.joint(j).type, t.q[j]), 10));
-             }
-             csv += util::Join(row, ",") + "\n";
-           }
-           WriteTextFile(o->output, csv);
+           WriteTextFile(
+               o->output,
+               PostureSheetText(model, r.chosen,
+                                "isowrench design: " + util::Join(ids, ",") +
+                                    "; record each row's muscle at its activation and "
+                                    "fill in fx fy fz (N) mx my mz (N·m), or simulate "
+                                    "it: isowrench simulate " +
+                                    o->model.urdf + " --postures " + o->output + " -o data.csv"));
          }
          if (o->json) {
            nlohmann::json params = nlohmann::json::array();

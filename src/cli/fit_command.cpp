@@ -21,6 +21,7 @@ namespace {
 struct FitCommandOptions {
   ModelOptions model;
   std::string data;
+  TrialSheetOptions sheet;  ///< --delimiter, --decimal-comma, ... (AddSheetOptions)
   std::string output;
   std::string report_html;
   std::string report_markdown;
@@ -351,6 +352,7 @@ const bool kFitRegistered = RegisterCommand(
        auto o = std::make_shared<FitCommandOptions>();
        AddModelOptions(app, o->model, /*with_muscle=*/false);
        app.add_option("data", o->data, "Measured wrenches, CSV (format: docs/identification.md)");
+       AddSheetOptions(app, o->sheet, "the data");
        app.add_option("-o,--output", o->output,
                       "Write the augmented model (URDF + chosen effects) here");
        app.add_flag("--json", o->json, "Print everything as JSON");
@@ -448,7 +450,7 @@ const bool kFitRegistered = RegisterCommand(
          // the sample, the second (only when rows were left out) predicts every row.
          std::vector<Trial> trials;  // the fitted trials
          FitReport report = FitEffectsCsv(
-             model, o->data, options, TerminalProgress("reading " + o->data, o->progress),
+             model, o->data, o->sheet, options, TerminalProgress("reading " + o->data, o->progress),
              TerminalProgress("predicting every row of " + o->data, o->progress), &trials);
          if (!o->output.empty()) WriteAugmentedUrdf(report, o->output);
          FitReportOptions report_options;

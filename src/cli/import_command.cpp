@@ -13,19 +13,7 @@
 namespace isowrench::cli {
 namespace {
 
-// "tibia" or "tibia:0.01,-0.2,0" (m, in the body's frame).
-void ParseEndpoint(const std::string& text, OpenSimImportOptions& options) {
-  const size_t colon = text.find(':');
-  options.endpoint_body = util::Trim(text.substr(0, colon));
-  if (colon == std::string::npos) return;
-  std::vector<std::string> parts = util::Split(text.substr(colon + 1), ",");
-  if (parts.size() != 3) {
-    throw Error("--endpoint '" + text + "': the point after ':' must be three numbers x,y,z (m)");
-  }
-  for (int i = 0; i < 3; ++i) {
-    options.endpoint_point[i] = util::ParseDoubleOrThrow(parts[i], "--endpoint '" + text + "'");
-  }
-}
+// --endpoint "tibia" or "tibia:0.01,-0.2,0": ParseEndpoint of isowrench/frontend.hpp.
 
 // What the engine can evaluate, checked before anything is written: the URDF text read back
 // builds a Model (the joint and coordinate limits, couplings and muscles all validated), which

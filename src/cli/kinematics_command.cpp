@@ -6,6 +6,7 @@
 
 #include "cli/command.hpp"
 #include "isowrench/error.hpp"
+#include "isowrench/input_checks.hpp"
 #include "isowrench/io.hpp"
 #include "isowrench/kinematics.hpp"
 #include "isowrench/posture.hpp"
@@ -178,8 +179,11 @@ const bool kKinematicsRegistered = RegisterCommand({
         load.urdf = options->urdf;
         Model model = LoadModel(load);
         Eigen::VectorXd base = model.nominal_posture();
-        for (const std::string& assignment : options->posture)
-          base = ApplyPostureAssignments(model, base, assignment);
+        for (const std::string& assignment : options->posture) {
+          std::vector<std::string> warnings;
+          base = PostureFromUserText(model, base, assignment, &warnings);
+          WarnAll(warnings);
+        }
         std::vector<Eigen::VectorXd> postures = {base};
         if (!options->postures_csv.empty())
           postures = ReadPostureCsv(model, options->postures_csv, base);

@@ -7,6 +7,8 @@
 
 #include "cli/command.hpp"
 #include "isowrench/error.hpp"
+#include "isowrench/input_checks.hpp"
+#include "isowrench/io.hpp"
 
 namespace {
 
@@ -35,6 +37,19 @@ int main(int argc, char** argv) {
   std::sort(commands.begin(), commands.end(), [](const auto& a, const auto& b) {
     return a.order < b.order || (a.order == b.order && a.name < b.name);
   });
+  // An unknown command is a usage error, also with --help (CLI11 would print the main help and
+  // exit 0): the first argument that is not an option names the command.
+  if (argc > 1 && argv[1][0] != '-') {
+    const std::string name = argv[1];
+    std::vector<std::string> names;
+    for (const auto& command : commands) names.push_back(command.name);
+    if (std::find(names.begin(), names.end(), name) == names.end()) {
+      std::cerr << "isowrench: error: unknown command '" << name << "'"
+                << isowrench::DidYouMean(name, names) << "; the commands are "
+                << isowrench::util::Join(names, ", ") << " (isowrench --help)\n";
+      return 2;
+    }
+  }
   std::vector<std::pair<CLI::App*, std::function<int()>>> runners;
   for (const auto& command : commands) {
     CLI::App* sub = app.add_subcommand(command.name, command.description);

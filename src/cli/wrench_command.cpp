@@ -124,8 +124,8 @@ void PrintEvaluation(const Model& model, const WrenchEvaluation& e, const std::s
             << "  muscle       " << e.muscle << ": " << util::FormatNumber(e.muscle_force, 4)
             << " N, length " << util::FormatNumber(e.muscle_length * 1e3, 4) << " mm\n"
             << "  transducer   S_t = " << StiffnessText(t.stiffness) << ", axes "
-            << (t.axes_in_world ? "world" : "of link " + t.link)
-            << ", released: " << ReleasedText(t) << "\n";
+            << (t.axes_in_world ? "world" : "of link " + t.link) << ", "
+            << FormatRotation(t.rotation) << ", released: " << ReleasedText(t) << "\n";
   std::vector<std::string> springs, locked;
   for (int i = 0; i < model.dof_count(); ++i) {
     if (e.locked[static_cast<size_t>(i)]) {

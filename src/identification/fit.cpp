@@ -1626,6 +1626,8 @@ FitReport FitEvery(const Model& nominal, const std::vector<Trial>& trials,
   }
   ReportCorrelations(nominal, trials, current, options, &report);
   ReportVerdict(trials, current, options, &report);
+  for (const std::string& slip : UnitSlips(nominal, trials, nominal_prediction.wrench))
+    report.verdict_message += "; likely slip: " + slip;  // trial_csv.cpp (issue 26)
   if (report.verdict == FitVerdict::kUnexplained) {
     if (options.progress) options.progress("report: tracing the unexplained residual");
     ReportTrace(nominal, trials, current, options, &report);
@@ -1736,11 +1738,19 @@ FitReport FitEffects(const Model& nominal, const std::vector<Trial>& trials,
 FitReport FitEffectsCsv(const Model& nominal, const std::string& path, const FitOptions& options,
                         const TrialProgress& read_progress, const TrialProgress& check_progress,
                         std::vector<Trial>* fitted) {
+  return FitEffectsCsv(nominal, path, TrialSheetOptions(), options, read_progress, check_progress,
+                       fitted);
+}
+
+FitReport FitEffectsCsv(const Model& nominal, const std::string& path,
+                        const TrialSheetOptions& sheet, const FitOptions& options,
+                        const TrialProgress& read_progress, const TrialProgress& check_progress,
+                        std::vector<Trial>* fitted) {
   CheckSampleOptions(options);
   auto clock_start = std::chrono::steady_clock::now();
   TrialReservoir reservoir(options.max_fit_trials, options.sample_seed);
   const long rows = ForEachTrial(
-      nominal, path, [&](const Trial& t) { reservoir.Add(t); }, read_progress);
+      nominal, path, sheet, [&](const Trial& t) { reservoir.Add(t); }, read_progress);
   std::vector<Trial> sample = reservoir.Take();
   if (options.progress && static_cast<long>(sample.size()) < rows) {
     options.progress("fitting a uniform random sample of " + std::to_string(sample.size()) +
@@ -1752,7 +1762,7 @@ FitReport FitEffectsCsv(const Model& nominal, const std::string& path, const Fit
     if (options.progress) options.progress("predicting every row with the chosen effects");
     EveryTrialPass pass(nominal, report, options);
     ForEachTrial(
-        nominal, path, [&](const Trial& t) { pass.Add(t); }, check_progress);
+        nominal, path, sheet, [&](const Trial& t) { pass.Add(t); }, check_progress);
     const long again = pass.Finish(&report);
     if (again != rows) {
       throw Error("fit: " + path + " changed while it was read: " + std::to_string(rows) +

@@ -359,6 +359,15 @@ void ForEachSimulatedTrial(const Model& nominal, const AugmentedModel& truth,
   Eigen::VectorXd center = o.center.size() ? o.center : nominal.nominal_posture();
   if (center.size() != nominal.dof_count())
     throw Error("simulate: centre posture has the wrong size");
+  for (const Trial& t : o.at) {
+    if (t.q.size() != nominal.dof_count())
+      throw Error("simulate: a posture to simulate at has the wrong size");
+    if (!t.muscle.empty()) nominal.MuscleIndex(t.muscle);
+    if (std::isfinite(t.activation) && !(t.activation >= 0 && t.activation <= 1)) {
+      throw Error("simulate: activation " + std::to_string(t.activation) + " (line " +
+                  std::to_string(t.line) + ") must be in [0, 1]");
+    }
+  }
   auto names = std::make_shared<const std::vector<std::string>>(nominal.joint_names());
   // One seeded stream in three passes: postures and activations of every trial, then the noise
   // of every trial, then the signs of the gross outliers. The passes are interleaved chunk by
@@ -414,16 +423,19 @@ void ForEachSimulatedTrial(const Model& nominal, const AugmentedModel& truth,
     trials.assign(count, Trial());
     for (int i = 0; i < count; ++i) {
       Trial& t = trials[i];
+      const Trial* at =
+          o.at.empty() ? nullptr : &o.at[static_cast<size_t>(first + i) % o.at.size()];
       t.joint_names = names;
-      t.q = center;
+      t.q = at ? at->q : center;
       for (int j = 0; j < nominal.dof_count(); ++j) {
         if (!varied(j)) continue;
         double r =
             nominal.joint(j).type == JointType::kPrismatic ? o.prismatic_range : o.joint_range;
         t.q[j] += posture_rng.Uniform(-r, r);
       }
-      t.muscle = muscles[(first + i) % muscles.size()];
+      t.muscle = at && !at->muscle.empty() ? at->muscle : muscles[(first + i) % muscles.size()];
       t.activation = posture_rng.Uniform(o.activation_min, o.activation_max);
+      if (at && std::isfinite(at->activation)) t.activation = at->activation;
       t.line = first + i + 3;  // comment line + header line come first in the written file
     }
     Prediction p = PredictTrials(force_part, trials);

@@ -5,9 +5,11 @@
 #include <algorithm>
 #include <cmath>
 #include <fstream>
+#include <map>
 #include <sstream>
 
 #include "isowrench/error.hpp"
+#include "isowrench/input_checks.hpp"
 #include "util/text.hpp"
 
 namespace isowrench {
@@ -26,7 +28,8 @@ void ValidatePosture(const Model& model, const Eigen::VectorXd& q) {
 }
 
 double JointValueFromUserUnits(JointType type, double user_value) {
-  return type == JointType::kPrismatic ? user_value * 1e-3 : user_value * M_PI / 180.0;
+  // One constant factor: user_value * M_PI / 180 overflowed to inf above 5.7e307 deg.
+  return type == JointType::kPrismatic ? user_value * 1e-3 : user_value * (M_PI / 180.0);
 }
 
 double JointValueToUserUnits(JointType type, double model_value) {
@@ -37,12 +40,29 @@ void SetJointFromUserUnits(const Model& model, Eigen::VectorXd& q, const std::st
                            double value) {
   const CoordinateSpec& coordinate = FindCoordinate(model.description(), joint);
   if (!std::isfinite(value)) throw Error("posture of coordinate '" + joint + "' is not finite");
-  q[model.JointIndex(coordinate.name)] = JointValueFromUserUnits(coordinate.type, value);
+  const double q_value = JointValueFromUserUnits(coordinate.type, value);
+  const bool prismatic = coordinate.type == JointType::kPrismatic;
+  if (!(std::abs(q_value) <= (prismatic ? kImpossiblePrismatic : kImpossibleRevolute))) {
+    throw Error("posture of coordinate '" + joint + "': " + util::FormatNumber(value) +
+                (prismatic ? " mm" : " deg") + " cannot be a joint position (|value| > " +
+                util::FormatNumber(JointValueToUserUnits(
+                    coordinate.type, prismatic ? kImpossiblePrismatic : kImpossibleRevolute)) +
+                (prismatic ? " mm)" : " deg)"));
+  }
+  q[model.JointIndex(coordinate.name)] = q_value;
 }
 
 Eigen::VectorXd ApplyPostureAssignments(const Model& model, Eigen::VectorXd q,
                                         const std::string& assignments) {
+  return ApplyPostureAssignments(model, std::move(q), assignments, nullptr);
+}
+
+Eigen::VectorXd ApplyPostureAssignments(const Model& model, Eigen::VectorXd q,
+                                        const std::string& assignments,
+                                        std::vector<std::string>* warnings,
+                                        const std::string& label) {
   ValidatePosture(model, q);
+  std::map<std::string, std::string> items;  // coordinate -> the item that set it
   for (const std::string& item : util::Split(assignments, ",; ")) {
     size_t eq = item.find('=');
     if (eq == std::string::npos || eq == 0) {
@@ -53,6 +73,19 @@ Eigen::VectorXd ApplyPostureAssignments(const Model& model, Eigen::VectorXd q,
     double value =
         util::ParseDoubleOrThrow(item.substr(eq + 1), "posture of joint '" + joint + "'");
     SetJointFromUserUnits(model, q, joint, value);
+    items[FindCoordinate(model.description(), joint).name] = item;
+  }
+  if (warnings) warnings->clear();
+  if (warnings && !items.empty()) {  // only the values set here (the nominal ones warned at load)
+    std::vector<std::string> names;
+    for (const auto& entry : items) names.push_back(entry.first);
+    *warnings = PostureWarnings(
+        model.description(), q,
+        [&](const std::string& c) {
+          auto it = items.find(c);
+          return label + (it == items.end() ? std::string() : " " + it->second);
+        },
+        names, /*typed_in_user_units=*/true);
   }
   return q;
 }
@@ -67,6 +100,7 @@ std::vector<Eigen::VectorXd> ParsePostureCsv(const Model& model, const std::stri
   std::vector<std::string> names;
   std::vector<const CoordinateSpec*> columns;
   std::vector<Eigen::VectorXd> postures;
+  std::vector<bool> warned;  // per column: a plausibility warning was issued
   auto where = [&]() { return source + ":" + std::to_string(line_number) + ": "; };
   while (std::getline(in, line)) {
     ++line_number;
@@ -91,6 +125,7 @@ std::vector<Eigen::VectorXd> ParsePostureCsv(const Model& model, const std::stri
         }
         names.push_back(name);
       }
+      warned.assign(columns.size(), false);
       continue;
     }
     if (fields.size() != columns.size()) {
@@ -107,7 +142,27 @@ std::vector<Eigen::VectorXd> ParsePostureCsv(const Model& model, const std::stri
                     "' is not a finite number (" +
                     (columns[c]->type == JointType::kPrismatic ? "mm" : "degrees") + ")");
       }
-      q[model.JointIndex(columns[c]->name)] = JointValueFromUserUnits(columns[c]->type, value);
+      const double q_value = JointValueFromUserUnits(columns[c]->type, value);
+      const bool prismatic = columns[c]->type == JointType::kPrismatic;
+      if (!(std::abs(q_value) <= (prismatic ? kImpossiblePrismatic : kImpossibleRevolute))) {
+        throw Error(where() + "column '" + names[c] + "': " + fields[c] +
+                    (prismatic ? " mm" : " deg") + " cannot be a joint position");
+      }
+      q[model.JointIndex(columns[c]->name)] = q_value;
+    }
+    // Plausibility (warnings: input_checks.hpp), once per column.
+    for (size_t c = 0; c < columns.size(); ++c) {
+      if (warned[c] || fields[c].empty()) continue;
+      std::vector<std::string> w = PostureWarnings(
+          model.description(), q,
+          [&](const std::string&) {
+            return source + ":" + std::to_string(line_number) + ", column '" + names[c] + "'";
+          },
+          {columns[c]->name}, /*typed_in_user_units=*/true);
+      if (w.empty()) continue;
+      warned[c] = true;
+      w.back() += " (later rows of this column are not reported)";
+      WarnAll(w);
     }
     postures.push_back(q);
   }
@@ -126,6 +181,29 @@ std::vector<Eigen::VectorXd> ReadPostureCsv(const Model& model, const std::strin
   std::stringstream buffer;
   buffer << in.rdbuf();
   return ParsePostureCsv(model, buffer.str(), path, base);
+}
+
+Eigen::Vector3d RollPitchYaw(const Eigen::Matrix3d& R) {
+  // The URDF writer's convention (src/model/urdf_writer.cpp Rpy): R = Rz(yaw) Ry(pitch) Rx(roll).
+  const double pitch = std::asin(std::clamp(-R(2, 0), -1.0, 1.0));
+  double roll = 0.0;
+  double yaw = 0.0;
+  if (std::abs(std::cos(pitch)) > 1e-9) {
+    roll = std::atan2(R(2, 1), R(2, 2));
+    yaw = std::atan2(R(1, 0), R(0, 0));
+  } else {  // gimbal lock: everything in yaw
+    yaw = std::atan2(-R(0, 1), R(1, 1));
+  }
+  return Eigen::Vector3d(roll, pitch, yaw);
+}
+
+std::string FormatRotation(const Eigen::Matrix3d& rotation) {
+  const Eigen::Vector3d rpy = RollPitchYaw(rotation);
+  if (rpy.cwiseAbs().maxCoeff() < 1e-12) return "not rotated";
+  auto n = [](double v) { return util::FormatNumber(std::abs(v) < 1e-12 ? 0.0 : v, 4); };
+  const Eigen::Vector3d deg = rpy * 180.0 / M_PI;
+  return "rpy " + n(rpy[0]) + " " + n(rpy[1]) + " " + n(rpy[2]) + " rad (" + n(deg[0]) + "° " +
+         n(deg[1]) + "° " + n(deg[2]) + "°)";
 }
 
 std::string FormatPosture(const Model& model, const Eigen::VectorXd& q, bool all) {

@@ -136,6 +136,142 @@ const std::vector<std::string>& AllowedAttributes(const std::string& local_name)
   return it == kTables.end() ? kNone : it->second;
 }
 
+namespace {
+
+/// Where an isowrench element may stand: the local names of its allowed parents ("robot" for
+/// the top level). Elements not listed here (functions, and any new element) may stand anywhere
+/// their parent's reader accepts them.
+const std::map<std::string, std::vector<std::string>>& Placement() {
+  static const std::map<std::string, std::vector<std::string>> kPlacement = {
+      {"joint", {"robot"}},
+      {"transducer", {"robot"}},
+      {"muscle", {"robot"}},
+      {"posture", {"robot"}},
+      {"coordinate", {"robot"}},
+      {"coupling", {"robot"}},
+      {"point", {"isowrench:muscle"}},
+      {"moving", {"isowrench:point"}},
+      {"wrap", {"robot"}},
+      {"path_wrap", {"isowrench:muscle"}},
+  };
+  return kPlacement;
+}
+
+/// Top-level isowrench elements declared at most once per value of their key attribute ("" for
+/// an element declared at most once at all).
+const std::map<std::string, std::string>& UniqueKeys() {
+  static const std::map<std::string, std::string> kUnique = {
+      {"joint", "name"},      {"transducer", ""},    {"muscle", "name"}, {"posture", "joint"},
+      {"coordinate", "name"}, {"coupling", "joint"}, {"wrap", "name"},
+  };
+  return kUnique;
+}
+
+/// The xmlns declaration in scope for `prefix` ("" = the default namespace) at `e`, or null.
+const tinyxml2::XMLAttribute* NamespaceDeclaration(const tinyxml2::XMLElement& e,
+                                                   const std::string& prefix) {
+  const std::string name = prefix.empty() ? "xmlns" : "xmlns:" + prefix;
+  for (const tinyxml2::XMLNode* n = &e; n; n = n->Parent()) {
+    const tinyxml2::XMLElement* element = n->ToElement();
+    if (!element) continue;
+    for (const tinyxml2::XMLAttribute* a = element->FirstAttribute(); a; a = a->Next()) {
+      if (name == a->Name()) return a;
+    }
+  }
+  return nullptr;
+}
+
+/// The element carrying `declaration` at or above `e` (for its line number).
+const tinyxml2::XMLElement* Declarer(const tinyxml2::XMLElement& e,
+                                     const tinyxml2::XMLAttribute* declaration) {
+  for (const tinyxml2::XMLNode* n = &e; n; n = n->Parent()) {
+    const tinyxml2::XMLElement* element = n->ToElement();
+    if (!element) continue;
+    for (const tinyxml2::XMLAttribute* a = element->FirstAttribute(); a; a = a->Next()) {
+      if (a == declaration) return element;
+    }
+  }
+  return &e;
+}
+
+void CheckNamespace(const tinyxml2::XMLElement& e, const std::string& source) {
+  const std::string tag = e.Name();
+  const size_t colon = tag.find(':');
+  const std::string prefix = colon == std::string::npos ? "" : tag.substr(0, colon);
+  const std::string local = colon == std::string::npos ? tag : tag.substr(colon + 1);
+  if (prefix == "isowrench") return;
+  const tinyxml2::XMLAttribute* declaration = NamespaceDeclaration(e, prefix);
+  if (declaration && std::string(declaration->Value()) == kNamespaceUri) {
+    const tinyxml2::XMLElement* declarer = Declarer(e, declaration);
+    throw Error(
+        Line(source, e) + ": <" + tag + "> is in isowrench's namespace through " +
+        (prefix.empty() ? std::string("the default namespace") : "the prefix '" + prefix + "'") +
+        " (" + declaration->Name() + "=\"" + kNamespaceUri + "\" at line " +
+        std::to_string(declarer->GetLineNum()) +
+        "), but isowrench reads its elements only under the prefix isowrench:; write <" +
+        kTagPrefix + local + ">");
+  }
+  if (!prefix.empty() && !declaration && prefix != "xml") {
+    const bool ours = !AllowedAttributes(local).empty();
+    throw Error(
+        Line(source, e) + ": <" + tag + ">: the namespace prefix '" + prefix +
+        "' is declared nowhere (no xmlns:" + prefix + "=\"...\" on this element or above)" +
+        (ours ? "; isowrench's elements are written <" + std::string(kTagPrefix) + local + ">"
+              : std::string()));
+  }
+}
+
+}  // namespace
+
+void CheckDeclarations(const tinyxml2::XMLElement& robot, const std::string& source) {
+  // Namespaces and placement: iterative depth-first walk (input depth is unbounded).
+  std::vector<const tinyxml2::XMLElement*> stack{&robot};
+  while (!stack.empty()) {
+    const tinyxml2::XMLElement* e = stack.back();
+    stack.pop_back();
+    for (auto* c = e->LastChildElement(); c; c = c->PreviousSiblingElement()) stack.push_back(c);
+    CheckNamespace(*e, source);
+    const std::string tag = e->Name();
+    if (tag.rfind(kTagPrefix, 0) != 0) continue;
+    auto place = Placement().find(tag.substr(std::string(kTagPrefix).size()));
+    if (place == Placement().end()) continue;
+    const tinyxml2::XMLElement* parent = e->Parent() ? e->Parent()->ToElement() : nullptr;
+    const std::string parent_tag = parent ? parent->Name() : "";
+    const std::vector<std::string>& allowed = place->second;
+    if (std::find(allowed.begin(), allowed.end(), parent_tag) != allowed.end()) continue;
+    // Directly in <robot> or in an isowrench element, the parent's reader names what it expects;
+    // inside a standard element (a <link>, a <joint>, <gazebo>) nothing would read it.
+    if (parent_tag == "robot" || parent_tag.rfind(kTagPrefix, 0) == 0) continue;
+    std::vector<std::string> shown;
+    for (const std::string& a : allowed) shown.push_back("<" + a + ">");
+    throw Error(Line(source, *e) + ": <" + tag + "> stands inside <" + parent_tag + "> (line " +
+                std::to_string(parent ? parent->GetLineNum() : 0) +
+                "), where isowrench does not read it; it belongs directly inside " +
+                util::Join(shown, " or "));
+  }
+  // The same declaration twice.
+  std::map<std::string, const tinyxml2::XMLElement*> seen;  // "local\nkey" -> first element
+  for (auto* e = robot.FirstChildElement(); e; e = e->NextSiblingElement()) {
+    const std::string tag = e->Name();
+    if (tag.rfind(kTagPrefix, 0) != 0) continue;
+    const std::string local = tag.substr(std::string(kTagPrefix).size());
+    auto unique = UniqueKeys().find(local);
+    if (unique == UniqueKeys().end()) continue;
+    const char* key = unique->second.empty() ? "" : e->Attribute(unique->second.c_str());
+    if (!key) continue;  // the element's reader reports the missing attribute
+    auto [it, inserted] = seen.emplace(local + "\n" + key, e);
+    if (inserted) continue;
+    const std::string what = unique->second.empty()
+                                 ? "a second <" + tag + ">; a limb has one"
+                                 : "<" + tag + "> '" + key + "' is declared twice";
+    throw Error(Line(source, *e) + ": " + what + " (first at line " +
+                std::to_string(it->second->GetLineNum()) +
+                "); isowrench would not know which to use: keep one" +
+                (local == "joint" ? " (one element may carry role=, stiffness= and locked=)"
+                                  : std::string()));
+  }
+}
+
 void CheckExtensionAttributes(const tinyxml2::XMLElement& robot, const std::string& source) {
   // Iterative depth-first walk (no recursion: input depth is unbounded).
   std::vector<const tinyxml2::XMLElement*> stack;
@@ -155,67 +291,6 @@ void CheckExtensionAttributes(const tinyxml2::XMLElement& robot, const std::stri
       if (name.rfind("xmlns", 0) == 0) continue;
       throw Error(Line(source, *e) + ": <" + tag + "> has no attribute '" + name + "'" +
                   DidYouMean(name, allowed) + "; its attributes are " + util::Join(allowed, ", "));
-    }
-  }
-}
-
-void WarnImplausibleDimensions(const LimbDescription& d,
-                               const std::function<std::string(const std::string&)>& where) {
-  auto implausible = [](double length, double lo, double hi) {
-    return length > hi || (length > 0 && length < lo);
-  };
-  auto range = [](double lo, double hi) {
-    return util::FormatNumber(lo * 1000) + " mm .. " + util::FormatNumber(hi) + " m";
-  };
-  // Segment lengths: joint origin offsets (a chain of co-located joints has length 0).
-  std::map<std::string, Eigen::Isometry3d> frame;  // link -> world pose at the nominal posture
-  frame[d.root_link] = Eigen::Isometry3d::Identity();
-  for (const JointSpec& j : d.joints) {
-    double length = j.origin.translation().norm();
-    if (implausible(length, kMinSegmentLength, kMaxSegmentLength)) {
-      Warn(where(j.name) + ": joint '" + j.name + "' sits " + util::FormatNumber(length) +
-           " m from the origin of link '" + j.parent_link +
-           "', outside the plausible segment length of a limb (" +
-           range(kMinSegmentLength, kMaxSegmentLength) + "); URDF lengths are in metres");
-    }
-    double q = 0;
-    for (const auto& [name, value] : d.nominal_posture) {
-      if (name == j.name) q = value;
-    }
-    Eigen::Isometry3d motion = Eigen::Isometry3d::Identity();
-    if (j.type == JointType::kRevolute)
-      motion.linear() = Eigen::AngleAxisd(q, j.axis).toRotationMatrix();
-    if (j.type == JointType::kPrismatic) motion.translation() = q * j.axis;
-    auto parent = frame.find(j.parent_link);
-    if (parent != frame.end()) frame[j.child_link] = parent->second * j.origin * motion;
-  }
-  double endpoint = d.transducer.endpoint.norm();
-  if (implausible(endpoint, kMinSegmentLength, kMaxSegmentLength)) {
-    Warn(where("") + ": the endpoint sits " + util::FormatNumber(endpoint) +
-         " m from the origin of link '" + d.transducer.link +
-         "', outside the plausible segment length of a limb (" +
-         range(kMinSegmentLength, kMaxSegmentLength) + "); URDF lengths are in metres");
-  }
-  for (const MuscleSpec& m : d.muscles) {
-    double length = 0;
-    bool known = true;
-    Eigen::Vector3d previous = Eigen::Vector3d::Zero();
-    for (size_t i = 0; i < m.path.size(); ++i) {
-      auto f = frame.find(m.path[i].link);
-      if (f == frame.end() || !m.path[i].position.allFinite()) {
-        known = false;
-        break;
-      }
-      Eigen::Vector3d p = f->second * m.path[i].position;
-      if (i > 0) length += (p - previous).norm();
-      previous = p;
-    }
-    if (known && std::isfinite(length) &&
-        (length < kMinMuscleLength || length > kMaxMuscleLength)) {
-      Warn(where("muscle:" + m.name) + ": muscle '" + m.name + "' is " +
-           util::FormatNumber(length) +
-           " m long at the nominal posture, outside the plausible muscle length of a limb (" +
-           range(kMinMuscleLength, kMaxMuscleLength) + "); URDF lengths are in metres");
     }
   }
 }

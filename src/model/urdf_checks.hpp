@@ -1,8 +1,9 @@
 #pragma once
 // Private checks of a URDF before and after it is read (src/model/urdf_reader.cpp calls them):
 // the joint tree's structure (so urdfdom never sees a loop), the attributes of every isowrench:
-// element (one table per element, with "did you mean" suggestions), and the plausibility of the
-// limb's dimensions (warnings).
+// element (one table per element, with "did you mean" suggestions), and declarations made twice
+// or where nothing reads them. Plausibility warnings are DescriptionWarnings()
+// (include/isowrench/input_checks.hpp), shared with every other reader.
 
 #include <tinyxml2.h>
 
@@ -25,13 +26,23 @@ void CheckJointTree(const tinyxml2::XMLElement& robot, const std::string& source
 ///         'stiffness'?); its attributes are name, role, stiffness, locked".
 void CheckExtensionAttributes(const tinyxml2::XMLElement& robot, const std::string& source);
 
+/// isowrench's XML namespace, as the writer declares it: xmlns:isowrench="urn:isowrench:urdf:1".
+inline constexpr const char* kNamespaceUri = "urn:isowrench:urdf:1";
+
+/// Declarations the reader would otherwise drop or silently override, each an error naming both
+/// lines involved:
+///  - an element in isowrench's namespace under another prefix (xmlns:iw="urn:isowrench:urdf:1"
+///    then <iw:muscle>, or a default xmlns= bound to it): isowrench reads the prefix isowrench:;
+///  - an element whose prefix no xmlns: declares (<iw:muscle> with no xmlns:iw);
+///  - an isowrench: element inside a standard element, where nothing reads it
+///    (<isowrench:muscle> inside a <link>): table Placement() in urdf_checks.cpp;
+///  - the same declaration twice: two <isowrench:joint name="base_z">, two
+///    <isowrench:transducer>, two postures of one coordinate...: table UniqueKeys().
+/// @throws Error "<source>:<line>: ... (first at line <n>)".
+void CheckDeclarations(const tinyxml2::XMLElement& robot, const std::string& source);
+
 /// The attribute names an isowrench element (local name, e.g. "joint") accepts; empty for an
 /// element without a table.
 const std::vector<std::string>& AllowedAttributes(const std::string& local_name);
-
-/// Warn (isowrench::Warn) about segment lengths and muscle lengths outside the plausible ranges
-/// of include/isowrench/input_checks.hpp. `where(joint_name)` gives "file:line" for messages.
-void WarnImplausibleDimensions(const LimbDescription& d,
-                               const std::function<std::string(const std::string&)>& where);
 
 }  // namespace isowrench::urdf_checks

@@ -371,6 +371,18 @@ void ApplyJointTags(const tinyxml2::XMLElement& robot, const std::string& source
     c->locked = Flag(source, *e, "locked", c->locked);
     if (!c->joint.empty()) continue;  // role and stiffness went onto the joint
     c->role = RoleFromName(source, *e, e->Attribute("role") ? e->Attribute("role") : "", name);
+    if (c->role == JointRole::kBase && c->type != JointType::kPrismatic) {
+      int declared = 0;
+      for (auto* k = robot.FirstChildElement("isowrench:coordinate"); k;
+           k = k->NextSiblingElement("isowrench:coordinate")) {
+        if (k->Attribute("name", name.c_str())) declared = k->GetLineNum();
+      }
+      Fail(source, *e,
+           "coordinate '" + name + "' (line " + std::to_string(declared) +
+               ") is revolute but has role=\"base\": base dofs are the "
+               "translations of the skeleton's fixation (type=\"prismatic\"); a rotation held by "
+               "a stiffness is role=\"extra\"");
+    }
     if (e->Attribute("stiffness")) {
       c->stiffness = Number(source, *e, "stiffness", 0.0);
       CheckStiffnessValue(c->stiffness, Line(source, *e) + ": <isowrench:joint name=\"" + name +

@@ -5,7 +5,6 @@
 // for the standard robot model. Numbers are parsed with std::from_chars (locale independent).
 
 #include <tinyxml2.h>
-#include <urdf_parser/urdf_parser.h>
 
 #include <algorithm>
 #include <cmath>
@@ -21,6 +20,7 @@
 #include "model/function_xml.hpp"
 #include "model/urdf_checks.hpp"
 #include "model/urdf_coordinates.hpp"
+#include "model/urdf_standard.hpp"
 #include "util/text.hpp"
 
 namespace isowrench {
@@ -430,6 +430,10 @@ LimbDescription ReadUrdfString(const std::string& xml, const std::string& source
   // Before anything walks the joints: urdfdom and the chain walk below loop forever on a
   // joint loop, so the tree structure is checked first; then every isowrench: attribute.
   urdf_checks::CheckJointTree(*robot, r.source);
+  // Everything urdfdom would reject (it only logs why, and some of its messages use the file's
+  // text as a printf format: urdf_standard.hpp), then every isowrench: attribute.
+  urdf_standard::CheckStandardElements(*robot, r.source);
+  urdf_checks::CheckDeclarations(*robot, r.source);
   urdf_checks::CheckExtensionAttributes(*robot, r.source);
 
   // Pass 1 (tinyxml2): joint types we refuse, line numbers for messages.
@@ -453,13 +457,13 @@ LimbDescription ReadUrdfString(const std::string& xml, const std::string& source
     link_elements[r.Attribute(e, "name", true)] = e;
   }
 
-  // Pass 2 (urdfdom): the standard robot model.
-  urdf::ModelInterfaceSharedPtr urdf_model = urdf::parseURDF(xml);
+  // Pass 2 (urdfdom, silenced): the standard robot model.
+  urdf::ModelInterfaceSharedPtr urdf_model = urdf_standard::ParseQuietly(xml);
   if (!urdf_model) {
     throw Error(r.source +
-                ": urdfdom rejected the robot description (a joint without "
-                "<limit>, a link with two parents, or a missing link; see the "
-                "message printed above)");
+                ": urdfdom rejected the robot description although isowrench's checks of it "
+                "passed (its XML parser, TinyXML 1, may read this file differently); please "
+                "report it with the file");
   }
   urdf::LinkConstSharedPtr root = urdf_model->getRoot();
   if (!root) throw Error(r.source + ": the URDF has no root link");
@@ -562,7 +566,8 @@ LimbDescription ReadUrdfString(const std::string& xml, const std::string& source
   TransducerSpec& t = d.transducer;
   t.link = endpoint_link;
   t.endpoint = r.Vector3(transducer, "xyz");
-  t.rotation = RotationFromRpy(r.Vector3(transducer, "rpy"));
+  const Eigen::Vector3d transducer_rpy = r.Vector3(transducer, "rpy");
+  t.rotation = RotationFromRpy(transducer_rpy);
   std::string axes = r.Attribute(transducer, "axes", false);
   if (axes.empty() || axes == "world") {
     t.axes_in_world = true;
@@ -611,6 +616,13 @@ LimbDescription ReadUrdfString(const std::string& xml, const std::string& source
       if (role.empty() || role == "limb") {
         j.role = JointRole::kLimb;
       } else if (role == "base") {
+        if (j.type != JointType::kPrismatic) {
+          r.Fail(e, "joint '" + j.name + "' (line " +
+                        std::to_string(joint_elements.at(j.name)->GetLineNum()) +
+                        ") is revolute but has role=\"base\": base dofs are the translations of "
+                        "the skeleton's fixation, prismatic joints (docs/urdf-extensions.md); a "
+                        "rotation held by a stiffness is role=\"extra\"");
+        }
         j.role = JointRole::kBase;
       } else if (role == "extra") {
         j.role = JointRole::kExtra;
@@ -697,18 +709,55 @@ LimbDescription ReadUrdfString(const std::string& xml, const std::string& source
   ReadWrapObjects(r, *robot, d, check_link);
   CheckPathWraps(r, d, path_wrap_elements);
   urdf_coordinates::ApplyJointTags(*robot, r.source, d);
-  urdf_checks::WarnImplausibleDimensions(d, [&](const std::string& joint) {
-    if (joint.rfind("muscle:", 0) == 0) {
-      std::string muscle = joint.substr(7);
+  // Plausibility (warnings, never errors): rotations written in degrees, then the description's
+  // dimensions and nominal posture, each located at its line.
+  std::vector<std::string> warnings;
+  for (const JointSpec& j : d.joints) {
+    const tinyxml2::XMLElement* origin = joint_elements.at(j.name)->FirstChildElement("origin");
+    const char* rpy = origin ? origin->Attribute("rpy") : nullptr;
+    std::vector<std::string> parts = rpy ? util::Split(rpy, " ") : std::vector<std::string>();
+    if (parts.size() != 3) continue;
+    Eigen::Vector3d angles;
+    for (int k = 0; k < 3; ++k) util::ParseDouble(parts[static_cast<size_t>(k)], &angles[k]);
+    std::string w =
+        RotationWarning(angles, r.Where(origin) + ": joint '" + j.name + "': <origin> rpy");
+    if (!w.empty()) warnings.push_back(w);
+  }
+  {
+    std::string w =
+        RotationWarning(transducer_rpy, r.Where(transducer) + ": <isowrench:transducer> rpy");
+    if (!w.empty()) warnings.push_back(w + "; the wrench header shows the rotation it gives");
+  }
+  auto where = [&](const std::string& name) -> std::string {
+    if (name.rfind("muscle:", 0) == 0) {
+      const std::string muscle = name.substr(7);
       for (auto* e = robot->FirstChildElement("isowrench:muscle"); e;
            e = e->NextSiblingElement("isowrench:muscle")) {
         const char* n = e->Attribute("name");
         if (n && muscle == n) return r.Where(e);
       }
     }
-    auto it = joint_elements.find(joint);
+    if (name.rfind("posture:", 0) == 0) {
+      const std::string coordinate = name.substr(8);
+      for (auto* e = robot->FirstChildElement("isowrench:posture"); e;
+           e = e->NextSiblingElement("isowrench:posture")) {
+        const char* n = e->Attribute("joint");
+        if (n && coordinate == n) return r.Where(e) + ": <isowrench:posture>";
+      }
+      for (auto* e = robot->FirstChildElement("isowrench:coordinate"); e;
+           e = e->NextSiblingElement("isowrench:coordinate")) {
+        const char* n = e->Attribute("name");
+        if (n && coordinate == n) return r.Where(e) + ": default";
+      }
+      auto it = joint_elements.find(coordinate);
+      return it != joint_elements.end() ? r.Where(it->second) + ": nominal posture"
+                                        : r.source + ": nominal posture";
+    }
+    auto it = joint_elements.find(name);
     return it != joint_elements.end() ? r.Where(it->second) : r.Where(transducer);
-  });
+  };
+  for (std::string& w : DescriptionWarnings(d, where)) warnings.push_back(std::move(w));
+  WarnAll(warnings);
   return d;
 }
 

@@ -8,6 +8,7 @@
 #include <sstream>
 
 #include "isowrench/error.hpp"
+#include "isowrench/input_checks.hpp"
 #include "isowrench/muscle.hpp"
 #include "isowrench/opensim.hpp"
 #include "model/model_impl.hpp"
@@ -745,6 +746,16 @@ OpenSimImport ImportOpenSimString(const std::string& xml, const std::string& sou
   std::map<std::string, std::string> coupled = ApplyCouplers(model);
   Builder builder(model, options, std::move(coupled));
   builder.Build();
+  // Plausibility as for a URDF, the endpoint point given in the options included (one place:
+  // DescriptionWarnings, include/isowrench/input_checks.hpp).
+  const Eigen::Vector3d& p = options.endpoint_point;
+  for (std::string& w : DescriptionWarnings(builder.out.description, [&](const std::string& name) {
+         return name.empty() ? "endpoint point " + Num(p.x()) + "," + Num(p.y()) + "," +
+                                   Num(p.z()) + " (m in body '" + options.endpoint_body + "')"
+                             : source;
+       })) {
+    builder.out.warnings.push_back(std::move(w));
+  }
   return std::move(builder.out);
 }
 
