@@ -15,6 +15,7 @@
 #include <istream>
 #include <map>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -394,6 +395,15 @@ struct ResidualStats {
   int parameter_count = 0;
 };
 
+/// Whether a candidate was cross-validated (CandidateFit::cv_status).
+enum class CvStatus {
+  kNotRun,  ///< not cross-validated: it could not win (not converged, not identifiable, below
+            ///< the ΔBIC threshold), a better one passed first, FitOptions::cv_candidates were
+            ///< tried already, or there are fewer trials than folds
+  kFailed,  ///< a fold's fit or its held-out prediction failed
+  kDone,    ///< cv_error holds the held-out cost per residual
+};
+
 /// One candidate fitted in one round.
 struct CandidateFit {
   Effect effect;
@@ -407,7 +417,10 @@ struct CandidateFit {
   double aic = 0.0;        ///< AICc on chi2 (known-sd Gaussian likelihood, constants dropped)
   double bic = 0.0;        ///< chi2 + k ln(n)
   double delta_bic = 0.0;  ///< BIC of the current model minus this BIC (> 0: better)
-  double cv_error = -1.0;  ///< held-out chi2 per residual (K-fold); < 0 when not computed
+  CvStatus cv_status = CvStatus::kNotRun;  ///< whether cv_error was computed
+  /// Held-out robust cost per residual (K-fold cross-validation; 1 = at the noise), when
+  /// cv_status is kDone (0 otherwise).
+  double cv_error = 0.0;
   bool identifiable = true;
   std::string identifiability;  ///< why not identifiable (sensitivity, correlation), or ""
   bool converged = false;
@@ -431,7 +444,8 @@ struct FitRound {
   /// ΔBIC an effect needed in this round (min_bic_improvement + look-elsewhere term).
   double bic_threshold = 0.0;
   std::vector<CandidateFit> candidates;  ///< sorted best BIC first
-  int chosen = -1;  ///< index in candidates, -1 when nothing earned its parameters
+  /// Index in candidates of the winner; empty when nothing earned its parameters.
+  std::optional<size_t> chosen;
   /// Effect ids indistinguishable from the winner at these postures (BIC within
   /// FitOptions::indistinguishable_bic and passing the thresholds).
   std::vector<std::string> indistinguishable;

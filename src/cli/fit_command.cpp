@@ -101,7 +101,8 @@ nlohmann::json CandidateJson(const CandidateFit& f) {
                       {"verdict", f.verdict},
                       {"screened_out", f.screened_out},
                       {"screen_delta_bic", f.screen_delta_bic}};
-  j["cv_error"] = f.cv_error >= 0 ? nlohmann::json(f.cv_error) : nlohmann::json(nullptr);
+  j["cv_error"] =
+      f.cv_status == CvStatus::kDone ? nlohmann::json(f.cv_error) : nlohmann::json(nullptr);
   return j;
 }
 
@@ -146,8 +147,8 @@ nlohmann::json ReportJson(const FitReport& r, const std::string& urdf, const std
          {"bic_threshold", round.bic_threshold},
          {"cv_before", round.cv_before},
          {"candidates", c},
-         {"chosen", round.chosen >= 0 ? nlohmann::json(round.candidates[round.chosen].effect.id)
-                                      : nlohmann::json(nullptr)},
+         {"chosen", round.chosen ? nlohmann::json(round.candidates[*round.chosen].effect.id)
+                                 : nlohmann::json(nullptr)},
          {"indistinguishable", round.indistinguishable},
          {"summary", round.summary}});
   }
@@ -253,9 +254,10 @@ void PrintReport(const FitReport& r, const FitCommandOptions& o) {
               << "  candidate                        k      ΔBIC  held-out  verdict\n";
     for (const CandidateFit& f : round.candidates) {
       char line[160];
-      std::snprintf(line, sizeof(line), "  %-30s %3zu %9s %9s  ", f.effect.id.c_str(),
-                    f.effect.parameters.size(), util::FormatNumber(f.delta_bic, 4).c_str(),
-                    f.cv_error >= 0 ? util::FormatNumber(f.cv_error, 4).c_str() : "-");
+      std::snprintf(
+          line, sizeof(line), "  %-30s %3zu %9s %9s  ", f.effect.id.c_str(),
+          f.effect.parameters.size(), util::FormatNumber(f.delta_bic, 4).c_str(),
+          f.cv_status == CvStatus::kDone ? util::FormatNumber(f.cv_error, 4).c_str() : "-");
       std::cout << line << f.verdict << "\n";
     }
   }

@@ -124,9 +124,9 @@ std::vector<std::string> CoactivatedMuscles(const AugmentedModel& model);
 Eigen::VectorXd NominalJacobianColumn(const Model& model, const std::string& joint);
 
 /// Muscle length of `muscle` at each trial's recorded posture (m); NaN where it cannot be
-/// evaluated.
+/// evaluated (`failure`, if given, receives the first reason).
 std::vector<double> MuscleLengths(const Model& model, const std::string& muscle,
-                                  const std::vector<Trial>& trials);
+                                  const std::vector<Trial>& trials, std::string* failure = nullptr);
 
 /// Two effects that cannot both be in one model (same id, or one excludes the other).
 bool Excluded(const Effect& a, const Effect& b);

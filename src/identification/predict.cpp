@@ -257,7 +257,7 @@ Eigen::VectorXd NominalJacobianColumn(const Model& model, const std::string& joi
 }
 
 std::vector<double> MuscleLengths(const Model& model, const std::string& muscle,
-                                  const std::vector<Trial>& trials) {
+                                  const std::vector<Trial>& trials, std::string* failure) {
   std::vector<double> out(trials.size(), std::numeric_limits<double>::quiet_NaN());
   Data ws(model);
   TrialMapper mapper(model);
@@ -265,14 +265,18 @@ std::vector<double> MuscleLengths(const Model& model, const std::string& muscle,
   int index = -1;
   try {
     index = model.MuscleIndex(muscle);
-  } catch (const Error&) {
+  } catch (const Error& e) {
+    if (failure) *failure = e.what();
     return out;
   }
   for (size_t k = 0; k < trials.size(); ++k) {
     try {
       mapper.Map(trials[k], &q);
       out[k] = ComputeMuscleTorque(model, ws, q, index, 1.0).length;
-    } catch (const Error&) {
+    } catch (const Error& e) {
+      // NaN: the trial is left out of this muscle's length trend; the caller counts it.
+      if (failure && failure->empty())
+        *failure = "trial at line " + std::to_string(trials[k].line) + ": " + e.what();
     }
   }
   return out;
