@@ -163,6 +163,11 @@ struct Effect {
   std::vector<std::string> confounders;
   /// Effect ids that cannot be in one model with this one (they edit the same thing).
   std::vector<std::string> excludes;
+  /// Effect ids this effect contains (any change of theirs is, to first order, one of its own,
+  /// e.g. crosstalk contains misalignment and sensor_origin): added after them it replaces
+  /// them, and they cannot be added after it. After the rounds a chosen effect is replaced by
+  /// the contained ones when they explain the data with a lower BIC.
+  std::vector<std::string> contains;
 };
 
 /// What the registry says about one kind (for --list-effects and the docs).
@@ -294,8 +299,10 @@ struct SimulationOptions {
 std::vector<Trial> SimulateTrials(const Model& nominal, const AugmentedModel& truth,
                                   const SimulationOptions& options);
 
-/// Parse "NAME=V1,V2,..." (user units) into an applied effect of CandidateEffects(model).
-/// A single value for a multi-parameter effect is refused.
+/// Parse "NAME=V1,V2,..." (user units, every parameter in order) or "NAME=P1:V1,P2:V2,..."
+/// (named parameters; the others keep their neutral value, e.g. "crosstalk=mx_fy:0.02") into an
+/// applied effect of CandidateEffects(model). A single value for a multi-parameter effect is
+/// refused.
 /// @throws Error naming the effect and listing the known ids.
 AppliedEffect ParseEffectAssignment(const Model& model, const std::string& text);
 
@@ -417,6 +424,10 @@ struct CandidateFit {
   double aic = 0.0;        ///< AICc on chi2 (known-sd Gaussian likelihood, constants dropped)
   double bic = 0.0;        ///< chi2 + k ln(n)
   double delta_bic = 0.0;  ///< BIC of the current model minus this BIC (> 0: better)
+  /// Parameters the candidate adds to the current model, what the criteria charge it (BIC
+  /// penalty added_parameters x ln n): its own parameters, less those of chosen effects it
+  /// replaces (Effect::contains).
+  int added_parameters = 0;
   CvStatus cv_status = CvStatus::kNotRun;  ///< whether cv_error was computed
   /// Held-out robust cost per residual (K-fold cross-validation; 1 = at the noise), when
   /// cv_status is kDone (0 otherwise).

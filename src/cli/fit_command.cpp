@@ -93,6 +93,7 @@ nlohmann::json CandidateJson(const CandidateFit& f) {
                       {"aicc", f.aic},
                       {"bic", f.bic},
                       {"delta_bic", f.delta_bic},
+                      {"added_parameters", f.added_parameters},
                       {"identifiable", f.identifiable},
                       {"identifiability", f.identifiability},
                       {"converged", f.converged},
@@ -255,8 +256,8 @@ void PrintReport(const FitReport& r, const FitCommandOptions& o) {
     for (const CandidateFit& f : round.candidates) {
       char line[160];
       std::snprintf(
-          line, sizeof(line), "  %-30s %3zu %9s %9s  ", f.effect.id.c_str(),
-          f.effect.parameters.size(), util::FormatNumber(f.delta_bic, 4).c_str(),
+          line, sizeof(line), "  %-30s %3d %9s %9s  ", f.effect.id.c_str(), f.added_parameters,
+          util::FormatNumber(f.delta_bic, 4).c_str(),
           f.cv_status == CvStatus::kDone ? util::FormatNumber(f.cv_error, 4).c_str() : "-");
       std::cout << line << f.verdict << "\n";
     }

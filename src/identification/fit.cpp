@@ -5,6 +5,7 @@
 #include <chrono>
 #include <cmath>
 
+#include "identification/effect_type.hpp"
 #include "identification/fit_stages.hpp"
 #include "isowrench/error.hpp"
 #include "util/text.hpp"
@@ -59,6 +60,19 @@ FitReport FitEvery(const Model& nominal, const std::vector<Trial>& trials,
   if (nominal_prediction.failed) {
     throw Error("fit: the nominal model cannot predict the trials: " + nominal_prediction.message);
   }
+  // Candidates restricted to what these trials can determine (crosstalk terms whose source
+  // axes the wrenches never vary along); each restriction is a note.
+  for (size_t e = 0; e < library.size();) {
+    const std::string note =
+        TypeOf(library[e])
+            .RestrictToData(nominal, trials, nominal_prediction.wrench, options, &library[e]);
+    if (!note.empty()) report.notes.push_back(note);
+    if (library[e].parameters.empty()) {
+      library.erase(library.begin() + static_cast<long>(e));
+    } else {
+      ++e;
+    }
+  }
   report.before = ComputeResidualStats(trials, nominal_prediction.wrench, 0, options);
   report.fitted_before = report.before;
   Current current = MakeCurrent(nominal.description(), {}, {}, trials, options);
@@ -88,8 +102,7 @@ FitReport FitEvery(const Model& nominal, const std::vector<Trial>& trials,
   }
 
   if (options.progress) options.progress("report: residuals, correlations, verdict");
-  std::string note;
-  if (Simplify(nominal, trials, options, &current, &note)) report.notes.push_back(note);
+  Simplify(nominal, trials, options, &current, &report.notes);
 
   report.chosen = current.effects;
   report.chosen_fits = current.fits;

@@ -209,15 +209,20 @@ struct JointFit {
 JointFit FitJointly(const LimbDescription& nominal, const std::vector<AppliedEffect>& effects,
                     const std::vector<Trial>& trials, const FitOptions& options);
 
-/// Simplify: a per-axis base compliance is replaced by the isotropic one when that lowers the
-/// BIC (the nested, simpler effect explains the data as well).
+/// Simplify: a per-axis base compliance is replaced by the isotropic one, and an effect that
+/// contains others (Effect::contains) by the subset of them with the lowest BIC, when that
+/// lowers the BIC (the nested, simpler effects explain the data as well). One note per change.
 bool Simplify(const Model& nominal, const std::vector<Trial>& trials, const FitOptions& options,
-              Current* current, std::string* note);
+              Current* current, std::vector<std::string>* notes);
 
 // ---- screen.cpp -------------------------------------------------------------------------------
 
-/// The candidates a round may try (not chosen yet, not excluded by a chosen effect).
+/// The candidates a round may try: not chosen yet, not excluded by a chosen effect, not
+/// contained in one (a candidate that contains chosen effects replaces them).
 std::vector<Effect> Eligible(const std::vector<Effect>& library, const Current& current);
+
+/// The chosen effects a candidate is fitted with: all but those it contains (it replaces them).
+std::vector<AppliedEffect> Kept(const std::vector<AppliedEffect>& chosen, const Effect& candidate);
 
 /// Whitened, robust-row-scaled sensitivity columns of context `c` at internal x0: column j is
 /// (P(x0 + step_j e_j) - P(x0)) / step_j; `r` receives the scaled residual at x0. False (with

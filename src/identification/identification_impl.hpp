@@ -130,5 +130,7 @@ std::vector<double> MuscleLengths(const Model& model, const std::string& muscle,
 
 /// Two effects that cannot both be in one model (same id, or one excludes the other).
 bool Excluded(const Effect& a, const Effect& b);
+/// `a` contains `b` (Effect::contains names b's id).
+bool Contains(const Effect& a, const Effect& b);
 
 }  // namespace isowrench::ident

@@ -31,8 +31,8 @@ std::vector<CandidateFit> FitCandidates(const LimbDescription& nominal, const Cu
   std::vector<CandidateFit> fits(fit.size());
   solutions->assign(fit.size(), {});
   ParallelFor(fit.size(), options, [&](size_t i) {
-    fits[i] = FitOnSubset(base, current.effects, candidates[fit[i]], trials, all, options, nullptr,
-                          true, &(*solutions)[i]);
+    fits[i] = FitOnSubset(base, Kept(current.effects, candidates[fit[i]]), candidates[fit[i]],
+                          trials, all, options, nullptr, true, &(*solutions)[i]);
   });
   return fits;
 }
@@ -55,8 +55,9 @@ void CrossValidate(const LimbDescription& nominal, const Current& current,
     if (!f.converged || !f.identifiable || f.delta_bic < threshold) continue;
     ++done;
     const std::vector<double>& start = solutions.at(f.effect.id);
+    const std::vector<AppliedEffect> kept = Kept(current.effects, f.effect);
     std::vector<Effect> free;
-    for (const AppliedEffect& a : current.effects) free.push_back(a.effect);
+    for (const AppliedEffect& a : kept) free.push_back(a.effect);
     free.push_back(f.effect);
     // Per-trial factors are solved on the held-out rows themselves (one of six residual dofs
     // per row): their cost is inflated by 6 / 5 to stay comparable.
@@ -67,8 +68,8 @@ void CrossValidate(const LimbDescription& nominal, const Current& current,
     std::vector<char> fold_ok(fold_count, 0);
     ParallelFor(fold_count, options, [&](size_t fold) {
       std::vector<double> x;
-      CandidateFit g = FitOnSubset(base, current.effects, f.effect, trials, folds.train[fold],
-                                   options, &start, false, &x);
+      CandidateFit g =
+          FitOnSubset(base, kept, f.effect, trials, folds.train[fold], options, &start, false, &x);
       if (!g.converged) return;
       Context c = MakeContext(base, free, trials, folds.test[fold], options);
       std::vector<Vector6d> prediction;
@@ -138,6 +139,14 @@ void Select(FitRound* r, bool cross_validated, const FitOptions& options) {
       }
     }
   }
+}
+
+/// Parameters a candidate adds to the current model (what its BIC penalty counts): the model
+/// with it (replacing what it contains) less the current one.
+int AddedParameters(const Current& current, const Effect& candidate, size_t trial_count) {
+  std::vector<AppliedEffect> with = Kept(current.effects, candidate);
+  with.push_back({candidate, {}});
+  return TotalParameters(with, static_cast<int>(trial_count)) - current.parameters;
 }
 
 }  // namespace
@@ -212,8 +221,11 @@ JointFit FitJointly(const LimbDescription& nominal, const std::vector<AppliedEff
   return out;
 }
 
-bool Simplify(const Model& nominal, const std::vector<Trial>& trials, const FitOptions& options,
-              Current* current, std::string* note) {
+namespace {
+
+/// A per-axis base compliance replaced by the isotropic one (start: the geometric mean).
+bool SimplifyBase(const Model& nominal, const std::vector<Trial>& trials, const FitOptions& options,
+                  Current* current, std::string* note) {
   const int n = static_cast<int>(6 * trials.size());
   for (size_t i = 0; i < current->effects.size(); ++i) {
     if (current->effects[i].effect.kind != "base_per_axis") continue;
@@ -240,6 +252,89 @@ bool Simplify(const Model& nominal, const std::vector<Trial>& trials, const FitO
     return true;
   }
   return false;
+}
+
+/// An effect that contains others replaced by the subset of them with the lowest BIC (each
+/// subset refitted jointly with the other chosen effects, the contained effects from their
+/// initial values), when that BIC is below the current one.
+bool SimplifyContained(const Model& nominal, const std::vector<Trial>& trials,
+                       const FitOptions& options, Current* current, std::string* note) {
+  const int n = static_cast<int>(6 * trials.size());
+  const bool sd_stated = AllSd(trials);
+  const std::vector<Effect> library = CandidateEffects(nominal);
+  for (size_t i = 0; i < current->effects.size(); ++i) {
+    const Effect& big = current->effects[i].effect;
+    std::vector<Effect> parts;
+    for (const std::string& id : big.contains) {
+      for (const Effect& e : library) {
+        if (e.id == id) parts.push_back(e);
+      }
+    }
+    if (parts.empty() || parts.size() > 8) continue;
+    const double bic_now = Bic(current->cost, n, current->parameters, sd_stated);
+    double best_bic = bic_now;
+    JointFit best;
+    std::vector<std::string> best_ids;
+    for (unsigned mask = 0; mask < (1u << parts.size()); ++mask) {
+      std::vector<AppliedEffect> alt;
+      std::vector<std::string> ids;
+      for (size_t e = 0; e < current->effects.size(); ++e) {
+        if (e != i) alt.push_back(current->effects[e]);
+      }
+      for (size_t p = 0; p < parts.size(); ++p) {
+        if (!(mask & (1u << p))) continue;
+        std::vector<double> start;
+        for (const EffectParameter& q : parts[p].parameters) start.push_back(q.initial);
+        alt.push_back({parts[p], start});
+        ids.push_back(parts[p].id);
+      }
+      double bic_alt = 0.0;
+      JointFit joint;
+      if (alt.empty()) {
+        const Current none = MakeCurrent(nominal.description(), {}, {}, trials, options);
+        bic_alt = Bic(none.cost, n, 0, sd_stated);
+        joint.usable = true;
+      } else {
+        joint = FitJointly(nominal.description(), alt, trials, options);
+        if (!joint.usable) continue;
+        bic_alt =
+            Bic(joint.cost, n, TotalParameters(alt, static_cast<int>(trials.size())), sd_stated);
+      }
+      if (bic_alt < best_bic) {
+        best_bic = bic_alt;
+        best = joint;
+        best_ids = ids;
+      }
+    }
+    if (!(best_bic < bic_now)) continue;
+    *note = big.id + " replaced by " +
+            (best_ids.empty() ? "nothing" : util::Join(best_ids, " + ")) +
+            ": the contained effect" + (best_ids.size() == 1 ? " explains" : "s explain") +
+            " the data with fewer parameters (BIC " + util::FormatNumber(bic_now, 6) + " -> " +
+            util::FormatNumber(best_bic, 6) + ")";
+    *current = MakeCurrent(nominal.description(), best.effects, best.fits, trials, options);
+    return true;
+  }
+  return false;
+}
+
+}  // namespace
+
+bool Simplify(const Model& nominal, const std::vector<Trial>& trials, const FitOptions& options,
+              Current* current, std::vector<std::string>* notes) {
+  bool changed = false;
+  std::string note;
+  if (SimplifyBase(nominal, trials, options, current, &note)) {
+    notes->push_back(note);
+    changed = true;
+  }
+  // Each replacement can enable another (an effect that contains one that contains others).
+  for (int pass = 0; pass < 4 && SimplifyContained(nominal, trials, options, current, &note);
+       ++pass) {
+    notes->push_back(note);
+    changed = true;
+  }
+  return changed;
 }
 
 FitRound RunRound(int index, const Model& nominal, const std::vector<Effect>& library,
@@ -291,6 +386,7 @@ FitRound RunRound(int index, const Model& nominal, const std::vector<Effect>& li
   solutions->clear();
   for (size_t i = 0; i < keep.size(); ++i) {
     fits[i].delta_bic = r.bic_before - fits[i].bic;
+    fits[i].added_parameters = AddedParameters(current, screened[keep[i]], trials.size());
     if (screening) fits[i].screen_delta_bic = score[keep[i]];
     (*solutions)[screened[keep[i]].id] = x[i];
     r.candidates.push_back(std::move(fits[i]));
@@ -300,6 +396,7 @@ FitRound RunRound(int index, const Model& nominal, const std::vector<Effect>& li
     f.effect = screened[i];
     f.correlation = Eigen::MatrixXd::Identity(0, 0);
     f.screened_out = true;
+    f.added_parameters = AddedParameters(current, screened[i], trials.size());
     f.screen_delta_bic = std::isfinite(score[i]) ? score[i] : -1.0;
     f.delta_bic = f.screen_delta_bic;
     f.cost = -1.0;
@@ -340,9 +437,15 @@ FitRound RunRound(int index, const Model& nominal, const std::vector<Effect>& li
 Current Adopt(const Model& nominal, const Current& current, const FitRound& r,
               const std::vector<Trial>& trials, const FitOptions& options) {
   const CandidateFit& winner = r.candidates[*r.chosen];
-  std::vector<AppliedEffect> chosen = current.effects;
+  // The effects the winner contains are replaced by it.
+  std::vector<AppliedEffect> chosen;
+  std::vector<CandidateFit> fits;
+  for (size_t e = 0; e < current.effects.size(); ++e) {
+    if (Contains(winner.effect, current.effects[e].effect)) continue;
+    chosen.push_back(current.effects[e]);
+    fits.push_back(current.fits[e]);
+  }
   chosen.push_back({winner.effect, winner.values});
-  std::vector<CandidateFit> fits = current.fits;
   fits.push_back(winner);
   if (chosen.size() > 1) {
     JointFit joint = FitJointly(nominal.description(), chosen, trials, options);
@@ -351,6 +454,7 @@ Current Adopt(const Model& nominal, const Current& current, const FitRound& r,
         chosen[e].values = joint.effects[e].values;
         CandidateFit f = joint.fits[e];
         f.delta_bic = fits[e].delta_bic;
+        f.added_parameters = fits[e].added_parameters;
         f.cv_status = fits[e].cv_status;
         f.cv_error = fits[e].cv_error;
         fits[e] = f;

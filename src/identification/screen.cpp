@@ -13,8 +13,18 @@ std::vector<Effect> Eligible(const std::vector<Effect>& library, const Current& 
   std::vector<Effect> out;
   for (const Effect& e : library) {
     bool excluded = false;
-    for (const AppliedEffect& a : current.effects) excluded |= Excluded(e, a.effect);
+    // A candidate that contains a chosen effect stays eligible: it would replace it.
+    for (const AppliedEffect& a : current.effects)
+      excluded |= Excluded(e, a.effect) || Contains(a.effect, e);
     if (!excluded) out.push_back(e);
+  }
+  return out;
+}
+
+std::vector<AppliedEffect> Kept(const std::vector<AppliedEffect>& chosen, const Effect& candidate) {
+  std::vector<AppliedEffect> out;
+  for (const AppliedEffect& a : chosen) {
+    if (!Contains(candidate, a.effect)) out.push_back(a);
   }
   return out;
 }

@@ -197,6 +197,31 @@ TEST(Effects, MisalignmentRotatesTheReadingWithAnIsotropicTransducer) {
   }
 }
 
+TEST(Effects, NamedAssignmentsSetTheNamedParametersAndLeaveTheOthersNeutral) {
+  Model model = Rat();
+  const AppliedEffect a = ParseEffectAssignment(model, "sensor_offset=fy:0.02, mz:-0.001");
+  EXPECT_EQ(a.values, (std::vector<double>{0, 0.02, 0, 0, 0, -0.001}));
+  // Every term not named stays at its neutral value (0: no crosstalk).
+  const AppliedEffect g = ParseEffectAssignment(model, "crosstalk=mx_fy:0.5");
+  ASSERT_EQ(g.values.size(), 30u);
+  int set = 0;
+  for (size_t k = 0; k < g.values.size(); ++k) {
+    if (g.effect.parameters[k].name == "mx_fy") {
+      EXPECT_EQ(g.values[k], 0.5);
+      ++set;
+    } else {
+      EXPECT_EQ(g.values[k], 0.0);
+    }
+  }
+  EXPECT_EQ(set, 1);
+  EXPECT_THAT([&] { ParseEffectAssignment(model, "sensor_offset=fq:1"); },
+              ::testing::ThrowsMessage<Error>(HasSubstr("'fq:1' is not PARAMETER:VALUE")));
+  EXPECT_THAT([&] { ParseEffectAssignment(model, "sensor_offset=fx:1,2"); },
+              ::testing::ThrowsMessage<Error>(HasSubstr("fx, fy, fz, mx, my, mz")));
+  EXPECT_THAT([&] { ParseEffectAssignment(model, "sensor_offset=1,2"); },
+              ::testing::ThrowsMessage<Error>(HasSubstr("or name some: sensor_offset=fx:VALUE")));
+}
+
 TEST(Effects, LibraryOfTheRatLimbHasEveryKind) {
   // Every registered kind but coactivation (the rat limb has one muscle) applies to the rat.
   std::set<std::string> kinds;
