@@ -333,8 +333,8 @@ struct FitOptions {
   /// Screening: each round ranks the candidates by a linearised ΔBIC at the current model (a
   /// score test from one sensitivity column per parameter, exact for effects linear in their
   /// parameters) and fits only the screen_keep best fully (per-trial effects, solved in closed
-  /// form, always); the others are reported as screened out. 0 = fit every candidate. The ΔBIC
-  /// threshold still counts every candidate tried (look_elsewhere).
+  /// form, always, besides those); the others are reported as screened out. 0 = fit every
+  /// candidate. The ΔBIC threshold still counts every candidate tried (look_elsewhere).
   int screen_keep = 8;
   /// At most this many effects are added (rounds).
   int max_rounds = 3;
@@ -436,6 +436,10 @@ struct CandidateFit {
   std::string identifiability;  ///< why not identifiable (sensitivity, correlation), or ""
   bool converged = false;
   std::string solver_message;
+  /// Why the candidate cannot be claimed whatever its BIC, or "" (trial_force: its spread is
+  /// not significant against the muscles' force levels alone, or its factors follow the
+  /// posture, a systematic effect: docs/identification.md "Force level and trial variation").
+  std::string not_claimed;
   bool accepted = false;  ///< chosen in this round
   std::string verdict;    ///< "chosen", or why it lost
   /// Linearised ΔBIC of the screening step (score test at the current model); 0 when the round
@@ -532,11 +536,29 @@ struct FitReport {
   std::vector<std::string> correlation_labels;
   Eigen::MatrixXd correlations;
   std::vector<std::string> confounded;
-  /// trial_force: the per-trial factors (one per fitted trial, in trial order), the spread (sd of
-  /// ln factor) and the lines of trials whose factor is far from the rest (> 3 robust sd).
+  /// trial_force (docs/identification.md "Force level and trial variation"): trial t of muscle
+  /// m has the factor g_t = s_m exp(z_t), z_t ~ N(0, spread^2). The per-trial factors g_t (one
+  /// per fitted trial, in trial order, relative to the nominal max_force), the spread (sd of
+  /// ln factor around the muscle's level, maximum marginal likelihood) with its standard error,
+  /// the likelihood ratio of the spread against the levels alone, and the lines of trials whose
+  /// factor is far from their level (|ln g_t - ln s_m| > 3 sqrt(spread^2 + its variance)).
   std::vector<double> trial_factors;
   double trial_force_spread = 0.0;
+  double trial_force_spread_se = 0.0;
+  double trial_force_lrt = 0.0;
   std::vector<long> trial_force_outliers;
+  /// trial_force: the level s_m of each muscle's trials (what force_scale fits: the factor on its
+  /// max_force, written into the augmented model) with its standard error.
+  struct ForceLevel {
+    std::string muscle;
+    double level = 1.0;           ///< x
+    double standard_error = 0.0;  ///< x
+    int trials = 0;               ///< trials it is the level of
+  };
+  std::vector<ForceLevel> trial_force_levels;
+  /// trial_force's findings in words: "force_scale:GP = 0.9012 ± 0.0071 x (level of GP's 60
+  /// trials); trial_force spread 0.0503 ± 0.0046 (...)"; "" without trial_force.
+  std::string ForceLevelSummary() const;
   /// Where the residual lives when it stays above the noise (empty otherwise): first the
   /// trends (trial order, coordinates, muscle lengths; best first), then the muscle/axis shares.
   struct TraceItem {

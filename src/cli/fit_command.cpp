@@ -98,6 +98,7 @@ nlohmann::json CandidateJson(const CandidateFit& f) {
                       {"identifiability", f.identifiability},
                       {"converged", f.converged},
                       {"solver_message", f.solver_message},
+                      {"not_claimed", f.not_claimed},
                       {"accepted", f.accepted},
                       {"verdict", f.verdict},
                       {"screened_out", f.screened_out},
@@ -119,8 +120,20 @@ nlohmann::json CorrelationsJson(const FitReport& r) {
 
 nlohmann::json TrialForceJson(const FitReport& r) {
   if (r.trial_factors.empty()) return nullptr;
+  nlohmann::json levels = nlohmann::json::array();
+  for (const FitReport::ForceLevel& l : r.trial_force_levels) {
+    levels.push_back({{"muscle", l.muscle},
+                      {"level", l.level},
+                      {"standard_error", l.standard_error},
+                      {"trials", l.trials},
+                      {"unit", "x (factor on max_force)"}});
+  }
   return {{"factors", r.trial_factors},
+          {"levels", levels},
           {"spread_ln", r.trial_force_spread},
+          {"spread_ln_standard_error", r.trial_force_spread_se},
+          {"likelihood_ratio", r.trial_force_lrt},
+          {"summary", r.ForceLevelSummary()},
           {"far_lines", r.trial_force_outliers}};
 }
 
@@ -280,6 +293,13 @@ void PrintReport(const FitReport& r, const FitCommandOptions& o) {
       if (f.at_bound[k]) std::cout << "  [at search limit]";
       std::cout << "\n";
     }
+    if (f.effect.per_trial) {
+      for (const FitReport::ForceLevel& l : r.trial_force_levels) {
+        std::cout << "       force_scale:" << l.muscle << " = " << util::FormatNumber(l.level, 5)
+                  << " ± " << util::FormatNumber(l.standard_error, 3) << " x  (level of its "
+                  << l.trials << " trials)\n";
+      }
+    }
     if (!f.identifiable) std::cout << "       warning: " << f.identifiability << "\n";
   }
   for (const std::string& note : r.notes) std::cout << "  note: " << note << "\n";
@@ -293,8 +313,7 @@ void PrintReport(const FitReport& r, const FitCommandOptions& o) {
     std::cout << (i ? ", " : "") << r.outlier_rows[i];
   std::cout << "\n";
   if (!r.trial_factors.empty()) {
-    std::cout << "Per-trial force factors: spread (sd of ln factor) "
-              << util::FormatNumber(r.trial_force_spread, 3);
+    std::cout << "Force level and trial variation: " << r.ForceLevelSummary();
     if (!r.trial_force_outliers.empty()) {
       std::cout << "; trials far from the rest (CSV lines):";
       for (long l : r.trial_force_outliers) std::cout << " " << l;

@@ -19,9 +19,9 @@ CandidateFit FitCandidate(const AugmentedModel& current, const Effect& effect,
   CandidateFit f = ident::FitOnSubset(current, {}, effect, trials, ident::AllIndices(trials.size()),
                                       options, nullptr, true);
   const int n = static_cast<int>(6 * trials.size());
-  const int k = ident::TotalParameters(current.effects, static_cast<int>(trials.size())) +
-                (effect.per_trial ? static_cast<int>(trials.size())
-                                  : static_cast<int>(effect.parameters.size()));
+  std::vector<AppliedEffect> with = current.effects;
+  with.push_back({effect, {}});
+  const int k = ident::TotalParameters(with, trials);
   f.bic = ident::Bic(f.cost, n, k, ident::AllSd(trials));
   f.aic = ident::Aicc(f.cost, n, k, ident::AllSd(trials));
   ident::GuardFinite(&f);
@@ -108,9 +108,17 @@ FitReport FitEvery(const Model& nominal, const std::vector<Trial>& trials,
   report.chosen_fits = current.fits;
   for (CandidateFit& f : report.chosen_fits) GuardFinite(&f);
   report.augmented = current.augmented;
-  report.after = ComputeResidualStats(trials, current.prediction, current.parameters, options);
+  report.after =
+      ComputeResidualStats(trials, current.prediction, current.residual_parameters, options);
   report.fitted_after = report.after;
   ReportTrials(trials, nominal_prediction, current, options, &report);
+  // The force levels trial_force found are the muscles' max_force in the augmented model (the
+  // per-trial factors are solved around whatever max_force holds, so no prediction changes).
+  for (const FitReport::ForceLevel& l : report.trial_force_levels) {
+    for (MuscleSpec& m : report.augmented.description.muscles) {
+      if (m.name == l.muscle) m.max_force *= l.level;
+    }
+  }
   for (const TrialResidual& t : report.trials) {
     if (t.normalized_after > options.outlier_threshold) ++report.beyond_threshold_count;
   }

@@ -46,6 +46,17 @@ constexpr double kTraceMinShare = 0.05;
 /// Robust loss of one row: rho(s) for the row's chi2 s (6 components), in chi2 units.
 double RowLoss(double s, const FitOptions& o);
 
+/// A context's predicted readings and what the random-effects view of per-trial force factors
+/// needs (force_level.cpp).
+struct Readings {
+  std::vector<Vector6d> reading;  ///< predicted readings (per-trial factors applied)
+  std::vector<double> factor;     ///< per-trial factor applied (1 without trial_force)
+  std::vector<Vector6d> unit;     ///< reading at factor 1 without the sensor offset
+  bool per_trial = false;         ///< the model solves per-trial factors (trial_force)
+};
+
+struct ForceLevels;
+
 /// Everything the residual functor needs; owned by the caller for the duration of a solve.
 struct Context {
   AugmentedModel base;       ///< current model: fixed effects already applied
@@ -67,19 +78,29 @@ struct Context {
     return free[e].per_trial ? 0 : static_cast<int>(free[e].parameters.size());
   }
   std::vector<double> UserValues(const double* x, int e) const;
-  /// Parameters the information criteria count: least squares plus per-trial factors.
+  /// Parameters the information criteria count (BIC penalty): least squares, plus for a free
+  /// per-trial effect its spread and one force level per muscle of the subset.
   int CountedParameters() const;
+  /// Parameters the residual has lost (its degrees of freedom): least squares plus one factor
+  /// per trial for a free per-trial effect.
+  int ResidualParameters() const;
   /// Predicted readings of the subset at internal parameters x; false if any trial fails.
   bool Predict(const double* x, std::vector<Vector6d>* out, std::string* message = nullptr,
                std::vector<double>* factors = nullptr) const;
+  bool Predict(const double* x, Readings* out, std::string* message = nullptr) const;
   static bool Fail(const std::string& why, std::string* message) {
     if (message) *message = why;
     return false;
   }
   /// Row chi2 (plain weighted squares) of subset entry k.
   double RowChi2(size_t k, const Vector6d& prediction) const;
-  /// Robust cost: sum of RowLoss over the rows (= chi2 without a robust loss).
+  /// Robust cost: sum of RowLoss over the rows (= chi2 without a robust loss). Only for
+  /// models without per-trial factors; the other form covers both.
   double Cost(const std::vector<Vector6d>& prediction) const;
+  /// The model's cost in chi2 units (-2 ln L up to a constant): the robust row cost, plus for
+  /// per-trial factors the marginal term of their levels and spread (ForceLevels::cost;
+  /// `fixed`: the levels and spread of a training fold).
+  double Cost(const Readings& r, const ForceLevels* fixed = nullptr) const;
   /// Residuals whose squares sum to Cost: each row's weighted residual times sqrt(rho(s) / s).
   void Residuals(const std::vector<Vector6d>& prediction, double* residuals) const;
 };
@@ -99,8 +120,13 @@ bool AllSd(const std::vector<Trial>& trials);
 std::string ParameterLabel(const Context& c, int i, bool always_prefix = false);
 /// Internal values of an effect's parameters: `values` (user units) or the initial values.
 std::vector<double> InternalValues(const Effect& e, const std::vector<double>* values);
-/// Parameters the criteria count for chosen effects (per-trial ones: one per trial).
-int TotalParameters(const std::vector<AppliedEffect>& effects, int trial_count);
+/// Parameters the criteria count for chosen effects (BIC penalty): a per-trial effect counts
+/// its spread and one force level per muscle of the trials.
+int TotalParameters(const std::vector<AppliedEffect>& effects, const std::vector<Trial>& trials);
+/// Parameters the residual has lost (degrees of freedom): a per-trial effect one per trial.
+int ResidualParameters(const std::vector<AppliedEffect>& effects, int trial_count);
+/// Distinct muscles of the trials in `subset` (the force levels of a per-trial effect).
+int MuscleCount(const std::vector<Trial>& trials, const std::vector<int>& subset);
 std::vector<int> AllIndices(size_t n);
 /// Robust spread of values: 1.4826 x median absolute deviation (about the median).
 double RobustSpread(std::vector<double> v, double* median_out = nullptr);
@@ -123,6 +149,41 @@ void ParallelFor(size_t count, const FitOptions& options, Task task) {
   work();
   for (std::thread& t : pool) t.join();
 }
+
+// ---- force_level.cpp --------------------------------------------------------------------------
+
+/// The random-effects view of per-trial force factors (docs/identification.md "Force level and
+/// trial variation"): trial t of muscle m has the factor g_t = s_m exp(z_t), z_t ~ N(0, σ²).
+/// Each trial's closed-form factor gives x_t = ln g_t with variance v_t = 1 / (|a_t| g_t)^2 (a_t
+/// the whitened reading at factor 1); the marginal likelihood of the x_t, integrated over z_t,
+/// gives the levels s_m = exp(μ_m), σ and the likelihood ratio of σ = 0 (the levels alone).
+struct ForceLevels {
+  std::vector<std::string> muscles;  ///< in order of first appearance
+  std::vector<double> log_level;     ///< μ_m = ln s_m
+  std::vector<double> log_level_se;  ///< standard error of μ_m
+  std::vector<int> trials;           ///< trials of each muscle in the marginal likelihood
+  double sigma = 0.0;                ///< spread: sd of ln factor around the level
+  double sigma_se = 0.0;             ///< its standard error (curvature of the likelihood)
+  double lrt = 0.0;   ///< -2 ln likelihood ratio of σ = 0 (levels alone) against σ (>= 0)
+  double cost = 0.0;  ///< rows' robust cost + the marginal term: the model's cost (chi2 units)
+  int used = 0;       ///< trials in the marginal likelihood (not outliers, positive factor)
+  // Per subset entry:
+  std::vector<double> x, v;  ///< ln g_t and its variance (used entries only)
+  std::vector<int> muscle;   ///< index into muscles, -1 when not used
+};
+
+/// Levels and spread from a context's readings. `fixed`: evaluate the levels and spread of a
+/// training fold on these rows instead (held-out cost).
+ForceLevels FitForceLevels(const Context& c, const Readings& r, const ForceLevels* fixed = nullptr);
+
+/// The smooth trend the log-factors follow, if any: a weighted quadratic in a muscle's length
+/// (its trials) or in a limb coordinate (all trials), significant at p < 1e-3 / (variables)
+/// and explaining at least kTrendShare of their variance. "" when they follow none.
+std::string FactorTrend(const Model& model, const std::vector<Trial>& trials,
+                        const std::vector<int>& subset, const ForceLevels& levels);
+
+/// The per-trial factors follow a trend at least this share of their variance.
+constexpr double kTrendShare = 0.25;
 
 // ---- solve.cpp (Ceres) ------------------------------------------------------------------------
 
@@ -171,8 +232,9 @@ struct Current {
   std::vector<CandidateFit> fits;
   AugmentedModel augmented;
   std::vector<Vector6d> prediction;
-  double cost = 0.0;   ///< robust cost of the prediction
-  int parameters = 0;  ///< counted parameters (per-trial factors included)
+  double cost = 0.0;            ///< the model's cost (Context::Cost)
+  int parameters = 0;           ///< parameters the criteria count (TotalParameters)
+  int residual_parameters = 0;  ///< degrees of freedom the residual lost (ResidualParameters)
 };
 
 Current MakeCurrent(const LimbDescription& nominal, const std::vector<AppliedEffect>& effects,

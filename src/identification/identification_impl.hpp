@@ -109,12 +109,13 @@ RawWrenches EvaluateRaw(const Model& model, const std::map<std::string, double>&
 /// Readings from raw wrenches and the rest of the chain of `model` (AugmentedModel's comment):
 /// muscle forces rescaled by model.description's max_force / raw.max_force, coactivation,
 /// sensor origin, calibration, per-trial factors (closed form, weights 1/sd), sensor offset.
-/// `factors` (optional) receives the per-trial factors (1 without trial_force). Trials whose
-/// raw wrench failed keep a zero reading.
+/// `factors` (optional) receives the per-trial factors (1 without trial_force), `unit`
+/// (optional) each trial's reading at factor 1 without the sensor offset. Trials whose raw
+/// wrench failed keep a zero reading.
 void ComposeReadings(const AugmentedModel& model, const std::vector<Trial>& trials,
                      const std::vector<int>& subset, const RawWrenches& raw,
                      const FitOptions& options, std::vector<Vector6d>* readings,
-                     std::vector<double>* factors);
+                     std::vector<double>* factors, std::vector<Vector6d>* unit = nullptr);
 
 /// Coactivated muscles of an augmented model (keys of `coactivation`).
 std::vector<std::string> CoactivatedMuscles(const AugmentedModel& model);

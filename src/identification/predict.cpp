@@ -158,7 +158,7 @@ std::vector<std::string> CoactivatedMuscles(const AugmentedModel& model) {
 void ComposeReadings(const AugmentedModel& model, const std::vector<Trial>& trials,
                      const std::vector<int>& subset, const RawWrenches& raw,
                      const FitOptions& options, std::vector<Vector6d>* readings,
-                     std::vector<double>* factors) {
+                     std::vector<double>* factors, std::vector<Vector6d>* unit) {
   const std::vector<MuscleSpec>& muscles = model.description.muscles;
   // Force ratio per muscle index: the description's max force over the one evaluated (the
   // evaluated model was built from a description with the same muscles in the same order).
@@ -231,6 +231,7 @@ void ComposeReadings(const AugmentedModel& model, const std::vector<Trial>& tria
       }
     }
   }
+  if (unit) *unit = force;
   for (size_t k = 0; k < subset.size(); ++k) {
     if (!raw.ok[k]) continue;
     if (factors) (*factors)[k] = factor_of[k];

@@ -49,12 +49,21 @@ std::vector<double> Context::UserValues(const double* x, int e) const {
   std::vector<double> v;
   const Effect& effect = free[e];
   for (size_t i = 0; i < effect.parameters.size(); ++i) {
-    v.push_back(effect.per_trial ? 0.0 : ToUser(effect.parameters[i], x[start[e] + i]));
+    // Per-trial parameters are solved in closed form inside the prediction: their value here
+    // only switches the effect on.
+    v.push_back(effect.per_trial ? effect.parameters[i].neutral
+                                 : ToUser(effect.parameters[i], x[start[e] + i]));
   }
   return v;
 }
 
 int Context::CountedParameters() const {
+  int k = parameter_count;
+  for (const Effect& e : free) k += e.per_trial ? 1 + MuscleCount(*trials, subset) : 0;
+  return k;
+}
+
+int Context::ResidualParameters() const {
   int k = parameter_count;
   for (const Effect& e : free) k += e.per_trial ? static_cast<int>(subset.size()) : 0;
   return k;
@@ -62,6 +71,17 @@ int Context::CountedParameters() const {
 
 bool Context::Predict(const double* x, std::vector<Vector6d>* out, std::string* message,
                       std::vector<double>* factors) const {
+  Readings r;
+  if (!Predict(x, &r, message)) return false;
+  *out = std::move(r.reading);
+  if (factors) *factors = std::move(r.factor);
+  return true;
+}
+
+bool Context::Predict(const double* x, Readings* result, std::string* message) const {
+  std::vector<Vector6d>* out = &result->reading;
+  std::vector<double>* factors = &result->factor;
+  std::vector<Vector6d>* unit = &result->unit;
   try {
     AugmentedModel m = base;
     for (size_t e = 0; e < free.size(); ++e) {
@@ -72,8 +92,9 @@ bool Context::Predict(const double* x, std::vector<Vector6d>* out, std::string* 
         throw Error("coactivation of '" + c.first + "' was not prepared");
       }
     }
+    result->per_trial = m.trial_force;
     if (cached) {
-      ComposeReadings(m, *trials, subset, raw, options, out, factors);
+      ComposeReadings(m, *trials, subset, raw, options, out, factors, unit);
       return raw.all_ok() || Fail(raw.message, message);
     }
     RawWrenches r;
@@ -84,7 +105,7 @@ bool Context::Predict(const double* x, std::vector<Vector6d>* out, std::string* 
       r = EvaluateRaw(*model, m.posture_offset, others, *trials, subset);
     }
     if (!r.all_ok()) return Fail(r.message, message);
-    ComposeReadings(m, *trials, subset, r, options, out, factors);
+    ComposeReadings(m, *trials, subset, r, options, out, factors, unit);
     for (const Vector6d& w : *out) {
       if (!w.allFinite()) return Fail("a predicted reading is not finite", message);
     }
@@ -105,6 +126,11 @@ double Context::Cost(const std::vector<Vector6d>& prediction) const {
   double cost = 0.0;
   for (size_t k = 0; k < subset.size(); ++k) cost += RowLoss(RowChi2(k, prediction[k]), options);
   return cost;
+}
+
+double Context::Cost(const Readings& r, const ForceLevels* fixed) const {
+  if (!r.per_trial) return Cost(r.reading);
+  return FitForceLevels(*this, r, fixed).cost;
 }
 
 void Context::Residuals(const std::vector<Vector6d>& prediction, double* residuals) const {
@@ -201,7 +227,26 @@ std::vector<double> InternalValues(const Effect& e, const std::vector<double>* v
   return x;
 }
 
-int TotalParameters(const std::vector<AppliedEffect>& effects, int trial_count) {
+int MuscleCount(const std::vector<Trial>& trials, const std::vector<int>& subset) {
+  std::vector<const std::string*> seen;
+  for (int t : subset) {
+    const std::string& m = trials[t].muscle;
+    if (std::none_of(seen.begin(), seen.end(), [&](const std::string* s) { return *s == m; }))
+      seen.push_back(&m);
+  }
+  return static_cast<int>(seen.size());
+}
+
+int TotalParameters(const std::vector<AppliedEffect>& effects, const std::vector<Trial>& trials) {
+  int k = 0;
+  for (const AppliedEffect& a : effects) {
+    k += a.effect.per_trial ? 1 + MuscleCount(trials, AllIndices(trials.size()))
+                            : static_cast<int>(a.effect.parameters.size());
+  }
+  return k;
+}
+
+int ResidualParameters(const std::vector<AppliedEffect>& effects, int trial_count) {
   int k = 0;
   for (const AppliedEffect& a : effects) {
     k += a.effect.per_trial ? trial_count : static_cast<int>(a.effect.parameters.size());

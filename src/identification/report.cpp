@@ -46,15 +46,26 @@ void ReportTrials(const std::vector<Trial>& trials, const Prediction& nominal,
     report->outlier_rows.clear();
   }
   if (current.augmented.trial_force) {
-    Prediction p = PredictTrials(current.augmented, trials, &report->trial_factors);
-    std::vector<double> logs;
-    for (double f : report->trial_factors) logs.push_back(std::log(std::max(f, 1e-12)));
-    double median = 0;
-    report->trial_force_spread = RobustSpread(logs, &median);
-    for (size_t k = 0; k < logs.size(); ++k) {
-      if (std::abs(logs[k] - median) > kFarFactor * std::max(report->trial_force_spread, 1e-12)) {
+    const Context c =
+        MakeContext(current.augmented, {}, trials, AllIndices(trials.size()), options);
+    Readings p;
+    if (!c.Predict(nullptr, &p)) return;
+    report->trial_factors = p.factor;
+    const ForceLevels levels = FitForceLevels(c, p);
+    report->trial_force_spread = levels.sigma;
+    report->trial_force_spread_se = levels.sigma_se;
+    report->trial_force_lrt = levels.lrt;
+    for (size_t m = 0; m < levels.muscles.size(); ++m) {
+      const double s = std::exp(levels.log_level[m]);
+      report->trial_force_levels.push_back(
+          {levels.muscles[m], s, s * levels.log_level_se[m], levels.trials[m]});
+    }
+    const double s2 = levels.sigma * levels.sigma;
+    for (size_t k = 0; k < trials.size(); ++k) {
+      if (levels.muscle[k] < 0) continue;
+      const double d = levels.x[k] - levels.log_level[levels.muscle[k]];
+      if (std::abs(d) > kFarFactor * std::sqrt(s2 + levels.v[k]))
         report->trial_force_outliers.push_back(trials[k].line);
-      }
     }
   }
 }
@@ -99,8 +110,9 @@ void ReportVerdict(const std::vector<Trial>& trials, const Current& current,
     kept.push_back(trials[k]);
     kept_prediction.push_back(current.prediction[k]);
   }
-  const ResidualStats s = ComputeResidualStats(kept, kept_prediction, current.parameters, options);
-  const int dof = std::max(1, s.residual_count - current.parameters);
+  const ResidualStats s =
+      ComputeResidualStats(kept, kept_prediction, current.residual_parameters, options);
+  const int dof = std::max(1, s.residual_count - current.residual_parameters);
   const double reduced = s.chi2 / dof;
   const double threshold = 1.0 + options.unexplained_sigmas * std::sqrt(2.0 / dof);
   const double multiple = std::sqrt(reduced);
@@ -126,8 +138,21 @@ void ReportVerdict(const std::vector<Trial>& trials, const Current& current,
       << util::FormatNumber(multiple, 3) << " x noise)" << outliers << "; no effect is claimed";
   } else {
     report->verdict = FitVerdict::kExplained;
+    // Force levels and trial variation are named with their values (what was found, not only
+    // which effect): "force_scale:GP = 0.8 ± 0.0012 x", "trial_force (...)".
     std::vector<std::string> ids;
-    for (const AppliedEffect& a : report->chosen) ids.push_back(a.effect.id);
+    for (size_t e = 0; e < report->chosen.size(); ++e) {
+      const AppliedEffect& a = report->chosen[e];
+      std::string id = a.effect.id;
+      if (a.effect.kind == "force_scale" && e < report->chosen_fits.size()) {
+        const CandidateFit& f = report->chosen_fits[e];
+        id += " = " + util::FormatNumber(f.values[0], 4);
+        if (f.standard_errors[0] > 0) id += " ± " + util::FormatNumber(f.standard_errors[0], 2);
+        id += " x";
+      }
+      if (a.effect.per_trial) id += " (" + report->ForceLevelSummary() + ")";
+      ids.push_back(id);
+    }
     m << "explained by " << util::Join(ids, " + ") << ": residual from "
       << util::FormatNumber(std::sqrt(report->fitted_before.chi2 /
                                       std::max(1, report->fitted_before.residual_count)),
@@ -210,8 +235,7 @@ std::string FitReport::BriefReport() const {
       << " loss): " << util::Join(lines, ", ") << "\n";
   }
   if (!trial_factors.empty()) {
-    o << "trial force factors: spread (sd of ln factor) "
-      << util::FormatNumber(trial_force_spread, 3);
+    o << "trial force: " << ForceLevelSummary();
     if (!trial_force_outliers.empty()) {
       std::vector<std::string> lines;
       for (long l : trial_force_outliers) lines.push_back(std::to_string(l));
@@ -224,6 +248,24 @@ std::string FitReport::BriefReport() const {
   for (const std::string& s : indistinguishable) o << "note: " << s << "\n";
   for (const std::string& s : notes) o << "note: " << s << "\n";
   return o.str();
+}
+
+std::string FitReport::ForceLevelSummary() const {
+  if (trial_factors.empty()) return "";
+  std::vector<std::string> parts;
+  for (const ForceLevel& l : trial_force_levels) {
+    // A level within 3 standard errors of 1 is no finding: the muscle is as strong as declared.
+    const bool found = std::abs(l.level - 1.0) > 3.0 * l.standard_error;
+    parts.push_back("force_scale:" + l.muscle + " = " + util::FormatNumber(l.level, 4) + " ± " +
+                    util::FormatNumber(l.standard_error, 2) + " x (level of " + l.muscle + "'s " +
+                    std::to_string(l.trials) + " trials" +
+                    (found ? "" : ", consistent with its max_force") + ")");
+  }
+  parts.push_back("trial_force spread " + util::FormatNumber(trial_force_spread, 3) + " ± " +
+                  util::FormatNumber(trial_force_spread_se, 2) +
+                  " (sd of ln factor around the level; likelihood ratio " +
+                  util::FormatNumber(trial_force_lrt, 4) + " against the levels alone)");
+  return util::Join(parts, "; ");
 }
 
 void WriteAugmentedUrdf(const FitReport& report, const std::string& path) {
@@ -260,7 +302,10 @@ void WriteAugmentedUrdf(const FitReport& report, const std::string& path) {
     }
     comment += "\n";
   }
-  if (a.trial_force) comment += "per-trial force factors were fitted (see the fit report)\n";
+  if (a.trial_force) {
+    comment += "per-trial force factors were fitted (max_force holds each muscle's level): " +
+               report.ForceLevelSummary() + "\n";
+  }
   size_t pos;
   while ((pos = comment.find("--")) != std::string::npos) comment.replace(pos, 2, "- -");
   comment = "<!-- " + comment + "-->\n";

@@ -52,17 +52,16 @@ void CrossValidate(const LimbDescription& nominal, const Current& current,
   int done = 0;
   for (CandidateFit& f : *candidates) {
     if (done >= options.cv_candidates) break;
-    if (!f.converged || !f.identifiable || f.delta_bic < threshold) continue;
+    if (!f.converged || !f.identifiable || !f.not_claimed.empty() || f.delta_bic < threshold)
+      continue;
     ++done;
     const std::vector<double>& start = solutions.at(f.effect.id);
     const std::vector<AppliedEffect> kept = Kept(current.effects, f.effect);
     std::vector<Effect> free;
     for (const AppliedEffect& a : kept) free.push_back(a.effect);
     free.push_back(f.effect);
-    // Per-trial factors are solved on the held-out rows themselves (one of six residual dofs
-    // per row): their cost is inflated by 6 / 5 to stay comparable.
-    double inflate = 1.0;
-    for (const Effect& e : free) inflate = e.per_trial ? 6.0 / 5.0 : inflate;
+    // Per-trial factors are not known on held-out rows: they are predicted by the training
+    // fold's levels and spread (the marginal likelihood of each held-out factor, Context::Cost).
     std::vector<double> held_cost(fold_count, 0.0);
     std::vector<int> held_n(fold_count, 0);
     std::vector<char> fold_ok(fold_count, 0);
@@ -72,9 +71,16 @@ void CrossValidate(const LimbDescription& nominal, const Current& current,
           FitOnSubset(base, kept, f.effect, trials, folds.train[fold], options, &start, false, &x);
       if (!g.converged) return;
       Context c = MakeContext(base, free, trials, folds.test[fold], options);
-      std::vector<Vector6d> prediction;
+      Readings prediction;
       if (!c.Predict(x.data(), &prediction)) return;
-      held_cost[fold] = inflate * c.Cost(prediction);
+      ForceLevels training;
+      if (prediction.per_trial) {
+        Context t = MakeContext(base, free, trials, folds.train[fold], options);
+        Readings fitted;
+        if (!t.Predict(x.data(), &fitted)) return;
+        training = FitForceLevels(t, fitted);
+      }
+      held_cost[fold] = c.Cost(prediction, prediction.per_trial ? &training : nullptr);
       held_n[fold] = static_cast<int>(6 * folds.test[fold].size());
       fold_ok[fold] = 1;
     });
@@ -115,6 +121,8 @@ void Select(FitRound* r, bool cross_validated, const FitOptions& options) {
       f.verdict = "does not earn its " + p + ": ΔBIC = " + util::FormatNumber(f.delta_bic, 3) +
                   " < " + util::FormatNumber(r->bic_threshold, 3);
       if (!f.identifiable) f.verdict += "; not identifiable: " + f.identifiability;
+    } else if (!f.not_claimed.empty()) {
+      f.verdict = "not claimed: " + f.not_claimed;
     } else if (!f.identifiable) {
       f.verdict = "not identifiable from these data: " + f.identifiability;
     } else if (cross_validated && f.cv_status == CvStatus::kNotRun && !r->chosen) {
@@ -143,10 +151,11 @@ void Select(FitRound* r, bool cross_validated, const FitOptions& options) {
 
 /// Parameters a candidate adds to the current model (what its BIC penalty counts): the model
 /// with it (replacing what it contains) less the current one.
-int AddedParameters(const Current& current, const Effect& candidate, size_t trial_count) {
+int AddedParameters(const Current& current, const Effect& candidate,
+                    const std::vector<Trial>& trials) {
   std::vector<AppliedEffect> with = Kept(current.effects, candidate);
   with.push_back({candidate, {}});
-  return TotalParameters(with, static_cast<int>(trial_count)) - current.parameters;
+  return TotalParameters(with, trials) - current.parameters;
 }
 
 }  // namespace
@@ -158,14 +167,15 @@ Current MakeCurrent(const LimbDescription& nominal, const std::vector<AppliedEff
   c.effects = effects;
   c.fits = fits;
   c.augmented = ApplyEffects(nominal, effects);
-  Prediction p = PredictTrials(c.augmented, trials);
-  if (p.failed)
-    throw Error("fit: the model with the chosen effects cannot predict the trials: " + p.message);
-  c.prediction = p.wrench;
-  Context context =
-      MakeContext(ApplyEffects(nominal, {}), {}, trials, AllIndices(trials.size()), options);
-  c.cost = context.Cost(c.prediction);
-  c.parameters = TotalParameters(effects, static_cast<int>(trials.size()));
+  const Context context = MakeContext(c.augmented, {}, trials, AllIndices(trials.size()), options);
+  Readings p;
+  std::string message;
+  if (!context.Predict(nullptr, &p, &message))
+    throw Error("fit: the model with the chosen effects cannot predict the trials: " + message);
+  c.prediction = p.reading;
+  c.cost = context.Cost(p);
+  c.parameters = TotalParameters(effects, trials);
+  c.residual_parameters = ResidualParameters(effects, static_cast<int>(trials.size()));
   return c;
 }
 
@@ -242,7 +252,7 @@ bool SimplifyBase(const Model& nominal, const std::vector<Trial>& trials, const 
     const std::vector<double>& k = alt[i].values;
     alt[i] = {iso, {std::cbrt(k[0] * k[1] * k[2])}};
     JointFit joint = FitJointly(nominal.description(), alt, trials, options);
-    const int k_alt = TotalParameters(alt, static_cast<int>(trials.size()));
+    const int k_alt = TotalParameters(alt, trials);
     const double bic_now = Bic(current->cost, n, current->parameters, AllSd(trials));
     const double bic_alt = Bic(joint.cost, n, k_alt, AllSd(trials));
     if (!joint.usable || bic_alt >= bic_now) return false;
@@ -297,8 +307,7 @@ bool SimplifyContained(const Model& nominal, const std::vector<Trial>& trials,
       } else {
         joint = FitJointly(nominal.description(), alt, trials, options);
         if (!joint.usable) continue;
-        bic_alt =
-            Bic(joint.cost, n, TotalParameters(alt, static_cast<int>(trials.size())), sd_stated);
+        bic_alt = Bic(joint.cost, n, TotalParameters(alt, trials), sd_stated);
       }
       if (bic_alt < best_bic) {
         best_bic = bic_alt;
@@ -345,7 +354,7 @@ FitRound RunRound(int index, const Model& nominal, const std::vector<Effect>& li
   const int n = static_cast<int>(6 * trials.size());
   FitRound r;
   r.index = index;
-  r.before = ComputeResidualStats(trials, current.prediction, current.parameters, options);
+  r.before = ComputeResidualStats(trials, current.prediction, current.residual_parameters, options);
   r.bic_before = Bic(current.cost, n, current.parameters, sd_stated);
   r.cv_before = current.cost / n;
   const std::vector<Effect> screened = Eligible(library, current);
@@ -371,11 +380,13 @@ FitRound RunRound(int index, const Model& nominal, const std::vector<Effect>& li
     std::stable_sort(order.begin(), order.end(),
                      [&](size_t a, size_t b) { return score[a] > score[b]; });
   }
+  // The screen_keep best of the least-squares candidates, and every per-trial one besides
+  // (solved in closed form, it has no linearised score and takes no place of theirs).
   std::vector<size_t> keep, drop;
+  int ranked = 0;
   for (size_t rank = 0; rank < order.size(); ++rank) {
     const size_t i = order[rank];
-    const bool kept =
-        !screening || static_cast<int>(rank) < options.screen_keep || screened[i].per_trial;
+    const bool kept = !screening || screened[i].per_trial || ranked++ < options.screen_keep;
     (kept ? keep : drop).push_back(i);
   }
   stage("fitting " + std::to_string(keep.size()) + " of " + std::to_string(screened.size()) +
@@ -386,7 +397,7 @@ FitRound RunRound(int index, const Model& nominal, const std::vector<Effect>& li
   solutions->clear();
   for (size_t i = 0; i < keep.size(); ++i) {
     fits[i].delta_bic = r.bic_before - fits[i].bic;
-    fits[i].added_parameters = AddedParameters(current, screened[keep[i]], trials.size());
+    fits[i].added_parameters = AddedParameters(current, screened[keep[i]], trials);
     if (screening) fits[i].screen_delta_bic = score[keep[i]];
     (*solutions)[screened[keep[i]].id] = x[i];
     r.candidates.push_back(std::move(fits[i]));
@@ -396,7 +407,7 @@ FitRound RunRound(int index, const Model& nominal, const std::vector<Effect>& li
     f.effect = screened[i];
     f.correlation = Eigen::MatrixXd::Identity(0, 0);
     f.screened_out = true;
-    f.added_parameters = AddedParameters(current, screened[i], trials.size());
+    f.added_parameters = AddedParameters(current, screened[i], trials);
     f.screen_delta_bic = std::isfinite(score[i]) ? score[i] : -1.0;
     f.delta_bic = f.screen_delta_bic;
     f.cost = -1.0;

@@ -44,11 +44,38 @@ struct ResidualFunctor {
 
 using CostFunction = ceres::DynamicNumericDiffCostFunction<ResidualFunctor, ceres::CENTRAL>;
 
+/// Why a per-trial effect cannot be claimed, or "": its spread must earn its parameter against
+/// the levels alone (likelihood ratio >= min_bic_improvement + ln n: the BIC comparison of
+/// the two nested models) and the factors must not follow the posture.
+std::string TrialForceClaim(const Context& c, const SolveResult& r) {
+  Readings prediction;
+  if (!c.Predict(r.x.data(), &prediction)) return "";
+  const ForceLevels levels = FitForceLevels(c, prediction);
+  const double n = 6.0 * static_cast<double>(c.subset.size());
+  const double needed = c.options.min_bic_improvement + std::log(n);
+  if (levels.lrt < needed) {
+    return "the factors are the muscles' force levels, not trial variation: the spread (" +
+           util::FormatNumber(levels.sigma, 3) +
+           ") is not significant against the levels alone (likelihood ratio " +
+           util::FormatNumber(levels.lrt, 3) + " < " + util::FormatNumber(needed, 3) +
+           "); force_scale fits the levels";
+  }
+  std::shared_ptr<const Model> model = c.model;
+  if (!model) model = std::make_shared<const Model>(c.base.description);
+  const std::string trend = FactorTrend(*model, *c.trials, c.subset, levels);
+  if (!trend.empty()) {
+    return "the factors follow the posture, a systematic effect (force-length or another outside "
+           "the library), not trial variation: they follow " +
+           trend;
+  }
+  return "";
+}
+
 }  // namespace
 
 SolveResult Solve(const Context& c, std::vector<double> x) {
   SolveResult out;
-  std::vector<Vector6d> prediction;
+  Readings prediction;
   std::string message;
   if (c.parameter_count == 0) {
     // Only per-trial (closed-form) parameters: nothing for the least squares.
@@ -175,7 +202,7 @@ Analysis Analyze(const Context& c, const std::vector<double>& x, double cost, bo
     reasons.push_back("the parameters are not jointly identifiable (singular value ratio " +
                       util::FormatNumber(s[0] > 0 ? s[p - 1] / s[0] : 0.0, 3) + ")");
   } else {
-    int dof = std::max(1, n - c.CountedParameters());
+    int dof = std::max(1, n - c.ResidualParameters());
     double scale = sd_stated ? std::max(1.0, cost / dof) : cost / dof;
     Eigen::MatrixXd V = svd.matrixV();
     Eigen::MatrixXd cov = V * s.cwiseInverse().cwiseAbs2().asDiagonal() * V.transpose() * scale;
@@ -217,17 +244,17 @@ CandidateFit MakeFit(const Context& c, const SolveResult& r, const Analysis& a, 
   const int n = static_cast<int>(6 * c.subset.size());
   const int p0 = c.start[e];
   if (effect.per_trial) {
-    // The per-trial factors are solved in closed form; the spread of ln(factor) is the value.
-    std::vector<Vector6d> prediction;
-    std::vector<double> factors;
-    double spread = 0.0;
-    if (r.usable && c.Predict(r.x.data(), &prediction, nullptr, &factors)) {
-      std::vector<double> logs;
-      for (double v : factors) logs.push_back(std::log(std::max(v, 1e-12)));
-      spread = RobustSpread(logs);
+    // The per-trial factors are solved in closed form; the value is their spread around the
+    // muscles' levels (the random-effects fit of force_level.cpp).
+    Readings prediction;
+    double spread = 0.0, spread_se = 0.0;
+    if (r.usable && c.Predict(r.x.data(), &prediction)) {
+      const ForceLevels levels = FitForceLevels(c, prediction);
+      spread = levels.sigma;
+      spread_se = levels.sigma_se;
     }
     f.values.assign(effect.parameters.size(), spread);
-    f.standard_errors.assign(effect.parameters.size(), 0.0);
+    f.standard_errors.assign(effect.parameters.size(), spread_se);
     f.log10_standard_errors.assign(effect.parameters.size(), 0.0);
     f.at_bound.assign(effect.parameters.size(), false);
     f.correlation = Eigen::MatrixXd::Identity(effect.parameters.size(), effect.parameters.size());
@@ -285,7 +312,9 @@ CandidateFit FitOnSubset(const AugmentedModel& base, const std::vector<AppliedEf
     }
   }
   if (x_out) *x_out = r.x;
-  return MakeFit(c, r, a, sd_stated);
+  CandidateFit f = MakeFit(c, r, a, sd_stated);
+  if (analyze && effect.per_trial && r.usable) f.not_claimed = TrialForceClaim(c, r);
+  return f;
 }
 
 }  // namespace isowrench::ident

@@ -156,11 +156,16 @@ void AddTrends(const Model& nominal, const std::vector<Trial>& trials, const Tra
 struct Probe {
   std::string variable, note;
   std::vector<AugmentedModel> models;
+  /// Optional per-trial multipliers: each model's column is repeated once per multiplier with
+  /// trial k's rows scaled by it (a force that follows a variable: 1, z, z^2).
+  std::vector<std::vector<double>> multipliers = {};
 };
 
 /// The probes that name a variable directly: a small stiffness and an offset at each limb
-/// coordinate, each muscle's force and its path points (three directions per point).
-std::vector<Probe> MakeProbes(const Model& nominal, const AugmentedModel& at, TraceSkips* skips) {
+/// coordinate, each muscle's force, its force following its length (a quadratic: force-length
+/// behaviour) and its path points (three directions per point).
+std::vector<Probe> MakeProbes(const Model& nominal, const std::vector<Trial>& trials,
+                              const AugmentedModel& at, TraceSkips* skips) {
   std::vector<Probe> probes;
   long limb = 0, no_stiffness = 0;
   std::string stiffness_why;
@@ -202,8 +207,40 @@ std::vector<Probe> MakeProbes(const Model& nominal, const AugmentedModel& at, Tr
                 {}};
     AugmentedModel m = at;
     m.description.muscles[i].max_force *= 1.001;
-    force.models.push_back(std::move(m));
+    force.models.push_back(m);
     probes.push_back(std::move(force));
+    // The muscle's force as a quadratic in its length (standardised over its trials): what a
+    // force-length curve outside the model leaves, and what per-trial factors would absorb.
+    Probe length{"force of " + muscle.name + " following its length",
+                 "this muscle's force changes with its length (force-length behaviour outside "
+                 "the model and the library)",
+                 {std::move(m)},
+                 {}};
+    std::vector<double> l = MuscleLengths(nominal, muscle.name, trials);
+    double mean = 0, spread = 0;
+    int count = 0;
+    for (size_t k = 0; k < l.size(); ++k) {
+      if (trials[k].muscle != muscle.name || !std::isfinite(l[k])) continue;
+      mean += l[k];
+      ++count;
+    }
+    mean /= std::max(1, count);
+    for (size_t k = 0; k < l.size(); ++k) {
+      if (trials[k].muscle == muscle.name && std::isfinite(l[k]))
+        spread += std::pow(l[k] - mean, 2);
+    }
+    spread = std::sqrt(spread / std::max(1, count));
+    if (count >= 8 && spread > 0) {
+      length.multipliers.assign(3, std::vector<double>(trials.size(), 0.0));
+      for (size_t k = 0; k < l.size(); ++k) {
+        if (!std::isfinite(l[k])) continue;  // left out (counted in the length trend's note)
+        const double z = (l[k] - mean) / spread;
+        length.multipliers[0][k] = 1.0;
+        length.multipliers[1][k] = z;
+        length.multipliers[2][k] = z * z;
+      }
+      probes.push_back(std::move(length));
+    }
     Probe path{"path of " + muscle.name,
                "this muscle's path points (moment arms) differ from the model",
                {}};
@@ -369,13 +406,26 @@ void ReportTrace(const Model& nominal, const std::vector<Trial>& trials, const C
   std::vector<FitReport::TraceItem> items;
   AddTrends(nominal, trials, res, &items, &skips);
   std::vector<double> chance(items.size(), 2.0 * 6.0);  // columns of each quadratic trend
-  const std::vector<Probe> probes = MakeProbes(nominal, current.augmented, &skips);
+  const std::vector<Probe> probes = MakeProbes(nominal, trials, current.augmented, &skips);
   const Eigen::MatrixXd Q = TentativeBasis(nominal, trials, current, res, options, &skips);
   std::vector<double> probe_share(probes.size(), 0.0);
   std::vector<int> probe_rank(probes.size(), 0);
   std::vector<ColumnLoss> lost(probes.size());
   ParallelFor(probes.size(), options, [&](size_t i) {
     Eigen::MatrixXd D = ProbeColumns(probes[i].models, trials, current, res, options, &lost[i]);
+    if (!probes[i].multipliers.empty()) {
+      const std::vector<std::vector<double>>& mult = probes[i].multipliers;
+      Eigen::MatrixXd E(D.rows(), D.cols() * static_cast<long>(mult.size()));
+      for (long c = 0; c < D.cols(); ++c) {
+        for (size_t j = 0; j < mult.size(); ++j) {
+          for (size_t k = 0; k < trials.size(); ++k) {
+            E.block<6, 1>(6 * static_cast<long>(k), c * static_cast<long>(mult.size()) + j) =
+                mult[j][k] * D.block<6, 1>(6 * static_cast<long>(k), c);
+          }
+        }
+      }
+      D = std::move(E);
+    }
     if (D.cols() == 0 || !(res.total > 0)) return;
     if (Q.cols() > 0) D -= Q * (Q.transpose() * D);
     Eigen::ColPivHouseholderQR<Eigen::MatrixXd> qr(D);

@@ -241,9 +241,9 @@ Table DiagnosticsTable(const FitReport& r) {
     std::vector<std::string> far;
     for (long l : r.trial_force_outliers) far.push_back(std::to_string(l));
     t.rows.push_back(
-        {"per-trial force factors",
-         "spread (sd of ln factor) " + N4(r.trial_force_spread) +
-             (far.empty() ? "" : "; far from the rest: lines " + util::Join(far, ", "))});
+        {"force level and trial variation",
+         r.ForceLevelSummary() +
+             (far.empty() ? "" : "; far from their level: lines " + util::Join(far, ", "))});
     t.row_class.push_back("trial-force");
   }
   if (!r.closest_rejected.empty()) {

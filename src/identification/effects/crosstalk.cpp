@@ -37,7 +37,7 @@ bool ParseTerm(const std::string& name, int* reading, int* source) {
   return *reading >= 0 && *source >= 0 && *reading != *source;
 }
 
-constexpr const char* kSummary =
+constexpr const char* kCrosstalkSummary =
     R"(The off-diagonal part of the transducer's calibration error: reading = D (I + E) D^-1 W, D = diag(1, 1, 1, L, L, L) with L the limb's reach (so moment and force terms are comparable), E with zero diagonal and all 30 off-diagonal terms free. The diagonal is gain:AXIS. E contains, to first order, a small rotation of the transducer axes (misalignment: E_ff = E_mm = -[r]x, the same skew part in the force and moment blocks, 3 directions) and a shift of the moment origin (sensor_origin: E_mf = -[d]x, the skew part of the moment-from-force block, 3 directions); the other 24 directions (the symmetric parts of the four blocks, the skew parts of E_ff and E_mm that differ, the skew part of E_fm and the symmetric part of E_mf) no other effect expresses. A smaller effect it contains wins when it explains the data (fewer parameters, lower BIC); crosstalk replaces misalignment or sensor_origin when it is added after them, and they cannot be added after it. Terms the measured wrenches cannot determine (a source axis the wrenches never vary along) are held at 0 and named in the report; `isowrench design --effects crosstalk` chooses postures that determine them.)";
 
 class Crosstalk final : public EffectType {
@@ -46,7 +46,7 @@ class Crosstalk final : public EffectType {
     return {"crosstalk",
             "crosstalk",
             EffectStage::kMeasurement,
-            kSummary,
+            kCrosstalkSummary,
             "30 terms READING_SOURCE (x, linear, -1 to 1, normalised by the reach), e.g. mx_fy",
             "misalignment and sensor_origin (contained to first order: replaced when crosstalk "
             "is added after them); gain: (the diagonal, a separate effect)"};
