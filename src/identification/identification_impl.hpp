@@ -35,9 +35,10 @@ double Bic(double chi2, int n, int k, bool sd_stated);
 /// Linearised BIC gain of adding the parameters whose residual sensitivities are the columns of
 /// D to a fit with residual r (a score test: the cost falls by the part of r in the span of D).
 /// Columns that are all exactly 0 (no influence) gain nothing and cost their BIC penalty: the
-/// result is always a number.
-double LinearisedDeltaBic(const Eigen::MatrixXd& D, const Eigen::VectorXd& r, int n,
-                          bool sd_stated);
+/// result is always a number. The penalty counts `k` parameters (default: D's columns; less for
+/// a candidate that replaces chosen effects it contains).
+double LinearisedDeltaBic(const Eigen::MatrixXd& D, const Eigen::VectorXd& r, int n, bool sd_stated,
+                          int k = -1);
 
 /// Internal (least-squares) value of a parameter from its user value and back.
 double ToInternal(const EffectParameter& p, double user);

@@ -20,19 +20,18 @@ double ident::Bic(double chi2, int n, int k, bool sd_stated) {
 }
 
 double ident::LinearisedDeltaBic(const Eigen::MatrixXd& D, const Eigen::VectorXd& r, int n,
-                                 bool sd_stated) {
+                                 bool sd_stated, int k) {
   const double cost = r.squaredNorm();
   if (D.cols() == 0) return 0.0;
+  if (k < 0) k = static_cast<int>(D.cols());
   const Eigen::ColPivHouseholderQR<Eigen::MatrixXd> qr(D);
   // Sensitivities that are all exactly 0 (an effect with no influence at its neutral value)
   // reduce nothing; the solve would divide 0 by 0.
-  if (qr.rank() == 0)
-    return ident::Bic(cost, n, 0, sd_stated) -
-           ident::Bic(cost, n, static_cast<int>(D.cols()), sd_stated);
+  if (qr.rank() == 0) return ident::Bic(cost, n, 0, sd_stated) - ident::Bic(cost, n, k, sd_stated);
   const Eigen::VectorXd projected = D * qr.solve(r);
   const double reduction = std::min(projected.squaredNorm(), cost);
   return ident::Bic(cost, n, 0, sd_stated) -
-         ident::Bic(std::max(cost - reduction, 1e-300), n, static_cast<int>(D.cols()), sd_stated);
+         ident::Bic(std::max(cost - reduction, 1e-300), n, k, sd_stated);
 }
 
 namespace ident {

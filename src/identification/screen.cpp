@@ -129,7 +129,11 @@ std::vector<double> ScreenScores(const LimbDescription& nominal, const Current& 
       D -= Q * (Q.transpose() * D);
       r -= Q * (Q.transpose() * r);
     }
-    score[i] = LinearisedDeltaBic(D, r, n, sd_stated);
+    // The penalty of what it adds: a candidate that contains chosen effects replaces them.
+    int k = static_cast<int>(e.parameters.size());
+    for (const AppliedEffect& a : current.effects)
+      k -= Contains(e, a.effect) ? static_cast<int>(a.effect.parameters.size()) : 0;
+    score[i] = LinearisedDeltaBic(D, r, n, sd_stated, k);
   });
   return score;
 }

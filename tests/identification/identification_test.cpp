@@ -382,6 +382,42 @@ TEST(FitLoop, DataWithoutAnEffectRarelyProduceAClaim) {
   EXPECT_LE(claims, 1);
 }
 
+TEST(FitLoop, TheTablesKIsTheBicPenaltyOfEveryCandidate) {
+  // Every fitted candidate of every round: BIC - cost = (k of the current model + the row's k)
+  // ln n, the current model's k being the sum of the previous winners' k (stated sd: BIC =
+  // cost + k ln n). Covers k = 1, 3, 6, 30 and trial_force's 1 + muscles.
+  Model model = Rat();
+  const std::vector<Trial> trials =
+      Simulate(model, {"base_isotropic=3e6", "force_scale:GP=0.9"}, 207);
+  FitOptions o;
+  o.max_rounds = 3;
+  o.screen_keep = 0;  // fit every candidate
+  const FitReport r = FitEffects(model, trials, o);
+  ASSERT_EQ(r.chosen.size(), 2u) << r.BriefReport();
+  const double log_n = std::log(6.0 * trials.size());
+  int current_k = 0, checked = 0, scaled = 0;
+  std::set<int> ks;
+  for (const FitRound& round : r.rounds) {
+    for (const CandidateFit& f : round.candidates) {
+      if (f.screened_out || !f.converged) continue;
+      const double penalty = (f.bic - f.cost) / log_n;
+      EXPECT_NEAR(penalty, current_k + f.added_parameters, 1e-9 * (1 + penalty))
+          << "round " << round.index << " " << f.effect.id;
+      if (f.effect.id == "trial_force") {
+        // The spread and GP's level, less force_scale:GP once chosen (it would replace it).
+        EXPECT_EQ(f.added_parameters, 2 - scaled) << "round " << round.index;
+      }
+      ks.insert(f.added_parameters);
+      ++checked;
+    }
+    if (!round.chosen) continue;
+    current_k += round.candidates[*round.chosen].added_parameters;
+    scaled += round.candidates[*round.chosen].effect.id == "force_scale:GP";
+  }
+  EXPECT_GT(checked, 50);
+  for (int k : {1, 2, 3, 6, 30}) EXPECT_TRUE(ks.count(k)) << k;
+}
+
 TEST(FitLoop, TwoEffectsAreTracedInTwoRounds) {
   Model model = Rat();
   std::vector<Trial> trials =
