@@ -29,6 +29,7 @@ struct FitCommandOptions {
   int rounds = 3;
   int folds = 5;
   int screen = 8;
+  int threads = 0;
   int rows = 20;
   int max_fit_trials = FitOptions().max_fit_trials;
   unsigned long long sample_seed = FitOptions().sample_seed;
@@ -386,6 +387,9 @@ const bool kFitRegistered = RegisterCommand(
        app.add_option("--screen", o->screen,
                       "Per round, fit only the N candidates with the best linearised ΔBIC (a "
                       "score test at the current model; default 8, 0 = fit every candidate)");
+       app.add_option("--threads", o->threads,
+                      "Fit candidates (and cross-validation folds, trace probes) on this many "
+                      "threads (default 0: every core)");
        app.add_option("--candidates", o->candidates,
                       "Only try these effect ids (default: the whole library)");
        app.add_option("--loss", o->loss,
@@ -449,8 +453,6 @@ const bool kFitRegistered = RegisterCommand(
          }
          if (o->data.empty())
            throw Error("fit: missing <data.csv> (measured wrenches; see docs/identification.md)");
-         if (o->rounds < 0) throw Error("fit: --rounds must be >= 0");
-         if (o->screen < 0) throw Error("fit: --screen must be >= 0 (0 = fit every candidate)");
          const bool progress = o->progress || isatty(fileno(stderr));
          FitOptions options;
          options.max_fit_trials = o->max_fit_trials;
@@ -458,6 +460,7 @@ const bool kFitRegistered = RegisterCommand(
          options.max_rounds = o->rounds;
          options.folds = o->folds;
          options.screen_keep = o->screen;
+         options.threads = o->threads;
          options.candidates = o->candidates;
          options.loss = ParseRobustLoss(o->loss);
          options.loss_scale = o->loss_scale;

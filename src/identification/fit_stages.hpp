@@ -16,8 +16,10 @@
 #include <Eigen/Core>
 #include <algorithm>
 #include <atomic>
+#include <chrono>
 #include <map>
 #include <memory>
+#include <mutex>
 #include <string>
 #include <thread>
 #include <vector>
@@ -103,6 +105,16 @@ struct Context {
   double Cost(const Readings& r, const ForceLevels* fixed = nullptr) const;
   /// Residuals whose squares sum to Cost: each row's weighted residual times sqrt(rho(s) / s).
   void Residuals(const std::vector<Vector6d>& prediction, double* residuals) const;
+
+  /// Raw wrenches of the last two values of the free model- and posture-stage parameters
+  /// (Predict). A context is used by one thread at a time.
+  struct RawCache {
+    std::vector<double> key;
+    RawWrenches raw;
+    bool valid = false;
+  };
+  mutable RawCache raw_cache_[2];
+  mutable int raw_cache_next_ = 0;
 };
 
 Context MakeContext(const AugmentedModel& base, const std::vector<Effect>& free,
@@ -132,6 +144,39 @@ std::vector<int> AllIndices(size_t n);
 double RobustSpread(std::vector<double> v, double* median_out = nullptr);
 /// "name = value ± se unit, ...".
 std::string ValueText(const Effect& e, const std::vector<double>& v, const std::vector<double>& se);
+
+/// A progress line (FitOptions::progress), serialised across threads and fits.
+void Say(const FitOptions& options, const std::string& line);
+
+/// Progress of one stage whose `total` items run in parallel: every finished item is reported
+/// ("round 2: fitted 3 of 9 candidates (force_scale:MG, 2.2 s)"), or, when `throttled`, at most
+/// one line per kProgressSeconds (and the last). Silent without FitOptions::progress.
+class StageProgress {
+ public:
+  StageProgress(const FitOptions& options, std::string prefix, size_t total, bool throttled);
+  /// Item `what` finished after `seconds` of wall time and `cpu` seconds of its thread's CPU.
+  void Done(const std::string& what, double seconds, double cpu = -1.0);
+
+ private:
+  const FitOptions& options_;
+  std::string prefix_;
+  size_t total_;
+  bool throttled_;
+  std::mutex mutex_;
+  size_t done_ = 0;
+  std::chrono::steady_clock::time_point start_, last_;
+};
+
+/// Throttled stages report at most once per this many seconds.
+constexpr double kProgressSeconds = 2.0;
+
+/// CPU seconds the calling thread has used (POSIX CLOCK_THREAD_CPUTIME_ID; 0 where missing).
+double ThreadCpuSeconds();
+
+/// Seconds since `start`.
+inline double SecondsSince(std::chrono::steady_clock::time_point start) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+}
 
 /// Run task(i) for i in [0, count) on `options.threads` threads (0 = hardware concurrency);
 /// each task builds its own models and workspaces, so tasks share nothing mutable.
@@ -293,10 +338,11 @@ bool Sensitivities(const Context& c, const std::vector<double>& x0, const std::v
                    Eigen::MatrixXd* D, Eigen::VectorXd* r, std::string* message);
 
 /// The linearised ΔBIC of each candidate at the current model (a score test); see screen.cpp.
+/// `label` names the round in the progress lines ("round 2").
 std::vector<double> ScreenScores(const LimbDescription& nominal, const Current& current,
                                  const std::vector<Effect>& candidates,
                                  const std::vector<Trial>& trials, const FitOptions& options,
-                                 std::vector<std::string>* why);
+                                 const std::string& label, std::vector<std::string>* why);
 
 // ---- report.cpp and trace.cpp -----------------------------------------------------------------
 

@@ -181,8 +181,13 @@ void ComposeReadings(const AugmentedModel& model, const std::vector<Trial>& tria
   if (factors) factors->assign(subset.size(), 1.0);
   const Eigen::Vector3d d = model.sensor_origin;
   const bool calibrated = !model.calibration.isIdentity(0.0);
-  std::vector<double> factor_of(subset.size(), 1.0);
-  std::vector<Vector6d> force(subset.size(), Vector6d::Zero());
+  // Without per-trial factors the readings are written directly (the fit predicts every
+  // trial once per residual evaluation: no further buffers of its size).
+  const bool per_trial = model.trial_force;
+  std::vector<double> factor_of(per_trial ? subset.size() : 0, 1.0);
+  std::vector<Vector6d> own_force;
+  std::vector<Vector6d>& force = per_trial ? own_force : *readings;
+  if (per_trial) own_force.assign(subset.size(), Vector6d::Zero());
   for (size_t k = 0; k < subset.size(); ++k) {
     if (!raw.ok[k]) continue;
     const Trial& trial = trials[subset[k]];
@@ -204,9 +209,18 @@ void ComposeReadings(const AugmentedModel& model, const std::vector<Trial>& tria
         den += weight2 * w[c] * w[c];
       }
       if (den > 0 && std::isfinite(num / den)) factor = num / den;
+      factor_of[k] = factor;
     }
-    factor_of[k] = factor;
     force[k] = w;
+  }
+  if (!per_trial) {
+    if (unit) *unit = *readings;
+    if (model.sensor_offset.squaredNorm() > 0) {
+      for (size_t k = 0; k < subset.size(); ++k) {
+        if (raw.ok[k]) (*readings)[k] += model.sensor_offset;
+      }
+    }
+    return;
   }
   // With a robust loss, a row that stays beyond the outlier threshold even with its own factor
   // is an outlier, not a force variation: it gets the median factor (so per-trial factors do

@@ -2,6 +2,8 @@
 // prediction, robust cost and residuals; the information criteria; small helpers the stages
 // share. No Ceres here (solve.cpp drives the solver).
 
+#include <time.h>
+
 #include <Eigen/QR>
 #include <algorithm>
 #include <cmath>
@@ -35,6 +37,47 @@ double ident::LinearisedDeltaBic(const Eigen::MatrixXd& D, const Eigen::VectorXd
 }
 
 namespace ident {
+
+double ThreadCpuSeconds() {
+#if defined(CLOCK_THREAD_CPUTIME_ID)
+  timespec t{};
+  if (clock_gettime(CLOCK_THREAD_CPUTIME_ID, &t) == 0) return t.tv_sec + 1e-9 * t.tv_nsec;
+#endif
+  return 0.0;
+}
+
+void Say(const FitOptions& options, const std::string& line) {
+  if (!options.progress) return;
+  static std::mutex mutex;
+  std::lock_guard<std::mutex> lock(mutex);
+  options.progress(line);
+}
+
+StageProgress::StageProgress(const FitOptions& options, std::string prefix, size_t total,
+                             bool throttled)
+    : options_(options),
+      prefix_(std::move(prefix)),
+      total_(total),
+      throttled_(throttled),
+      start_(std::chrono::steady_clock::now()),
+      last_(start_) {}
+
+void StageProgress::Done(const std::string& what, double seconds, double cpu) {
+  if (!options_.progress) return;
+  std::lock_guard<std::mutex> lock(mutex_);
+  ++done_;
+  if (throttled_ && done_ < total_ && SecondsSince(last_) < kProgressSeconds) return;
+  last_ = std::chrono::steady_clock::now();
+  std::string line = prefix_ + " " + std::to_string(done_) + " of " + std::to_string(total_);
+  if (throttled_) {
+    line += " (" + util::FormatNumber(SecondsSince(start_), 3) + " s)";
+  } else {
+    line += " (" + what + ", " + util::FormatNumber(seconds, 3) + " s";
+    if (cpu >= 0) line += ", " + util::FormatNumber(cpu, 3) + " s CPU";
+    line += ")";
+  }
+  Say(options_, line);
+}
 
 double RowLoss(double s, const FitOptions& o) {
   if (o.loss == RobustLoss::kNone || !(s > 0)) return s;
@@ -80,7 +123,6 @@ bool Context::Predict(const double* x, std::vector<Vector6d>* out, std::string* 
 bool Context::Predict(const double* x, Readings* result, std::string* message) const {
   std::vector<Vector6d>* out = &result->reading;
   std::vector<double>* factors = &result->factor;
-  std::vector<Vector6d>* unit = &result->unit;
   try {
     AugmentedModel m = base;
     for (size_t e = 0; e < free.size(); ++e) {
@@ -92,17 +134,39 @@ bool Context::Predict(const double* x, Readings* result, std::string* message) c
       }
     }
     result->per_trial = m.trial_force;
+    // The reading at factor 1 is needed for per-trial factors only (ForceLevels).
+    std::vector<Vector6d>* unit = m.trial_force ? &result->unit : nullptr;
     if (cached) {
       ComposeReadings(m, *trials, subset, raw, options, out, factors, unit);
       return raw.all_ok() || Fail(raw.message, message);
     }
-    RawWrenches r;
-    if (rebuild) {
-      Model built(m.description);
-      r = EvaluateRaw(built, m.posture_offset, others, *trials, subset);
-    } else {
-      r = EvaluateRaw(*model, m.posture_offset, others, *trials, subset);
+    // The statics depend only on the free model- and posture-stage parameters: numeric
+    // derivatives along the others (a crosstalk term, a sensor offset) reuse the raw wrenches
+    // of the last two such points (the muscle forces are rescaled by ComposeReadings).
+    std::vector<double> key;
+    for (size_t e = 0; e < free.size(); ++e) {
+      if (free[e].stage != EffectStage::kModel && free[e].stage != EffectStage::kPosture) continue;
+      for (int i = 0; i < FreeCount(static_cast<int>(e)); ++i) key.push_back(x[start[e] + i]);
     }
+    const RawWrenches* found = nullptr;
+    for (const RawCache& c : raw_cache_) {
+      if (c.valid && c.key == key) found = &c.raw;
+    }
+    if (!found) {
+      RawCache& slot = raw_cache_[raw_cache_next_];
+      raw_cache_next_ = 1 - raw_cache_next_;
+      slot.valid = false;
+      if (rebuild) {
+        Model built(m.description);
+        slot.raw = EvaluateRaw(built, m.posture_offset, others, *trials, subset);
+      } else {
+        slot.raw = EvaluateRaw(*model, m.posture_offset, others, *trials, subset);
+      }
+      slot.key = key;
+      slot.valid = true;
+      found = &slot.raw;
+    }
+    const RawWrenches& r = *found;
     if (!r.all_ok()) return Fail(r.message, message);
     ComposeReadings(m, *trials, subset, r, options, out, factors, unit);
     for (const Vector6d& w : *out) {

@@ -73,6 +73,8 @@ void ReportTrials(const std::vector<Trial>& trials, const Prediction& nominal,
 void ReportCorrelations(const Model& nominal, const std::vector<Trial>& trials,
                         const Current& current, const FitOptions& options, FitReport* report) {
   if (current.effects.empty()) return;
+  Say(options, "report: joint fit of the " + std::to_string(current.effects.size()) +
+                   " chosen effects (correlations)");
   JointFit joint = FitJointly(nominal.description(), current.effects, trials, options);
   if (!joint.usable) return;
   report->correlation_labels = joint.labels;

@@ -25,14 +25,25 @@ std::vector<CandidateFit> FitCandidates(const LimbDescription& nominal, const Cu
                                         const std::vector<Effect>& candidates,
                                         const std::vector<size_t>& fit,
                                         const std::vector<Trial>& trials, const FitOptions& options,
+                                        const std::string& label,
                                         std::vector<std::vector<double>>* solutions) {
   const AugmentedModel base = ApplyEffects(nominal, {});
   const std::vector<int> all = AllIndices(trials.size());
   std::vector<CandidateFit> fits(fit.size());
   solutions->assign(fit.size(), {});
+  StageProgress progress(options, label + ": fitted", fit.size(), false);
   ParallelFor(fit.size(), options, [&](size_t i) {
-    fits[i] = FitOnSubset(base, Kept(current.effects, candidates[fit[i]]), candidates[fit[i]],
-                          trials, all, options, nullptr, true, &(*solutions)[i]);
+    const auto start = std::chrono::steady_clock::now();
+    const double cpu = ThreadCpuSeconds();
+    const Effect& e = candidates[fit[i]];
+    const std::vector<AppliedEffect> kept = Kept(current.effects, e);
+    fits[i] = FitOnSubset(base, kept, e, trials, all, options, nullptr, true, &(*solutions)[i]);
+    int free = static_cast<int>(e.per_trial ? 0 : e.parameters.size());
+    for (const AppliedEffect& a : kept)
+      free += static_cast<int>(a.effect.per_trial ? 0 : a.effect.parameters.size());
+    progress.Done(
+        e.id + ", " + std::to_string(free) + " least-squares parameter" + (free == 1 ? "" : "s"),
+        SecondsSince(start), ThreadCpuSeconds() - cpu);
   });
   return fits;
 }
@@ -45,7 +56,7 @@ void CrossValidate(const LimbDescription& nominal, const Current& current,
                    const std::vector<Trial>& trials, const Folds& folds, const FitOptions& options,
                    double threshold, double cv_before,
                    const std::map<std::string, std::vector<double>>& solutions,
-                   std::vector<CandidateFit>* candidates) {
+                   const std::string& label, std::vector<CandidateFit>* candidates) {
   if (folds.train.empty()) return;
   const AugmentedModel base = ApplyEffects(nominal, {});
   const size_t fold_count = folds.train.size();
@@ -55,6 +66,7 @@ void CrossValidate(const LimbDescription& nominal, const Current& current,
     if (!f.converged || !f.identifiable || !f.not_claimed.empty() || f.delta_bic < threshold)
       continue;
     ++done;
+    const auto clock = std::chrono::steady_clock::now();
     const std::vector<double>& start = solutions.at(f.effect.id);
     const std::vector<AppliedEffect> kept = Kept(current.effects, f.effect);
     std::vector<Effect> free;
@@ -98,6 +110,8 @@ void CrossValidate(const LimbDescription& nominal, const Current& current,
     } else {
       f.cv_status = CvStatus::kFailed;
     }
+    Say(options, label + ": cross-validated " + f.effect.id + " (" + std::to_string(fold_count) +
+                     " folds, " + util::FormatNumber(SecondsSince(clock), 3) + " s)");
     if (CvImproves(f, cv_before, options)) break;
   }
 }
@@ -106,9 +120,9 @@ void CrossValidate(const LimbDescription& nominal, const Current& current,
 void Select(FitRound* r, bool cross_validated, const FitOptions& options) {
   for (size_t i = 0; i < r->candidates.size(); ++i) {
     CandidateFit& f = r->candidates[i];
-    std::string p = std::to_string(f.effect.parameters.size()) + " parameter" +
-                    (f.effect.parameters.size() > 1 ? "s" : "");
-    if (f.effect.per_trial) p = "per-trial parameters";
+    // The parameters the criteria charge it (its k in the round table).
+    std::string p =
+        std::to_string(f.added_parameters) + " parameter" + (f.added_parameters == 1 ? "" : "s");
     if (f.screened_out) {
       f.verdict = f.solver_message != "not fitted (screened out)"
                       ? "screened out: " + f.solver_message
@@ -251,6 +265,7 @@ bool SimplifyBase(const Model& nominal, const std::vector<Trial>& trials, const 
     std::vector<AppliedEffect> alt = current->effects;
     const std::vector<double>& k = alt[i].values;
     alt[i] = {iso, {std::cbrt(k[0] * k[1] * k[2])}};
+    Say(options, "simplify: trying base_isotropic in place of base_per_axis");
     JointFit joint = FitJointly(nominal.description(), alt, trials, options);
     const int k_alt = TotalParameters(alt, trials);
     const double bic_now = Bic(current->cost, n, current->parameters, AllSd(trials));
@@ -298,6 +313,8 @@ bool SimplifyContained(const Model& nominal, const std::vector<Trial>& trials,
         alt.push_back({parts[p], start});
         ids.push_back(parts[p].id);
       }
+      Say(options, "simplify: trying " + (ids.empty() ? "nothing" : util::Join(ids, " + ")) +
+                       " in place of " + big.id);
       double bic_alt = 0.0;
       JointFit joint;
       if (alt.empty()) {
@@ -365,13 +382,12 @@ FitRound RunRound(int index, const Model& nominal, const std::vector<Effect>& li
   std::vector<std::string> why;
   const bool screening =
       options.screen_keep > 0 && static_cast<int>(screened.size()) > options.screen_keep;
-  auto stage = [&](const std::string& what) {
-    if (options.progress) options.progress("round " + std::to_string(index) + ": " + what);
-  };
+  const std::string label = "round " + std::to_string(index);
+  auto stage = [&](const std::string& what) { Say(options, label + ": " + what); };
   if (screening) {
     stage("screening " + std::to_string(screened.size()) +
           " candidates (linearised ΔBIC at the current model)");
-    score = ScreenScores(nominal.description(), current, screened, trials, options, &why);
+    score = ScreenScores(nominal.description(), current, screened, trials, options, label, &why);
     // A score that is not a number ranks last (a NaN in the comparison would break the
     // ordering the sort needs, and with it which candidates are fitted).
     for (double& s : score) {
@@ -393,7 +409,7 @@ FitRound RunRound(int index, const Model& nominal, const std::vector<Effect>& li
         " candidates");
   std::vector<std::vector<double>> x;
   std::vector<CandidateFit> fits =
-      FitCandidates(nominal.description(), current, screened, keep, trials, options, &x);
+      FitCandidates(nominal.description(), current, screened, keep, trials, options, label, &x);
   solutions->clear();
   for (size_t i = 0; i < keep.size(); ++i) {
     fits[i].delta_bic = r.bic_before - fits[i].bic;
@@ -431,7 +447,7 @@ FitRound RunRound(int index, const Model& nominal, const std::vector<Effect>& li
                    });
   stage("cross-validating the best candidates (" + std::to_string(folds.train.size()) + " folds)");
   CrossValidate(nominal.description(), current, trials, folds, options, r.bic_threshold,
-                r.cv_before, *solutions, &r.candidates);
+                r.cv_before, *solutions, label, &r.candidates);
   Select(&r, !folds.train.empty(), options);
   if (!r.chosen) {
     r.summary = "no candidate earns its parameters";
@@ -459,6 +475,8 @@ Current Adopt(const Model& nominal, const Current& current, const FitRound& r,
   chosen.push_back({winner.effect, winner.values});
   fits.push_back(winner);
   if (chosen.size() > 1) {
+    Say(options, "round " + std::to_string(r.index) + ": refitting the " +
+                     std::to_string(chosen.size()) + " chosen effects jointly");
     JointFit joint = FitJointly(nominal.description(), chosen, trials, options);
     if (joint.usable && joint.cost <= winner.cost * (1 + 1e-9) + 1e-12) {
       for (size_t e = 0; e < chosen.size(); ++e) {

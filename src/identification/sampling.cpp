@@ -73,10 +73,21 @@ class EveryTrialPass {
   bool per_trial_ = false;
 };
 
+/// The options every front end passes (CLI, Python) are checked here, once, by the names of
+/// both the library and the CLI.
 void CheckSampleOptions(const FitOptions& options) {
   if (options.max_fit_trials < 0) {
     throw Error("fit: max_fit_trials (--max-fit-trials) must be >= 0 (0 = fit every trial), got " +
                 std::to_string(options.max_fit_trials));
+  }
+  const std::pair<const char*, int> counts[] = {{"max_rounds (--rounds)", options.max_rounds},
+                                                {"screen_keep (--screen)", options.screen_keep},
+                                                {"folds (--folds)", options.folds},
+                                                {"threads (--threads)", options.threads}};
+  for (const auto& c : counts) {
+    if (c.second < 0)
+      throw Error(std::string("fit: ") + c.first + " must be >= 0, got " +
+                  std::to_string(c.second));
   }
 }
 

@@ -55,6 +55,53 @@ bool Sensitivities(const Context& c, const std::vector<double>& x0, const std::v
   return true;
 }
 
+namespace {
+
+/// One candidate's linearised ΔBIC (ScreenScores): +inf for a per-trial one (always fitted),
+/// -inf with `why` when it cannot be evaluated near its neutral value.
+void ScoreCandidate(const Current& current, const Effect& e, const std::vector<Trial>& trials,
+                    const std::vector<int>& all, int n, bool sd_stated, const Eigen::MatrixXd& Q,
+                    const FitOptions& options, double* score, std::string* why) {
+  if (e.per_trial) {
+    *score = std::numeric_limits<double>::infinity();
+    return;
+  }
+
+  std::vector<double> x0, step;
+  for (const EffectParameter& q : e.parameters) {
+    const double neutral = ToInternal(q, q.neutral);
+    const double initial = ToInternal(q, q.initial);
+    const double range = ToInternal(q, q.upper) - ToInternal(q, q.lower);
+    x0.push_back(neutral);
+    if (q.scale == ParameterScale::kLog10 && std::abs(initial - neutral) > 0.5) {
+      step.push_back(initial < neutral ? -1.0 : 1.0);
+    } else {
+      step.push_back(1e-3 * range);
+    }
+  }
+  Eigen::MatrixXd D;
+  Eigen::VectorXd r;
+  std::string message;
+  if (!Sensitivities(MakeContext(current.augmented, {e}, trials, all, options), x0, step, &D, &r,
+                     &message)) {
+    *score = -std::numeric_limits<double>::infinity();
+    *why = "cannot be evaluated near its neutral value: " + message;
+    return;
+  }
+  if (D.cols() == 0) return;  // no parameter: nothing to gain (score 0)
+  if (Q.cols() > 0) {
+    D -= Q * (Q.transpose() * D);
+    r -= Q * (Q.transpose() * r);
+  }
+  // The penalty of what it adds: a candidate that contains chosen effects replaces them.
+  int k = static_cast<int>(e.parameters.size());
+  for (const AppliedEffect& a : current.effects)
+    k -= Contains(e, a.effect) ? static_cast<int>(a.effect.parameters.size()) : 0;
+  *score = LinearisedDeltaBic(D, r, n, sd_stated, k);
+}
+
+}  // namespace
+
 /// One sensitivity column per parameter: the prediction at a small step from the value at which
 /// the effect vanishes (one decade towards the start for a stiffness, 1e-3 of the search range
 /// otherwise) minus the prediction there, whitened and scaled per row like the robust
@@ -67,7 +114,7 @@ bool Sensitivities(const Context& c, const std::vector<double>& x0, const std::v
 std::vector<double> ScreenScores(const LimbDescription& nominal, const Current& current,
                                  const std::vector<Effect>& candidates,
                                  const std::vector<Trial>& trials, const FitOptions& options,
-                                 std::vector<std::string>* why) {
+                                 const std::string& label, std::vector<std::string>* why) {
   const bool sd_stated = AllSd(trials);
   const std::vector<int> all = AllIndices(trials.size());
   const int n = static_cast<int>(6 * trials.size());
@@ -97,45 +144,13 @@ std::vector<double> ScreenScores(const LimbDescription& nominal, const Current& 
   }
   std::vector<double> score(candidates.size(), 0.0);
   why->assign(candidates.size(), "");
+  StageProgress progress(options, label + ": screened", candidates.size(), true);
   ParallelFor(candidates.size(), options, [&](size_t i) {
-    const Effect& e = candidates[i];
-    if (e.per_trial) {
-      score[i] = std::numeric_limits<double>::infinity();
-      return;
-    }
-    std::vector<double> x0, step;
-    for (const EffectParameter& q : e.parameters) {
-      const double neutral = ToInternal(q, q.neutral);
-      const double initial = ToInternal(q, q.initial);
-      const double range = ToInternal(q, q.upper) - ToInternal(q, q.lower);
-      x0.push_back(neutral);
-      if (q.scale == ParameterScale::kLog10 && std::abs(initial - neutral) > 0.5) {
-        step.push_back(initial < neutral ? -1.0 : 1.0);
-      } else {
-        step.push_back(1e-3 * range);
-      }
-    }
-    Eigen::MatrixXd D;
-    Eigen::VectorXd r;
-    std::string message;
-    if (!Sensitivities(MakeContext(current.augmented, {e}, trials, all, options), x0, step, &D, &r,
-                       &message)) {
-      score[i] = -std::numeric_limits<double>::infinity();
-      (*why)[i] = "cannot be evaluated near its neutral value: " + message;
-      return;
-    }
-    if (D.cols() == 0) return;  // no parameter: nothing to gain (score 0)
-    if (Q.cols() > 0) {
-      D -= Q * (Q.transpose() * D);
-      r -= Q * (Q.transpose() * r);
-    }
-    // The penalty of what it adds: a candidate that contains chosen effects replaces them.
-    int k = static_cast<int>(e.parameters.size());
-    for (const AppliedEffect& a : current.effects)
-      k -= Contains(e, a.effect) ? static_cast<int>(a.effect.parameters.size()) : 0;
-    score[i] = LinearisedDeltaBic(D, r, n, sd_stated, k);
+    const auto start = std::chrono::steady_clock::now();
+    ScoreCandidate(current, candidates[i], trials, all, n, sd_stated, Q, options, &score[i],
+                   &(*why)[i]);
+    progress.Done(candidates[i].id, SecondsSince(start));
   });
   return score;
 }
-
 }  // namespace isowrench::ident

@@ -6,6 +6,7 @@
 #include <ceres/ceres.h>
 #include <glog/logging.h>
 
+#include <Eigen/QR>
 #include <Eigen/SVD>
 #include <cmath>
 #include <mutex>
@@ -188,14 +189,20 @@ Analysis Analyze(const Context& c, const std::vector<double>& x, double cost, bo
     a.reason = "the Jacobian cannot be evaluated at the solution";
     return a;
   }
-  Eigen::MatrixXd Jd = J;
+  Eigen::MatrixXd Jd = J;  // column-major, factorised in place below
   for (int i = 0; i < p; ++i) {
     if (Jd.col(i).norm() <= c.options.min_sensitivity * std::sqrt(static_cast<double>(n))) {
       reasons.push_back(ParameterLabel(c, i) + " has near-zero sensitivity (|dr/dp| = " +
                         util::FormatNumber(Jd.col(i).norm(), 3) + ")");
     }
   }
-  Eigen::JacobiSVD<Eigen::MatrixXd> svd(Jd, Eigen::ComputeThinV);
+  // Singular values and V of J from the SVD of its R factor (J = Q R): the same values, a p x p
+  // problem, and no further copy of the n x p Jacobian (30 crosstalk terms x 20,000 trials:
+  // 29 MB each).
+  Eigen::HouseholderQR<Eigen::Ref<Eigen::MatrixXd>> qr(Jd);
+  const Eigen::MatrixXd R =
+      qr.matrixQR().topRows(std::min<Eigen::Index>(n, p)).triangularView<Eigen::Upper>();
+  Eigen::JacobiSVD<Eigen::MatrixXd> svd(R, Eigen::ComputeThinV);
   Eigen::VectorXd s = svd.singularValues();
   bool rank_ok = s.size() == p && s[0] > 0 && s[p - 1] > c.options.min_singular_ratio * s[0];
   if (!rank_ok) {

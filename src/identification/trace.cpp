@@ -411,7 +411,14 @@ void ReportTrace(const Model& nominal, const std::vector<Trial>& trials, const C
   std::vector<double> probe_share(probes.size(), 0.0);
   std::vector<int> probe_rank(probes.size(), 0);
   std::vector<ColumnLoss> lost(probes.size());
+  StageProgress progress(options, "trace: probes evaluated", probes.size(), true);
   ParallelFor(probes.size(), options, [&](size_t i) {
+    struct Finish {  // reports the probe however its task returns
+      StageProgress& progress;
+      const std::string& what;
+      std::chrono::steady_clock::time_point start = std::chrono::steady_clock::now();
+      ~Finish() { progress.Done(what, SecondsSince(start)); }
+    } finish{progress, probes[i].variable};
     Eigen::MatrixXd D = ProbeColumns(probes[i].models, trials, current, res, options, &lost[i]);
     if (!probes[i].multipliers.empty()) {
       const std::vector<std::vector<double>>& mult = probes[i].multipliers;
