@@ -385,13 +385,13 @@ TEST(FitLoop, DataWithoutAnEffectRarelyProduceAClaim) {
 TEST(FitLoop, TheTablesKIsTheBicPenaltyOfEveryCandidate) {
   // Every fitted candidate of every round: BIC - cost = (k of the current model + the row's k)
   // ln n, the current model's k being the sum of the previous winners' k (stated sd: BIC =
-  // cost + k ln n). Covers k = 1, 3, 6, 30 and trial_force's 1 + muscles.
+  // cost + k ln n). Covers k = 1, 3, 6, 30 (fitted in round 1 by the default screen) and
+  // trial_force's 1 + muscles.
   Model model = Rat();
   const std::vector<Trial> trials =
       Simulate(model, {"base_isotropic=3e6", "force_scale:GP=0.9"}, 207);
   FitOptions o;
   o.max_rounds = 3;
-  o.screen_keep = 0;  // fit every candidate
   const FitReport r = FitEffects(model, trials, o);
   ASSERT_EQ(r.chosen.size(), 2u) << r.BriefReport();
   const double log_n = std::log(6.0 * trials.size());
@@ -414,7 +414,7 @@ TEST(FitLoop, TheTablesKIsTheBicPenaltyOfEveryCandidate) {
     current_k += round.candidates[*round.chosen].added_parameters;
     scaled += round.candidates[*round.chosen].effect.id == "force_scale:GP";
   }
-  EXPECT_GT(checked, 50);
+  EXPECT_GE(checked, 25);
   for (int k : {1, 2, 3, 6, 30}) EXPECT_TRUE(ks.count(k)) << k;
 }
 
