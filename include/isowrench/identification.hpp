@@ -15,6 +15,7 @@
 #include <istream>
 #include <map>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -167,6 +168,11 @@ struct Effect {
   std::vector<std::string> confounders;
   /// Effect ids that cannot be in one model with this one (they edit the same thing).
   std::vector<std::string> excludes;
+  /// Effect ids this effect contains (any change of theirs is, to first order, one of its own,
+  /// e.g. crosstalk contains misalignment and sensor_origin): added after them it replaces
+  /// them, and they cannot be added after it. After the rounds a chosen effect is replaced by
+  /// the contained ones when they explain the data with a lower BIC.
+  std::vector<std::string> contains;
 };
 
 /// What the registry says about one kind (for --list-effects and the docs).
@@ -304,8 +310,10 @@ struct SimulationOptions {
 std::vector<Trial> SimulateTrials(const Model& nominal, const AugmentedModel& truth,
                                   const SimulationOptions& options);
 
-/// Parse "NAME=V1,V2,..." (user units) into an applied effect of CandidateEffects(model).
-/// A single value for a multi-parameter effect is refused.
+/// Parse "NAME=V1,V2,..." (user units, every parameter in order) or "NAME=P1:V1,P2:V2,..."
+/// (named parameters; the others keep their neutral value, e.g. "crosstalk=mx_fy:0.02") into an
+/// applied effect of CandidateEffects(model). A single value for a multi-parameter effect is
+/// refused.
 /// @throws Error naming the effect and listing the known ids.
 AppliedEffect ParseEffectAssignment(const Model& model, const std::string& text);
 
@@ -336,8 +344,8 @@ struct FitOptions {
   /// Screening: each round ranks the candidates by a linearised ΔBIC at the current model (a
   /// score test from one sensitivity column per parameter, exact for effects linear in their
   /// parameters) and fits only the screen_keep best fully (per-trial effects, solved in closed
-  /// form, always); the others are reported as screened out. 0 = fit every candidate. The ΔBIC
-  /// threshold still counts every candidate tried (look_elsewhere).
+  /// form, always, besides those); the others are reported as screened out. 0 = fit every
+  /// candidate. The ΔBIC threshold still counts every candidate tried (look_elsewhere).
   int screen_keep = 8;
   /// At most this many effects are added (rounds).
   int max_rounds = 3;
@@ -405,6 +413,15 @@ struct ResidualStats {
   int parameter_count = 0;
 };
 
+/// Whether a candidate was cross-validated (CandidateFit::cv_status).
+enum class CvStatus {
+  kNotRun,  ///< not cross-validated: it could not win (not converged, not identifiable, below
+            ///< the ΔBIC threshold), a better one passed first, FitOptions::cv_candidates were
+            ///< tried already, or there are fewer trials than folds
+  kFailed,  ///< a fold's fit or its held-out prediction failed
+  kDone,    ///< cv_error holds the held-out cost per residual
+};
+
 /// One candidate fitted in one round.
 struct CandidateFit {
   Effect effect;
@@ -418,11 +435,22 @@ struct CandidateFit {
   double aic = 0.0;        ///< AICc on chi2 (known-sd Gaussian likelihood, constants dropped)
   double bic = 0.0;        ///< chi2 + k ln(n)
   double delta_bic = 0.0;  ///< BIC of the current model minus this BIC (> 0: better)
-  double cv_error = -1.0;  ///< held-out chi2 per residual (K-fold); < 0 when not computed
+  /// Parameters the candidate adds to the current model, what the criteria charge it (BIC
+  /// penalty added_parameters x ln n): its own parameters, less those of chosen effects it
+  /// replaces (Effect::contains).
+  int added_parameters = 0;
+  CvStatus cv_status = CvStatus::kNotRun;  ///< whether cv_error was computed
+  /// Held-out robust cost per residual (K-fold cross-validation; 1 = at the noise), when
+  /// cv_status is kDone (0 otherwise).
+  double cv_error = 0.0;
   bool identifiable = true;
   std::string identifiability;  ///< why not identifiable (sensitivity, correlation), or ""
   bool converged = false;
   std::string solver_message;
+  /// Why the candidate cannot be claimed whatever its BIC, or "" (trial_force: its spread is
+  /// not significant against the muscles' force levels alone, or its factors follow the
+  /// posture, a systematic effect: docs/identification.md "Force level and trial variation").
+  std::string not_claimed;
   bool accepted = false;  ///< chosen in this round
   std::string verdict;    ///< "chosen", or why it lost
   /// Linearised ΔBIC of the screening step (score test at the current model); 0 when the round
@@ -442,7 +470,8 @@ struct FitRound {
   /// ΔBIC an effect needed in this round (min_bic_improvement + look-elsewhere term).
   double bic_threshold = 0.0;
   std::vector<CandidateFit> candidates;  ///< sorted best BIC first
-  int chosen = -1;  ///< index in candidates, -1 when nothing earned its parameters
+  /// Index in candidates of the winner; empty when nothing earned its parameters.
+  std::optional<size_t> chosen;
   /// Effect ids indistinguishable from the winner at these postures (BIC within
   /// FitOptions::indistinguishable_bic and passing the thresholds).
   std::vector<std::string> indistinguishable;
@@ -518,11 +547,29 @@ struct FitReport {
   std::vector<std::string> correlation_labels;
   Eigen::MatrixXd correlations;
   std::vector<std::string> confounded;
-  /// trial_force: the per-trial factors (one per fitted trial, in trial order), the spread (sd of
-  /// ln factor) and the lines of trials whose factor is far from the rest (> 3 robust sd).
+  /// trial_force (docs/identification.md "Force level and trial variation"): trial t of muscle
+  /// m has the factor g_t = s_m exp(z_t), z_t ~ N(0, spread^2). The per-trial factors g_t (one
+  /// per fitted trial, in trial order, relative to the nominal max_force), the spread (sd of
+  /// ln factor around the muscle's level, maximum marginal likelihood) with its standard error,
+  /// the likelihood ratio of the spread against the levels alone, and the lines of trials whose
+  /// factor is far from their level (|ln g_t - ln s_m| > 3 sqrt(spread^2 + its variance)).
   std::vector<double> trial_factors;
   double trial_force_spread = 0.0;
+  double trial_force_spread_se = 0.0;
+  double trial_force_lrt = 0.0;
   std::vector<long> trial_force_outliers;
+  /// trial_force: the level s_m of each muscle's trials (what force_scale fits: the factor on its
+  /// max_force, written into the augmented model) with its standard error.
+  struct ForceLevel {
+    std::string muscle;
+    double level = 1.0;           ///< x
+    double standard_error = 0.0;  ///< x
+    int trials = 0;               ///< trials it is the level of
+  };
+  std::vector<ForceLevel> trial_force_levels;
+  /// trial_force's findings in words: "force_scale:GP = 0.9012 ± 0.0071 x (level of GP's 60
+  /// trials); trial_force spread 0.0503 ± 0.0046 (...)"; "" without trial_force.
+  std::string ForceLevelSummary() const;
   /// Where the residual lives when it stays above the noise (empty otherwise): first the
   /// trends (trial order, coordinates, muscle lengths; best first), then the muscle/axis shares.
   struct TraceItem {

@@ -17,6 +17,7 @@
 #include <map>
 #include <memory>
 #include <mutex>
+#include <optional>
 #include <string>
 #include <thread>
 #include <vector>
@@ -30,6 +31,7 @@
 #include "isowrench/kinematics.hpp"
 #include "isowrench/model.hpp"
 #include "isowrench/opensim.hpp"
+#include "isowrench/plots.hpp"
 #include "isowrench/posture.hpp"
 #include "isowrench/statics.hpp"
 #include "isowrench/trial_csv.hpp"
@@ -597,20 +599,59 @@ std::string Simulate(const PyModel& m, const std::string& output,
   return output;
 }
 
+/// `isowrench fit` from Python: the CLI's options and outputs (FitOptions, the augmented URDF,
+/// the HTML and markdown reports), progress lines to a callable.
 py::dict Fit(const PyModel& m, const std::string& csv, int max_fit_trials,
-             unsigned long long sample_seed, const std::string& delimiter, bool decimal_comma,
-             const std::vector<std::string>& ignore_columns, int skip_rows) {
+             unsigned long long sample_seed, int rounds, int folds, int screen,
+             const std::vector<std::string>& candidates, const std::string& loss, double loss_scale,
+             int threads, const std::optional<std::string>& output,
+             const std::optional<std::string>& report_html,
+             const std::optional<std::string>& report_markdown, const py::object& progress) {
   if (!std::filesystem::exists(csv)) ThrowFileNotFound(csv);
-  const TrialSheetOptions sheet = Sheet(delimiter, decimal_comma, ignore_columns, skip_rows);
+  FitOptions options;
+  options.max_fit_trials = max_fit_trials;
+  options.sample_seed = sample_seed;
+  options.max_rounds = rounds;
+  options.folds = folds;
+  options.screen_keep = screen;
+  options.candidates = candidates;
+  options.loss = ParseRobustLoss(loss);
+  options.loss_scale = loss_scale;
+  options.threads = threads;
+  // The fit calls progress from its worker threads (serialised): each call takes the GIL. The
+  // lambda holds a pointer, so the copies FitOptions makes never touch a Python reference
+  // without the GIL; an exception in the callable stops its lines and is raised after the fit.
+  py::function callback;
+  std::exception_ptr callback_error;
+  if (!progress.is_none()) {
+    if (!PyCallable_Check(progress.ptr())) throw py::type_error("fit: progress must be callable");
+    callback = py::reinterpret_borrow<py::function>(progress);
+    py::function* f = &callback;
+    std::exception_ptr* error = &callback_error;
+    options.progress = [f, error](const std::string& line) {
+      py::gil_scoped_acquire gil;
+      if (*error) return;
+      try {
+        (*f)(line);
+      } catch (py::error_already_set&) {
+        *error = std::current_exception();
+      }
+    };
+  }
   FitReport report;
-  Flushing([&] {
+  std::vector<Trial> fitted;
+  Flushing([&] {  // the sheet's warnings become UserWarnings once the GIL is held again
     py::gil_scoped_release release;
-    FitOptions options;
-    options.max_fit_trials = max_fit_trials;
-    options.sample_seed = sample_seed;
-    report = FitEffectsCsv(m.model, csv, sheet, options);
+    report = FitEffectsCsv(m.model, csv, sheet, options, nullptr, nullptr, &fitted);
+    if (output) WriteAugmentedUrdf(report, *output);
+    FitReportOptions report_options;
+    report_options.trials = &fitted;
+    report_options.model = &m.model;
+    if (report_html) WriteFitReportHtml(report, *report_html, report_options);
+    if (report_markdown) WriteFitReportMarkdown(report, *report_markdown, report_options);
     return 0;
   });
+  if (callback_error) std::rethrow_exception(callback_error);
   py::dict out;
   out["verdict"] = FitVerdictName(report.verdict);
   out["verdict_message"] = report.verdict_message;
@@ -632,6 +673,50 @@ py::dict Fit(const PyModel& m, const std::string& csv, int max_fit_trials,
     chosen.append(effect);
   }
   out["chosen"] = chosen;
+  py::list round_list;
+  for (const FitRound& r : report.rounds) {
+    py::list rows;
+    for (const CandidateFit& c : r.candidates) {
+      py::dict row;
+      row["id"] = c.effect.id;
+      row["k"] = c.added_parameters;
+      row["delta_bic"] = c.delta_bic;
+      row["screened_out"] = c.screened_out;
+      row["verdict"] = c.verdict;
+      rows.append(row);
+    }
+    py::dict round;
+    round["index"] = r.index;
+    round["summary"] = r.summary;
+    round["chosen"] =
+        r.chosen ? py::object(py::str(r.candidates[*r.chosen].effect.id)) : py::none();
+    round["candidates"] = rows;
+    round_list.append(round);
+  }
+  out["rounds"] = round_list;
+  py::list levels;
+  for (const FitReport::ForceLevel& l : report.trial_force_levels) {
+    py::dict level;
+    level["muscle"] = l.muscle;
+    level["level"] = l.level;
+    level["standard_error"] = l.standard_error;
+    level["trials"] = l.trials;
+    levels.append(level);
+  }
+  out["force_levels"] = levels;
+  out["trial_force_spread"] = report.trial_force_spread;
+  out["trial_force_spread_se"] = report.trial_force_spread_se;
+  out["force_level_summary"] = report.ForceLevelSummary();
+  py::list trace;
+  for (const FitReport::TraceItem& i : report.trace) {
+    py::dict item;
+    item["variable"] = i.variable;
+    item["share"] = i.share;
+    item["note"] = i.note;
+    trace.append(item);
+  }
+  out["trace"] = trace;
+  out["outlier_rows"] = report.outlier_rows;
   out["trial_count"] = report.trial_count;
   out["fitted_trial_count"] = report.fitted_trial_count;
   out["sampling"] = report.sampling;
@@ -945,28 +1030,42 @@ PYBIND11_MODULE(_core, mod) {
           "simulate --postures) the trials are at its rows, with their muscles and activations "
           "(one per row unless trials=, exactly unless joint_range=). "
           "Returns path. Same seed, same data.");
-  mod.def("fit", &Fit, py::arg("model"), py::arg("csv"),
-          py::arg("max_fit_trials") = FitOptions().max_fit_trials,
-          py::arg("sample_seed") = FitOptions().sample_seed, py::arg("delimiter") = ",",
-          py::arg("decimal_comma") = false, py::arg("ignore_columns") = std::vector<std::string>{},
-          py::arg("skip_rows") = 0,
-          "fit(model, csv, max_fit_trials=20000, sample_seed=1, delimiter=',', "
-          "decimal_comma=False, ignore_columns=[], skip_rows=0) -> dict\n\n"
-          "The sheet keywords are the CLI's --delimiter (',', ';', '\\t' or '|'), "
-          "--decimal-comma, --ignore-columns and --skip-rows (TrialSheetOptions); units in the "
-          "header ('fx (N)', 'mx (N·mm)', 'hip_rz (rad)') or a units row are read and converted.\n"
-          "FitEffectsCsv on a trial CSV (as `isowrench fit`): which unmodelled effects explain the "
-          "measured wrenches. With more rows than max_fit_trials (0 = no limit) a uniform random "
-          "sample of that many is fitted (reservoir sampling, sample_seed) and every row is "
-          "predicted for rms_before / rms_after, in memory that does not grow with the rows. "
-          "Returns {'verdict', 'verdict_message', 'effects_claimed', 'chosen': [{'id', "
-          "'parameters': [{'name', "
-          "'value', 'standard_error', 'unit'}]}], 'trial_count', 'fitted_trial_count', "
-          "'sampling' (text), 'rms_before', 'rms_after' (6,) N "
-          "and N·m, "
-          "'normalized_before', 'normalized_after' (noise multiples), 'indistinguishable', "
-          "'notes', 'report' (text), "
-          "'seconds'}. The GIL is released while fitting.");
+  mod.def(
+      "fit", &Fit, py::arg("model"), py::arg("csv"),
+      py::arg("max_fit_trials") = FitOptions().max_fit_trials,
+      py::arg("sample_seed") = FitOptions().sample_seed,
+      py::arg("rounds") = FitOptions().max_rounds, py::arg("folds") = FitOptions().folds,
+      py::arg("screen") = FitOptions().screen_keep,
+      py::arg("candidates") = std::vector<std::string>{}, py::arg("loss") = "huber",
+      py::arg("loss_scale") = FitOptions().loss_scale, py::arg("threads") = 0,
+      py::arg("output") = py::none(), py::arg("report") = py::none(),
+      py::arg("report_md") = py::none(), py::arg("progress") = py::none(),
+      py::arg("delimiter") = ",", py::arg("decimal_comma") = false,
+      py::arg("ignore_columns") = std::vector<std::string>{}, py::arg("skip_rows") = 0,
+      R"(fit(model, csv, max_fit_trials=20000, sample_seed=1, rounds=3, folds=5, screen=8, candidates=[], loss="huber", loss_scale=2.0, threads=0, output=None, report=None, report_md=None, progress=None, delimiter=",", decimal_comma=False, ignore_columns=[], skip_rows=0) -> dict
+
+FitEffectsCsv on a trial CSV, as `isowrench fit` with the same options: rounds (--rounds, most
+effects added), folds (--folds), screen (--screen, candidates fitted per round, 0 = all),
+candidates (--candidates, effect ids; [] = the whole library), loss ("huber", "cauchy", "none")
+and loss_scale (--loss, --loss-scale), threads (--threads, 0 = every core). With more rows than
+max_fit_trials (0 = no limit) a uniform random sample is fitted (reservoir sampling,
+sample_seed) and every row is predicted for rms_before / rms_after. Outputs as the CLI's: output
+(-o, the augmented URDF), report (--report, HTML) and report_md (--report-md). progress: a
+callable given each progress line of the fit (the CLI's stderr lines: rounds, every candidate
+fit, cross-validation, trace); it is called with the GIL held, from the fit's threads, one line
+at a time; an exception it raises stops its lines and is raised when the fit ends. The sheet
+keywords are the CLI's --delimiter (',', ';', '\t' or '|'), --decimal-comma, --ignore-columns
+and --skip-rows (TrialSheetOptions); units in the header ('fx (N)', 'mx (N·mm)', 'hip_rz (rad)')
+or a units row are read and converted.
+Returns {'verdict', 'verdict_message', 'effects_claimed', 'chosen': [{'id', 'parameters':
+[{'name', 'value', 'standard_error', 'unit'}]}], 'rounds': [{'index', 'summary', 'chosen',
+'candidates': [{'id', 'k', 'delta_bic', 'screened_out', 'verdict'}]}], 'force_levels':
+[{'muscle', 'level', 'standard_error', 'trials'}], 'trial_force_spread',
+'trial_force_spread_se', 'force_level_summary', 'trace': [{'variable', 'share', 'note'}],
+'outlier_rows', 'trial_count', 'fitted_trial_count', 'sampling', 'rms_before', 'rms_after'
+(6,) N and N·m, 'normalized_before', 'normalized_after' (noise multiples),
+'indistinguishable', 'notes', 'report' (text), 'seconds'}. The GIL is released while fitting.
+Raises ValueError for bad options (a negative count, an unknown loss or effect id) or data.)");
   mod.def("load", &Load, py::arg("path"), py::arg("clamp_body") = py::none(),
           py::arg("endpoint_body") = py::none(),
           "load(path, clamp_body=None, endpoint_body=None) -> Model\n\n"

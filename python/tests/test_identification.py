@@ -1,5 +1,7 @@
 """isowrench.simulate and isowrench.fit: the CLI's simulate file, and a planted effect recovered."""
 
+import re
+
 import numpy as np
 import pytest
 
@@ -105,3 +107,60 @@ def test_fit_names_the_radians_slip(rat):
         fit = isowrench.fit(rat, str(REPO / "tests" / "data" / "trials_radians.csv"))
     assert "likely slip: the angles of hip_rz" in fit["verdict_message"]
     assert "recorded in radians?" in fit["verdict_message"]
+
+
+def test_fit_takes_the_cli_options_and_writes_its_outputs(cli, rat, tmp_path):
+    # The same options through Python and through `isowrench fit --json`: the same choices; the
+    # URDF, HTML and markdown outputs are written; progress lines reach the callable.
+    path = isowrench.simulate(rat, str(tmp_path / "data.csv"), effects=["force_scale:GP=0.9"], trials=40, seed=5)
+    options = dict(rounds=2, folds=4, screen=3, loss="cauchy", loss_scale=2.5, threads=1,
+                   candidates=["force_scale:GP", "sensor_offset", "base_isotropic", "gain:fx"])
+    lines = []
+    fit = isowrench.fit(rat, path, output=str(tmp_path / "aug.urdf"), report=str(tmp_path / "r.html"),
+                        report_md=str(tmp_path / "r.md"), progress=lines.append, **options)
+    ours = cli("fit", URDF / "rat_hindlimb_5dof.urdf", path, "--rounds", 2, "--folds", 4, "--screen", 3,
+               "--loss", "cauchy", "--loss-scale", 2.5, "--threads", 1, "--candidates", *options["candidates"],
+               "--json")
+    assert fit["verdict"] == ours["verdict"] == "explained"
+    assert [c["id"] for c in fit["chosen"]] == [c["effect"] for c in ours["chosen"]] == ["force_scale:GP"]
+    assert fit["chosen"][0]["parameters"][0]["value"] == pytest.approx(ours["chosen"][0]["parameters"][0]["value"], rel=1e-12)
+    # Round tables: 4 candidates in round 1, 3 of them fitted (screen=3), k of each.
+    first = fit["rounds"][0]
+    assert first["chosen"] == "force_scale:GP"
+    assert len(first["candidates"]) == 4
+    assert sum(c["screened_out"] for c in first["candidates"]) == 1
+    assert {c["id"]: c["k"] for c in first["candidates"]}["sensor_offset"] == 6
+    # Outputs: the augmented URDF loads and holds the fitted force; the reports name the effect.
+    augmented = (tmp_path / "aug.urdf").read_text()
+    isowrench.load(str(tmp_path / "aug.urdf"))
+    max_force = float(re.search(r'name="GP" max_force="([^"]+)"', augmented).group(1))
+    assert max_force == pytest.approx(2.3 * fit["chosen"][0]["parameters"][0]["value"], rel=1e-6)
+    assert "force_scale:GP" in (tmp_path / "r.html").read_text()
+    assert "force_scale:GP" in (tmp_path / "r.md").read_text()
+    # Progress: every stage, every candidate fit, in order.
+    assert any(l.startswith("round 1: screening") for l in lines)
+    assert any(l.startswith("round 1: fitted 3 of 3") for l in lines)
+    assert any(l.startswith("round 1: cross-validated force_scale:GP") for l in lines)
+    assert lines.index(next(l for l in lines if l.startswith("round 2"))) > lines.index(
+        next(l for l in lines if l.startswith("round 1: fitted")))
+
+
+def test_fit_option_errors(rat, tmp_path):
+    path = isowrench.simulate(rat, str(tmp_path / "data.csv"), trials=20, seed=5)
+    with pytest.raises(ValueError, match=r"max_rounds \(--rounds\) must be >= 0, got -1"):
+        isowrench.fit(rat, path, rounds=-1)
+    with pytest.raises(ValueError, match="--loss 'bogus'"):
+        isowrench.fit(rat, path, loss="bogus")
+    with pytest.raises(ValueError, match="no_such_effect"):
+        isowrench.fit(rat, path, candidates=["no_such_effect"])
+    with pytest.raises(TypeError, match="progress must be callable"):
+        isowrench.fit(rat, path, progress=3)
+
+    class Stop(Exception):
+        pass
+
+    def stop(line):
+        raise Stop(line)
+
+    with pytest.raises(Stop, match="round 1"):
+        isowrench.fit(rat, path, rounds=1, progress=stop)

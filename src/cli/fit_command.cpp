@@ -30,6 +30,7 @@ struct FitCommandOptions {
   int rounds = 3;
   int folds = 5;
   int screen = 8;
+  int threads = 0;
   int rows = 20;
   int max_fit_trials = FitOptions().max_fit_trials;
   unsigned long long sample_seed = FitOptions().sample_seed;
@@ -94,15 +95,18 @@ nlohmann::json CandidateJson(const CandidateFit& f) {
                       {"aicc", f.aic},
                       {"bic", f.bic},
                       {"delta_bic", f.delta_bic},
+                      {"added_parameters", f.added_parameters},
                       {"identifiable", f.identifiable},
                       {"identifiability", f.identifiability},
                       {"converged", f.converged},
                       {"solver_message", f.solver_message},
+                      {"not_claimed", f.not_claimed},
                       {"accepted", f.accepted},
                       {"verdict", f.verdict},
                       {"screened_out", f.screened_out},
                       {"screen_delta_bic", f.screen_delta_bic}};
-  j["cv_error"] = f.cv_error >= 0 ? nlohmann::json(f.cv_error) : nlohmann::json(nullptr);
+  j["cv_error"] =
+      f.cv_status == CvStatus::kDone ? nlohmann::json(f.cv_error) : nlohmann::json(nullptr);
   return j;
 }
 
@@ -118,8 +122,20 @@ nlohmann::json CorrelationsJson(const FitReport& r) {
 
 nlohmann::json TrialForceJson(const FitReport& r) {
   if (r.trial_factors.empty()) return nullptr;
+  nlohmann::json levels = nlohmann::json::array();
+  for (const FitReport::ForceLevel& l : r.trial_force_levels) {
+    levels.push_back({{"muscle", l.muscle},
+                      {"level", l.level},
+                      {"standard_error", l.standard_error},
+                      {"trials", l.trials},
+                      {"unit", "x (factor on max_force)"}});
+  }
   return {{"factors", r.trial_factors},
+          {"levels", levels},
           {"spread_ln", r.trial_force_spread},
+          {"spread_ln_standard_error", r.trial_force_spread_se},
+          {"likelihood_ratio", r.trial_force_lrt},
+          {"summary", r.ForceLevelSummary()},
           {"far_lines", r.trial_force_outliers}};
 }
 
@@ -147,8 +163,8 @@ nlohmann::json ReportJson(const FitReport& r, const std::string& urdf, const std
          {"bic_threshold", round.bic_threshold},
          {"cv_before", round.cv_before},
          {"candidates", c},
-         {"chosen", round.chosen >= 0 ? nlohmann::json(round.candidates[round.chosen].effect.id)
-                                      : nlohmann::json(nullptr)},
+         {"chosen", round.chosen ? nlohmann::json(round.candidates[*round.chosen].effect.id)
+                                 : nlohmann::json(nullptr)},
          {"indistinguishable", round.indistinguishable},
          {"summary", round.summary}});
   }
@@ -254,9 +270,10 @@ void PrintReport(const FitReport& r, const FitCommandOptions& o) {
               << "  candidate                        k      ΔBIC  held-out  verdict\n";
     for (const CandidateFit& f : round.candidates) {
       char line[160];
-      std::snprintf(line, sizeof(line), "  %-30s %3zu %9s %9s  ", f.effect.id.c_str(),
-                    f.effect.parameters.size(), util::FormatNumber(f.delta_bic, 4).c_str(),
-                    f.cv_error >= 0 ? util::FormatNumber(f.cv_error, 4).c_str() : "-");
+      std::snprintf(
+          line, sizeof(line), "  %-30s %3d %9s %9s  ", f.effect.id.c_str(), f.added_parameters,
+          util::FormatNumber(f.delta_bic, 4).c_str(),
+          f.cv_status == CvStatus::kDone ? util::FormatNumber(f.cv_error, 4).c_str() : "-");
       std::cout << line << f.verdict << "\n";
     }
   }
@@ -278,6 +295,13 @@ void PrintReport(const FitReport& r, const FitCommandOptions& o) {
       if (f.at_bound[k]) std::cout << "  [at search limit]";
       std::cout << "\n";
     }
+    if (f.effect.per_trial) {
+      for (const FitReport::ForceLevel& l : r.trial_force_levels) {
+        std::cout << "       force_scale:" << l.muscle << " = " << util::FormatNumber(l.level, 5)
+                  << " ± " << util::FormatNumber(l.standard_error, 3) << " x  (level of its "
+                  << l.trials << " trials)\n";
+      }
+    }
     if (!f.identifiable) std::cout << "       warning: " << f.identifiability << "\n";
   }
   for (const std::string& note : r.notes) std::cout << "  note: " << note << "\n";
@@ -291,8 +315,7 @@ void PrintReport(const FitReport& r, const FitCommandOptions& o) {
     std::cout << (i ? ", " : "") << r.outlier_rows[i];
   std::cout << "\n";
   if (!r.trial_factors.empty()) {
-    std::cout << "Per-trial force factors: spread (sd of ln factor) "
-              << util::FormatNumber(r.trial_force_spread, 3);
+    std::cout << "Force level and trial variation: " << r.ForceLevelSummary();
     if (!r.trial_force_outliers.empty()) {
       std::cout << "; trials far from the rest (CSV lines):";
       for (long l : r.trial_force_outliers) std::cout << " " << l;
@@ -366,6 +389,9 @@ const bool kFitRegistered = RegisterCommand(
        app.add_option("--screen", o->screen,
                       "Per round, fit only the N candidates with the best linearised ΔBIC (a "
                       "score test at the current model; default 8, 0 = fit every candidate)");
+       app.add_option("--threads", o->threads,
+                      "Fit candidates (and cross-validation folds, trace probes) on this many "
+                      "threads (default 0: every core)");
        app.add_option("--candidates", o->candidates,
                       "Only try these effect ids (default: the whole library)");
        app.add_option("--loss", o->loss,
@@ -429,8 +455,6 @@ const bool kFitRegistered = RegisterCommand(
          }
          if (o->data.empty())
            throw Error("fit: missing <data.csv> (measured wrenches; see docs/identification.md)");
-         if (o->rounds < 0) throw Error("fit: --rounds must be >= 0");
-         if (o->screen < 0) throw Error("fit: --screen must be >= 0 (0 = fit every candidate)");
          const bool progress = o->progress || isatty(fileno(stderr));
          FitOptions options;
          options.max_fit_trials = o->max_fit_trials;
@@ -438,6 +462,7 @@ const bool kFitRegistered = RegisterCommand(
          options.max_rounds = o->rounds;
          options.folds = o->folds;
          options.screen_keep = o->screen;
+         options.threads = o->threads;
          options.candidates = o->candidates;
          options.loss = ParseRobustLoss(o->loss);
          options.loss_scale = o->loss_scale;

@@ -26,6 +26,17 @@ class EffectType {
   /// log10 parameters). @throws Error for names the model does not have.
   virtual void Apply(const Effect& effect, const std::vector<double>& values,
                      AugmentedModel* model) const = 0;
+  /// The candidate restricted to the parameters the data can determine, before the rounds
+  /// (default: unchanged). `wrench` is each trial's wrench predicted by the nominal model
+  /// (transducer axes, N and N·m); weights from the trials' sd as in the fit. Returns one
+  /// sentence saying what was left out and why, or "" when nothing was. An effect left without
+  /// parameters is dropped from the library.
+  virtual std::string RestrictToData(const Model& model, const std::vector<Trial>& trials,
+                                     const std::vector<Vector6d>& wrench, const FitOptions& options,
+                                     Effect* effect) const {
+    (void)model, (void)trials, (void)wrench, (void)options, (void)effect;
+    return "";
+  }
 };
 
 /// Every registered kind, sorted by kind name.
@@ -39,6 +50,8 @@ EffectParameter LogParameter(const std::string& name, const std::string& unit, d
 EffectParameter LinearParameter(const std::string& name, const std::string& unit, double range);
 /// "fx" ... "mz" for 0..5.
 const char* AxisName(int axis);
+/// 0..5 for "fx" ... "mz", -1 for anything else.
+int AxisIndex(const std::string& name);
 /// A model's limb columns may carry a muscle subset; true when `muscle` is wanted.
 bool Wanted(const std::vector<std::string>& muscles, const std::string& muscle);
 

@@ -71,6 +71,13 @@ const char* AxisName(int axis) {
   return axis >= 0 && axis < 6 ? names[axis] : "?";
 }
 
+int AxisIndex(const std::string& name) {
+  for (int axis = 0; axis < 6; ++axis) {
+    if (name == AxisName(axis)) return axis;
+  }
+  return -1;
+}
+
 bool Wanted(const std::vector<std::string>& muscles, const std::string& muscle) {
   return muscles.empty() || std::find(muscles.begin(), muscles.end(), muscle) != muscles.end();
 }
@@ -79,6 +86,10 @@ bool Excluded(const Effect& a, const Effect& b) {
   if (a.id == b.id) return true;
   return std::find(a.excludes.begin(), a.excludes.end(), b.id) != a.excludes.end() ||
          std::find(b.excludes.begin(), b.excludes.end(), a.id) != b.excludes.end();
+}
+
+bool Contains(const Effect& a, const Effect& b) {
+  return std::find(a.contains.begin(), a.contains.end(), b.id) != a.contains.end();
 }
 
 std::uint64_t Random::Next() {
@@ -208,8 +219,29 @@ AppliedEffect ParseEffectAssignment(const Model& model, const std::string& text)
   AppliedEffect out;
   out.effect = FindEffect(model, id);
   std::vector<std::string> pieces = util::Split(text.substr(eq + 1), ",");
-  for (const std::string& p : pieces) {
-    out.values.push_back(util::ParseDoubleOrThrow(p, "effect '" + id + "'"));
+  const bool named = text.find(':', eq) != std::string::npos;
+  if (named) {
+    // NAME=param:value,...: the parameters not named keep the value at which the effect
+    // vanishes (crosstalk=mx_fy:0.02,fz_mx:-0.01).
+    for (const EffectParameter& p : out.effect.parameters) out.values.push_back(p.neutral);
+    for (const std::string& piece : pieces) {
+      const size_t colon = piece.find(':');
+      const std::string name = util::Trim(piece.substr(0, colon));
+      size_t k = 0;
+      while (k < out.effect.parameters.size() && out.effect.parameters[k].name != name) ++k;
+      if (colon == std::string::npos || k == out.effect.parameters.size()) {
+        std::vector<std::string> names;
+        for (const EffectParameter& p : out.effect.parameters) names.push_back(p.name);
+        throw Error("effect '" + id + "': '" + util::Trim(piece) +
+                    "' is not PARAMETER:VALUE with a parameter of the effect (" +
+                    util::Join(names, ", ") + ")");
+      }
+      out.values[k] = util::ParseDoubleOrThrow(piece.substr(colon + 1), "effect '" + id + "'");
+    }
+  } else {
+    for (const std::string& p : pieces) {
+      out.values.push_back(util::ParseDoubleOrThrow(p, "effect '" + id + "'"));
+    }
   }
   if (out.values.size() != out.effect.parameters.size()) {
     std::vector<std::string> names;
@@ -217,7 +249,8 @@ AppliedEffect ParseEffectAssignment(const Model& model, const std::string& text)
       names.push_back(p.name + " (" + p.unit + ")");
     throw Error("effect '" + id + "' takes " + std::to_string(out.effect.parameters.size()) +
                 " value(s): " + util::Join(names, ", ") + "; got " +
-                std::to_string(out.values.size()));
+                std::to_string(out.values.size()) + " (or name some: " + id + "=" +
+                out.effect.parameters[0].name + ":VALUE,..., the others at their neutral value)");
   }
   // Validate now so the error names the effect.
   ApplyEffects(model.description(), {out});

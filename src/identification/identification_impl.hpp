@@ -35,9 +35,10 @@ double Bic(double chi2, int n, int k, bool sd_stated);
 /// Linearised BIC gain of adding the parameters whose residual sensitivities are the columns of
 /// D to a fit with residual r (a score test: the cost falls by the part of r in the span of D).
 /// Columns that are all exactly 0 (no influence) gain nothing and cost their BIC penalty: the
-/// result is always a number.
-double LinearisedDeltaBic(const Eigen::MatrixXd& D, const Eigen::VectorXd& r, int n,
-                          bool sd_stated);
+/// result is always a number. The penalty counts `k` parameters (default: D's columns; less for
+/// a candidate that replaces chosen effects it contains).
+double LinearisedDeltaBic(const Eigen::MatrixXd& D, const Eigen::VectorXd& r, int n, bool sd_stated,
+                          int k = -1);
 
 /// Internal (least-squares) value of a parameter from its user value and back.
 double ToInternal(const EffectParameter& p, double user);
@@ -109,12 +110,13 @@ RawWrenches EvaluateRaw(const Model& model, const std::map<std::string, double>&
 /// Readings from raw wrenches and the rest of the chain of `model` (AugmentedModel's comment):
 /// muscle forces rescaled by model.description's max_force / raw.max_force, coactivation,
 /// sensor origin, calibration, per-trial factors (closed form, weights 1/sd), sensor offset.
-/// `factors` (optional) receives the per-trial factors (1 without trial_force). Trials whose
-/// raw wrench failed keep a zero reading.
+/// `factors` (optional) receives the per-trial factors (1 without trial_force), `unit`
+/// (optional) each trial's reading at factor 1 without the sensor offset. Trials whose raw
+/// wrench failed keep a zero reading.
 void ComposeReadings(const AugmentedModel& model, const std::vector<Trial>& trials,
                      const std::vector<int>& subset, const RawWrenches& raw,
                      const FitOptions& options, std::vector<Vector6d>* readings,
-                     std::vector<double>* factors);
+                     std::vector<double>* factors, std::vector<Vector6d>* unit = nullptr);
 
 /// Coactivated muscles of an augmented model (keys of `coactivation`).
 std::vector<std::string> CoactivatedMuscles(const AugmentedModel& model);
@@ -124,11 +126,13 @@ std::vector<std::string> CoactivatedMuscles(const AugmentedModel& model);
 Eigen::VectorXd NominalJacobianColumn(const Model& model, const std::string& joint);
 
 /// Muscle length of `muscle` at each trial's recorded posture (m); NaN where it cannot be
-/// evaluated.
+/// evaluated (`failure`, if given, receives the first reason).
 std::vector<double> MuscleLengths(const Model& model, const std::string& muscle,
-                                  const std::vector<Trial>& trials);
+                                  const std::vector<Trial>& trials, std::string* failure = nullptr);
 
 /// Two effects that cannot both be in one model (same id, or one excludes the other).
 bool Excluded(const Effect& a, const Effect& b);
+/// `a` contains `b` (Effect::contains names b's id).
+bool Contains(const Effect& a, const Effect& b);
 
 }  // namespace isowrench::ident

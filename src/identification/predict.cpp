@@ -145,7 +145,7 @@ std::vector<std::string> CoactivatedMuscles(const AugmentedModel& model) {
 void ComposeReadings(const AugmentedModel& model, const std::vector<Trial>& trials,
                      const std::vector<int>& subset, const RawWrenches& raw,
                      const FitOptions& options, std::vector<Vector6d>* readings,
-                     std::vector<double>* factors) {
+                     std::vector<double>* factors, std::vector<Vector6d>* unit) {
   const std::vector<MuscleSpec>& muscles = model.description.muscles;
   // Force ratio per muscle index: the description's max force over the one evaluated (the
   // evaluated model was built from a description with the same muscles in the same order).
@@ -168,8 +168,13 @@ void ComposeReadings(const AugmentedModel& model, const std::vector<Trial>& tria
   if (factors) factors->assign(subset.size(), 1.0);
   const Eigen::Vector3d d = model.sensor_origin;
   const bool calibrated = !model.calibration.isIdentity(0.0);
-  std::vector<double> factor_of(subset.size(), 1.0);
-  std::vector<Vector6d> force(subset.size(), Vector6d::Zero());
+  // Without per-trial factors the readings are written directly (the fit predicts every
+  // trial once per residual evaluation: no further buffers of its size).
+  const bool per_trial = model.trial_force;
+  std::vector<double> factor_of(per_trial ? subset.size() : 0, 1.0);
+  std::vector<Vector6d> own_force;
+  std::vector<Vector6d>& force = per_trial ? own_force : *readings;
+  if (per_trial) own_force.assign(subset.size(), Vector6d::Zero());
   for (size_t k = 0; k < subset.size(); ++k) {
     if (!raw.ok[k]) continue;
     const Trial& trial = trials[subset[k]];
@@ -191,9 +196,18 @@ void ComposeReadings(const AugmentedModel& model, const std::vector<Trial>& tria
         den += weight2 * w[c] * w[c];
       }
       if (den > 0 && std::isfinite(num / den)) factor = num / den;
+      factor_of[k] = factor;
     }
-    factor_of[k] = factor;
     force[k] = w;
+  }
+  if (!per_trial) {
+    if (unit) *unit = *readings;
+    if (model.sensor_offset.squaredNorm() > 0) {
+      for (size_t k = 0; k < subset.size(); ++k) {
+        if (raw.ok[k]) (*readings)[k] += model.sensor_offset;
+      }
+    }
+    return;
   }
   // With a robust loss, a row that stays beyond the outlier threshold even with its own factor
   // is an outlier, not a force variation: it gets the median factor (so per-trial factors do
@@ -218,6 +232,7 @@ void ComposeReadings(const AugmentedModel& model, const std::vector<Trial>& tria
       }
     }
   }
+  if (unit) *unit = force;
   for (size_t k = 0; k < subset.size(); ++k) {
     if (!raw.ok[k]) continue;
     if (factors) (*factors)[k] = factor_of[k];
@@ -244,7 +259,7 @@ Eigen::VectorXd NominalJacobianColumn(const Model& model, const std::string& joi
 }
 
 std::vector<double> MuscleLengths(const Model& model, const std::string& muscle,
-                                  const std::vector<Trial>& trials) {
+                                  const std::vector<Trial>& trials, std::string* failure) {
   std::vector<double> out(trials.size(), std::numeric_limits<double>::quiet_NaN());
   Data ws(model);
   TrialMapper mapper(model);
@@ -252,14 +267,18 @@ std::vector<double> MuscleLengths(const Model& model, const std::string& muscle,
   int index = -1;
   try {
     index = model.MuscleIndex(muscle);
-  } catch (const Error&) {
+  } catch (const Error& e) {
+    if (failure) *failure = e.what();
     return out;
   }
   for (size_t k = 0; k < trials.size(); ++k) {
     try {
       mapper.Map(trials[k], &q);
       out[k] = ComputeMuscleTorque(model, ws, q, index, 1.0).length;
-    } catch (const Error&) {
+    } catch (const Error& e) {
+      // NaN: the trial is left out of this muscle's length trend; the caller counts it.
+      if (failure && failure->empty())
+        *failure = "trial at line " + std::to_string(trials[k].line) + ": " + e.what();
     }
   }
   return out;

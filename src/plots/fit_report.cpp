@@ -241,9 +241,9 @@ Table DiagnosticsTable(const FitReport& r) {
     std::vector<std::string> far;
     for (long l : r.trial_force_outliers) far.push_back(std::to_string(l));
     t.rows.push_back(
-        {"per-trial force factors",
-         "spread (sd of ln factor) " + N4(r.trial_force_spread) +
-             (far.empty() ? "" : "; far from the rest: lines " + util::Join(far, ", "))});
+        {"force level and trial variation",
+         r.ForceLevelSummary() +
+             (far.empty() ? "" : "; far from their level: lines " + util::Join(far, ", "))});
     t.row_class.push_back("trial-force");
   }
   if (!r.closest_rejected.empty()) {
@@ -292,10 +292,10 @@ Table CandidateTable(const FitRound& round) {
     }
     t.rows.push_back(
         {std::to_string(i + 1), c.effect.id, N4(c.delta_bic), N4(c.bic), N4(c.aic),
-         CvText(c.cv_error), ident,
+         c.cv_status == CvStatus::kDone ? CvText(c.cv_error) : CvText(-1.0), ident,
          c.converged ? "yes" : "no" + (c.solver_message.empty() ? "" : ": " + c.solver_message),
          params, c.verdict});
-    t.row_class.push_back(static_cast<int>(i) == round.chosen ? "chosen" : "");
+    t.row_class.push_back(round.chosen == i ? "chosen" : "");
   }
   return t;
 }

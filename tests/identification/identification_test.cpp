@@ -203,6 +203,31 @@ TEST(Effects, MisalignmentRotatesTheReadingWithAnIsotropicTransducer) {
   }
 }
 
+TEST(Effects, NamedAssignmentsSetTheNamedParametersAndLeaveTheOthersNeutral) {
+  Model model = Rat();
+  const AppliedEffect a = ParseEffectAssignment(model, "sensor_offset=fy:0.02, mz:-0.001");
+  EXPECT_EQ(a.values, (std::vector<double>{0, 0.02, 0, 0, 0, -0.001}));
+  // Every term not named stays at its neutral value (0: no crosstalk).
+  const AppliedEffect g = ParseEffectAssignment(model, "crosstalk=mx_fy:0.5");
+  ASSERT_EQ(g.values.size(), 30u);
+  int set = 0;
+  for (size_t k = 0; k < g.values.size(); ++k) {
+    if (g.effect.parameters[k].name == "mx_fy") {
+      EXPECT_EQ(g.values[k], 0.5);
+      ++set;
+    } else {
+      EXPECT_EQ(g.values[k], 0.0);
+    }
+  }
+  EXPECT_EQ(set, 1);
+  EXPECT_THAT([&] { ParseEffectAssignment(model, "sensor_offset=fq:1"); },
+              ::testing::ThrowsMessage<Error>(HasSubstr("'fq:1' is not PARAMETER:VALUE")));
+  EXPECT_THAT([&] { ParseEffectAssignment(model, "sensor_offset=fx:1,2"); },
+              ::testing::ThrowsMessage<Error>(HasSubstr("fx, fy, fz, mx, my, mz")));
+  EXPECT_THAT([&] { ParseEffectAssignment(model, "sensor_offset=1,2"); },
+              ::testing::ThrowsMessage<Error>(HasSubstr("or name some: sensor_offset=fx:VALUE")));
+}
+
 TEST(Effects, LibraryOfTheRatLimbHasEveryKind) {
   // Every registered kind but coactivation (the rat limb has one muscle) applies to the rat.
   std::set<std::string> kinds;
@@ -361,6 +386,42 @@ TEST(FitLoop, DataWithoutAnEffectRarelyProduceAClaim) {
   std::cout << "[false-alarm] " << claims << " claimed effect(s) in " << seeds
             << " data sets without an effect\n";
   EXPECT_LE(claims, 1);
+}
+
+TEST(FitLoop, TheTablesKIsTheBicPenaltyOfEveryCandidate) {
+  // Every fitted candidate of every round: BIC - cost = (k of the current model + the row's k)
+  // ln n, the current model's k being the sum of the previous winners' k (stated sd: BIC =
+  // cost + k ln n). Covers k = 1, 3, 6, 30 (fitted in round 1 by the default screen) and
+  // trial_force's 1 + muscles.
+  Model model = Rat();
+  const std::vector<Trial> trials =
+      Simulate(model, {"base_isotropic=3e6", "force_scale:GP=0.9"}, 207);
+  FitOptions o;
+  o.max_rounds = 3;
+  const FitReport r = FitEffects(model, trials, o);
+  ASSERT_EQ(r.chosen.size(), 2u) << r.BriefReport();
+  const double log_n = std::log(6.0 * trials.size());
+  int current_k = 0, checked = 0, scaled = 0;
+  std::set<int> ks;
+  for (const FitRound& round : r.rounds) {
+    for (const CandidateFit& f : round.candidates) {
+      if (f.screened_out || !f.converged) continue;
+      const double penalty = (f.bic - f.cost) / log_n;
+      EXPECT_NEAR(penalty, current_k + f.added_parameters, 1e-9 * (1 + penalty))
+          << "round " << round.index << " " << f.effect.id;
+      if (f.effect.id == "trial_force") {
+        // The spread and GP's level, less force_scale:GP once chosen (it would replace it).
+        EXPECT_EQ(f.added_parameters, 2 - scaled) << "round " << round.index;
+      }
+      ks.insert(f.added_parameters);
+      ++checked;
+    }
+    if (!round.chosen) continue;
+    current_k += round.candidates[*round.chosen].added_parameters;
+    scaled += round.candidates[*round.chosen].effect.id == "force_scale:GP";
+  }
+  EXPECT_GE(checked, 25);
+  for (int k : {1, 2, 3, 6, 30}) EXPECT_TRUE(ks.count(k)) << k;
 }
 
 TEST(FitLoop, TwoEffectsAreTracedInTwoRounds) {

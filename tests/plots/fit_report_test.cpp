@@ -89,6 +89,7 @@ isowrench::FitReport MakeReport() {
   win.bic = 40.25;
   win.aic = 38.5;
   win.delta_bic = 81190;
+  win.cv_status = isowrench::CvStatus::kDone;
   win.cv_error = 1.125;
   win.converged = true;
   win.accepted = true;

@@ -16,7 +16,8 @@ class ForceScale final : public EffectType {
             "linear in "
             "the force). Written into the augmented URDF's max_force.",
             "scale (x, log10, 0.01 to 100)",
-            "trial_force (per-trial factors contain it); gain on every axis at once"};
+            "trial_force (contains it: its per-muscle levels are force scales); gain on every "
+            "axis at once"};
   }
   std::vector<Effect> Candidates(const Model& model,
                                  const std::vector<std::string>& muscles) const override {
@@ -32,7 +33,6 @@ class ForceScale final : public EffectType {
       e.post_processing = true;
       e.parameters.push_back(LogParameter("scale", "x", 1.0, 1.0, 1e-2, 1e2));
       e.confounders = {"trial_force", "gain:"};
-      e.excludes = {"trial_force"};
       out.push_back(e);
     }
     return out;

@@ -17,7 +17,9 @@ class Misalignment final : public EffectType {
             "sensor is "
             "mounted turned. Changes the readings' axes and, for an anisotropic S_t, the statics.",
             "rx, ry, rz (deg, linear, -20 to 20)",
-            "the skew-symmetric part of a calibration error (which is why crosstalk is symmetric)"};
+            "crosstalk contains it to first order (E_ff = E_mm = -[r]x, the same skew part of "
+            "the force and moment blocks of the calibration error): crosstalk added after it "
+            "replaces it"};
   }
   std::vector<Effect> Candidates(const Model&, const std::vector<std::string>&) const override {
     Effect e;
@@ -27,6 +29,7 @@ class Misalignment final : public EffectType {
         "transducer axes rotated by a small rotation (rotation vector in transducer axes)";
     for (const char* n : {"rx", "ry", "rz"})
       e.parameters.push_back(LinearParameter(n, "deg", 20.0));
+    e.confounders = {"crosstalk"};
     return {e};
   }
   void Apply(const Effect&, const std::vector<double>& v, AugmentedModel* m) const override {

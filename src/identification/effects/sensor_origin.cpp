@@ -16,9 +16,9 @@ class SensorOrigin final : public EffectType {
             "one: it reads m - d x f. Unlike moment_reference the limb's attachment (and J) is "
             "unchanged.",
             "dx, dy, dz (mm, linear, -20 to 20, transducer axes)",
-            "moment_reference (same moment shift, world/link axes, plus a change of J); the skew "
-            "part of "
-            "the moment-from-force calibration block"};
+            "moment_reference (same moment shift, world/link axes, plus a change of J); "
+            "crosstalk contains it exactly (E_mf = -[d]x, the skew part of the moment-from-force "
+            "block of the calibration error): crosstalk added after it replaces it"};
   }
   std::vector<Effect> Candidates(const Model&, const std::vector<std::string>&) const override {
     Effect e;
@@ -28,7 +28,7 @@ class SensorOrigin final : public EffectType {
     e.post_processing = true;
     e.description = "the transducer's moment origin is offset (transducer axes)";
     for (const char* n : {"dx", "dy", "dz"}) e.parameters.push_back(LinearParameter(n, "mm", 20.0));
-    e.confounders = {"moment_reference"};
+    e.confounders = {"moment_reference", "crosstalk"};
     return {e};
   }
   void Apply(const Effect&, const std::vector<double>& v, AugmentedModel* m) const override {

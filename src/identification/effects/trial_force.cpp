@@ -1,9 +1,13 @@
-// Effect trial_force: every trial's muscle force has its own factor exp(z_t) around 1.
+// Effect trial_force: every trial's muscle force has its own factor s_m exp(z_t) around its
+// muscle's level s_m.
 
 #include "identification/effect_type.hpp"
 
 namespace isowrench::ident {
 namespace {
+
+constexpr const char* kTrialForceSummary =
+    R"(Each trial's muscle wrench has its own factor g_t = s_m exp(z_t): a level s_m per muscle (what force_scale fits) and a variation z_t ~ N(0, spread^2) from trial to trial (stimulus variation, fatigue). W is linear in the force, so each trial's factor is solved in closed form (weighted least squares against its measured wrench, after the other effects); the levels and the spread are the maximum of the marginal likelihood of those factors (the z_t integrated out), and the criteria charge 1 + (number of muscles) parameters. The spread is claimed only when it is significant against the levels alone (nested likelihood-ratio test, evidence threshold min_bic_improvement + ln n) and only when the factors do not follow the posture (a smooth trend in a muscle's length or a coordinate is a systematic effect, reported as not claimed). The report gives each level ("force_scale:GP = 0.90 ± ..."), the spread and trials far from their level.)";
 
 class TrialForce final : public EffectType {
  public:
@@ -11,16 +15,11 @@ class TrialForce final : public EffectType {
     return {"trial_force",
             "trial_force",
             EffectStage::kForce,
-            "Multiplies each trial's muscle wrench by its own factor exp(z_t) (fatigue, stimulus "
-            "variation). "
-            "W is linear in the force, so the factors are solved in closed form per trial "
-            "(weighted least "
-            "squares against the measured wrench, after the other effects); the fit counts one "
-            "parameter per "
-            "trial. The report gives the spread of ln(factor) and flags trials far from the rest.",
-            "spread (sd of ln factor, used by simulate; the fit reports the spread of the solved "
-            "factors)",
-            "force_scale (contained in the per-trial factors); gain on all axes"};
+            kTrialForceSummary,
+            "spread (sd of ln factor around the level; simulate draws it, the fit estimates it), "
+            "plus one force level per muscle (derived, counted by the criteria: k = 1 + muscles)",
+            "force_scale (its levels are force_scale's: it contains them and replaces them when "
+            "added after them); gain on all axes"};
   }
   std::vector<Effect> Candidates(const Model& model,
                                  const std::vector<std::string>&) const override {
@@ -28,14 +27,16 @@ class TrialForce final : public EffectType {
     e.kind = "trial_force";
     e.id = "trial_force";
     e.stage = EffectStage::kForce;
-    e.description = "the muscle force varies from trial to trial (one factor per trial)";
+    e.description =
+        "the muscle force varies from trial to trial around each muscle's level (one factor per "
+        "trial)";
     e.post_processing = true;
     e.per_trial = true;
     EffectParameter p = LinearParameter("spread", "ln", 1.0);
     p.lower = 0.0;
     e.parameters.push_back(p);
     for (const MuscleSpec& m : model.description().muscles)
-      e.excludes.push_back("force_scale:" + m.name);
+      e.contains.push_back("force_scale:" + m.name);
     e.confounders = {"force_scale:", "gain:"};
     return {e};
   }
