@@ -393,6 +393,47 @@ TEST(UncertaintyStudy, BadInputIsAnErrorNamingIt) {
   std::remove(path.c_str());
 }
 
+TEST(UncertaintyStudy, FromFitSamplesTheParametersWithTheirCorrelation) {
+  // force_scale:GP (log10 SE 0.01) and gain:fx (log10 SE 0.005), correlation 0.5: ln fx moves
+  // by ln 10 (x1 + x2), so sd(fx) = |fx0| ln 10 sqrt(s1^2 + s2^2 + 2 r s1 s2) to first order,
+  // and fy by ln 10 x1 alone.
+  const Model model = Rat5();
+  const std::string path = ::testing::TempDir() + "/rat_fit.json";
+  {
+    std::ofstream out(path);
+    out << R"({"model": "rat_hindlimb_5dof", "chosen": [
+      {"effect": "force_scale:GP", "parameters": [{"name": "scale", "value": 0.9,
+        "standard_error": 0.0207, "log10_standard_error": 0.01, "unit": "x"}]},
+      {"effect": "gain:fx", "parameters": [{"name": "factor", "value": 1.02,
+        "standard_error": 0.0117, "log10_standard_error": 0.005, "unit": "x"}]}],
+      "correlations": {"parameters": ["force_scale:GP.scale", "gain:fx.factor"],
+                       "matrix": [[1, 0.5], [0.5, 1]]}})";
+  }
+  UncertaintySpec spec;
+  spec.has_fit = true;
+  spec.fit = ReadFitUncertainty(path, model);
+  std::remove(path.c_str());
+  ASSERT_EQ(spec.fit.names, (std::vector<std::string>{"force_scale:GP.scale", "gain:fx.factor"}));
+  UncertaintyOptions options;
+  options.samples = 8000;
+  const UncertaintyResult r = RunUncertainty(model, "GP", Nominal(model), spec, options);
+  ASSERT_EQ(r.groups, std::vector<std::string>{"fit"});
+  const PostureUncertainty& p = r.postures[0];
+  Data data(model);
+  const Vector6d w =
+      Evaluate(model, data, model.nominal_posture(), 0, model.model_stiffness()).wrench;
+  const double ln10 = std::log(10.0), s1 = 0.01, s2 = 0.005;
+  EXPECT_NEAR(p.nominal[0], w[0] * 0.9 * 1.02, 1e-12 * std::abs(w[0]));
+  const double sd_fx = std::abs(w[0]) * 0.9 * 1.02 * ln10 * std::sqrt(s1 * s1 + s2 * s2 + s1 * s2);
+  const double sd_fy = std::abs(w[1]) * 0.9 * ln10 * s1;
+  const double n = 2.0 * options.samples;
+  EXPECT_NEAR(p.statistics[0].sd, sd_fx, 5 * sd_fx / std::sqrt(2 * n) + 0.01 * sd_fx);
+  EXPECT_NEAR(p.statistics[1].sd, sd_fy, 5 * sd_fy / std::sqrt(2 * n) + 0.01 * sd_fy);
+  EXPECT_NEAR(p.statistics[0].percentiles[1], p.nominal[0], 5 * sd_fx / std::sqrt(n));
+  // One group: its first-order index is the whole variance.
+  EXPECT_NEAR(p.sobol[0][0].first, 1.0, 0.03);
+}
+
 TEST(UncertaintyStudy, SpecFileParsesEveryField) {
   const UncertaintySpec spec = ParseUncertaintySpec(R"({
     "comment": "a lab's inputs",
