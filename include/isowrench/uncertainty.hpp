@@ -122,9 +122,16 @@ struct UncertaintySpec {
 ///               {"name": "angle:hip_rz", "sd": 2}, {"name": "misalignment", "sd": [1, 1, 2]},
 ///               {"name": "base_stiffness", "distribution": "loguniform",
 ///                "lower": 1e4, "upper": 1e7}]}
-/// `source` names the file in messages. Checked against the model by PrepareUncertainty.
+/// `source` names the file in messages. Checked against the model by UncertaintyStudy.
 /// @throws Error naming the file, the entry and the field (unknown field, missing sd, ...).
 UncertaintySpec ParseUncertaintySpec(const std::string& json_text, const std::string& source);
+/// One input from the command-line syntax NAME=DISTRIBUTION:PARAMETERS, the same inputs and
+/// units as the spec file: "angle:hip_rz=normal:2", "misalignment=normal:1,1,2",
+/// "transducer_stiffness:x=lognormal:0.35", "max_force=uniform:0.8:1.2",
+/// "base_stiffness=loguniform:1e4:1e7". `option` names the option in messages.
+/// @throws Error naming the text and the rule it breaks.
+UncertainInput ParseUncertainInput(const std::string& text, const std::string& option = "--input");
+
 /// ParseUncertaintySpec of a file's text. @throws Error naming the file when it cannot be read.
 UncertaintySpec ReadUncertaintySpecFile(const std::string& path);
 
@@ -163,7 +170,15 @@ struct QuantityStatistics {
   /// Percentiles 2.5, 50, 95, 97.5.
   std::array<double, 4> percentiles = {0.0, 0.0, 0.0, 0.0};
   long count = 0;  ///< valid samples the numbers use (0: the quantity is not defined)
+  /// The distribution for pictures: kUncertaintyHistogramBins equal bins over
+  /// [histogram_lower, histogram_upper] = [max(min, mean - 4 sd), min(max, mean + 4 sd)];
+  /// values outside are not counted.
+  double histogram_lower = 0.0, histogram_upper = 0.0;
+  std::vector<long> histogram;
 };
+
+/// Bins of QuantityStatistics::histogram.
+inline constexpr int kUncertaintyHistogramBins = 40;
 
 /// First-order (Saltelli 2010) and total (Jansen 1999) Sobol index of one input group for one
 /// quantity; 0 when the quantity has no variance.
@@ -206,8 +221,9 @@ struct UncertaintyResult {
   double seconds = 0.0;  ///< wall time
 };
 
-/// A study ready to run: the model with the spec's inputs resolved, the postures and the
-/// design. Cheap to copy (shared state); thread-safe to run from several threads.
+/// A study ready to run (RunUncertainty makes one): the model with the spec's inputs resolved,
+/// the postures and the design. Cheap to copy (shared state); thread-safe to run from several
+/// threads.
 class UncertaintyStudy {
  public:
   /// @throws Error for an unknown input name (with the closest name), a negative or non-finite
@@ -259,13 +275,27 @@ UncertaintyPartial RunUncertaintyBlocks(const UncertaintyStudy& study, long firs
 UncertaintyResult FinishUncertainty(const UncertaintyStudy& study,
                                     const std::vector<UncertaintyPartial>& partials);
 
-/// PrepareUncertainty + RunUncertaintyBlocks(all, options.threads) + FinishUncertainty.
+/// UncertaintyStudy + RunUncertaintyBlocks(all blocks, options.threads) + FinishUncertainty.
 UncertaintyResult RunUncertainty(const Model& model, const std::string& muscle,
                                  const Eigen::MatrixXd& postures, const UncertaintySpec& spec,
                                  const UncertaintyOptions& options);
 
 /// The result as JSON text (what `isowrench uncertainty --json` prints; docs/uncertainty.md).
 std::string UncertaintyJson(const UncertaintyResult& result, const Model& model);
+
+/// SVG: per posture the force and moment glyphs (include/isowrench/plots.hpp, world axes) of
+/// the mean reading, with each component's 95 % range (2.5 to 97.5 %) as a pale band along its
+/// coloured projection, the 95 % range of |f| and |m| as a grey band along the vector, and the
+/// 95 % direction spread of the force (the 95th percentile of the angle to the nominal force)
+/// as a wedge of that half-angle around the force, drawn in the picture plane.
+std::string UncertaintyGlyphSvg(const UncertaintyResult& result, const Model& model);
+
+/// A self-contained HTML report (the house style of the fit report): the inputs and the design,
+/// per posture the glyphs, a table of every quantity's statistics, the distributions of the
+/// force and moment components, |f| and the direction angle as histograms, and the Sobol
+/// indices as bars.
+std::string UncertaintyReportHtml(const UncertaintyResult& result, const Model& model,
+                                  const UncertaintySpec& spec);
 
 // ---- building blocks, public for tests and for lab tools ----
 

@@ -111,6 +111,32 @@ UncertaintySpec ParseUncertaintySpec(const std::string& json_text, const std::st
   return spec;
 }
 
+UncertainInput ParseUncertainInput(const std::string& text, const std::string& option) {
+  const std::string what = option + " '" + text + "'";
+  const size_t eq = text.rfind('=');
+  if (eq == std::string::npos || eq == 0) {
+    throw Error(what +
+                " is not NAME=DISTRIBUTION:PARAMETERS (e.g. angle:hip_rz=normal:2, "
+                "base_stiffness=loguniform:1e4:1e7)");
+  }
+  UncertainInput input;
+  input.name = util::Trim(text.substr(0, eq));
+  const std::vector<std::string> parts = util::Split(text.substr(eq + 1), ":");
+  if (parts.size() < 2) throw Error(what + ": needs DISTRIBUTION:PARAMETERS after '='");
+  input.distribution = SpecDistribution(util::Trim(parts[0]), what);
+  if (input.distribution == InputDistribution::kUniform ||
+      input.distribution == InputDistribution::kLogUniform) {
+    if (parts.size() != 3) throw Error(what + ": " + parts[0] + " needs LOWER:UPPER");
+    input.lower = util::ParseDoubleOrThrow(parts[1], what + " lower");
+    input.upper = util::ParseDoubleOrThrow(parts[2], what + " upper");
+  } else {
+    if (parts.size() != 2) throw Error(what + ": " + parts[0] + " needs SD (or SD,SD,SD)");
+    for (const std::string& item : util::Split(parts[1], ","))
+      input.sd.push_back(util::ParseDoubleOrThrow(item, what + " sd"));
+  }
+  return input;
+}
+
 UncertaintySpec ReadUncertaintySpecFile(const std::string& path) {
   return ParseUncertaintySpec(ReadWholeFile(path, "uncertainty spec"), path);
 }

@@ -161,6 +161,17 @@ class LogHistogram {
   }
   void Write(std::string& out) const;
   const char* Read(const char* p, const char* end);
+  // f(value, count) for every non-empty bin (its middle), zeros as 0.
+  template <class F>
+  void ForEach(F&& f) const {
+    if (zero_ > 0) f(0.0, zero_);
+    for (size_t k = 0; k < negative_.counts.size(); ++k)
+      if (negative_.counts[k])
+        f(-BinMiddle(negative_.offset + static_cast<long>(k)), negative_.counts[k]);
+    for (size_t k = 0; k < positive_.counts.size(); ++k)
+      if (positive_.counts[k])
+        f(BinMiddle(positive_.offset + static_cast<long>(k)), positive_.counts[k]);
+  }
 
  private:
   struct Side {
@@ -1422,6 +1433,32 @@ UncertaintyResult FinishUncertainty(const UncertaintyStudy& study,
         const double s1 = per_q[q * kPerQuantity + 1], s2 = per_q[q * kPerQuantity + 2];
         st.mean = pd.nominal[static_cast<size_t>(q)] + s1 / n;
         st.sd = n > 1 ? std::sqrt(std::max(0.0, (s2 - s1 * s1 / n) / (n - 1))) : 0.0;
+        // The distribution for pictures.
+        double lo = std::numeric_limits<double>::infinity(), hi = -lo;
+        auto extremes = [&](double v, std::uint64_t) {
+          lo = std::min(lo, v);
+          hi = std::max(hi, v);
+        };
+        if (s.exact) {
+          for (double v : values[static_cast<size_t>(p * kQ + q)]) extremes(v, 1);
+        } else {
+          histograms[static_cast<size_t>(p * kQ + q)].ForEach(extremes);
+        }
+        st.histogram_lower = std::max(lo, st.mean - 4 * st.sd);
+        st.histogram_upper = std::min(hi, st.mean + 4 * st.sd);
+        st.histogram.assign(kUncertaintyHistogramBins, 0);
+        const double width = (st.histogram_upper - st.histogram_lower) / kUncertaintyHistogramBins;
+        auto bin = [&](double v, std::uint64_t count) {
+          if (v < st.histogram_lower || v > st.histogram_upper) return;
+          long k = width > 0 ? static_cast<long>((v - st.histogram_lower) / width) : 0;
+          k = std::clamp<long>(k, 0, kUncertaintyHistogramBins - 1);
+          st.histogram[static_cast<size_t>(k)] += static_cast<long>(count);
+        };
+        if (s.exact) {
+          for (double v : values[static_cast<size_t>(p * kQ + q)]) bin(v, 1);
+        } else {
+          histograms[static_cast<size_t>(p * kQ + q)].ForEach(bin);
+        }
         for (int k = 0; k < 4; ++k) {
           st.percentiles[static_cast<size_t>(k)] =
               s.exact
