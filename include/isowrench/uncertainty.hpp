@@ -132,6 +132,12 @@ UncertaintySpec ParseUncertaintySpec(const std::string& json_text, const std::st
 /// @throws Error naming the text and the rule it breaks.
 UncertainInput ParseUncertainInput(const std::string& text, const std::string& option = "--input");
 
+/// The spec as JSON text that ParseUncertaintySpec reads back to an equal spec, the fit's
+/// parameters, estimates and covariance included ("fit": {"source", "model", "names", "log10",
+/// "mean", "covariance", "notes"}; numbers with 17 digits): how isowrench.study ships a study
+/// to processes that cannot read the user's files.
+std::string UncertaintySpecJson(const UncertaintySpec& spec);
+
 /// ParseUncertaintySpec of a file's text. @throws Error naming the file when it cannot be read.
 UncertaintySpec ReadUncertaintySpecFile(const std::string& path);
 

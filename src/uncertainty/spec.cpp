@@ -70,6 +70,35 @@ UncertaintySpec ParseUncertaintySpec(const std::string& json_text, const std::st
   if (!j.contains("inputs") || !j["inputs"].is_array())
     throw Error(source + ": needs \"inputs\": [ ... ] (a list of inputs)");
   UncertaintySpec spec;
+  if (j.contains("fit")) {
+    try {
+      const nlohmann::json& f = j["fit"];
+      spec.has_fit = true;
+      spec.fit.source = f.at("source").get<std::string>();
+      spec.fit.model = f.at("model").get<std::string>();
+      spec.fit.names = f.at("names").get<std::vector<std::string>>();
+      spec.fit.log10 = f.at("log10").get<std::vector<bool>>();
+      spec.fit.notes = f.value("notes", std::vector<std::string>{});
+      const std::vector<double> mean = f.at("mean").get<std::vector<double>>();
+      const std::vector<std::vector<double>> cov =
+          f.at("covariance").get<std::vector<std::vector<double>>>();
+      const Eigen::Index n = static_cast<Eigen::Index>(spec.fit.names.size());
+      if (static_cast<Eigen::Index>(mean.size()) != n ||
+          static_cast<Eigen::Index>(cov.size()) != n ||
+          static_cast<Eigen::Index>(spec.fit.log10.size()) != n)
+        throw Error(source + ": fit: names, log10, mean and covariance differ in size");
+      spec.fit.mean = Eigen::Map<const Eigen::VectorXd>(mean.data(), n);
+      spec.fit.covariance.resize(n, n);
+      for (Eigen::Index a = 0; a < n; ++a) {
+        if (static_cast<Eigen::Index>(cov[static_cast<size_t>(a)].size()) != n)
+          throw Error(source + ": fit: the covariance is not square");
+        for (Eigen::Index b = 0; b < n; ++b)
+          spec.fit.covariance(a, b) = cov[static_cast<size_t>(a)][static_cast<size_t>(b)];
+      }
+    } catch (const nlohmann::json::exception& e) {
+      throw Error(source + ": fit: " + e.what());
+    }
+  }
   int index = 0;
   for (const nlohmann::json& item : j["inputs"]) {
     const std::string where = source + ": inputs[" + std::to_string(index++) + "]";
@@ -135,6 +164,39 @@ UncertainInput ParseUncertainInput(const std::string& text, const std::string& o
       input.sd.push_back(util::ParseDoubleOrThrow(item, what + " sd"));
   }
   return input;
+}
+
+std::string UncertaintySpecJson(const UncertaintySpec& spec) {
+  nlohmann::ordered_json inputs = nlohmann::ordered_json::array();
+  for (const UncertainInput& in : spec.inputs) {
+    nlohmann::ordered_json item = {{"name", in.name},
+                                   {"distribution", DistributionName(in.distribution)}};
+    if (!in.sd.empty()) item["sd"] = in.sd;
+    if (in.distribution == InputDistribution::kUniform ||
+        in.distribution == InputDistribution::kLogUniform) {
+      item["lower"] = in.lower;
+      item["upper"] = in.upper;
+    }
+    inputs.push_back(item);
+  }
+  nlohmann::ordered_json j = {{"inputs", inputs}};
+  if (spec.has_fit) {
+    std::vector<std::vector<double>> cov;
+    for (Eigen::Index a = 0; a < spec.fit.covariance.rows(); ++a) {
+      cov.emplace_back();
+      for (Eigen::Index b = 0; b < spec.fit.covariance.cols(); ++b)
+        cov.back().push_back(spec.fit.covariance(a, b));
+    }
+    j["fit"] = {{"source", spec.fit.source},
+                {"model", spec.fit.model},
+                {"names", spec.fit.names},
+                {"log10", spec.fit.log10},
+                {"mean", std::vector<double>(spec.fit.mean.data(),
+                                             spec.fit.mean.data() + spec.fit.mean.size())},
+                {"covariance", cov},
+                {"notes", spec.fit.notes}};
+  }
+  return j.dump();  // nlohmann prints doubles to round-trip exactly
 }
 
 UncertaintySpec ReadUncertaintySpecFile(const std::string& path) {

@@ -794,6 +794,10 @@ UncertaintyStudy::UncertaintyStudy(const Model& model, const std::string& muscle
     s.groups.push_back(in.name);
     ResolveInput(in, group, model, s.muscle, options.activation, s.dims);
   }
+  if (spec.has_fit && spec.fit.model != model.name()) {
+    throw Error(spec.fit.source + " is a fit of model '" + spec.fit.model + "', not of '" +
+                model.name() + "': its parameters do not apply to this model");
+  }
   if (spec.has_fit && !spec.fit.names.empty()) {
     s.fit_group = static_cast<int>(s.groups.size());
     s.groups.push_back("fit");
