@@ -164,6 +164,10 @@ struct UncertaintyOptions {
 /// |f| (12, N), |m| (13, N·m) and the angle between f and the nominal f (14, rad).
 inline constexpr int kUncertaintyQuantities = 15;
 
+/// The quantities with Sobol indices: the reading in transducer axes, |f|, |m| and the direction
+/// angle (world axes are a rotation of the reading: no indices of their own).
+constexpr bool UncertaintySobolQuantity(int q) { return q < 6 || q >= 12; }
+
 /// Name of quantity q: "fx", ..., "world_fx", ..., "force_magnitude", "moment_magnitude",
 /// "direction_angle".
 const char* UncertaintyQuantityName(int q);
@@ -206,7 +210,8 @@ struct PostureUncertainty {
   long no_equilibrium = 0;       ///< kSelfMotion: excluded from every statistic
   long invalid = 0;              ///< kInvalidInput or a non-finite result: excluded
   long small_motion_failed = 0;  ///< valid but outside the small-motion rule (kept)
-  /// Sobol indices per group (UncertaintyResult::groups) and quantity.
+  /// Sobol indices per group (UncertaintyResult::groups) and quantity (0 for the world-axes
+  /// quantities: UncertaintySobolQuantity).
   std::vector<std::array<SobolIndex, kUncertaintyQuantities>> sobol;
   long sobol_rows = 0;  ///< j with f(A), f(B) and every f(A_B^i) valid (the indices use these)
 };

@@ -47,6 +47,7 @@ std::string UncertaintyJson(const UncertaintyResult& r, const Model& model) {
       nlohmann::ordered_json f = nlohmann::ordered_json::object(),
                              t = nlohmann::ordered_json::object();
       for (int q = 0; q < kUncertaintyQuantities; ++q) {
+        if (!UncertaintySobolQuantity(q)) continue;
         f[UncertaintyQuantityName(q)] = UncertaintyNumber(p.sobol[g][static_cast<size_t>(q)].first);
         t[UncertaintyQuantityName(q)] = UncertaintyNumber(p.sobol[g][static_cast<size_t>(q)].total);
       }

@@ -266,8 +266,12 @@ constexpr int kPerQuantity = 4;
 }  // namespace
 
 struct UncertaintyStudy::Impl {
-  explicit Impl(const Model& m) : model(m) {}
+  explicit Impl(const Model& m) : model(m), nominal_set(m.model_stiffness()) {}
   Model model;
+  StiffnessSet nominal_set;  // the model's own (Model::model_stiffness)
+  // Per group: true when its dimensions only set values (stiffness, reading terms), so that a
+  // row A_B^g is row A with those values replaced (angles add and factors multiply: rebuilt).
+  std::vector<char> group_sets_only;
   int muscle = 0;
   std::string muscle_name;
   Eigen::MatrixXd postures;
@@ -318,26 +322,31 @@ struct UncertaintyStudy::Impl {
     }
   }
 
-  // Row inputs: dims of group `swap` from uB, the others from uA.
-  void Realize(const double* uA, const double* uB, int swap, RowInputs& row,
-               std::vector<double>& values) const;
+  // The value of every dimension for the uniforms u (D of them), the fit's transform applied.
+  void Values(const double* u, std::vector<double>& values) const;
+  // A row's inputs: the dimensions of group `swap` from values_b, the others from values_a.
+  void Assemble(const double* values_a, const double* values_b, int swap, RowInputs& row) const;
   void Apply(const Dimension& d, double value, RowInputs& row) const;
   void Nominal(RowInputs& row) const;
+  // `to` = `from`, the parts the study uses only.
+  void CopyRow(const RowInputs& from, RowInputs& to) const;
   // The reading's quantities from W (transducer axes, activation 1) and the row's inputs.
-  void Quantities(const PostureData& pd, const Vector6d& W1, const RowInputs& row, double* y) const;
+  // world: also the world-axes components (else 0: A_B^i rows need only the Sobol quantities).
+  void Quantities(const PostureData& pd, const Vector6d& W1, const RowInputs& row, double* y,
+                  bool world = true) const;
   bool SmallMotionFails(const Matrix6Xd& J, const Eigen::VectorXd& dtheta) const;
 };
 
 void UncertaintyStudy::Impl::Apply(const Dimension& d, double v, RowInputs& row) const {
   switch (d.target) {
     case Target::kTransducerStiffness:
-      row.set.s_t[d.index] = d.absolute ? v : model.model_stiffness().s_t[d.index] * v;
+      row.set.s_t[d.index] = d.absolute ? v : nominal_set.s_t[d.index] * v;
       break;
     case Target::kTransducerRotationFactor:
-      for (int r = 3; r < 6; ++r) row.set.s_t[r] = model.model_stiffness().s_t[r] * v;
+      for (int r = 3; r < 6; ++r) row.set.s_t[r] = nominal_set.s_t[r] * v;
       break;
     case Target::kJointStiffness:
-      for (int c : d.columns) row.set.s_p[c] = d.absolute ? v : model.model_stiffness().s_p[c] * v;
+      for (int c : d.columns) row.set.s_p[c] = d.absolute ? v : nominal_set.s_p[c] * v;
       break;
     case Target::kAngle: row.dq[d.index] += v; break;
     case Target::kForceFactor: row.factor *= v; break;
@@ -356,10 +365,11 @@ void UncertaintyStudy::Impl::Apply(const Dimension& d, double v, RowInputs& row)
 }
 
 void UncertaintyStudy::Impl::Nominal(RowInputs& row) const {
-  row.set = model.model_stiffness();
-  row.dq = Eigen::VectorXd::Zero(model.dof_count());
+  row.set = nominal_set;
+  if (kinematic || row.dq.size() == 0) row.dq.setZero(model.dof_count());
   row.factor = 1.0;
   row.activation = nominal_activation;
+  if (!has_post) return;  // the reading terms are never read
   row.rotation.setZero();
   row.gain.setOnes();
   row.crosstalk.setZero();
@@ -367,19 +377,28 @@ void UncertaintyStudy::Impl::Nominal(RowInputs& row) const {
   row.offset.setZero();
 }
 
-void UncertaintyStudy::Impl::Realize(const double* uA, const double* uB, int swap, RowInputs& row,
-                                     std::vector<double>& values) const {
-  Nominal(row);
+void UncertaintyStudy::Impl::CopyRow(const RowInputs& from, RowInputs& to) const {
+  to.set.s_t = from.set.s_t;
+  to.set.s_p = from.set.s_p;
+  if (kinematic) to.dq = from.dq;
+  to.factor = from.factor;
+  to.activation = from.activation;
+  if (!has_post) return;
+  to.rotation = from.rotation;
+  to.gain = from.gain;
+  to.crosstalk = from.crosstalk;
+  to.origin = from.origin;
+  to.offset = from.offset;
+}
+
+void UncertaintyStudy::Impl::Values(const double* u, std::vector<double>& values) const {
   const int D = static_cast<int>(dims.size());
   values.resize(static_cast<size_t>(D + fit_mean.size()));  // the tail: the fit's x
   for (int k = 0; k < D; ++k) {
     const Dimension& d = dims[static_cast<size_t>(k)];
-    const double u = d.group == swap ? uB[k] : uA[k];
-    if (d.fit_index >= 0) {
-      values[static_cast<size_t>(k)] = NormalQuantile(u);  // z, transformed below
-    } else {
-      values[static_cast<size_t>(k)] = IndependentValue(d, u);
-    }
+    // A fit dimension holds z first, transformed below.
+    values[static_cast<size_t>(k)] =
+        d.fit_index >= 0 ? NormalQuantile(u[k]) : IndependentValue(d, u[k]);
   }
   if (fit_group >= 0) {
     // x = mean + L z over the fit's parameters (one group: all swapped together).
@@ -397,12 +416,20 @@ void UncertaintyStudy::Impl::Realize(const double* uA, const double* uB, int swa
           values[static_cast<size_t>(D + i)];
     }
   }
-  for (int k = 0; k < D; ++k)
-    Apply(dims[static_cast<size_t>(k)], values[static_cast<size_t>(k)], row);
+}
+
+void UncertaintyStudy::Impl::Assemble(const double* values_a, const double* values_b, int swap,
+                                      RowInputs& row) const {
+  Nominal(row);
+  const int D = static_cast<int>(dims.size());
+  for (int k = 0; k < D; ++k) {
+    const Dimension& d = dims[static_cast<size_t>(k)];
+    Apply(d, d.group == swap ? values_b[k] : values_a[k], row);
+  }
 }
 
 void UncertaintyStudy::Impl::Quantities(const PostureData& pd, const Vector6d& W1,
-                                        const RowInputs& row, double* y) const {
+                                        const RowInputs& row, double* y, bool world) const {
   Vector6d W = (row.factor * row.activation) * W1;
   if (has_post) {
     // Misalignment: readings in axes turned by R = exp([r]x): R^T W.
@@ -426,10 +453,14 @@ void UncertaintyStudy::Impl::Quantities(const PostureData& pd, const Vector6d& W
     W = reading + row.offset;
   }
   for (int i = 0; i < 6; ++i) y[i] = W[i];
-  const Eigen::Vector3d f = pd.R_W_T * W.head<3>(), m = pd.R_W_T * W.tail<3>();
-  for (int i = 0; i < 3; ++i) {
-    y[6 + i] = f[i];
-    y[9 + i] = m[i];
+  if (world) {
+    const Eigen::Vector3d f = pd.R_W_T * W.head<3>(), m = pd.R_W_T * W.tail<3>();
+    for (int i = 0; i < 3; ++i) {
+      y[6 + i] = f[i];
+      y[9 + i] = m[i];
+    }
+  } else {
+    for (int i = 6; i < 12; ++i) y[i] = 0.0;  // not a Sobol quantity (kSobolQuantity)
   }
   y[12] = W.head<3>().norm();
   y[13] = W.tail<3>().norm();
@@ -816,6 +847,11 @@ UncertaintyStudy::UncertaintyStudy(const Model& model, const std::string& muscle
   }
   if (s.groups.empty())
     throw Error("uncertainty: no uncertain input given (a spec file, options or --from-fit)");
+  s.group_sets_only.assign(s.groups.size(), 1);
+  for (const Dimension& d : s.dims) {
+    if (d.target == Target::kAngle || d.target == Target::kForceFactor)
+      s.group_sets_only[static_cast<size_t>(d.group)] = 0;
+  }
   for (const Dimension& d : s.dims) {
     if (d.target == Target::kAngle) s.kinematic = true;
     if (d.target == Target::kMisalignment || d.target == Target::kGain ||
@@ -993,14 +1029,26 @@ class BlockRunner {
       s_.Draw(j0 + jj, 0, uA_.data());
       if (s_.options.sobol) s_.Draw(j0 + jj, 1, uB_.data());
       RowInputs* row = &inputs_[static_cast<size_t>(jj * rows)];
-      s_.Realize(uA_.data(), uA_.data(), -1, row[0], scratch_);
+      s_.Values(uA_.data(), valuesA_);
+      s_.Assemble(valuesA_.data(), valuesA_.data(), -1, row[0]);
       if (!s_.options.sobol) continue;
-      s_.Realize(uB_.data(), uB_.data(), -1, row[1], scratch_);
-      for (int g = 0; g < s_.G(); ++g) s_.Realize(uA_.data(), uB_.data(), g, row[2 + g], scratch_);
+      s_.Values(uB_.data(), valuesB_);
+      s_.Assemble(valuesB_.data(), valuesB_.data(), -1, row[1]);
+      for (int g = 0; g < s_.G(); ++g) {
+        if (s_.group_sets_only[static_cast<size_t>(g)]) {
+          s_.CopyRow(row[0], row[2 + g]);
+          for (const Dimension& d : s_.dims)
+            if (d.group == g)
+              s_.Apply(d, valuesB_[static_cast<size_t>(&d - s_.dims.data())], row[2 + g]);
+        } else {
+          s_.Assemble(valuesA_.data(), valuesB_.data(), g, row[2 + g]);
+        }
+      }
     }
     results_.resize(static_cast<size_t>(count * rows));
     quantities_.resize(static_cast<size_t>(count * rows * kQ));
     status_.resize(static_cast<size_t>(count * rows));
+    count_ = count;
     for (long p = 0; p < P; ++p) {
       EvaluatePosture(p, count * rows);
       Accumulate(p, count, record + p * RS, values);
@@ -1026,49 +1074,80 @@ class BlockRunner {
       batch.solve = solve_;
       EvaluateBatch(s_.model, q, s_.muscle, sets_, results_, 1.0, batch);
       const int m = s_.model.dof_count();
-      Eigen::VectorXd b(pd.dtheta_from.cols());
-      Eigen::VectorXd dtheta(m);
+      Eigen::VectorXd& b = b_;
+      Eigen::VectorXd& dtheta = dtheta_;
+      b.resize(pd.dtheta_from.cols());
+      dtheta.resize(m);
+      JtW_.resize(m);
       for (long r = 0; r < n_rows; ++r) {
         const WrenchResult& w = results_[static_cast<size_t>(r)];
         const RowInputs& row = inputs_[static_cast<size_t>(r)];
         int status = Classify(w);
-        if (status == 0) {
+        if (status == 0 && !StatisticsRow(r)) {
+          // A_B^i rows serve the Sobol sums only: no small-motion check, no world axes.
+          s_.Quantities(pd, w.wrench, row, y_, false);
+          Scatter(r);
+        } else if (status == 0) {
           // dtheta at activation 1 from W (see the reconstruction in the constructor).
           Eigen::Index k = 0;
           for (int rr : s_.restrained_rows) b[k++] = w.wrench[rr] / row.set.s_t[rr];
-          const Eigen::VectorXd JtW = pd.J.transpose() * w.wrench;
-          for (int c : s_.stiff_columns) b[k++] = (pd.tau[c] - JtW[c]) / row.set.s_p[c];
+          JtW_.noalias() = pd.J.transpose() * w.wrench;
+          for (int c : s_.stiff_columns) b[k++] = (pd.tau[c] - JtW_[c]) / row.set.s_p[c];
           dtheta.noalias() = pd.dtheta_from * b;
           dtheta *= row.factor * row.activation;
           if (s_.SmallMotionFails(pd.J, dtheta)) status |= 4;
-          s_.Quantities(pd, w.wrench, row, &quantities_[static_cast<size_t>(r * kQ)]);
+          s_.Quantities(pd, w.wrench, row, y_);
+          Scatter(r);
         }
-        status_[static_cast<size_t>(r)] = status;
+        status_[Status(r)] = status;
       }
       return;
     }
     // Scalar path: rows whose posture differs from the previous row's recompute kinematics.
-    Eigen::VectorXd last_q;
+    bool have_kinematics = false;
     for (long r = 0; r < n_rows; ++r) {
       const RowInputs& row = inputs_[static_cast<size_t>(r)];
-      const Eigen::VectorXd qr = q + row.dq;
-      if (last_q.size() == 0 || qr != last_q) {
-        kinematics_ok_ = ComputeKinematics(s_.model, data_, qr, s_.muscle, 1.0);
+      qr_ = q + row.dq;
+      if (!have_kinematics || qr_ != last_q_) {
+        kinematics_ok_ = ComputeKinematics(s_.model, data_, qr_, s_.muscle, 1.0);
         J_ = data_.jacobian();
-        last_q = qr;
+        last_q_ = qr_;
+        have_kinematics = true;
       }
       const WrenchResult w = kinematics_ok_ ? SolveStatics(s_.model, data_, row.set, solve_)
                                             : WrenchResult{};  // coincident path points
       int status = Classify(w);
-      if (status == 0) {
-        Eigen::VectorXd dtheta = data_.dtheta();
-        dtheta *= row.factor * row.activation;
-        if (s_.SmallMotionFails(J_, dtheta)) status |= 4;
-        s_.Quantities(pd, w.wrench, row, &quantities_[static_cast<size_t>(r * kQ)]);
+      if (status == 0 && !StatisticsRow(r)) {
+        s_.Quantities(pd, w.wrench, row, y_, false);
+        Scatter(r);
+      } else if (status == 0) {
+        dtheta_ = data_.dtheta();
+        dtheta_ *= row.factor * row.activation;
+        if (s_.SmallMotionFails(J_, dtheta_)) status |= 4;
+        s_.Quantities(pd, w.wrench, row, y_);
+        Scatter(r);
       }
-      status_[static_cast<size_t>(r)] = status;
+      status_[Status(r)] = status;
     }
   }
+
+  // Layout of a block's quantities and statuses: variant v (A, B, A_B^1 ...), quantity q,
+  // sample jj (structure of arrays, so the sums below run over contiguous samples).
+  size_t Q(int v, int q, long jj) const {
+    return static_cast<size_t>((static_cast<long>(v) * kQ + q) * count_ + jj);
+  }
+  size_t Status(long r) const {
+    const long rows = s_.Rows();
+    return static_cast<size_t>((r % rows) * count_ + r / rows);
+  }
+  void Scatter(long r) {
+    const int v = static_cast<int>(r % s_.Rows());
+    const long jj = r / s_.Rows();
+    for (int q = 0; q < kQ; ++q) quantities_[Q(v, q, jj)] = y_[q];
+  }
+
+  // Rows A and B (the statistics' samples); the others are A_B^i.
+  bool StatisticsRow(long r) const { return r % s_.Rows() < (s_.options.sobol ? 2 : 1); }
 
   static int Classify(const WrenchResult& w) {
     if (w.status == StaticsStatus::kSelfMotion) return 1;
@@ -1077,70 +1156,93 @@ class BlockRunner {
   }
 
   void Accumulate(long p, long count, double* rec, std::vector<std::vector<double>>* values) {
-    const int rows = s_.Rows();
     const int G = s_.G();
     const double* c = s_.posture_data[static_cast<size_t>(p)].nominal.data();
     double* per_q = rec + kCounts;
     double* sobol = rec + kCounts + kQ * kPerQuantity;
     const int stat_rows = s_.options.sobol ? 2 : 1;
-    for (long jj = 0; jj < count; ++jj) {
-      const long base = jj * rows;
-      for (int v = 0; v < stat_rows; ++v) {
-        const int st = status_[static_cast<size_t>(base + v)];
+    const int rows = s_.Rows();
+    // Counts; a row with a non-finite quantity (the angle aside) is invalid.
+    for (int v = 0; v < stat_rows; ++v) {
+      for (long jj = 0; jj < count; ++jj) {
+        int& st = status_[static_cast<size_t>(v * count + jj)];
+        if ((st & 3) == 0) {
+          for (int q = 0; q < kQ; ++q) {
+            if (q != 14 && !std::isfinite(quantities_[Q(v, q, jj)])) st = 2;
+          }
+        }
         rec[0] += 1;
         if ((st & 3) == 1) {
           rec[2] += 1;
-          continue;
-        }
-        if ((st & 3) == 2) {
+        } else if ((st & 3) == 2) {
           rec[3] += 1;
-          continue;
+        } else {
+          rec[1] += 1;
+          if (st & 4) rec[4] += 1;
         }
-        const double* y = &quantities_[static_cast<size_t>((base + v) * kQ)];
-        bool all_finite = true;
-        for (int q = 0; q < kQ; ++q) {
-          if (q != 14 && !std::isfinite(y[q])) all_finite = false;
-        }
-        if (!all_finite) {
-          rec[3] += 1;
-          status_[static_cast<size_t>(base + v)] = 2;
-          continue;
-        }
-        rec[1] += 1;
-        if (st & 4) rec[4] += 1;
-        for (int q = 0; q < kQ; ++q) {
-          if (!std::isfinite(y[q])) continue;
-          const double d = y[q] - c[q];
-          per_q[q * kPerQuantity + 0] += 1;
-          per_q[q * kPerQuantity + 1] += d;
-          per_q[q * kPerQuantity + 2] += d * d;
-          if (s_.exact) {
-            (*values)[static_cast<size_t>(p * kQ + q)].push_back(y[q]);
+      }
+    }
+    // Moments and percentile data per quantity, over the valid A and B rows.
+    for (int q = 0; q < kQ; ++q) {
+      double n = 0, s1 = 0, s2 = 0;
+      for (int v = 0; v < stat_rows; ++v) {
+        const double* y = &quantities_[Q(v, q, 0)];
+        const int* st = &status_[static_cast<size_t>(v * count)];
+        std::vector<double>* kept =
+            s_.exact ? &(*values)[static_cast<size_t>(p * kQ + q)] : nullptr;
+        for (long jj = 0; jj < count; ++jj) {
+          if ((st[jj] & 3) != 0 || !std::isfinite(y[jj])) continue;
+          const double d = y[jj] - c[q];
+          n += 1;
+          s1 += d;
+          s2 += d * d;
+          if (kept != nullptr) {
+            kept->push_back(y[jj]);
           } else {
-            histograms_[static_cast<size_t>(p * kQ + q)].Add(y[q]);
+            histograms_[static_cast<size_t>(p * kQ + q)].Add(y[jj]);
           }
         }
       }
-      if (!s_.options.sobol) continue;
-      // Sobol sums over the rows j whose every evaluation is valid (per quantity: finite).
-      bool all_valid = true;
+      per_q[q * kPerQuantity + 0] += n;
+      per_q[q * kPerQuantity + 1] += s1;
+      per_q[q * kPerQuantity + 2] += s2;
+    }
+    if (!s_.options.sobol) return;
+    // Sobol sums over the samples whose every row is valid and finite for the quantity.
+    ok_.resize(static_cast<size_t>(count));
+    for (long jj = 0; jj < count; ++jj) {
+      bool all = true;
       for (int v = 0; v < rows; ++v)
-        if ((status_[static_cast<size_t>(base + v)] & 3) != 0) all_valid = false;
-      if (!all_valid) continue;
-      const double* yA = &quantities_[static_cast<size_t>(base * kQ)];
-      const double* yB = yA + kQ;
-      for (int q = 0; q < kQ; ++q) {
-        bool finite = std::isfinite(yA[q]) && std::isfinite(yB[q]);
-        for (int g = 0; g < G && finite; ++g) finite = std::isfinite(yA[(2 + g) * kQ + q]);
-        if (!finite) continue;
-        per_q[q * kPerQuantity + 3] += 1;
-        const double a = yA[q] - c[q], bq = yB[q] - c[q];
-        for (int g = 0; g < G; ++g) {
-          const double ab = yA[(2 + g) * kQ + q] - c[q];
-          sobol[(g * kQ + q) * 2 + 0] += bq * (ab - a);
-          sobol[(g * kQ + q) * 2 + 1] += (a - ab) * (a - ab);
-        }
+        all = all && (status_[static_cast<size_t>(v * count + jj)] & 3) == 0;
+      ok_[static_cast<size_t>(jj)] = all;
+    }
+    for (int q = 0; q < kQ; ++q) {
+      if (!UncertaintySobolQuantity(q)) continue;
+      const double* yA = &quantities_[Q(0, q, 0)];
+      const double* yB = &quantities_[Q(1, q, 0)];
+      double n = 0;
+      for (long jj = 0; jj < count; ++jj) {
+        bool finite =
+            ok_[static_cast<size_t>(jj)] && std::isfinite(yA[jj]) && std::isfinite(yB[jj]);
+        for (int g = 0; g < G && finite; ++g) finite = std::isfinite(quantities_[Q(2 + g, q, jj)]);
+        ok_[static_cast<size_t>(jj)] =
+            static_cast<char>(finite ? 3 : (ok_[static_cast<size_t>(jj)] & 1));
+        if (finite) n += 1;
       }
+      per_q[q * kPerQuantity + 3] += n;
+      for (int g = 0; g < G; ++g) {
+        const double* yAB = &quantities_[Q(2 + g, q, 0)];
+        double first = 0, total = 0;
+        for (long jj = 0; jj < count; ++jj) {
+          if (ok_[static_cast<size_t>(jj)] != 3) continue;
+          const double a = yA[jj] - c[q], bq = yB[jj] - c[q], ab = yAB[jj] - c[q];
+          first += bq * (ab - a);
+          total += (a - ab) * (a - ab);
+        }
+        sobol[(g * kQ + q) * 2 + 0] += first;
+        sobol[(g * kQ + q) * 2 + 1] += total;
+      }
+      for (long jj = 0; jj < count; ++jj) ok_[static_cast<size_t>(jj)] &= 1;
     }
   }
 
@@ -1148,12 +1250,16 @@ class BlockRunner {
   Data data_;
   int D_;
   SolveOptions solve_;
-  std::vector<double> uA_, uB_, scratch_;
+  std::vector<double> uA_, uB_, valuesA_, valuesB_;
+  Eigen::VectorXd b_, JtW_, dtheta_, qr_, last_q_;
   std::vector<RowInputs> inputs_;
   std::vector<StiffnessSet> sets_;
   std::vector<WrenchResult> results_;
   std::vector<double> quantities_;
   std::vector<int> status_;
+  long count_ = 0;
+  double y_[kQ] = {};
+  std::vector<char> ok_;
   bool kinematics_ok_ = true;
   Matrix6Xd J_;
   std::vector<LogHistogram> histograms_;
@@ -1198,7 +1304,11 @@ UncertaintyPartial RunUncertaintyBlocks(const UncertaintyStudy& study, long firs
         const long k = next.fetch_add(1);
         if (k >= n_blocks) break;
         const long b = first_block + k;
-        if (s.exact) values[static_cast<size_t>(k)].assign(static_cast<size_t>(P * kQ), {});
+        if (s.exact) {
+          values[static_cast<size_t>(k)].assign(static_cast<size_t>(P * kQ), {});
+          for (std::vector<double>& v : values[static_cast<size_t>(k)])
+            v.reserve(static_cast<size_t>(2 * kUncertaintyBlockSamples));
+        }
         runner.Run(b, &records[static_cast<size_t>(k * P * RS)], &values[static_cast<size_t>(k)]);
         done.fetch_add(
             std::min(kUncertaintyBlockSamples, s.samples - b * kUncertaintyBlockSamples) *
@@ -1302,16 +1412,22 @@ const char* UncertaintyQuantityUnit(int q) {
 
 namespace {
 
-// Type 7 percentile of sorted-by-selection values.
-double ExactPercentile(std::vector<double>& v, double level) {
-  const double h = (static_cast<double>(v.size()) - 1.0) * level;
-  const size_t lo = static_cast<size_t>(std::floor(h));
-  const size_t hi = std::min(v.size() - 1, lo + 1);
-  std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(lo), v.end());
-  const double a = v[lo];
-  double b = a;
-  if (hi != lo) b = *std::min_element(v.begin() + static_cast<std::ptrdiff_t>(lo) + 1, v.end());
-  return a + (h - static_cast<double>(lo)) * (b - a);
+// Type 7 percentiles of `v` at ascending `levels` (v is reordered): each level's order
+// statistics are selected in the part of v above the previous level's.
+void ExactPercentiles(std::vector<double>& v, const double* levels, int count, double* out) {
+  size_t from = 0;
+  for (int k = 0; k < count; ++k) {
+    const double h = (static_cast<double>(v.size()) - 1.0) * levels[k];
+    const size_t lo = static_cast<size_t>(std::floor(h));
+    const size_t hi = std::min(v.size() - 1, lo + 1);
+    std::nth_element(v.begin() + static_cast<std::ptrdiff_t>(from),
+                     v.begin() + static_cast<std::ptrdiff_t>(lo), v.end());
+    const double a = v[lo];
+    double b = a;
+    if (hi != lo) b = *std::min_element(v.begin() + static_cast<std::ptrdiff_t>(hi), v.end());
+    out[k] = a + (h - static_cast<double>(lo)) * (b - a);
+    from = lo;
+  }
 }
 
 double HistogramPercentile(const LogHistogram& h, double level) {
@@ -1463,18 +1579,20 @@ UncertaintyResult FinishUncertainty(const UncertaintyStudy& study,
         } else {
           histograms[static_cast<size_t>(p * kQ + q)].ForEach(bin);
         }
-        for (int k = 0; k < 4; ++k) {
-          st.percentiles[static_cast<size_t>(k)] =
-              s.exact
-                  ? ExactPercentile(values[static_cast<size_t>(p * kQ + q)], kPercentileLevels[k])
-                  : HistogramPercentile(histograms[static_cast<size_t>(p * kQ + q)],
-                                        kPercentileLevels[k]);
+        if (s.exact) {
+          ExactPercentiles(values[static_cast<size_t>(p * kQ + q)], kPercentileLevels, 4,
+                           st.percentiles.data());
+        } else {
+          for (int k = 0; k < 4; ++k) {
+            st.percentiles[static_cast<size_t>(k)] = HistogramPercentile(
+                histograms[static_cast<size_t>(p * kQ + q)], kPercentileLevels[k]);
+          }
         }
       }
       const double ns = per_q[q * kPerQuantity + 3];
       if (q == 0) sobol_rows = static_cast<long>(ns);
       const double variance = st.sd * st.sd;
-      for (int g = 0; g < G; ++g) {
+      for (int g = 0; g < G && UncertaintySobolQuantity(q); ++g) {
         SobolIndex& idx = out.sobol[static_cast<size_t>(g)][static_cast<size_t>(q)];
         if (ns > 0 && variance > 0) {
           idx.first = sob[(g * kQ + q) * 2 + 0] / ns / variance;
