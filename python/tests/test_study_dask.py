@@ -20,7 +20,7 @@ INPUTS = ["transducer_stiffness:x=lognormal:0.5", "angle:hip_rz=normal:2", "angl
 @pytest.fixture(scope="module")
 def client():
     cluster = distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
-                                       dashboard_address=None, silence_logs=50)
+                                       host="127.0.0.1", dashboard_address="127.0.0.1:0", silence_logs=50)
     c = distributed.Client(cluster)
     yield c
     c.close()

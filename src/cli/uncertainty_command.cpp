@@ -42,7 +42,13 @@ std::string InputText(const UncertainInput& in, const Model& model) {
     unit = " deg";
   } else if (kind == "transducer_stiffness" || kind == "base_stiffness" ||
              kind == "joint_stiffness") {
-    unit = in.distribution == InputDistribution::kLogNormal ? " (sd of ln)" : " N/m or N·m/rad";
+    bool rotational = false;
+    if (kind == "transducer_stiffness") rotational = in.name.find(":r") != std::string::npos;
+    if (kind == "joint_stiffness")
+      rotational = model.joint(model.JointIndex(in.name.substr(16))).type != JointType::kPrismatic;
+    unit = in.distribution == InputDistribution::kLogNormal ? " (sd of ln)"
+           : rotational                                     ? " N·m/rad"
+                                                            : " N/m";
   } else {
     unit = " (x)";
   }

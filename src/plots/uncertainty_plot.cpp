@@ -176,7 +176,7 @@ std::string GlyphDocument(const UncertaintyResult& r, const Model& model, bool d
   const std::string title = "Wrench uncertainty: " + r.model + ", muscle " + r.muscle + " (" +
                             std::to_string(r.samples) + " samples, 95 % ranges)";
   // Size: measure with a throw-away writer first (the boxes depend on the data).
-  double height = 40, width = 7.5 * static_cast<double>(title.size()) + 20;
+  double height = 40, width = 8.5 * static_cast<double>(title.size()) + 20;
   for (size_t i = 0; i < r.postures.size(); ++i) {
     if (r.postures[i].statistics[6].count == 0) {
       height += 24;
