@@ -10,6 +10,7 @@ PACKAGES=(
   libgtest-dev libgmock-dev libbenchmark-dev
   python3 python3-numpy valgrind librsvg2-bin
   python3-dev pybind11-dev python3-pytest python3-pykdl python3-matplotlib
+  librandom123-dev python3-distributed
 )
 
 missing=()

@@ -35,6 +35,7 @@
 #include "isowrench/posture.hpp"
 #include "isowrench/statics.hpp"
 #include "isowrench/trial_csv.hpp"
+#include "isowrench/uncertainty.hpp"
 
 namespace py = pybind11;
 
@@ -748,6 +749,199 @@ std::string WrenchRepr(const PyWrench& w) {
   return buffer;
 }
 
+// ---- Monte Carlo uncertainty (issue 30; docs/uncertainty.md, python/isowrench/study.py) ----
+
+UncertaintyOptions UncertaintyOptionsFrom(const py::dict& o) {
+  UncertaintyOptions options;
+  for (const auto& item : o) {
+    const std::string key = py::str(item.first);
+    if (key == "samples") {
+      options.samples = item.second.cast<long>();
+    } else if (key == "seed") {
+      options.seed = item.second.cast<std::uint64_t>();
+    } else if (key == "sobol") {
+      options.sobol = item.second.cast<bool>();
+    } else if (key == "activation") {
+      options.activation = item.second.cast<double>();
+    } else if (key == "exact_percentile_values") {
+      options.exact_percentile_values = item.second.cast<double>();
+    } else if (key == "max_endpoint_fraction") {
+      options.statics.max_endpoint_fraction = item.second.cast<double>();
+    } else if (key == "max_joint_rotation") {
+      options.statics.max_joint_rotation = item.second.cast<double>();
+    } else if (key == "rank_tolerance") {
+      options.statics.rank_tolerance = item.second.cast<double>();
+    } else {
+      throw Error("uncertainty option '" + key +
+                  "' is unknown (samples, seed, sobol, activation, exact_percentile_values, "
+                  "max_endpoint_fraction, max_joint_rotation, rank_tolerance)");
+    }
+  }
+  return options;
+}
+
+/// A study from plain values (what isowrench.study ships to worker processes): the model as
+/// URDF text, the muscle, postures (P, n) rows in rad / m, the spec as JSON (fit included) and
+/// the options dict.
+UncertaintyStudy MakeUncertaintyStudy(const std::string& urdf, const std::string& muscle,
+                                      const Eigen::MatrixXd& postures_rows,
+                                      const std::string& spec_json, const py::dict& options) {
+  const Model model(ReadUrdfString(urdf, "<study model>"));
+  const Eigen::MatrixXd postures = postures_rows.transpose();
+  return UncertaintyStudy(model, muscle, postures, ParseUncertaintySpec(spec_json, "<study spec>"),
+                          UncertaintyOptionsFrom(options));
+}
+
+py::object JsonToPython(const std::string& text) {
+  return py::module_::import("json").attr("loads")(text);
+}
+
+/// The spec of Model.uncertainty / isowrench.study: `inputs` (strings in the CLI's syntax, or
+/// dicts like the spec file's entries), a spec file path or dict, a fit JSON path.
+UncertaintySpec SpecFromPython(const Model& model, const py::object& inputs, const py::object& spec,
+                               const py::object& from_fit) {
+  UncertaintySpec out;
+  py::module_ json = py::module_::import("json");
+  if (!spec.is_none()) {
+    if (py::isinstance<py::dict>(spec)) {
+      out = ParseUncertaintySpec(json.attr("dumps")(spec).cast<std::string>(), "spec");
+    } else {
+      const std::string path = py::str(spec);
+      if (!std::filesystem::exists(path)) ThrowFileNotFound(path);
+      out = ReadUncertaintySpecFile(path);
+    }
+  }
+  if (!inputs.is_none()) {
+    for (const py::handle item : inputs) {
+      if (py::isinstance<py::str>(item)) {
+        out.inputs.push_back(ParseUncertainInput(item.cast<std::string>(), "inputs"));
+      } else if (py::isinstance<py::dict>(item)) {
+        const std::string text =
+            "{\"inputs\": [" + json.attr("dumps")(item).cast<std::string>() + "]}";
+        out.inputs.push_back(ParseUncertaintySpec(text, "inputs").inputs.at(0));
+      } else {
+        throw Error(
+            "inputs: each input is a string 'NAME=DISTRIBUTION:PARAMETERS' or a dict "
+            "{'name': ..., 'distribution': ..., 'sd' or 'lower'/'upper': ...}");
+      }
+    }
+  }
+  if (!from_fit.is_none()) {
+    const std::string path = py::str(from_fit);
+    if (!std::filesystem::exists(path)) ThrowFileNotFound(path);
+    out.fit = ReadFitUncertainty(path, model);
+    out.has_fit = true;
+  }
+  return out;
+}
+
+/// Postures (P, n) rows in rad / m: `postures` when given, else the one posture q.
+Eigen::MatrixXd PosturesFromPython(const Model& model, const py::object& q,
+                                   const py::object& postures) {
+  if (postures.is_none()) return Posture(model, q).transpose();
+  CArray a = CArray::ensure(postures);
+  if (!a || a.ndim() != 2 || a.shape(1) != model.dof_count() || a.shape(0) < 1) {
+    throw Error("postures must be an array (P, " + std::to_string(model.dof_count()) +
+                ") in rad / m for the coordinates " + CoordinateList(model));
+  }
+  Eigen::MatrixXd out(a.shape(0), a.shape(1));
+  for (py::ssize_t i = 0; i < a.shape(0); ++i)
+    for (py::ssize_t k = 0; k < a.shape(1); ++k) out(i, k) = a.at(i, k);
+  return out;
+}
+
+py::object Uncertainty(const PyModel& m, const py::object& muscle, const py::object& inputs,
+                       const py::object& spec, const py::object& from_fit, const py::object& q,
+                       const py::object& postures, long samples, std::uint64_t seed, bool sobol,
+                       int threads, double activation, double exact_percentile_values) {
+  std::string name;
+  if (!muscle.is_none()) {
+    name = muscle.cast<std::string>();
+  } else if (m.model.muscle_count() > 0) {
+    name = m.model.muscle(0).name;
+  }
+  const UncertaintySpec s = SpecFromPython(m.model, inputs, spec, from_fit);
+  const Eigen::MatrixXd P = PosturesFromPython(m.model, q, postures).transpose();
+  UncertaintyOptions options;
+  options.samples = samples;
+  options.seed = seed;
+  options.sobol = sobol;
+  options.threads =
+      threads > 0 ? threads : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+  options.activation = activation;
+  options.exact_percentile_values = exact_percentile_values;
+  std::string json;
+  {
+    py::gil_scoped_release release;
+    json = UncertaintyJson(RunUncertainty(m.model, name, P, s, options), m.model);
+  }
+  return JsonToPython(json);
+}
+
+void BindUncertainty(py::module_& mod, py::class_<PyModel, std::shared_ptr<PyModel>>& model) {
+  model
+      .def(
+          "uncertainty", &Uncertainty, py::arg("muscle") = py::none(),
+          py::arg("inputs") = py::none(), py::arg("spec") = py::none(),
+          py::arg("from_fit") = py::none(), py::arg("q") = py::none(),
+          py::arg("postures") = py::none(), py::arg("samples") = UncertaintyOptions{}.samples,
+          py::arg("seed") = UncertaintyOptions{}.seed, py::arg("sobol") = true,
+          py::arg("threads") = 0, py::arg("activation") = 1.0,
+          py::arg("exact_percentile_values") = UncertaintyOptions{}.exact_percentile_values,
+          R"(uncertainty(muscle=None, inputs=None, spec=None, from_fit=None, q=None, postures=None, samples=4096, seed=1, sobol=True, threads=0, activation=1.0, exact_percentile_values=2e7) -> dict
+
+Monte Carlo uncertainty of the wrench, the dict of `isowrench uncertainty --json`. inputs: strings in the CLI's syntax ('angle:hip_rz=normal:2', degrees and mm as on the command line) or dicts like the spec file's entries; spec: a spec file path or dict; from_fit: an `isowrench fit --json` file. q: one posture (rad / m, or a dict), or postures (P, n). The same seed gives the same numbers on any thread count (threads=0: every core). The GIL is released. isowrench.study runs the same study on Dask.
+Raises ValueError naming a bad input (unknown name with the closest one, negative sd, empty support, a fit of another model).)")
+      .def_property_readonly(
+          "urdf_text", [](const PyModel& m) { return WriteUrdfString(m.model.description()); },
+          "The model as URDF text (17 digits: reading it back gives the same model).")
+      .def(
+          "uncertainty_spec",
+          [](const PyModel& m, const py::object& inputs, const py::object& spec,
+             const py::object& from_fit) {
+            return UncertaintySpecJson(SpecFromPython(m.model, inputs, spec, from_fit));
+          },
+          py::arg("inputs") = py::none(), py::arg("spec") = py::none(),
+          py::arg("from_fit") = py::none(),
+          "uncertainty_spec(inputs=None, spec=None, from_fit=None) -> str: the study's spec as "
+          "JSON text with the fit's parameters and covariance inside (isowrench.study ships it "
+          "to workers).");
+  mod.def(
+      "_uncertainty_blocks",
+      [](const std::string& urdf, const std::string& muscle, const Eigen::MatrixXd& postures,
+         const std::string& spec, const py::dict& options) {
+        const UncertaintyStudy study = MakeUncertaintyStudy(urdf, muscle, postures, spec, options);
+        return py::make_tuple(study.block_count(), study.evaluation_count());
+      },
+      "(urdf, muscle, postures (P, n), spec_json, options) -> (blocks, evaluations)");
+  mod.def(
+      "_uncertainty_run",
+      [](const std::string& urdf, const std::string& muscle, const Eigen::MatrixXd& postures,
+         const std::string& spec, const py::dict& options, long first, long last, int threads) {
+        const UncertaintyStudy study = MakeUncertaintyStudy(urdf, muscle, postures, spec, options);
+        std::string bytes;
+        {
+          py::gil_scoped_release release;
+          bytes = RunUncertaintyBlocks(study, first, last, threads).ToBytes();
+        }
+        return py::bytes(bytes);
+      },
+      "(urdf, muscle, postures, spec_json, options, first_block, last_block, threads) -> bytes");
+  mod.def(
+      "_uncertainty_finish",
+      [](const std::string& urdf, const std::string& muscle, const Eigen::MatrixXd& postures,
+         const std::string& spec, const py::dict& options, const std::vector<py::bytes>& parts,
+         double seconds) {
+        const UncertaintyStudy study = MakeUncertaintyStudy(urdf, muscle, postures, spec, options);
+        std::vector<UncertaintyPartial> partials;
+        for (const py::bytes& b : parts) partials.push_back(UncertaintyPartial::FromBytes(b));
+        UncertaintyResult result = FinishUncertainty(study, partials);
+        result.seconds = seconds;
+        return JsonToPython(UncertaintyJson(result, study.model()));
+      },
+      "(urdf, muscle, postures, spec_json, options, [bytes], seconds) -> dict");
+}
+
 }  // namespace
 }  // namespace isowrench::python
 
@@ -1075,4 +1269,7 @@ Raises ValueError for bad options (a negative count, an unknown loss or effect i
           "UserWarnings).\n"
           "Raises FileNotFoundError for a missing file and ValueError (with file and line) for a "
           "bad model.");
+  auto model_class =
+      py::reinterpret_borrow<py::class_<PyModel, std::shared_ptr<PyModel>>>(mod.attr("Model"));
+  BindUncertainty(mod, model_class);
 }

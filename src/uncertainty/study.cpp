@@ -1,0 +1,1622 @@
+// Uncertainty studies: inputs resolved against the model, the A/B/A_B^i design evaluated in
+// fixed blocks through the engine, partial sums per block, and the statistics.
+
+#include <Eigen/Eigenvalues>
+#include <Eigen/Geometry>
+#include <Eigen/SVD>
+#include <algorithm>
+#include <atomic>
+#include <chrono>
+#include <cmath>
+#include <cstring>
+#include <limits>
+#include <map>
+#include <mutex>
+#include <thread>
+
+#include "isowrench/error.hpp"
+#include "isowrench/input_checks.hpp"
+#include "isowrench/io.hpp"
+#include "isowrench/uncertainty.hpp"
+
+namespace isowrench {
+
+namespace {
+
+constexpr int kQ = kUncertaintyQuantities;
+constexpr double kPi = 3.14159265358979323846;
+constexpr double kPercentileLevels[4] = {0.025, 0.5, 0.95, 0.975};
+
+const char* const kDofNames[6] = {"x", "y", "z", "rx", "ry", "rz"};
+const char* const kAxisNames[6] = {"fx", "fy", "fz", "mx", "my", "mz"};
+
+int AxisIndexOf(const std::string& name) {
+  for (int k = 0; k < 6; ++k)
+    if (name == kAxisNames[k]) return k;
+  return -1;
+}
+
+// What a dimension of the input space changes.
+enum class Target {
+  kTransducerStiffness,  // index: dof
+  kJointStiffness,       // columns
+  kAngle,                // index: column
+  kForceFactor,
+  kActivation,
+  kMisalignment,              // index: axis
+  kGain,                      // index: reading axis
+  kCrosstalk,                 // index: reading * 6 + source
+  kCrosstalkSymmetric,        // index: a * 6 + b (both terms)
+  kSensorOrigin,              // index: axis
+  kSensorOffset,              // index: axis
+  kTransducerRotationFactor,  // krx kry krz times the value
+  kNone,                      // sampled, changes nothing here (a fit parameter of another muscle)
+};
+
+struct Dimension {
+  int group = 0;
+  InputDistribution distribution = InputDistribution::kNormal;
+  double a = 0.0, b = 0.0;   // normal: mean, sd; lognormal: median, sd; uniform: lower, upper;
+                             // loguniform: ln lower, ln upper
+  int fit_index = -1;        // >= 0: the fit's parameter (correlated, group "fit")
+  bool log10_value = false;  // fit: value = 10^x
+  double scale = 1.0;        // fit: value times this (deg -> rad, mm -> m)
+  Target target = Target::kForceFactor;
+  int index = 0;
+  std::vector<int> columns;
+  bool absolute = false;  // stiffness: the value itself (else a factor on the model's)
+};
+
+// The value a dimension takes at a standard normal z / uniform u (independent dimensions).
+double IndependentValue(const Dimension& d, double u) {
+  switch (d.distribution) {
+    case InputDistribution::kNormal: return d.a + d.b * NormalQuantile(u);
+    case InputDistribution::kLogNormal: return d.a * std::exp(d.b * NormalQuantile(u));
+    case InputDistribution::kUniform: return d.a + u * (d.b - d.a);
+    case InputDistribution::kLogUniform: return std::exp(d.a + u * (d.b - d.a));
+  }
+  return 0.0;
+}
+
+double CentralValue(const Dimension& d) {
+  switch (d.distribution) {
+    case InputDistribution::kNormal: return d.a;
+    case InputDistribution::kLogNormal: return d.a;
+    case InputDistribution::kUniform: return 0.5 * (d.a + d.b);
+    case InputDistribution::kLogUniform: return std::exp(0.5 * (d.a + d.b));
+  }
+  return 0.0;
+}
+
+// Everything one row's inputs change.
+struct RowInputs {
+  StiffnessSet set;
+  Eigen::VectorXd dq;
+  double factor = 1.0;
+  double activation = 1.0;
+  Eigen::Vector3d rotation = Eigen::Vector3d::Zero();
+  Vector6d gain = Vector6d::Ones();
+  Matrix6d crosstalk = Matrix6d::Zero();  // normalised Ê
+  Eigen::Vector3d origin = Eigen::Vector3d::Zero();
+  Vector6d offset = Vector6d::Zero();
+};
+
+std::uint64_t Fnv(std::uint64_t h, const void* data, size_t size) {
+  const unsigned char* p = static_cast<const unsigned char*>(data);
+  for (size_t i = 0; i < size; ++i) {
+    h ^= p[i];
+    h *= 1099511628211ull;
+  }
+  return h;
+}
+std::uint64_t FnvString(std::uint64_t h, const std::string& s) {
+  h = Fnv(h, s.data(), s.size());
+  const std::uint64_t n = s.size();
+  return Fnv(h, &n, sizeof n);
+}
+std::uint64_t FnvDouble(std::uint64_t h, double v) { return Fnv(h, &v, sizeof v); }
+
+// ---- log-linear histogram: 512 bins per octave, integer counts (merging is exact) ----
+
+constexpr int kMantissaBits = 9;
+
+class LogHistogram {
+ public:
+  void Add(double v) {
+    if (v == 0.0) {
+      ++zero_;
+      return;
+    }
+    Side& side = v > 0 ? positive_ : negative_;
+    const long index = BinIndex(std::abs(v));
+    side.Add(index, 1);
+  }
+  void Merge(const LogHistogram& other) {
+    zero_ += other.zero_;
+    positive_.Merge(other.positive_);
+    negative_.Merge(other.negative_);
+  }
+  std::uint64_t count() const { return zero_ + positive_.Total() + negative_.Total(); }
+  // Value of rank r (0-based) in ascending order, at its bin's middle.
+  double ValueAt(std::uint64_t r) const {
+    const std::uint64_t n_negative = negative_.Total();
+    if (r < n_negative) {
+      // Negative values ascending: largest magnitudes first.
+      std::uint64_t left = r;
+      for (long k = static_cast<long>(negative_.counts.size()) - 1; k >= 0; --k) {
+        const std::uint64_t c = negative_.counts[static_cast<size_t>(k)];
+        if (left < c) return -BinMiddle(negative_.offset + k);
+        left -= c;
+      }
+    }
+    r -= n_negative;
+    if (r < zero_) return 0.0;
+    r -= zero_;
+    for (size_t k = 0; k < positive_.counts.size(); ++k) {
+      const std::uint64_t c = positive_.counts[k];
+      if (r < c) return BinMiddle(positive_.offset + static_cast<long>(k));
+      r -= c;
+    }
+    return std::numeric_limits<double>::quiet_NaN();
+  }
+  void Write(std::string& out) const;
+  const char* Read(const char* p, const char* end);
+  // f(value, count) for every non-empty bin (its middle), zeros as 0.
+  template <class F>
+  void ForEach(F&& f) const {
+    if (zero_ > 0) f(0.0, zero_);
+    for (size_t k = 0; k < negative_.counts.size(); ++k)
+      if (negative_.counts[k])
+        f(-BinMiddle(negative_.offset + static_cast<long>(k)), negative_.counts[k]);
+    for (size_t k = 0; k < positive_.counts.size(); ++k)
+      if (positive_.counts[k])
+        f(BinMiddle(positive_.offset + static_cast<long>(k)), positive_.counts[k]);
+  }
+
+ private:
+  struct Side {
+    long offset = 0;
+    std::vector<std::uint64_t> counts;
+    std::uint64_t Total() const {
+      std::uint64_t t = 0;
+      for (std::uint64_t c : counts) t += c;
+      return t;
+    }
+    void Add(long index, std::uint64_t n) {
+      if (counts.empty()) {
+        offset = index;
+        counts.assign(1, 0);
+      }
+      if (index < offset) {
+        counts.insert(counts.begin(), static_cast<size_t>(offset - index), 0);
+        offset = index;
+      } else if (index >= offset + static_cast<long>(counts.size())) {
+        counts.resize(static_cast<size_t>(index - offset + 1), 0);
+      }
+      counts[static_cast<size_t>(index - offset)] += n;
+    }
+    void Merge(const Side& other) {
+      for (size_t k = 0; k < other.counts.size(); ++k) {
+        if (other.counts[k] != 0) Add(other.offset + static_cast<long>(k), other.counts[k]);
+      }
+    }
+  };
+  static long BinIndex(double magnitude) {
+    std::uint64_t bits;
+    std::memcpy(&bits, &magnitude, sizeof bits);
+    return static_cast<long>(bits >> (52 - kMantissaBits));  // exponent and top mantissa bits
+  }
+  static double BinMiddle(long index) {
+    const std::uint64_t low = static_cast<std::uint64_t>(index) << (52 - kMantissaBits);
+    const std::uint64_t high = static_cast<std::uint64_t>(index + 1) << (52 - kMantissaBits);
+    double a, b;
+    std::memcpy(&a, &low, sizeof a);
+    std::memcpy(&b, &high, sizeof b);
+    return 0.5 * (a + b);
+  }
+  std::uint64_t zero_ = 0;
+  Side positive_, negative_;
+};
+
+template <class T>
+void Put(std::string& out, const T& v) {
+  out.append(reinterpret_cast<const char*>(&v), sizeof v);
+}
+template <class T>
+const char* Get(const char* p, const char* end, T* v) {
+  if (p == nullptr || end - p < static_cast<std::ptrdiff_t>(sizeof(T)))
+    throw Error("uncertainty partial: truncated bytes");
+  std::memcpy(v, p, sizeof(T));
+  return p + sizeof(T);
+}
+
+void LogHistogram::Write(std::string& out) const {
+  Put(out, zero_);
+  for (const Side* s : {&positive_, &negative_}) {
+    Put(out, s->offset);
+    Put(out, static_cast<std::uint64_t>(s->counts.size()));
+    out.append(reinterpret_cast<const char*>(s->counts.data()),
+               s->counts.size() * sizeof(std::uint64_t));
+  }
+}
+
+const char* LogHistogram::Read(const char* p, const char* end) {
+  p = Get(p, end, &zero_);
+  for (Side* s : {&positive_, &negative_}) {
+    std::uint64_t n = 0;
+    p = Get(p, end, &s->offset);
+    p = Get(p, end, &n);
+    if (static_cast<std::uint64_t>(end - p) < n * sizeof(std::uint64_t))
+      throw Error("uncertainty partial: truncated histogram");
+    s->counts.resize(static_cast<size_t>(n));
+    std::memcpy(s->counts.data(), p, static_cast<size_t>(n) * sizeof(std::uint64_t));
+    p += n * sizeof(std::uint64_t);
+  }
+  return p;
+}
+
+// ---- per-block sums ----
+// Layout of one (block, posture) record, all doubles, added in block order:
+//   [0] rows, [1] valid, [2] no equilibrium, [3] invalid, [4] small-motion failures,
+//   then per quantity: n, sum(y - c), sum((y - c)^2), Sobol rows n_s,
+//   then per group and quantity: sum f_B (f_ABi - f_A), sum (f_A - f_ABi)^2.
+constexpr int kCounts = 5;
+constexpr int kPerQuantity = 4;
+
+}  // namespace
+
+struct UncertaintyStudy::Impl {
+  explicit Impl(const Model& m) : model(m), nominal_set(m.model_stiffness()) {}
+  Model model;
+  StiffnessSet nominal_set;  // the model's own (Model::model_stiffness)
+  // Per group: true when its dimensions only set values (stiffness, reading terms), so that a
+  // row A_B^g is row A with those values replaced (angles add and factors multiply: rebuilt).
+  std::vector<char> group_sets_only;
+  int muscle = 0;
+  std::string muscle_name;
+  Eigen::MatrixXd postures;
+  UncertaintyOptions options;
+  std::vector<std::string> groups;
+  std::vector<Dimension> dims;
+  int fit_group = -1;
+  Eigen::MatrixXd fit_cholesky;  // over the fit's parameters
+  Eigen::VectorXd fit_mean;
+  std::vector<int> fit_dims;  // dims of the fit, in parameter order
+  bool kinematic = false;     // some dimension changes the posture
+  bool has_post = false;      // some dimension acts on the reading
+  double nominal_activation = 1.0;
+  Vector6d reach_scale = Vector6d::Ones();  // D = diag(1, 1, 1, L, L, L)
+  long samples = 0;
+  bool exact = true;
+  std::uint64_t fingerprint = 0;
+  std::vector<std::string> notes;
+  // Per posture, from its nominal kinematics: R_W_T, the nominal quantities, the
+  // reconstruction of dtheta from W (batch path), J and tau at activation 1.
+  struct PostureData {
+    Eigen::Matrix3d R_W_T = Eigen::Matrix3d::Identity();
+    std::array<double, kQ> nominal{};
+    StaticsStatus nominal_status = StaticsStatus::kInvalidInput;
+    Eigen::Vector3d force_direction = Eigen::Vector3d::Zero();  // unit, or 0: no angle
+    Matrix6Xd J;
+    Eigen::VectorXd tau;
+    Eigen::MatrixXd dtheta_from;  // m x (rows + stiff columns)
+  };
+  std::vector<PostureData> posture_data;
+  std::vector<int> restrained_rows;  // s_t > 0 in every sample
+  std::vector<int> stiff_columns;    // s_p > 0 in every sample, not locked
+  std::vector<char> locked;
+  std::vector<char> revolute;
+  double leg_length = 0.0;
+
+  int G() const { return static_cast<int>(groups.size()); }
+  int Rows() const { return options.sobol ? G() + 2 : 1; }
+  int RecordSize() const { return kCounts + kQ * kPerQuantity + 2 * G() * kQ; }
+
+  void Draw(long j, int matrix, double* u) const {
+    const int D = static_cast<int>(dims.size());
+    for (int k = 0; k < D; k += 4) {
+      const std::array<double, 4> r =
+          PhiloxUniforms(options.seed, static_cast<std::uint64_t>(j),
+                         static_cast<std::uint64_t>(matrix), static_cast<std::uint64_t>(k / 4));
+      for (int l = 0; l < 4 && k + l < D; ++l) u[k + l] = r[static_cast<size_t>(l)];
+    }
+  }
+
+  // The value of every dimension for the uniforms u (D of them), the fit's transform applied.
+  void Values(const double* u, std::vector<double>& values) const;
+  // A row's inputs: the dimensions of group `swap` from values_b, the others from values_a.
+  void Assemble(const double* values_a, const double* values_b, int swap, RowInputs& row) const;
+  void Apply(const Dimension& d, double value, RowInputs& row) const;
+  void Nominal(RowInputs& row) const;
+  // `to` = `from`, the parts the study uses only.
+  void CopyRow(const RowInputs& from, RowInputs& to) const;
+  // The reading's quantities from W (transducer axes, activation 1) and the row's inputs.
+  // world: also the world-axes components (else 0: A_B^i rows need only the Sobol quantities).
+  void Quantities(const PostureData& pd, const Vector6d& W1, const RowInputs& row, double* y,
+                  bool world = true) const;
+  bool SmallMotionFails(const Matrix6Xd& J, const Eigen::VectorXd& dtheta) const;
+};
+
+void UncertaintyStudy::Impl::Apply(const Dimension& d, double v, RowInputs& row) const {
+  switch (d.target) {
+    case Target::kTransducerStiffness:
+      row.set.s_t[d.index] = d.absolute ? v : nominal_set.s_t[d.index] * v;
+      break;
+    case Target::kTransducerRotationFactor:
+      for (int r = 3; r < 6; ++r) row.set.s_t[r] = nominal_set.s_t[r] * v;
+      break;
+    case Target::kJointStiffness:
+      for (int c : d.columns) row.set.s_p[c] = d.absolute ? v : nominal_set.s_p[c] * v;
+      break;
+    case Target::kAngle: row.dq[d.index] += v; break;
+    case Target::kForceFactor: row.factor *= v; break;
+    case Target::kActivation: row.activation = v; break;
+    case Target::kMisalignment: row.rotation[d.index] = v; break;
+    case Target::kGain: row.gain[d.index] = v; break;
+    case Target::kCrosstalk: row.crosstalk(d.index / 6, d.index % 6) = v; break;
+    case Target::kCrosstalkSymmetric:
+      row.crosstalk(d.index / 6, d.index % 6) = v;
+      row.crosstalk(d.index % 6, d.index / 6) = v;
+      break;
+    case Target::kSensorOrigin: row.origin[d.index] = v; break;
+    case Target::kSensorOffset: row.offset[d.index] = v; break;
+    case Target::kNone: break;
+  }
+}
+
+void UncertaintyStudy::Impl::Nominal(RowInputs& row) const {
+  row.set = nominal_set;
+  if (kinematic || row.dq.size() == 0) row.dq.setZero(model.dof_count());
+  row.factor = 1.0;
+  row.activation = nominal_activation;
+  if (!has_post) return;  // the reading terms are never read
+  row.rotation.setZero();
+  row.gain.setOnes();
+  row.crosstalk.setZero();
+  row.origin.setZero();
+  row.offset.setZero();
+}
+
+void UncertaintyStudy::Impl::CopyRow(const RowInputs& from, RowInputs& to) const {
+  to.set.s_t = from.set.s_t;
+  to.set.s_p = from.set.s_p;
+  if (kinematic) to.dq = from.dq;
+  to.factor = from.factor;
+  to.activation = from.activation;
+  if (!has_post) return;
+  to.rotation = from.rotation;
+  to.gain = from.gain;
+  to.crosstalk = from.crosstalk;
+  to.origin = from.origin;
+  to.offset = from.offset;
+}
+
+void UncertaintyStudy::Impl::Values(const double* u, std::vector<double>& values) const {
+  const int D = static_cast<int>(dims.size());
+  values.resize(static_cast<size_t>(D + fit_mean.size()));  // the tail: the fit's x
+  for (int k = 0; k < D; ++k) {
+    const Dimension& d = dims[static_cast<size_t>(k)];
+    // A fit dimension holds z first, transformed below.
+    values[static_cast<size_t>(k)] =
+        d.fit_index >= 0 ? NormalQuantile(u[k]) : IndependentValue(d, u[k]);
+  }
+  if (fit_group >= 0) {
+    // x = mean + L z over the fit's parameters (one group: all swapped together).
+    const Eigen::Index n = fit_mean.size();
+    for (Eigen::Index i = 0; i < n; ++i) {
+      double x = fit_mean[i];
+      for (Eigen::Index l = 0; l <= i; ++l)
+        x += fit_cholesky(i, l) * values[static_cast<size_t>(fit_dims[static_cast<size_t>(l)])];
+      const Dimension& d = dims[static_cast<size_t>(fit_dims[static_cast<size_t>(i)])];
+      values[static_cast<size_t>(D + i)] =
+          d.log10_value ? std::pow(10.0, x) * d.scale : x * d.scale;
+    }
+    for (Eigen::Index i = 0; i < n; ++i) {
+      values[static_cast<size_t>(fit_dims[static_cast<size_t>(i)])] =
+          values[static_cast<size_t>(D + i)];
+    }
+  }
+}
+
+void UncertaintyStudy::Impl::Assemble(const double* values_a, const double* values_b, int swap,
+                                      RowInputs& row) const {
+  Nominal(row);
+  const int D = static_cast<int>(dims.size());
+  for (int k = 0; k < D; ++k) {
+    const Dimension& d = dims[static_cast<size_t>(k)];
+    Apply(d, d.group == swap ? values_b[k] : values_a[k], row);
+  }
+}
+
+void UncertaintyStudy::Impl::Quantities(const PostureData& pd, const Vector6d& W1,
+                                        const RowInputs& row, double* y, bool world) const {
+  Vector6d W = (row.factor * row.activation) * W1;
+  if (has_post) {
+    // Misalignment: readings in axes turned by R = exp([r]x): R^T W.
+    const double angle = row.rotation.norm();
+    if (angle > 0) {
+      const Eigen::Matrix3d R = Eigen::AngleAxisd(angle, row.rotation / angle).toRotationMatrix();
+      W.head<3>() = R.transpose() * W.head<3>().eval();
+      W.tail<3>() = R.transpose() * W.tail<3>().eval();
+    }
+    // Moment about the true origin d: m - d x f.
+    W.tail<3>() -= row.origin.cross(W.head<3>());
+    // Calibration: (I + E) W, E = D Ê D^-1 off the diagonal, gain - 1 on it.
+    Vector6d reading;
+    for (int i = 0; i < 6; ++i) {
+      double r = row.gain[i] * W[i];
+      for (int k = 0; k < 6; ++k) {
+        if (k != i) r += reach_scale[i] / reach_scale[k] * row.crosstalk(i, k) * W[k];
+      }
+      reading[i] = r;
+    }
+    W = reading + row.offset;
+  }
+  for (int i = 0; i < 6; ++i) y[i] = W[i];
+  if (world) {
+    const Eigen::Vector3d f = pd.R_W_T * W.head<3>(), m = pd.R_W_T * W.tail<3>();
+    for (int i = 0; i < 3; ++i) {
+      y[6 + i] = f[i];
+      y[9 + i] = m[i];
+    }
+  } else {
+    for (int i = 6; i < 12; ++i) y[i] = 0.0;  // not a Sobol quantity (kSobolQuantity)
+  }
+  y[12] = W.head<3>().norm();
+  y[13] = W.tail<3>().norm();
+  if (pd.force_direction.isZero() || y[12] == 0.0) {
+    y[14] = std::numeric_limits<double>::quiet_NaN();
+  } else {
+    const Eigen::Vector3d fw = W.head<3>();
+    y[14] = std::atan2(fw.cross(pd.force_direction).norm(), fw.dot(pd.force_direction));
+  }
+}
+
+bool UncertaintyStudy::Impl::SmallMotionFails(const Matrix6Xd& J,
+                                              const Eigen::VectorXd& dtheta) const {
+  // docs/model.md "Validity of the linear model", as SolveStatics (statics.cpp) applies it.
+  const double translation = (J.topRows<3>() * dtheta).norm();
+  const double limit = options.statics.max_endpoint_fraction * leg_length;
+  if (leg_length > 0 && translation > limit) return true;
+  for (Eigen::Index c = 0; c < dtheta.size(); ++c) {
+    const double a = std::abs(dtheta[c]);
+    if (revolute[static_cast<size_t>(c)]) {
+      if (a > options.statics.max_joint_rotation) return true;
+    } else if (leg_length > 0 && a > limit) {
+      return true;
+    }
+  }
+  return false;
+}
+
+namespace {
+
+// Resolve one user input into dimensions. `group` is its Sobol group.
+void ResolveInput(const UncertainInput& in, int group, const Model& model, int muscle,
+                  double activation, std::vector<Dimension>& dims) {
+  const std::string& name = in.name;
+  const std::string what = "uncertain input '" + name + "'";
+  auto sd_at = [&](size_t k) { return in.sd.size() == 1 ? in.sd[0] : in.sd[k]; };
+  auto check_sd = [&](size_t count) {
+    if (in.distribution == InputDistribution::kUniform ||
+        in.distribution == InputDistribution::kLogUniform) {
+      if (!in.sd.empty())
+        throw Error(what + ": a " + DistributionName(in.distribution) +
+                    " input takes lower and upper, not sd");
+      if (!std::isfinite(in.lower) || !std::isfinite(in.upper) || !(in.lower < in.upper)) {
+        throw Error(what + ": empty support [" + util::FormatNumber(in.lower) + ", " +
+                    util::FormatNumber(in.upper) + "]: needs lower < upper");
+      }
+      if (in.distribution == InputDistribution::kLogUniform && !(in.lower > 0)) {
+        throw Error(what + ": empty support for loguniform: lower " + util::FormatNumber(in.lower) +
+                    " must be > 0");
+      }
+      return;
+    }
+    if (in.sd.empty()) throw Error(what + ": needs sd");
+    if (in.sd.size() != 1 && in.sd.size() != count) {
+      throw Error(what + ": sd has " + std::to_string(in.sd.size()) + " values; give 1" +
+                  (count > 1 ? " or " + std::to_string(count) : std::string()));
+    }
+    for (double s : in.sd) {
+      if (!std::isfinite(s) || s < 0)
+        throw Error(what + ": sd " + util::FormatNumber(s) + " must be finite and >= 0");
+    }
+  };
+  auto allow = [&](std::initializer_list<InputDistribution> allowed) {
+    for (InputDistribution d : allowed)
+      if (d == in.distribution) return;
+    std::string list;
+    for (InputDistribution d : allowed)
+      list += std::string(list.empty() ? "" : ", ") + DistributionName(d);
+    throw Error(what + ": distribution " + DistributionName(in.distribution) +
+                " is not available for it (" + list + ")");
+  };
+  auto base = [&](Target target) {
+    Dimension d;
+    d.group = group;
+    d.distribution = in.distribution;
+    d.target = target;
+    return d;
+  };
+  // Stiffness: lognormal factor (median 1) or loguniform absolute values.
+  auto stiffness = [&](Target target, int index, std::vector<int> columns, double nominal) {
+    allow({InputDistribution::kLogNormal, InputDistribution::kLogUniform});
+    check_sd(1);
+    Dimension d = base(target);
+    d.index = index;
+    d.columns = std::move(columns);
+    if (in.distribution == InputDistribution::kLogNormal) {
+      if (!(nominal > 0)) {
+        throw Error(what + ": the model's value is 0 (released or without stiffness): a " +
+                    "lognormal factor on it is empty; give a loguniform lower/upper instead");
+      }
+      d.a = 1.0;
+      d.b = in.sd[0];
+    } else {
+      d.absolute = true;
+      d.a = std::log(in.lower);
+      d.b = std::log(in.upper);
+    }
+    dims.push_back(d);
+  };
+  // A factor with mean / median 1.
+  auto factor = [&](Target target, int index) {
+    allow({InputDistribution::kNormal, InputDistribution::kLogNormal, InputDistribution::kUniform});
+    check_sd(1);
+    Dimension d = base(target);
+    d.index = index;
+    if (in.distribution == InputDistribution::kUniform) {
+      d.a = in.lower;
+      d.b = in.upper;
+    } else {
+      d.a = 1.0;
+      d.b = in.sd[0];
+    }
+    dims.push_back(d);
+  };
+  // Normal offsets with mean 0 (or uniform offsets), per axis, times `unit`.
+  auto offsets = [&](Target target, int first_index, int count, double unit) {
+    allow({InputDistribution::kNormal, InputDistribution::kUniform});
+    check_sd(static_cast<size_t>(count));
+    for (int k = 0; k < count; ++k) {
+      Dimension d = base(target);
+      d.index = first_index + k;
+      if (in.distribution == InputDistribution::kUniform) {
+        d.a = in.lower * unit;
+        d.b = in.upper * unit;
+      } else {
+        d.a = 0.0;
+        d.b = sd_at(static_cast<size_t>(k)) * unit;
+      }
+      dims.push_back(d);
+    }
+  };
+
+  const size_t colon = name.find(':');
+  const std::string kind = name.substr(0, colon);
+  const std::string arg = colon == std::string::npos ? "" : name.substr(colon + 1);
+  const std::vector<std::string> kinds = {"transducer_stiffness",
+                                          "base_stiffness",
+                                          "joint_stiffness",
+                                          "angle",
+                                          "max_force",
+                                          "activation",
+                                          "misalignment",
+                                          "gain",
+                                          "crosstalk",
+                                          "point"};
+  if (kind == "transducer_stiffness") {
+    int dof = -1;
+    for (int k = 0; k < 6; ++k)
+      if (arg == kDofNames[k]) dof = k;
+    if (dof < 0) {
+      throw Error(what + ": unknown transducer dof '" + arg + "'" +
+                  DidYouMean(arg, {"x", "y", "z", "rx", "ry", "rz"}) + " (x y z rx ry rz)");
+    }
+    stiffness(Target::kTransducerStiffness, dof, {}, model.model_stiffness().s_t[dof]);
+  } else if (kind == "base_stiffness") {
+    std::vector<int> columns;
+    for (int c = 0; c < model.dof_count(); ++c)
+      if (model.coordinate(c).role == JointRole::kBase) columns.push_back(c);
+    if (columns.empty()) {
+      throw Error(what + ": model '" + model.name() +
+                  "' has no base dofs (give --base-stiffness, or a URDF with base joints)");
+    }
+    double nominal = model.model_stiffness().s_p[columns[0]];
+    for (int c : columns) nominal = std::min(nominal, model.model_stiffness().s_p[c]);
+    stiffness(Target::kJointStiffness, 0, columns, nominal);
+  } else if (kind == "joint_stiffness") {
+    const int c = model.JointIndex(arg);  // throws with the closest name
+    stiffness(Target::kJointStiffness, 0, {c}, model.model_stiffness().s_p[c]);
+  } else if (kind == "angle") {
+    const int c = model.JointIndex(arg);
+    const bool prismatic = model.joint(c).type == JointType::kPrismatic;
+    offsets(Target::kAngle, c, 1, prismatic ? 1e-3 : kPi / 180.0);
+  } else if (kind == "max_force") {
+    if (!arg.empty() && arg != model.muscle(muscle).name) {
+      model.MuscleIndex(arg);  // unknown: throws with the list
+      throw Error(what + ": the study is of muscle '" + model.muscle(muscle).name +
+                  "'; max_force of '" + arg + "' does not change its wrench");
+    }
+    factor(Target::kForceFactor, 0);
+  } else if (kind == "activation") {
+    allow({InputDistribution::kNormal, InputDistribution::kUniform});
+    check_sd(1);
+    Dimension d = base(Target::kActivation);
+    if (in.distribution == InputDistribution::kUniform) {
+      d.a = in.lower;
+      d.b = in.upper;
+    } else {
+      d.a = activation;
+      d.b = in.sd[0];
+    }
+    dims.push_back(d);
+  } else if (kind == "misalignment") {
+    if (!arg.empty()) throw Error(what + ": misalignment takes no ':' argument (sd per axis)");
+    offsets(Target::kMisalignment, 0, 3, kPi / 180.0);
+  } else if (kind == "gain") {
+    const int axis = AxisIndexOf(arg);
+    if (axis < 0) {
+      throw Error(what + ": unknown axis '" + arg + "'" +
+                  DidYouMean(arg, {"fx", "fy", "fz", "mx", "my", "mz"}) + " (fx fy fz mx my mz)");
+    }
+    factor(Target::kGain, axis);
+  } else if (kind == "crosstalk") {
+    if (arg.empty()) {
+      allow({InputDistribution::kNormal});
+      check_sd(1);
+      for (int i = 0; i < 6; ++i) {
+        for (int k = 0; k < 6; ++k) {
+          if (i == k) continue;
+          Dimension d = base(Target::kCrosstalk);
+          d.index = i * 6 + k;
+          d.b = in.sd[0];
+          dims.push_back(d);
+        }
+      }
+    } else {
+      const size_t bar = arg.find('_');
+      const int i = AxisIndexOf(arg.substr(0, bar));
+      const int k = bar == std::string::npos ? -1 : AxisIndexOf(arg.substr(bar + 1));
+      if (i < 0 || k < 0 || i == k) {
+        throw Error(what + ": '" + arg +
+                    "' is not a term <reading>_<source> of two different axes (e.g. mx_fy)");
+      }
+      offsets(Target::kCrosstalk, i * 6 + k, 1, 1.0);
+    }
+  } else if (kind == "point") {
+    throw Error(what +
+                ": muscle point perturbations need the engine's per-evaluation point "
+                "offsets, which are not available yet (docs/uncertainty.md \"Muscle "
+                "points\")");
+  } else {
+    throw Error(
+        "unknown uncertain input '" + name + "'" + DidYouMean(kind, kinds) +
+        " (inputs: transducer_stiffness:<dof>, base_stiffness, joint_stiffness:<coordinate>, "
+        "angle:<coordinate>, max_force, activation, misalignment, gain:<axis>, crosstalk, "
+        "point:<muscle>:<index>)");
+  }
+}
+
+// The fit's parameters as dimensions of one group.
+void ResolveFit(const FitUncertainty& fit, int group, const Model& model, int muscle,
+                std::vector<Dimension>& dims, std::vector<int>& fit_dims,
+                std::vector<std::string>& notes) {
+  for (size_t k = 0; k < fit.names.size(); ++k) {
+    const std::string& full = fit.names[k];
+    const size_t dot = full.rfind('.');
+    const std::string effect = full.substr(0, dot), parameter = full.substr(dot + 1);
+    Dimension d;
+    d.group = group;
+    d.fit_index = static_cast<int>(k);
+    d.log10_value = fit.log10[k];
+    d.a = fit.log10[k] ? std::pow(10.0, fit.mean[static_cast<Eigen::Index>(k)])
+                       : fit.mean[static_cast<Eigen::Index>(k)];
+    const std::string what = fit.source + ": " + full;
+    if (effect == "base_isotropic" || effect == "base_per_axis") {
+      d.target = Target::kJointStiffness;
+      d.absolute = true;
+      for (int c = 0; c < model.dof_count(); ++c) {
+        if (model.coordinate(c).role != JointRole::kBase) continue;
+        const std::string& n = model.coordinate(c).name;
+        if (effect == "base_isotropic" || ("k_" + n) == parameter ||
+            ("k_base_" + n.substr(n.size() - 1)) == parameter)
+          d.columns.push_back(c);
+      }
+      if (d.columns.empty()) {
+        throw Error(what + ": the model has no base dofs for it; give --base-stiffness " +
+                    util::FormatNumber(d.a) + " (the fitted value) to add them");
+      }
+    } else if (effect.rfind("transducer_soft:", 0) == 0) {
+      d.target = Target::kTransducerStiffness;
+      d.absolute = true;
+      d.index = -1;
+      for (int r = 0; r < 6; ++r)
+        if (effect.substr(16) == kDofNames[r]) d.index = r;
+      if (d.index < 0) throw Error(what + ": unknown dof");
+    } else if (effect == "transducer_anisotropy") {
+      d.target = Target::kTransducerRotationFactor;
+    } else if (effect.rfind("force_scale:", 0) == 0) {
+      if (effect.substr(12) != model.muscle(muscle).name) {
+        notes.push_back(full + " is of another muscle: it does not change this study's wrench");
+      }
+      d.target =
+          effect.substr(12) == model.muscle(muscle).name ? Target::kForceFactor : Target::kNone;
+    } else if (effect.rfind("gain:", 0) == 0) {
+      d.target = Target::kGain;
+      d.index = AxisIndexOf(effect.substr(5));
+      if (d.index < 0) throw Error(what + ": unknown axis");
+    } else if (effect == "crosstalk") {
+      const size_t bar = parameter.find('_');
+      const int i = AxisIndexOf(parameter.substr(0, bar));
+      const int s = bar == std::string::npos ? -1 : AxisIndexOf(parameter.substr(bar + 1));
+      if (i < 0 || s < 0) throw Error(what + ": not a crosstalk term");
+      // Before issue 29 the fit's crosstalk was symmetric (15 terms a_b, a before b); from
+      // issue 29 on it is <reading>_<source>, 30 terms. A fit that names some term with its
+      // reading after its source, or both orders, is of the second kind.
+      bool ordered = false;
+      for (const std::string& other : fit.names) {
+        if (other.rfind("crosstalk.", 0) != 0) continue;
+        const std::string t = other.substr(10);
+        const size_t b2 = t.find('_');
+        if (AxisIndexOf(t.substr(0, b2)) > AxisIndexOf(t.substr(b2 + 1))) ordered = true;
+      }
+      d.target = ordered ? Target::kCrosstalk : Target::kCrosstalkSymmetric;
+      d.index = i * 6 + s;
+    } else if (effect == "misalignment") {
+      d.target = Target::kMisalignment;
+      d.index = parameter == "rx" ? 0 : parameter == "ry" ? 1 : 2;
+      d.scale = kPi / 180.0;
+    } else if (effect == "sensor_origin") {
+      d.target = Target::kSensorOrigin;
+      d.index = parameter == "dx" ? 0 : parameter == "dy" ? 1 : 2;
+      d.scale = 1e-3;
+    } else if (effect == "sensor_offset") {
+      d.target = Target::kSensorOffset;
+      d.index = std::max(0, AxisIndexOf(parameter));
+    } else if (effect.rfind("joint_offset:", 0) == 0) {
+      d.target = Target::kAngle;
+      d.index = model.JointIndex(effect.substr(13));
+      d.scale = model.joint(d.index).type == JointType::kPrismatic ? 1e-3 : kPi / 180.0;
+    } else {
+      throw Error(what + ": this effect cannot be sampled");
+    }
+    fit_dims.push_back(static_cast<int>(dims.size()));
+    dims.push_back(d);
+  }
+}
+
+}  // namespace
+
+UncertaintyStudy::UncertaintyStudy(const Model& model, const std::string& muscle,
+                                   const Eigen::MatrixXd& postures, const UncertaintySpec& spec,
+                                   const UncertaintyOptions& options)
+    : impl_(std::make_shared<Impl>(model)) {
+  Impl& s = *impl_;
+  s.muscle = model.MuscleIndex(muscle);
+  s.muscle_name = muscle;
+  s.options = options;
+  s.options.progress = nullptr;
+  if (options.samples <= 0)
+    throw Error("uncertainty: samples " + std::to_string(options.samples) + " must be > 0");
+  if (options.threads < 1)
+    throw Error("uncertainty: threads " + std::to_string(options.threads) + " must be >= 1");
+  if (!std::isfinite(options.activation)) throw Error("uncertainty: activation must be finite");
+  if (postures.rows() != model.dof_count() || postures.cols() < 1) {
+    throw Error("uncertainty: postures must be " + std::to_string(model.dof_count()) +
+                " x P (P >= 1), got " + std::to_string(postures.rows()) + " x " +
+                std::to_string(postures.cols()));
+  }
+  if (!postures.allFinite()) throw Error("uncertainty: a posture has a non-finite entry");
+  s.postures = postures;
+  s.samples = options.samples;
+  s.nominal_activation = options.activation;
+  const double L = model.chain_length();
+  s.reach_scale << 1, 1, 1, L, L, L;
+  s.leg_length = options.statics.leg_length > 0 ? options.statics.leg_length : L;
+
+  std::vector<std::string> seen;
+  for (const UncertainInput& in : spec.inputs) {
+    if (std::find(seen.begin(), seen.end(), in.name) != seen.end())
+      throw Error("uncertain input '" + in.name + "' is given twice");
+    seen.push_back(in.name);
+    const int group = static_cast<int>(s.groups.size());
+    s.groups.push_back(in.name);
+    ResolveInput(in, group, model, s.muscle, options.activation, s.dims);
+  }
+  if (spec.has_fit && spec.fit.model != model.name()) {
+    throw Error(spec.fit.source + " is a fit of model '" + spec.fit.model + "', not of '" +
+                model.name() + "': its parameters do not apply to this model");
+  }
+  if (spec.has_fit && !spec.fit.names.empty()) {
+    s.fit_group = static_cast<int>(s.groups.size());
+    s.groups.push_back("fit");
+    ResolveFit(spec.fit, s.fit_group, model, s.muscle, s.dims, s.fit_dims, s.notes);
+    s.fit_mean = spec.fit.mean;
+    // L with L L^T = covariance, from the eigen-decomposition (a covariance that is only
+    // positive semi-definite, e.g. |r| = 1, still has one): L = V sqrt(max(lambda, 0)) made
+    // lower triangular by a QR of its transpose.
+    Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(spec.fit.covariance);
+    const Eigen::MatrixXd root =
+        eig.eigenvectors() * eig.eigenvalues().cwiseMax(0.0).cwiseSqrt().asDiagonal();
+    Eigen::HouseholderQR<Eigen::MatrixXd> qr(root.transpose());
+    Eigen::MatrixXd R = qr.matrixQR().triangularView<Eigen::Upper>();
+    s.fit_cholesky = R.transpose();
+    for (const std::string& note : spec.fit.notes) s.notes.push_back(note);
+  }
+  if (s.groups.empty())
+    throw Error("uncertainty: no uncertain input given (a spec file, options or --from-fit)");
+  s.group_sets_only.assign(s.groups.size(), 1);
+  for (const Dimension& d : s.dims) {
+    if (d.target == Target::kAngle || d.target == Target::kForceFactor)
+      s.group_sets_only[static_cast<size_t>(d.group)] = 0;
+  }
+  for (const Dimension& d : s.dims) {
+    if (d.target == Target::kAngle) s.kinematic = true;
+    if (d.target == Target::kMisalignment || d.target == Target::kGain ||
+        d.target == Target::kCrosstalk || d.target == Target::kCrosstalkSymmetric ||
+        d.target == Target::kSensorOrigin || d.target == Target::kSensorOffset)
+      s.has_post = true;
+  }
+  const int m = model.dof_count();
+  // Which rows and columns carry a stiffness in every sample (the pattern of K).
+  std::vector<char> row_input(6, 0), column_input(static_cast<size_t>(m), 0);
+  for (const Dimension& d : s.dims) {
+    if (d.target == Target::kTransducerStiffness && d.absolute)
+      row_input[static_cast<size_t>(d.index)] = 1;
+    if (d.target == Target::kJointStiffness && d.absolute)
+      for (int c : d.columns) column_input[static_cast<size_t>(c)] = 1;
+  }
+  for (int r = 0; r < 6; ++r) {
+    if (model.model_stiffness().s_t[r] > 0 || row_input[static_cast<size_t>(r)])
+      s.restrained_rows.push_back(r);
+  }
+  s.locked.assign(static_cast<size_t>(m), 0);
+  s.revolute.assign(static_cast<size_t>(m), 1);
+  for (int c = 0; c < m; ++c) {
+    s.locked[static_cast<size_t>(c)] = model.coordinate(c).locked;
+    s.revolute[static_cast<size_t>(c)] = model.revolute(c);
+    if (!model.coordinate(c).locked &&
+        (model.model_stiffness().s_p[c] > 0 || column_input[static_cast<size_t>(c)]))
+      s.stiff_columns.push_back(c);
+  }
+
+  // Percentiles: exact while the values fit the budget.
+  const double values =
+      2.0 * static_cast<double>(s.samples) * static_cast<double>(postures.cols()) * kQ;
+  s.exact = values <= options.exact_percentile_values;
+
+  // Per posture: nominal kinematics (R_W_T, J, tau), the nominal evaluation, the reconstruction.
+  Data data(model);
+  RowInputs nominal;
+  s.Nominal(nominal);
+  // Central values of every dimension.
+  {
+    for (const Dimension& d : s.dims) {
+      const double v = d.fit_index >= 0 ? d.a * d.scale : CentralValue(d);
+      s.Apply(d, v, nominal);
+    }
+  }
+  for (Eigen::Index p = 0; p < postures.cols(); ++p) {
+    Impl::PostureData pd;
+    const Eigen::VectorXd q = postures.col(p);
+    ComputeKinematics(model, data, q, s.muscle, 1.0);
+    pd.R_W_T = data.transducer_rotation();
+    pd.J = data.jacobian();
+    pd.tau = data.tau();
+    // dtheta from W: [J_r; I_c] dtheta = [W_r / s_r; (tau - J^T W)_c / s_c] (consistent:
+    // J dtheta = S_t^-1 W on the restrained rows, and equilibrium J^T W + S_p dtheta = tau).
+    {
+      std::vector<int> free_columns;
+      for (int c = 0; c < m; ++c)
+        if (!s.locked[static_cast<size_t>(c)]) free_columns.push_back(c);
+      const int rows = static_cast<int>(s.restrained_rows.size() + s.stiff_columns.size());
+      Eigen::MatrixXd M =
+          Eigen::MatrixXd::Zero(rows, static_cast<Eigen::Index>(free_columns.size()));
+      for (size_t i = 0; i < s.restrained_rows.size(); ++i) {
+        for (size_t c = 0; c < free_columns.size(); ++c)
+          M(static_cast<Eigen::Index>(i), static_cast<Eigen::Index>(c)) =
+              pd.J(s.restrained_rows[i], free_columns[c]);
+      }
+      for (size_t i = 0; i < s.stiff_columns.size(); ++i) {
+        const auto at = std::find(free_columns.begin(), free_columns.end(), s.stiff_columns[i]);
+        M(static_cast<Eigen::Index>(s.restrained_rows.size() + i), at - free_columns.begin()) = 1.0;
+      }
+      Eigen::MatrixXd pinv = Eigen::MatrixXd::Zero(m, rows);
+      if (rows > 0 && !free_columns.empty()) {
+        Eigen::JacobiSVD<Eigen::MatrixXd> svd(M, Eigen::ComputeThinU | Eigen::ComputeThinV);
+        const Eigen::VectorXd& sv = svd.singularValues();
+        const double threshold = 1e-12 * (sv.size() > 0 ? sv[0] : 0.0);
+        Eigen::VectorXd inv = sv;
+        for (Eigen::Index k = 0; k < sv.size(); ++k) inv[k] = sv[k] > threshold ? 1.0 / sv[k] : 0.0;
+        const Eigen::MatrixXd sub = svd.matrixV() * inv.asDiagonal() * svd.matrixU().transpose();
+        for (size_t c = 0; c < free_columns.size(); ++c)
+          pinv.row(free_columns[c]) = sub.row(static_cast<Eigen::Index>(c));
+      }
+      pd.dtheta_from = pinv;
+    }
+    // Nominal evaluation.
+    ComputeKinematics(model, data, q + nominal.dq, s.muscle, 1.0);
+    SolveOptions solve;
+    solve.rank_tolerance = options.statics.rank_tolerance;
+    solve.excitation_tolerance = options.statics.excitation_tolerance;
+    const WrenchResult w = SolveStatics(model, data, nominal.set, solve);
+    pd.nominal_status = w.status;
+    pd.force_direction.setZero();
+    if (w.status == StaticsStatus::kOk || w.status == StaticsStatus::kSelfMotionHeld) {
+      s.Quantities(pd, w.wrench, nominal, pd.nominal.data());
+      pd.nominal[14] = 0.0;
+      const Eigen::Vector3d f(pd.nominal[0], pd.nominal[1], pd.nominal[2]);
+      if (f.norm() > 0) pd.force_direction = f / f.norm();
+    } else {
+      pd.nominal.fill(0.0);
+    }
+    s.posture_data.push_back(pd);
+  }
+
+  // Fingerprint: what defines the numbers.
+  std::uint64_t h = 1469598103934665603ull;
+  h = FnvString(h, WriteUrdfString(model.description()));
+  h = FnvString(h, muscle);
+  for (Eigen::Index i = 0; i < postures.size(); ++i) h = FnvDouble(h, postures.data()[i]);
+  for (const Dimension& d : s.dims) {
+    h = Fnv(h, &d.group, sizeof d.group);
+    h = FnvDouble(h, d.a);
+    h = FnvDouble(h, d.b);
+    h = FnvDouble(h, d.scale);
+    const int t = static_cast<int>(d.target) * 1000 + d.index + (d.absolute ? 500 : 0) +
+                  static_cast<int>(d.distribution) * 100000;
+    h = Fnv(h, &t, sizeof t);
+  }
+  for (Eigen::Index i = 0; i < s.fit_cholesky.size(); ++i)
+    h = FnvDouble(h, s.fit_cholesky.data()[i]);
+  for (Eigen::Index i = 0; i < s.fit_mean.size(); ++i) h = FnvDouble(h, s.fit_mean[i]);
+  const long n = s.samples;
+  h = Fnv(h, &n, sizeof n);
+  h = Fnv(h, &s.options.seed, sizeof s.options.seed);
+  const int flags = (s.options.sobol ? 1 : 0) + (s.exact ? 2 : 0);
+  h = Fnv(h, &flags, sizeof flags);
+  for (double v : {options.activation, options.statics.max_endpoint_fraction,
+                   options.statics.max_joint_rotation, options.statics.leg_length,
+                   options.statics.rank_tolerance, options.statics.excitation_tolerance})
+    h = FnvDouble(h, v);
+  s.fingerprint = h;
+}
+
+UncertaintyStudy::~UncertaintyStudy() = default;
+UncertaintyStudy::UncertaintyStudy(const UncertaintyStudy&) = default;
+UncertaintyStudy& UncertaintyStudy::operator=(const UncertaintyStudy&) = default;
+
+long UncertaintyStudy::block_count() const {
+  return (impl_->samples + kUncertaintyBlockSamples - 1) / kUncertaintyBlockSamples;
+}
+long UncertaintyStudy::evaluation_count() const {
+  return impl_->samples * impl_->Rows() * static_cast<long>(impl_->postures.cols());
+}
+const std::vector<std::string>& UncertaintyStudy::groups() const { return impl_->groups; }
+std::uint64_t UncertaintyStudy::fingerprint() const { return impl_->fingerprint; }
+const Model& UncertaintyStudy::model() const { return impl_->model; }
+
+namespace {
+
+// One thread's evaluation of blocks.
+class BlockRunner {
+ public:
+  explicit BlockRunner(const UncertaintyStudy::Impl& s)
+      : s_(s), data_(s.model), D_(static_cast<int>(s.dims.size())) {
+    uA_.resize(static_cast<size_t>(D_));
+    uB_.resize(static_cast<size_t>(D_));
+    solve_.rank_tolerance = s.options.statics.rank_tolerance;
+    solve_.excitation_tolerance = s.options.statics.excitation_tolerance;
+    const long P = s.postures.cols();
+    if (!s.exact) histograms_.assign(static_cast<size_t>(P * kQ), LogHistogram());
+  }
+
+  // Block b: its records (one per posture) into `record` and, for exact percentiles, its
+  // values into `values` (per posture and quantity).
+  void Run(long b, double* record, std::vector<std::vector<double>>* values) {
+    const long j0 = b * kUncertaintyBlockSamples;
+    const long j1 = std::min(s_.samples, j0 + kUncertaintyBlockSamples);
+    const long count = j1 - j0;
+    const int rows = s_.Rows();
+    const long P = s_.postures.cols();
+    const int RS = s_.RecordSize();
+    std::fill(record, record + P * RS, 0.0);
+    // Inputs of every row of the block.
+    inputs_.resize(static_cast<size_t>(count * rows));
+    for (long jj = 0; jj < count; ++jj) {
+      s_.Draw(j0 + jj, 0, uA_.data());
+      if (s_.options.sobol) s_.Draw(j0 + jj, 1, uB_.data());
+      RowInputs* row = &inputs_[static_cast<size_t>(jj * rows)];
+      s_.Values(uA_.data(), valuesA_);
+      s_.Assemble(valuesA_.data(), valuesA_.data(), -1, row[0]);
+      if (!s_.options.sobol) continue;
+      s_.Values(uB_.data(), valuesB_);
+      s_.Assemble(valuesB_.data(), valuesB_.data(), -1, row[1]);
+      for (int g = 0; g < s_.G(); ++g) {
+        if (s_.group_sets_only[static_cast<size_t>(g)]) {
+          s_.CopyRow(row[0], row[2 + g]);
+          for (const Dimension& d : s_.dims)
+            if (d.group == g)
+              s_.Apply(d, valuesB_[static_cast<size_t>(&d - s_.dims.data())], row[2 + g]);
+        } else {
+          s_.Assemble(valuesA_.data(), valuesB_.data(), g, row[2 + g]);
+        }
+      }
+    }
+    results_.resize(static_cast<size_t>(count * rows));
+    quantities_.resize(static_cast<size_t>(count * rows * kQ));
+    status_.resize(static_cast<size_t>(count * rows));
+    count_ = count;
+    for (long p = 0; p < P; ++p) {
+      EvaluatePosture(p, count * rows);
+      Accumulate(p, count, record + p * RS, values);
+    }
+  }
+
+  void MergeHistogramsInto(std::vector<LogHistogram>& total) const {
+    for (size_t k = 0; k < histograms_.size(); ++k) total[k].Merge(histograms_[k]);
+  }
+
+ private:
+  // 0 valid, 1 no equilibrium, 2 invalid; small-motion failure as bit 4.
+  void EvaluatePosture(long p, long n_rows) {
+    const UncertaintyStudy::Impl::PostureData& pd = s_.posture_data[static_cast<size_t>(p)];
+    const Eigen::VectorXd q = s_.postures.col(p);
+    if (!s_.kinematic) {
+      // Batch path: every row shares the posture's kinematics; rows are stiffness sets.
+      sets_.resize(static_cast<size_t>(n_rows));
+      for (long r = 0; r < n_rows; ++r)
+        sets_[static_cast<size_t>(r)] = inputs_[static_cast<size_t>(r)].set;
+      BatchOptions batch;
+      batch.threads = 1;
+      batch.solve = solve_;
+      EvaluateBatch(s_.model, q, s_.muscle, sets_, results_, 1.0, batch);
+      const int m = s_.model.dof_count();
+      Eigen::VectorXd& b = b_;
+      Eigen::VectorXd& dtheta = dtheta_;
+      b.resize(pd.dtheta_from.cols());
+      dtheta.resize(m);
+      JtW_.resize(m);
+      for (long r = 0; r < n_rows; ++r) {
+        const WrenchResult& w = results_[static_cast<size_t>(r)];
+        const RowInputs& row = inputs_[static_cast<size_t>(r)];
+        int status = Classify(w);
+        if (status == 0 && !StatisticsRow(r)) {
+          // A_B^i rows serve the Sobol sums only: no small-motion check, no world axes.
+          s_.Quantities(pd, w.wrench, row, y_, false);
+          Scatter(r);
+        } else if (status == 0) {
+          // dtheta at activation 1 from W (see the reconstruction in the constructor).
+          Eigen::Index k = 0;
+          for (int rr : s_.restrained_rows) b[k++] = w.wrench[rr] / row.set.s_t[rr];
+          JtW_.noalias() = pd.J.transpose() * w.wrench;
+          for (int c : s_.stiff_columns) b[k++] = (pd.tau[c] - JtW_[c]) / row.set.s_p[c];
+          dtheta.noalias() = pd.dtheta_from * b;
+          dtheta *= row.factor * row.activation;
+          if (s_.SmallMotionFails(pd.J, dtheta)) status |= 4;
+          s_.Quantities(pd, w.wrench, row, y_);
+          Scatter(r);
+        }
+        status_[Status(r)] = status;
+      }
+      return;
+    }
+    // Scalar path: rows whose posture differs from the previous row's recompute kinematics.
+    bool have_kinematics = false;
+    for (long r = 0; r < n_rows; ++r) {
+      const RowInputs& row = inputs_[static_cast<size_t>(r)];
+      qr_ = q + row.dq;
+      if (!have_kinematics || qr_ != last_q_) {
+        kinematics_ok_ = ComputeKinematics(s_.model, data_, qr_, s_.muscle, 1.0);
+        J_ = data_.jacobian();
+        last_q_ = qr_;
+        have_kinematics = true;
+      }
+      const WrenchResult w = kinematics_ok_ ? SolveStatics(s_.model, data_, row.set, solve_)
+                                            : WrenchResult{};  // coincident path points
+      int status = Classify(w);
+      if (status == 0 && !StatisticsRow(r)) {
+        s_.Quantities(pd, w.wrench, row, y_, false);
+        Scatter(r);
+      } else if (status == 0) {
+        dtheta_ = data_.dtheta();
+        dtheta_ *= row.factor * row.activation;
+        if (s_.SmallMotionFails(J_, dtheta_)) status |= 4;
+        s_.Quantities(pd, w.wrench, row, y_);
+        Scatter(r);
+      }
+      status_[Status(r)] = status;
+    }
+  }
+
+  // Layout of a block's quantities and statuses: variant v (A, B, A_B^1 ...), quantity q,
+  // sample jj (structure of arrays, so the sums below run over contiguous samples).
+  size_t Q(int v, int q, long jj) const {
+    return static_cast<size_t>((static_cast<long>(v) * kQ + q) * count_ + jj);
+  }
+  size_t Status(long r) const {
+    const long rows = s_.Rows();
+    return static_cast<size_t>((r % rows) * count_ + r / rows);
+  }
+  void Scatter(long r) {
+    const int v = static_cast<int>(r % s_.Rows());
+    const long jj = r / s_.Rows();
+    for (int q = 0; q < kQ; ++q) quantities_[Q(v, q, jj)] = y_[q];
+  }
+
+  // Rows A and B (the statistics' samples); the others are A_B^i.
+  bool StatisticsRow(long r) const { return r % s_.Rows() < (s_.options.sobol ? 2 : 1); }
+
+  static int Classify(const WrenchResult& w) {
+    if (w.status == StaticsStatus::kSelfMotion) return 1;
+    if (w.status == StaticsStatus::kInvalidInput || !w.wrench.allFinite()) return 2;
+    return 0;
+  }
+
+  void Accumulate(long p, long count, double* rec, std::vector<std::vector<double>>* values) {
+    const int G = s_.G();
+    const double* c = s_.posture_data[static_cast<size_t>(p)].nominal.data();
+    double* per_q = rec + kCounts;
+    double* sobol = rec + kCounts + kQ * kPerQuantity;
+    const int stat_rows = s_.options.sobol ? 2 : 1;
+    const int rows = s_.Rows();
+    // Counts; a row with a non-finite quantity (the angle aside) is invalid.
+    for (int v = 0; v < stat_rows; ++v) {
+      for (long jj = 0; jj < count; ++jj) {
+        int& st = status_[static_cast<size_t>(v * count + jj)];
+        if ((st & 3) == 0) {
+          for (int q = 0; q < kQ; ++q) {
+            if (q != 14 && !std::isfinite(quantities_[Q(v, q, jj)])) st = 2;
+          }
+        }
+        rec[0] += 1;
+        if ((st & 3) == 1) {
+          rec[2] += 1;
+        } else if ((st & 3) == 2) {
+          rec[3] += 1;
+        } else {
+          rec[1] += 1;
+          if (st & 4) rec[4] += 1;
+        }
+      }
+    }
+    // Moments and percentile data per quantity, over the valid A and B rows.
+    for (int q = 0; q < kQ; ++q) {
+      double n = 0, s1 = 0, s2 = 0;
+      for (int v = 0; v < stat_rows; ++v) {
+        const double* y = &quantities_[Q(v, q, 0)];
+        const int* st = &status_[static_cast<size_t>(v * count)];
+        std::vector<double>* kept =
+            s_.exact ? &(*values)[static_cast<size_t>(p * kQ + q)] : nullptr;
+        for (long jj = 0; jj < count; ++jj) {
+          if ((st[jj] & 3) != 0 || !std::isfinite(y[jj])) continue;
+          const double d = y[jj] - c[q];
+          n += 1;
+          s1 += d;
+          s2 += d * d;
+          if (kept != nullptr) {
+            kept->push_back(y[jj]);
+          } else {
+            histograms_[static_cast<size_t>(p * kQ + q)].Add(y[jj]);
+          }
+        }
+      }
+      per_q[q * kPerQuantity + 0] += n;
+      per_q[q * kPerQuantity + 1] += s1;
+      per_q[q * kPerQuantity + 2] += s2;
+    }
+    if (!s_.options.sobol) return;
+    // Sobol sums over the samples whose every row is valid and finite for the quantity.
+    ok_.resize(static_cast<size_t>(count));
+    for (long jj = 0; jj < count; ++jj) {
+      bool all = true;
+      for (int v = 0; v < rows; ++v)
+        all = all && (status_[static_cast<size_t>(v * count + jj)] & 3) == 0;
+      ok_[static_cast<size_t>(jj)] = all;
+    }
+    for (int q = 0; q < kQ; ++q) {
+      if (!UncertaintySobolQuantity(q)) continue;
+      const double* yA = &quantities_[Q(0, q, 0)];
+      const double* yB = &quantities_[Q(1, q, 0)];
+      double n = 0;
+      for (long jj = 0; jj < count; ++jj) {
+        bool finite =
+            ok_[static_cast<size_t>(jj)] && std::isfinite(yA[jj]) && std::isfinite(yB[jj]);
+        for (int g = 0; g < G && finite; ++g) finite = std::isfinite(quantities_[Q(2 + g, q, jj)]);
+        ok_[static_cast<size_t>(jj)] =
+            static_cast<char>(finite ? 3 : (ok_[static_cast<size_t>(jj)] & 1));
+        if (finite) n += 1;
+      }
+      per_q[q * kPerQuantity + 3] += n;
+      for (int g = 0; g < G; ++g) {
+        const double* yAB = &quantities_[Q(2 + g, q, 0)];
+        double first = 0, total = 0;
+        for (long jj = 0; jj < count; ++jj) {
+          if (ok_[static_cast<size_t>(jj)] != 3) continue;
+          const double a = yA[jj] - c[q], bq = yB[jj] - c[q], ab = yAB[jj] - c[q];
+          first += bq * (ab - a);
+          total += (a - ab) * (a - ab);
+        }
+        sobol[(g * kQ + q) * 2 + 0] += first;
+        sobol[(g * kQ + q) * 2 + 1] += total;
+      }
+      for (long jj = 0; jj < count; ++jj) ok_[static_cast<size_t>(jj)] &= 1;
+    }
+  }
+
+  const UncertaintyStudy::Impl& s_;
+  Data data_;
+  int D_;
+  SolveOptions solve_;
+  std::vector<double> uA_, uB_, valuesA_, valuesB_;
+  Eigen::VectorXd b_, JtW_, dtheta_, qr_, last_q_;
+  std::vector<RowInputs> inputs_;
+  std::vector<StiffnessSet> sets_;
+  std::vector<WrenchResult> results_;
+  std::vector<double> quantities_;
+  std::vector<int> status_;
+  long count_ = 0;
+  double y_[kQ] = {};
+  std::vector<char> ok_;
+  bool kinematics_ok_ = true;
+  Matrix6Xd J_;
+  std::vector<LogHistogram> histograms_;
+};
+
+// Partial data layout: records (blocks x postures x RecordSize doubles); then exact values
+// (per block, posture, quantity: count then values) or histograms (per posture and quantity).
+constexpr char kPartialMagic[8] = {'I', 'W', 'U', 'N', 'C', 'P', '0', '1'};
+
+}  // namespace
+
+UncertaintyPartial RunUncertaintyBlocks(const UncertaintyStudy& study, long first_block,
+                                        long last_block, int threads,
+                                        const std::function<void(long, long)>& progress) {
+  const UncertaintyStudy::Impl& s = study.impl();
+  if (first_block < 0 || last_block > study.block_count() || first_block > last_block) {
+    throw Error("uncertainty: blocks [" + std::to_string(first_block) + ", " +
+                std::to_string(last_block) + ") are outside the study's [0, " +
+                std::to_string(study.block_count()) + ")");
+  }
+  if (threads < 1) throw Error("uncertainty: threads must be >= 1");
+  const long n_blocks = last_block - first_block;
+  const long P = s.postures.cols();
+  const int RS = s.RecordSize();
+  std::vector<double> records(static_cast<size_t>(n_blocks * P * RS), 0.0);
+  std::vector<std::vector<std::vector<double>>> values(static_cast<size_t>(n_blocks));
+  std::vector<LogHistogram> histograms(s.exact ? 0 : static_cast<size_t>(P * kQ));
+  std::atomic<long> next{0};
+  std::atomic<long> done{0};
+  const long per_sample = s.Rows() * P;
+  long total = 0;
+  for (long b = first_block; b < last_block; ++b)
+    total +=
+        std::min(kUncertaintyBlockSamples, s.samples - b * kUncertaintyBlockSamples) * per_sample;
+  std::mutex merge_mutex;
+  std::exception_ptr failure;
+  std::atomic<int> finished{0};
+  auto work = [&]() {
+    try {
+      BlockRunner runner(s);
+      for (;;) {
+        const long k = next.fetch_add(1);
+        if (k >= n_blocks) break;
+        const long b = first_block + k;
+        if (s.exact) {
+          values[static_cast<size_t>(k)].assign(static_cast<size_t>(P * kQ), {});
+          for (std::vector<double>& v : values[static_cast<size_t>(k)])
+            v.reserve(static_cast<size_t>(2 * kUncertaintyBlockSamples));
+        }
+        runner.Run(b, &records[static_cast<size_t>(k * P * RS)], &values[static_cast<size_t>(k)]);
+        done.fetch_add(
+            std::min(kUncertaintyBlockSamples, s.samples - b * kUncertaintyBlockSamples) *
+            per_sample);
+      }
+      if (!s.exact) {
+        std::lock_guard<std::mutex> lock(merge_mutex);
+        runner.MergeHistogramsInto(histograms);  // integer counts: any order gives the same
+      }
+    } catch (...) {
+      std::lock_guard<std::mutex> lock(merge_mutex);
+      if (!failure) failure = std::current_exception();
+      next.store(n_blocks);
+    }
+    finished.fetch_add(1);
+  };
+  const int n_threads = static_cast<int>(std::max<long>(1, std::min<long>(threads, n_blocks)));
+  std::vector<std::thread> workers;
+  for (int t = 0; t < n_threads; ++t) workers.emplace_back(work);
+  // Progress on the calling thread, every 0.1 s until the workers are done.
+  while (progress && finished.load() < n_threads) {
+    progress(done.load(), total);
+    std::this_thread::sleep_for(std::chrono::milliseconds(100));
+  }
+  for (std::thread& t : workers) t.join();
+  if (failure) std::rethrow_exception(failure);
+  if (progress) progress(total, total);
+
+  UncertaintyPartial partial;
+  partial.fingerprint = s.fingerprint;
+  partial.first_block = first_block;
+  partial.last_block = last_block;
+  std::string& out = partial.data;
+  out.append(reinterpret_cast<const char*>(records.data()), records.size() * sizeof(double));
+  if (s.exact) {
+    for (long k = 0; k < n_blocks; ++k) {
+      for (long i = 0; i < P * kQ; ++i) {
+        const std::vector<double>& v = values[static_cast<size_t>(k)][static_cast<size_t>(i)];
+        Put(out, static_cast<std::uint64_t>(v.size()));
+        out.append(reinterpret_cast<const char*>(v.data()), v.size() * sizeof(double));
+      }
+    }
+  } else {
+    for (const LogHistogram& h : histograms) h.Write(out);
+  }
+  return partial;
+}
+
+std::string UncertaintyPartial::ToBytes() const {
+  std::string out(kPartialMagic, sizeof kPartialMagic);
+  Put(out, fingerprint);
+  Put(out, first_block);
+  Put(out, last_block);
+  Put(out, static_cast<std::uint64_t>(data.size()));
+  out += data;
+  return out;
+}
+
+UncertaintyPartial UncertaintyPartial::FromBytes(const std::string& bytes) {
+  if (bytes.size() < sizeof kPartialMagic ||
+      std::memcmp(bytes.data(), kPartialMagic, sizeof kPartialMagic) != 0)
+    throw Error("uncertainty partial: these bytes are not a partial result (no header)");
+  const char* p = bytes.data() + sizeof kPartialMagic;
+  const char* end = bytes.data() + bytes.size();
+  UncertaintyPartial partial;
+  std::uint64_t size = 0;
+  p = Get(p, end, &partial.fingerprint);
+  p = Get(p, end, &partial.first_block);
+  p = Get(p, end, &partial.last_block);
+  p = Get(p, end, &size);
+  if (static_cast<std::uint64_t>(end - p) != size)
+    throw Error("uncertainty partial: truncated bytes");
+  partial.data.assign(p, static_cast<size_t>(size));
+  return partial;
+}
+
+const char* UncertaintyQuantityName(int q) {
+  static const char* const kNames[kQ] = {"fx",
+                                         "fy",
+                                         "fz",
+                                         "mx",
+                                         "my",
+                                         "mz",
+                                         "world_fx",
+                                         "world_fy",
+                                         "world_fz",
+                                         "world_mx",
+                                         "world_my",
+                                         "world_mz",
+                                         "force_magnitude",
+                                         "moment_magnitude",
+                                         "direction_angle"};
+  return q >= 0 && q < kQ ? kNames[q] : "?";
+}
+
+const char* UncertaintyQuantityUnit(int q) {
+  if (q == 14) return "rad";
+  if (q == 12 || q < 3 || (q >= 6 && q < 9)) return "N";
+  return "N·m";
+}
+
+namespace {
+
+// Type 7 percentiles of `v` at ascending `levels` (v is reordered): each level's order
+// statistics are selected in the part of v above the previous level's.
+void ExactPercentiles(std::vector<double>& v, const double* levels, int count, double* out) {
+  size_t from = 0;
+  for (int k = 0; k < count; ++k) {
+    const double h = (static_cast<double>(v.size()) - 1.0) * levels[k];
+    const size_t lo = static_cast<size_t>(std::floor(h));
+    const size_t hi = std::min(v.size() - 1, lo + 1);
+    std::nth_element(v.begin() + static_cast<std::ptrdiff_t>(from),
+                     v.begin() + static_cast<std::ptrdiff_t>(lo), v.end());
+    const double a = v[lo];
+    double b = a;
+    if (hi != lo) b = *std::min_element(v.begin() + static_cast<std::ptrdiff_t>(hi), v.end());
+    out[k] = a + (h - static_cast<double>(lo)) * (b - a);
+    from = lo;
+  }
+}
+
+double HistogramPercentile(const LogHistogram& h, double level) {
+  const std::uint64_t n = h.count();
+  const double pos = (static_cast<double>(n) - 1.0) * level;
+  const std::uint64_t lo = static_cast<std::uint64_t>(std::floor(pos));
+  const std::uint64_t hi = std::min(n - 1, lo + 1);
+  const double a = h.ValueAt(lo), b = h.ValueAt(hi);
+  return a + (pos - static_cast<double>(lo)) * (b - a);
+}
+
+}  // namespace
+
+UncertaintyResult FinishUncertainty(const UncertaintyStudy& study,
+                                    const std::vector<UncertaintyPartial>& partials_in) {
+  const UncertaintyStudy::Impl& s = study.impl();
+  std::vector<const UncertaintyPartial*> partials;
+  for (const UncertaintyPartial& p : partials_in) {
+    if (p.fingerprint != s.fingerprint) {
+      throw Error("uncertainty: a partial result (blocks " + std::to_string(p.first_block) + "-" +
+                  std::to_string(p.last_block) +
+                  ") is of another study (model, inputs, postures or options differ)");
+    }
+    partials.push_back(&p);
+  }
+  std::sort(partials.begin(), partials.end(),
+            [](const UncertaintyPartial* a, const UncertaintyPartial* b) {
+              return a->first_block < b->first_block;
+            });
+  long expected = 0;
+  for (const UncertaintyPartial* p : partials) {
+    if (p->first_block != expected) {
+      throw Error(p->first_block > expected
+                      ? "uncertainty: blocks " + std::to_string(expected) + "-" +
+                            std::to_string(p->first_block) + " are missing from the partials"
+                      : "uncertainty: block " + std::to_string(p->first_block) +
+                            " is in two partials");
+    }
+    expected = p->last_block;
+  }
+  if (expected != study.block_count()) {
+    throw Error("uncertainty: blocks " + std::to_string(expected) + "-" +
+                std::to_string(study.block_count()) + " are missing from the partials");
+  }
+  const long P = s.postures.cols();
+  const int RS = s.RecordSize();
+  const int G = s.G();
+  std::vector<double> sum(static_cast<size_t>(P * RS), 0.0);
+  std::vector<std::vector<double>> values(s.exact ? static_cast<size_t>(P * kQ) : 0);
+  std::vector<LogHistogram> histograms(s.exact ? 0 : static_cast<size_t>(P * kQ));
+  for (const UncertaintyPartial* part : partials) {
+    const long n_blocks = part->last_block - part->first_block;
+    const size_t record_bytes = static_cast<size_t>(n_blocks * P * RS) * sizeof(double);
+    if (part->data.size() < record_bytes) throw Error("uncertainty partial: truncated records");
+    const double* rec = reinterpret_cast<const double*>(part->data.data());
+    std::vector<double> aligned(rec, rec + n_blocks * P * RS);  // (alignment-safe copy)
+    // Blocks in order: each block's record added to the running sum.
+    for (long k = 0; k < n_blocks; ++k) {
+      for (long i = 0; i < P * RS; ++i)
+        sum[static_cast<size_t>(i)] += aligned[static_cast<size_t>(k * P * RS + i)];
+    }
+    const char* p = part->data.data() + record_bytes;
+    const char* end = part->data.data() + part->data.size();
+    if (s.exact) {
+      for (long k = 0; k < n_blocks; ++k) {
+        for (long i = 0; i < P * kQ; ++i) {
+          std::uint64_t n = 0;
+          p = Get(p, end, &n);
+          if (static_cast<std::uint64_t>(end - p) < n * sizeof(double))
+            throw Error("uncertainty partial: truncated values");
+          std::vector<double>& v = values[static_cast<size_t>(i)];
+          const size_t old = v.size();
+          v.resize(old + static_cast<size_t>(n));
+          std::memcpy(v.data() + old, p, static_cast<size_t>(n) * sizeof(double));
+          p += n * sizeof(double);
+        }
+      }
+    } else {
+      for (long i = 0; i < P * kQ; ++i) {
+        LogHistogram h;
+        p = h.Read(p, end);
+        histograms[static_cast<size_t>(i)].Merge(h);
+      }
+    }
+  }
+
+  UncertaintyResult result;
+  result.model = s.model.name();
+  result.muscle = s.muscle_name;
+  result.groups = s.groups;
+  result.samples = s.samples;
+  result.evaluations = study.evaluation_count();
+  result.seed = s.options.seed;
+  result.sobol = s.options.sobol;
+  result.exact_percentiles = s.exact;
+  result.percentile_method =
+      s.exact ? "exact order statistics of the valid samples (linear interpolation between "
+                "neighbours, Hyndman-Fan type 7)"
+              : "log-linear histogram of the valid samples (512 bins per octave: each "
+                "percentile within 2^-10 = 0.098 % of its magnitude), merged exactly";
+  result.notes = s.notes;
+  for (long p = 0; p < P; ++p) {
+    const UncertaintyStudy::Impl::PostureData& pd = s.posture_data[static_cast<size_t>(p)];
+    const double* rec = &sum[static_cast<size_t>(p * RS)];
+    PostureUncertainty out;
+    out.posture = s.postures.col(p);
+    out.nominal = pd.nominal;
+    out.nominal_status = pd.nominal_status;
+    out.samples = static_cast<long>(rec[0]);
+    out.valid = static_cast<long>(rec[1]);
+    out.no_equilibrium = static_cast<long>(rec[2]);
+    out.invalid = static_cast<long>(rec[3]);
+    out.small_motion_failed = static_cast<long>(rec[4]);
+    const double* per_q = rec + kCounts;
+    const double* sob = rec + kCounts + kQ * kPerQuantity;
+    out.sobol.assign(static_cast<size_t>(G), {});
+    long sobol_rows = 0;
+    for (int q = 0; q < kQ; ++q) {
+      QuantityStatistics& st = out.statistics[static_cast<size_t>(q)];
+      const double n = per_q[q * kPerQuantity + 0];
+      st.count = static_cast<long>(n);
+      if (n > 0) {
+        const double s1 = per_q[q * kPerQuantity + 1], s2 = per_q[q * kPerQuantity + 2];
+        st.mean = pd.nominal[static_cast<size_t>(q)] + s1 / n;
+        st.sd = n > 1 ? std::sqrt(std::max(0.0, (s2 - s1 * s1 / n) / (n - 1))) : 0.0;
+        // The distribution for pictures.
+        double lo = std::numeric_limits<double>::infinity(), hi = -lo;
+        auto extremes = [&](double v, std::uint64_t) {
+          lo = std::min(lo, v);
+          hi = std::max(hi, v);
+        };
+        if (s.exact) {
+          for (double v : values[static_cast<size_t>(p * kQ + q)]) extremes(v, 1);
+        } else {
+          histograms[static_cast<size_t>(p * kQ + q)].ForEach(extremes);
+        }
+        st.histogram_lower = std::max(lo, st.mean - 4 * st.sd);
+        st.histogram_upper = std::min(hi, st.mean + 4 * st.sd);
+        st.histogram.assign(kUncertaintyHistogramBins, 0);
+        const double width = (st.histogram_upper - st.histogram_lower) / kUncertaintyHistogramBins;
+        auto bin = [&](double v, std::uint64_t count) {
+          if (v < st.histogram_lower || v > st.histogram_upper) return;
+          long k = width > 0 ? static_cast<long>((v - st.histogram_lower) / width) : 0;
+          k = std::clamp<long>(k, 0, kUncertaintyHistogramBins - 1);
+          st.histogram[static_cast<size_t>(k)] += static_cast<long>(count);
+        };
+        if (s.exact) {
+          for (double v : values[static_cast<size_t>(p * kQ + q)]) bin(v, 1);
+        } else {
+          histograms[static_cast<size_t>(p * kQ + q)].ForEach(bin);
+        }
+        if (s.exact) {
+          ExactPercentiles(values[static_cast<size_t>(p * kQ + q)], kPercentileLevels, 4,
+                           st.percentiles.data());
+        } else {
+          for (int k = 0; k < 4; ++k) {
+            st.percentiles[static_cast<size_t>(k)] = HistogramPercentile(
+                histograms[static_cast<size_t>(p * kQ + q)], kPercentileLevels[k]);
+          }
+        }
+      }
+      const double ns = per_q[q * kPerQuantity + 3];
+      if (q == 0) sobol_rows = static_cast<long>(ns);
+      const double variance = st.sd * st.sd;
+      for (int g = 0; g < G && UncertaintySobolQuantity(q); ++g) {
+        SobolIndex& idx = out.sobol[static_cast<size_t>(g)][static_cast<size_t>(q)];
+        if (ns > 0 && variance > 0) {
+          idx.first = sob[(g * kQ + q) * 2 + 0] / ns / variance;
+          idx.total = sob[(g * kQ + q) * 2 + 1] / ns / (2.0 * variance);
+        }
+      }
+    }
+    out.sobol_rows = sobol_rows;
+    result.postures.push_back(std::move(out));
+  }
+  return result;
+}
+
+UncertaintyResult RunUncertainty(const Model& model, const std::string& muscle,
+                                 const Eigen::MatrixXd& postures, const UncertaintySpec& spec,
+                                 const UncertaintyOptions& options) {
+  const auto start = std::chrono::steady_clock::now();
+  UncertaintyStudy study(model, muscle, postures, spec, options);
+  std::vector<UncertaintyPartial> partials;
+  partials.push_back(
+      RunUncertaintyBlocks(study, 0, study.block_count(), options.threads, options.progress));
+  UncertaintyResult result = FinishUncertainty(study, partials);
+  result.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  return result;
+}
+
+}  // namespace isowrench
