@@ -607,8 +607,11 @@ py::dict Fit(const PyModel& m, const std::string& csv, int max_fit_trials,
              const std::vector<std::string>& candidates, const std::string& loss, double loss_scale,
              int threads, const std::optional<std::string>& output,
              const std::optional<std::string>& report_html,
-             const std::optional<std::string>& report_markdown, const py::object& progress) {
+             const std::optional<std::string>& report_markdown, const py::object& progress,
+             const std::string& delimiter, bool decimal_comma,
+             const std::vector<std::string>& ignore_columns, int skip_rows) {
   if (!std::filesystem::exists(csv)) ThrowFileNotFound(csv);
+  const TrialSheetOptions sheet = Sheet(delimiter, decimal_comma, ignore_columns, skip_rows);
   FitOptions options;
   options.max_fit_trials = max_fit_trials;
   options.sample_seed = sample_seed;
@@ -1191,7 +1194,8 @@ PYBIND11_MODULE(_core, mod) {
           "joint_stiffness={}, locked=None) -> Model\n\n"
           "A new Model with the overrides the CLI's --release, --transducer / "
           "--transducer-stiffness, --base-stiffness (N/m; inserts base_x/y/z when the limb has "
-          "none), --joint-stiffness {coordinate: N·m/rad or N/m} and --lock [coordinates] apply, through the same "
+          "none), --joint-stiffness {coordinate: N·m/rad or N/m} and --lock [coordinates] apply, "
+          "through the same "
           "library function (ApplyOverrides). The model itself is unchanged.\n"
           "Raises ValueError naming the keyword and the value (a negative or huge stiffness, an "
           "unknown coordinate).")

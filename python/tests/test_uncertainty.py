@@ -68,7 +68,7 @@ def test_fit_sessions_equal_single_fits(rat, tmp_path):
     files = []
     for seed in (1, 2):
         path = tmp_path / f"session{seed}.csv"
-        isowrench.simulate(rat, str(path), effects=["base_isotropic=3e6"], n=30, seed=seed)
+        isowrench.simulate(rat, str(path), effects=["base_isotropic=3e6"], trials=30, seed=seed)
         files.append(str(path))
     results = study.fit_sessions(rat, files, threads=2)
     assert [r["csv"] for r in results] == files

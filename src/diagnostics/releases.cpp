@@ -91,7 +91,8 @@ struct Systems {
 // The system with base dofs is built only when the range has a base stiffness > 0 (it is a
 // second Model with three more joints).
 Systems BuildSystems(const Model& model, const Eigen::VectorXd& q, const std::string& muscle,
-                     double activation, const StaticsOptions& statics, const StiffnessRange& range) {
+                     double activation, const StaticsOptions& statics,
+                     const StiffnessRange& range) {
   const bool need_base = std::any_of(range.base_stiffness.begin(), range.base_stiffness.end(),
                                      [](double k) { return k > 0; });
   Systems out;
