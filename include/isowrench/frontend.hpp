@@ -71,6 +71,13 @@ struct ModelOverrides {
 LimbDescription ApplyOverrides(LimbDescription description, const ModelOverrides& overrides,
                                OptionStyle style = OptionStyle::kCommandLine);
 
+/// The statics options a user sets (--max-endpoint-fraction, --max-joint-rotation,
+/// --rank-tolerance; Python max_endpoint_fraction=, ...): each finite and > 0, rank_tolerance
+/// also < 1. @throws Error naming the option in `style` and the value ("--max-joint-rotation
+///         nan: must be a finite number > 0").
+void CheckStaticsOptions(const StaticsOptions& options,
+                         OptionStyle style = OptionStyle::kCommandLine);
+
 /// "A,B, C" -> {"A", "B", "C"}: the one syntax of every list option (muscles, dofs, effects,
 /// columns); blanks around items are dropped, as are empty items.
 std::vector<std::string> ParseList(const std::string& text);

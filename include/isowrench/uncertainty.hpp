@@ -202,8 +202,13 @@ struct PostureUncertainty {
   Eigen::VectorXd posture;  ///< nominal posture, rad / m (column order)
   /// The quantities at the inputs' central values (normal: mean, lognormal: median, uniform:
   /// midpoint, loguniform: geometric midpoint, fit: estimates).
+  /// Meaningful only when nominal_defined() (0 otherwise; every output shows no number then).
   std::array<double, kUncertaintyQuantities> nominal{};
   StaticsStatus nominal_status = StaticsStatus::kInvalidInput;
+  /// The central values give a wrench (kOk or kSelfMotionHeld): `nominal` holds it.
+  bool nominal_defined() const {
+    return nominal_status == StaticsStatus::kOk || nominal_status == StaticsStatus::kSelfMotionHeld;
+  }
   std::array<QuantityStatistics, kUncertaintyQuantities> statistics;
   long samples = 0;              ///< rows of A and B evaluated (2N, N without Sobol)
   long valid = 0;                ///< with a wrench (kOk or kSelfMotionHeld) and finite

@@ -1,7 +1,7 @@
 """Type stubs of the isowrench Python module (issue 15). Angles rad, lengths m, forces N,
 moments N m. See docs/python.md."""
 
-from typing import Any, Dict, List, Mapping, Optional, Sequence, Tuple, Union, overload
+from typing import Any, Callable, Dict, List, Mapping, Optional, Sequence, Tuple, Union, overload
 
 import numpy as np
 import numpy.typing as npt
@@ -97,6 +97,20 @@ class Model:
     def diagnose(self, muscle: str, q: Posture = None, large_deflection: bool = True,
                  transducer: Transducer = None, released: Released = None,
                  locked: Locked = None) -> Dict[str, Any]: ...
+    def uncertainty(self, muscle: Optional[str] = None,
+                    inputs: Optional[Sequence[Union[str, Mapping[str, Any]]]] = None,
+                    spec: Optional[Union[str, Mapping[str, Any]]] = None,
+                    from_fit: Optional[str] = None, q: Posture = None,
+                    postures: Optional[npt.ArrayLike] = None, samples: int = 4096, seed: int = 1,
+                    sobol: bool = True, threads: int = 0, activation: float = 1.0,
+                    exact_percentile_values: float = 2e7, max_endpoint_fraction: float = 0.001,
+                    max_joint_rotation: float = 0.01,
+                    rank_tolerance: float = 1e-12) -> Dict[str, Any]: ...
+    @property
+    def urdf_text(self) -> str: ...
+    def uncertainty_spec(self, inputs: Optional[Sequence[Union[str, Mapping[str, Any]]]] = None,
+                         spec: Optional[Union[str, Mapping[str, Any]]] = None,
+                         from_fit: Optional[str] = None) -> str: ...
 
 def load(path: str, clamp_body: Optional[str] = None, endpoint_body: Optional[str] = None) -> Model: ...
 
@@ -106,5 +120,9 @@ def simulate(model: Model, path: str, effects: Sequence[str] = ..., trials: Opti
              postures: Optional[str] = None, delimiter: str = ",", decimal_comma: bool = False,
              ignore_columns: Sequence[str] = ..., skip_rows: int = 0) -> str: ...
 def fit(model: Model, csv: str, max_fit_trials: int = 20000, sample_seed: int = 1,
+        rounds: int = 3, folds: int = 5, screen: int = 8, candidates: Sequence[str] = ...,
+        loss: str = "huber", loss_scale: float = 2.0, threads: int = 0,
+        output: Optional[str] = None, report: Optional[str] = None,
+        report_md: Optional[str] = None, progress: Optional[Callable[[str], Any]] = None,
         delimiter: str = ",", decimal_comma: bool = False, ignore_columns: Sequence[str] = ...,
         skip_rows: int = 0) -> Dict[str, Any]: ...

@@ -189,6 +189,9 @@ std::shared_ptr<PyModel> Variant(const std::shared_ptr<PyModel>& m, const py::ob
           item += c;
         }
       }
+      if (names.empty()) {
+        throw Error("locked: an empty string (give [] or \"none\" to lock nothing)");
+      }
     } else {
       names = locked.cast<std::vector<std::string>>();
     }
@@ -780,6 +783,7 @@ UncertaintyOptions UncertaintyOptionsFrom(const py::dict& o) {
                   "max_endpoint_fraction, max_joint_rotation, rank_tolerance)");
     }
   }
+  CheckStaticsOptions(options.statics, OptionStyle::kPython);
   return options;
 }
 
@@ -856,7 +860,9 @@ Eigen::MatrixXd PosturesFromPython(const Model& model, const py::object& q,
 py::object Uncertainty(const PyModel& m, const py::object& muscle, const py::object& inputs,
                        const py::object& spec, const py::object& from_fit, const py::object& q,
                        const py::object& postures, long samples, std::uint64_t seed, bool sobol,
-                       int threads, double activation, double exact_percentile_values) {
+                       int threads, double activation, double exact_percentile_values,
+                       double max_endpoint_fraction, double max_joint_rotation,
+                       double rank_tolerance) {
   std::string name;
   if (!muscle.is_none()) {
     name = muscle.cast<std::string>();
@@ -873,6 +879,10 @@ py::object Uncertainty(const PyModel& m, const py::object& muscle, const py::obj
       threads > 0 ? threads : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
   options.activation = activation;
   options.exact_percentile_values = exact_percentile_values;
+  options.statics.max_endpoint_fraction = max_endpoint_fraction;
+  options.statics.max_joint_rotation = max_joint_rotation;
+  options.statics.rank_tolerance = rank_tolerance;
+  CheckStaticsOptions(options.statics, OptionStyle::kPython);
   std::string json;
   {
     py::gil_scoped_release release;
@@ -891,9 +901,12 @@ void BindUncertainty(py::module_& mod, py::class_<PyModel, std::shared_ptr<PyMod
           py::arg("seed") = UncertaintyOptions{}.seed, py::arg("sobol") = true,
           py::arg("threads") = 0, py::arg("activation") = 1.0,
           py::arg("exact_percentile_values") = UncertaintyOptions{}.exact_percentile_values,
-          R"(uncertainty(muscle=None, inputs=None, spec=None, from_fit=None, q=None, postures=None, samples=4096, seed=1, sobol=True, threads=0, activation=1.0, exact_percentile_values=2e7) -> dict
+          py::arg("max_endpoint_fraction") = StaticsOptions{}.max_endpoint_fraction,
+          py::arg("max_joint_rotation") = StaticsOptions{}.max_joint_rotation,
+          py::arg("rank_tolerance") = StaticsOptions{}.rank_tolerance,
+          R"(uncertainty(muscle=None, inputs=None, spec=None, from_fit=None, q=None, postures=None, samples=4096, seed=1, sobol=True, threads=0, activation=1.0, exact_percentile_values=2e7, max_endpoint_fraction=0.001, max_joint_rotation=0.01, rank_tolerance=1e-12) -> dict
 
-Monte Carlo uncertainty of the wrench, the dict of `isowrench uncertainty --json`. inputs: strings in the CLI's syntax ('angle:hip_rz=normal:2', degrees and mm as on the command line) or dicts like the spec file's entries; spec: a spec file path or dict; from_fit: an `isowrench fit --json` file. q: one posture (rad / m, or a dict), or postures (P, n). The same seed gives the same numbers on any thread count (threads=0: every core). The GIL is released. isowrench.study runs the same study on Dask.
+Monte Carlo uncertainty of the wrench, the dict of `isowrench uncertainty --json`. inputs: strings in the CLI's syntax ('angle:hip_rz=normal:2', degrees and mm as on the command line) or dicts like the spec file's entries; spec: a spec file path or dict; from_fit: an `isowrench fit --json` file. q: one posture (rad / m, or a dict), or postures (P, n). max_endpoint_fraction, max_joint_rotation (rad) and rank_tolerance are the CLI's --max-endpoint-fraction, --max-joint-rotation, --rank-tolerance (the small-motion rule and the rank of K). The same seed gives the same numbers on any thread count (threads=0: every core). The GIL is released. isowrench.study runs the same study on Dask.
 Raises ValueError naming a bad input (unknown name with the closest one, negative sd, empty support, a fit of another model).)")
       .def_property_readonly(
           "urdf_text", [](const PyModel& m) { return WriteUrdfString(m.model.description()); },

@@ -119,7 +119,7 @@ def test_fit_takes_the_cli_options_and_writes_its_outputs(cli, rat, tmp_path):
     fit = isowrench.fit(rat, path, output=str(tmp_path / "aug.urdf"), report=str(tmp_path / "r.html"),
                         report_md=str(tmp_path / "r.md"), progress=lines.append, **options)
     ours = cli("fit", URDF / "rat_hindlimb_5dof.urdf", path, "--rounds", 2, "--folds", 4, "--screen", 3,
-               "--loss", "cauchy", "--loss-scale", 2.5, "--threads", 1, "--candidates", *options["candidates"],
+               "--loss", "cauchy", "--loss-scale", 2.5, "--threads", 1, "--candidates", ",".join(options["candidates"]),
                "--json")
     assert fit["verdict"] == ours["verdict"] == "explained"
     assert [c["id"] for c in fit["chosen"]] == [c["effect"] for c in ours["chosen"]] == ["force_scale:GP"]

@@ -79,3 +79,29 @@ def test_no_equilibrium_is_nan_with_a_warning(rat):
         warnings.simplefilter("error")
         W = rat.wrench_batch("GP", Q)
     assert np.isfinite(W).all()
+
+
+def test_lock_errors_name_the_keyword_as_the_cli(rat6):
+    # The CLI says "--lock: unknown coordinate 'nope'"; Python names its keyword the same way.
+    with pytest.raises(ValueError, match=r"^locked: unknown coordinate 'nope'"):
+        rat6.wrench("GP", locked=["nope"])
+    with pytest.raises(ValueError, match=r"^locked: 'none' together with 'knee_rx'"):
+        rat6.with_overrides(locked=["none", "knee_rx"])
+    with pytest.raises(ValueError, match=r"^locked: an empty string"):
+        rat6.wrench("GP", locked="")
+    # base_stiffness first, then the lock, as the CLI: the lock can name the base dofs.
+    m = rat6.with_overrides(base_stiffness=1e5, locked=["base_z", "knee_rx"])
+    assert m.locked == ["base_z", "knee_rx"]
+
+
+def test_uncertainty_checks_the_statics_keywords(rat6):
+    with pytest.raises(ValueError, match=r"max_joint_rotation nan: must be a finite number > 0"):
+        rat6.uncertainty("GP", inputs=["max_force=normal:0.1"], samples=64,
+                         max_joint_rotation=float("nan"))
+    # A tighter small-motion rule reaches the study (the CLI's --max-joint-rotation).
+    loose = rat6.uncertainty("GP", inputs=["max_force=normal:0.1"], samples=64)
+    tight = rat6.uncertainty("GP", inputs=["max_force=normal:0.1"], samples=64,
+                             max_joint_rotation=1e-12)
+    [p_loose], [p_tight] = loose["postures"], tight["postures"]
+    assert p_loose["counts"]["small_motion_failed"] == 0
+    assert p_tight["counts"]["small_motion_failed"] == p_tight["counts"]["valid"] > 0

@@ -95,3 +95,19 @@ def test_unreachable_scheduler_is_an_error_within_the_timeout(rat):
         study.uncertainty(rat, "GP", inputs=INPUTS[:1], samples=100, client="tcp://127.0.0.1:9",
                           connect_timeout=2)
     assert time.monotonic() - start < 10
+
+
+def test_fit_sessions_pass_the_fit_options(rat, tmp_path):
+    # A lab's ';' + decimal-comma sheets and fit options reach every session's fit.
+    plain = isowrench.simulate(rat, str(tmp_path / "plain.csv"), effects=["base_isotropic=3e6"],
+                               trials=30, seed=4)
+    lines = [l for l in open(plain).read().splitlines() if not l.startswith("#")]
+    (tmp_path / "excel.csv").write_text(
+        "\n".join(l.replace(",", ";").replace(".", ",") for l in lines) + "\n")
+    options = dict(delimiter=";", decimal_comma=True, rounds=1,
+                   candidates=["base_isotropic", "sensor_offset"])
+    [r] = study.fit_sessions(rat, [str(tmp_path / "excel.csv")], threads=1, **options)
+    single = isowrench.fit(rat, str(tmp_path / "excel.csv"), **options)
+    assert r["verdict"] == single["verdict"] == "explained"
+    assert r["chosen"][0]["parameters"][0]["value"] == single["chosen"][0]["parameters"][0]["value"]
+    assert len(r["rounds"]) == 1

@@ -101,6 +101,7 @@ ModelOverrides Overrides(const ModelOptions& o) {
 }
 
 Model LoadModel(const ModelOptions& o) {
+  CheckStaticsOptions(o.statics);
   return Model(ApplyOverrides(LoadLimb(o.urdf), Overrides(o)));
 }
 

@@ -393,7 +393,8 @@ const bool kFitRegistered = RegisterCommand(
                       "Fit candidates (and cross-validation folds, trace probes) on this many "
                       "threads (default 0: every core)");
        app.add_option("--candidates", o->candidates,
-                      "Only try these effect ids (default: the whole library)");
+                      "Only try these effect ids, comma-separated (default: the whole library)")
+           ->delimiter(',');
        app.add_option("--loss", o->loss,
                       "Loss per row: huber (default), cauchy or none (plain least squares)");
        app.add_option(

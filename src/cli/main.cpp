@@ -55,6 +55,12 @@ int main(int argc, char** argv) {
     CLI::App* sub = app.add_subcommand(command.name, command.description);
     sub->footer(kExitCodes);
     runners.emplace_back(sub, command.setup(*sub));
+    // A list option takes one argument per occurrence (items comma-separated, or the option
+    // repeated): CLI11's default for vectors would also take the tokens after it, so that
+    // `fit m.urdf --lock knee_rx data.csv` read the data file as a coordinate.
+    for (CLI::Option* option : sub->get_options()) {
+      if (option->get_items_expected_max() > 1) option->allow_extra_args(false);
+    }
   }
   try {
     app.parse(argc, argv);

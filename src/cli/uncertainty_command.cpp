@@ -116,7 +116,12 @@ void PrintText(const UncertaintyResult& r, const UncertaintySpec& spec, const Mo
       std::cout << WrenchRow("  " + label, v, w) << "\n";
     };
     const auto& st = p.statistics;
-    row("nominal", [&](int i) { return p.nominal[static_cast<size_t>(i)]; });
+    if (p.nominal_defined()) {
+      row("nominal", [&](int i) { return p.nominal[static_cast<size_t>(i)]; });
+    } else {
+      std::cout << "  nominal      no wrench at the central values ("
+                << StatusName(p.nominal_status) << ")\n";
+    }
     row("mean", [&](int i) { return st[static_cast<size_t>(i)].mean; });
     row("sd", [&](int i) { return st[static_cast<size_t>(i)].sd; });
     row("2.5 %", [&](int i) { return st[static_cast<size_t>(i)].percentiles[0]; });

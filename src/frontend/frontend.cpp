@@ -60,13 +60,50 @@ LimbDescription ApplyOverrides(LimbDescription d, const ModelOverrides& o, Optio
     CheckStiffnessValue(*o.base_stiffness, name("--base-stiffness"));
     d = WithBaseStiffness(std::move(d), *o.base_stiffness);
   }
+  // Errors of the edits below name the option as the user typed it.
+  auto naming = [](const std::string& option, auto&& edit) {
+    try {
+      edit();
+    } catch (const Error& e) {
+      throw Error(option + ": " + e.what());
+    }
+  };
   for (const auto& [joint, k] : o.joint_stiffness) {
     CheckStiffnessValue(k, name("--joint-stiffness") + " " + joint);
-    d = WithJointStiffness(std::move(d), joint, k);
+    naming(name("--joint-stiffness"), [&] { d = WithJointStiffness(std::move(d), joint, k); });
   }
-  if (o.locked) d = WithLockedCoordinates(std::move(d), *o.locked);
+  if (o.locked) {
+    const std::string lock =
+        style == OptionStyle::kPython ? "locked" : "--lock";  // Python's keyword
+    const std::vector<std::string>& names = *o.locked;
+    const bool none = std::find(names.begin(), names.end(), "none") != names.end();
+    for (const std::string& n : names) {
+      if (util::Trim(n).empty()) {
+        throw Error(lock + ": an empty coordinate name (give coordinates, or 'none' to " +
+                    "lock nothing)");
+      }
+      if (none && n != "none") {
+        throw Error(lock + ": 'none' together with '" + n +
+                    "' (give the coordinates to lock, or 'none' alone)");
+      }
+    }
+    naming(lock, [&] { d = WithLockedCoordinates(std::move(d), names); });
+  }
   // A new override: one line here, in the order of ModelOverrides' fields.
   return d;
+}
+
+void CheckStaticsOptions(const StaticsOptions& options, OptionStyle style) {
+  auto check = [&](const char* cli, double value, double below) {
+    if (!(std::isfinite(value) && value > 0 && value < below)) {
+      throw Error(OptionName(cli, style) + " " + util::FormatNumber(value) +
+                  ": must be a finite number > 0" +
+                  (below < 1e300 ? " and < " + util::FormatNumber(below) : std::string()));
+    }
+  };
+  check("--max-endpoint-fraction", options.max_endpoint_fraction, 1e308);
+  check("--max-joint-rotation", options.max_joint_rotation, 1e308);
+  check("--rank-tolerance", options.rank_tolerance, 1.0);
 }
 
 std::vector<std::string> ParseList(const std::string& text) { return util::Split(text, ","); }

@@ -306,9 +306,10 @@ std::string UncertaintyReportHtml(const UncertaintyResult& r, const Model& model
       const double k = angle ? 180.0 / kUncertaintyPi : 1.0;
       h += "<tr><td>" + std::string(UncertaintyQuantityName(q)) + "</td><td>" +
            (angle ? "deg" : UncertaintyQuantityUnit(q)) + "</td><td>" +
-           Cell(p.nominal[static_cast<size_t>(q)] * k) + "</td><td>" + Cell(s.mean * k) +
-           "</td><td>" + Cell(s.sd * k) + "</td><td>" + Cell(s.percentiles[0] * k) + "</td><td>" +
-           Cell(s.percentiles[1] * k) + "</td><td>" + Cell(s.percentiles[3] * k) + "</td></tr>\n";
+           (p.nominal_defined() ? Cell(p.nominal[static_cast<size_t>(q)] * k) : "none") +
+           "</td><td>" + Cell(s.mean * k) + "</td><td>" + Cell(s.sd * k) + "</td><td>" +
+           Cell(s.percentiles[0] * k) + "</td><td>" + Cell(s.percentiles[1] * k) + "</td><td>" +
+           Cell(s.percentiles[3] * k) + "</td></tr>\n";
     }
     h += "</table>\n<h3>Distributions (transducer axes)</h3>\n<div class=\"plots\">\n";
     for (int q : {0, 1, 2, 3, 4, 5, 12, 14}) {

@@ -32,7 +32,8 @@ std::string UncertaintyJson(const UncertaintyResult& r, const Model& model) {
       const bool defined = s.count > 0;
       quantities[UncertaintyQuantityName(q)] = {
           {"unit", UncertaintyQuantityUnit(q)},
-          {"nominal", UncertaintyNumber(p.nominal[static_cast<size_t>(q)])},
+          {"nominal",
+           p.nominal_defined() ? UncertaintyNumber(p.nominal[static_cast<size_t>(q)]) : nullptr},
           {"mean", defined ? UncertaintyNumber(s.mean) : nullptr},
           {"sd", defined ? UncertaintyNumber(s.sd) : nullptr},
           {"p2.5", defined ? UncertaintyNumber(s.percentiles[0]) : nullptr},

@@ -614,6 +614,12 @@ void ResolveInput(const UncertainInput& in, int group, const Model& model, int m
       throw Error(what + ": unknown transducer dof '" + arg + "'" +
                   DidYouMean(arg, {"x", "y", "z", "rx", "ry", "rz"}) + " (x y z rx ry rz)");
     }
+    if (model.model_stiffness().s_t[dof] == 0) {
+      // A released dof has no stiffness to be uncertain about: sampling one would restrain it.
+      throw Error(what + ": transducer dof '" + arg +
+                  "' is released (stiffness 0): it holds nothing, so its stiffness is not an "
+                  "input (drop it, or restrain it with --release)");
+    }
     stiffness(Target::kTransducerStiffness, dof, {}, model.model_stiffness().s_t[dof]);
   } else if (kind == "base_stiffness") {
     std::vector<int> columns;
@@ -628,6 +634,11 @@ void ResolveInput(const UncertainInput& in, int group, const Model& model, int m
     stiffness(Target::kJointStiffness, 0, columns, nominal);
   } else if (kind == "joint_stiffness") {
     const int c = model.JointIndex(arg);  // throws with the closest name
+    if (model.coordinate(c).locked) {
+      throw Error(what + ": coordinate '" + arg +
+                  "' is locked (held rigid): its stiffness changes nothing (unlock it with "
+                  "--lock, or drop this input)");
+    }
     stiffness(Target::kJointStiffness, 0, {c}, model.model_stiffness().s_p[c]);
   } else if (kind == "angle") {
     const int c = model.JointIndex(arg);
