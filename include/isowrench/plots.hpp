@@ -27,6 +27,7 @@
 #include "isowrench/identification.hpp"
 #include "isowrench/model.hpp"
 #include "isowrench/paper.hpp"
+#include "isowrench/wrap.hpp"
 
 namespace isowrench {
 
@@ -133,6 +134,9 @@ struct LimbDrawingOptions {
   /// Muscles to draw (names); empty = every muscle. @throws Error (from LimbStickFigureSvg)
   /// naming an unknown muscle.
   std::vector<std::string> muscles;
+  /// How wrapped paths are computed (wrap.hpp): a muscle with wraps is drawn through its wrapped
+  /// path (straight segments to each wrap's tangent points, the arc over the surface sampled).
+  WrapMode wrap_mode = WrapMode::kOpenSim;
 };
 
 /// Two-view stick figure of `model` at posture `q`: top view (world x-y, looking down -z) and
@@ -147,6 +151,15 @@ struct LimbDrawingOptions {
 /// "label-note", names in data-left-out separated by ';'); a label put away from its point gets a
 /// thin leader line, and a joint centre whose list of joints would take over half the view's width
 /// is labelled "<first joint> +N joints". Uses EndpointPose / PointPosition.
+/// Wraps (docs/opensim.md "Wrapping"): the wrap objects of the drawn muscles (all of the model's
+/// when every muscle is drawn) are drawn on their links as their orthographic outline in each view
+/// (class "wrap-surface", data-wrap, data-shape, data-active): a cylinder's end circles and two
+/// silhouette lines, a sphere's circle, an ellipsoid's shadow ellipse, a torus's equator circles
+/// and the circles along the top and bottom of its tube; an inactive object (`active` false) is
+/// drawn dashed and unfilled and never bends a path. A muscle with wraps is drawn through
+/// ComputeWrappedPath(options.wrap_mode)'s elements; each engaged wrap adds its arc (class
+/// "wrap-arc", sampled on the surface; data-arc-m the world coordinates along the view's axes, m)
+/// and its tangent points (class "tangent-point", data-end r1/r2, data-right-m/data-up-m in m).
 /// @throws Error for a posture of the wrong size or non-finite entries.
 std::string LimbStickFigureSvg(const Model& model, const Eigen::VectorXd& q,
                                const LimbDrawingOptions& options = {});

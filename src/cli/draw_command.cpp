@@ -8,6 +8,7 @@
 #include "isowrench/io.hpp"
 #include "isowrench/plots.hpp"
 #include "isowrench/posture.hpp"
+#include "isowrench/wrap.hpp"
 
 namespace isowrench::cli {
 namespace {
@@ -16,7 +17,7 @@ const bool kDrawRegistered = RegisterCommand({
     "draw",
     "Draw a two-view stick figure (top x-y, side x-z) of the limb at a posture: joint centres and "
     "axes, "
-    "bones, muscle paths, endpoint frame (SVG)",
+    "bones, muscle paths (wrapped over their wrap surfaces), endpoint frame (SVG)",
     70,
     [](CLI::App& app) -> std::function<int()> {
       auto options = std::make_shared<ModelOptions>();
@@ -34,13 +35,19 @@ const bool kDrawRegistered = RegisterCommand({
       app.add_option("--muscle", *muscles,
                      "Draw only these muscles: name,name,... (default: every muscle)")
           ->delimiter(',');
-      return [options, output, axis_mm, title, muscles]() {
+      auto wrap = std::make_shared<std::string>("opensim");
+      app.add_option("--wrap", *wrap,
+                     "How wrapped muscle paths are drawn: opensim (OpenSim's algorithms, the "
+                     "default) or exact (the shortest path over each surface)")
+          ->check(CLI::IsMember({"opensim", "exact"}));
+      return [options, output, axis_mm, title, muscles, wrap]() {
         Model model = LoadModel(*options);
         Eigen::VectorXd q = LoadPosture(model, *options);
         LimbDrawingOptions drawing;
         drawing.axis_length = *axis_mm * 1e-3;
         drawing.title = *title;
         drawing.muscles = *muscles;
+        drawing.wrap_mode = ParseWrapMode(*wrap);
         const std::string svg = LimbStickFigureSvg(model, q, drawing);
         if (*output == "-") {
           std::cout << svg;

@@ -1,5 +1,6 @@
 // Two-view stick figure of a limb (top: world x-y, side: world x-z) to check a URDF by eye.
 
+#include <Eigen/Cholesky>
 #include <algorithm>
 #include <cmath>
 #include <map>
@@ -8,6 +9,7 @@
 #include "isowrench/kinematics.hpp"
 #include "isowrench/plots.hpp"
 #include "isowrench/posture.hpp"
+#include "isowrench/wrap_report.hpp"
 #include "plots/svg_writer.hpp"
 #include "util/text.hpp"
 
@@ -20,8 +22,9 @@ using plots::Num;
 constexpr double kSameCentre = 1e-9;
 // Fraction of the chain length used for axis segments when none is given.
 constexpr double kAxisFraction = 0.12;
-constexpr double kPad = 36;  // px around each view
-constexpr double kBannerHeight = 44;
+constexpr double kPad = 36;          // px around each view
+constexpr double kBannerLines = 44;  // title and one subtitle line
+constexpr double kSubtitleLine = 13;
 constexpr double kViewTitle = 18;
 constexpr double kFooter = 34;  // scale bar and legend
 
@@ -44,15 +47,173 @@ struct Geometry {
   std::vector<Axis> axes;
   struct Muscle {
     std::string name;
-    std::vector<Eigen::Vector3d> points;
+    std::vector<Eigen::Vector3d> points;       // the drawn path: path points, tangent points, arcs
+    std::vector<Eigen::Vector3d> path_points;  // the active path points (red dots)
+    struct Arc {
+      std::string wrap;                     // wrap object name
+      std::vector<Eigen::Vector3d> points;  // r1, samples on the surface, r2 (world)
+    };
+    std::vector<Arc> arcs;
   };
   std::vector<Muscle> muscles;
+  struct Surface {
+    std::string name;
+    WrapShape shape;
+    bool active;
+    WrapSurface surface;
+    Eigen::Isometry3d X_W_S;
+  };
+  std::vector<Surface> surfaces;
   Eigen::Isometry3d endpoint;
   Eigen::Matrix3d transducer;
 };
 
+// Samples (r1 and r2 included) of a wrap arc and points of a surface's outline.
+constexpr int kArcSamples = 24;
+constexpr int kOutlineSamples = 72;
+
+// The wrap's arc from r1 to r2 (m, in S) over `surface`, drawn as `n` + 1 points: on a
+// cylinder the helix (about the z axis) that goes round the side whose helix length is nearest
+// |arc_length| (OpenSim's and the exact path are such helices); on a sphere the great circle, the
+// short way or, where |arc_length| is nearer the long way's length (OpenSim's far-side wrap),
+// the long way; on an ellipsoid and a torus the chord r1 -> r2 pushed onto the surface (radially
+// from the centre; onto the tube from its ring), an illustration of where the path runs.
+std::vector<Eigen::Vector3d> SampleWrapArc(const WrapSurface& s, const Eigen::Vector3d& r1,
+                                           const Eigen::Vector3d& r2, double arc_length, int n) {
+  std::vector<Eigen::Vector3d> out;
+  const double target = std::abs(arc_length);
+  switch (s.shape) {
+    case WrapShape::kCylinder: {
+      const double t1 = std::atan2(r1.y(), r1.x());
+      double dt = std::remainder(std::atan2(r2.y(), r2.x()) - t1, 2 * M_PI);
+      const double dz = r2.z() - r1.z();
+      auto helix = [&](double a) { return std::hypot(s.radius * a, dz); };
+      const double other = dt - std::copysign(2 * M_PI, dt == 0 ? 1.0 : dt);
+      if (std::abs(helix(other) - target) < std::abs(helix(dt) - target)) dt = other;
+      for (int i = 0; i <= n; ++i) {
+        const double f = static_cast<double>(i) / n;
+        const double a = t1 + f * dt;
+        out.emplace_back(s.radius * std::cos(a), s.radius * std::sin(a), r1.z() + f * dz);
+      }
+      return out;
+    }
+    case WrapShape::kSphere: {
+      const Eigen::Vector3d u1 = r1.normalized(), u2 = r2.normalized();
+      Eigen::Vector3d axis = u1.cross(u2);
+      const double angle = std::atan2(axis.norm(), u1.dot(u2));
+      if (axis.norm() < 1e-12) axis = u1.unitOrthogonal();
+      axis.normalize();
+      double sweep = angle;
+      if (std::abs(s.radius * (2 * M_PI - angle) - target) < std::abs(s.radius * angle - target))
+        sweep = angle - 2 * M_PI;
+      const Eigen::Vector3d v = axis.cross(u1);
+      for (int i = 0; i <= n; ++i) {
+        const double a = sweep * i / n;
+        out.push_back(s.radius * (std::cos(a) * u1 + std::sin(a) * v));
+      }
+      return out;
+    }
+    case WrapShape::kEllipsoid:
+    case WrapShape::kTorus:
+      for (int i = 0; i <= n; ++i) {
+        const double f = static_cast<double>(i) / n;
+        const Eigen::Vector3d x = (1 - f) * r1 + f * r2;
+        if (s.shape == WrapShape::kEllipsoid) {
+          const double k = x.cwiseQuotient(s.radii).norm();
+          out.push_back(k > 0 ? Eigen::Vector3d(x / k) : x);
+        } else {
+          Eigen::Vector3d ring(x.x(), x.y(), 0.0);
+          ring = ring.norm() > 0 ? Eigen::Vector3d(s.outer_radius * ring.normalized())
+                                 : Eigen::Vector3d(s.outer_radius, 0, 0);
+          const Eigen::Vector3d off = x - ring;
+          out.push_back(off.norm() > 0 ? Eigen::Vector3d(ring + s.inner_radius * off.normalized())
+                                       : x);
+        }
+      }
+      return out;
+  }
+  return out;
+}
+
+// A circle (m, in S) of radius r about the S z axis at height z.
+std::vector<Eigen::Vector3d> WrapCircleS(double r, double z) {
+  std::vector<Eigen::Vector3d> out;
+  for (int i = 0; i <= kOutlineSamples; ++i) {
+    const double a = 2 * M_PI * i / kOutlineSamples;
+    out.emplace_back(r * std::cos(a), r * std::sin(a), z);
+  }
+  return out;
+}
+
+// The outline of a wrap surface seen along the view's third axis (orthographic), as closed or
+// open polylines in world coordinates (right, up) of the view, m. A cylinder: its two end
+// circles and the two silhouette lines (offset by the radius across the projected axis); a
+// sphere: its circle; an ellipsoid: its shadow's ellipse (the 2 x 2 block of R diag(r^2) R^T);
+// a torus: its equator's outer and inner circles and the circles along the top and bottom of
+// the tube.
+std::vector<std::vector<Eigen::Vector2d>> WrapOutline(const WrapSurface& s,
+                                                      const Eigen::Isometry3d& X, int right,
+                                                      int up) {
+  std::vector<std::vector<Eigen::Vector2d>> out;
+  auto project = [&](const std::vector<Eigen::Vector3d>& points_S) {
+    std::vector<Eigen::Vector2d> p;
+    for (const Eigen::Vector3d& x : points_S) {
+      const Eigen::Vector3d w = X * x;
+      p.emplace_back(w[right], w[up]);
+    }
+    out.push_back(p);
+  };
+  const Eigen::Vector2d c(X.translation()[right], X.translation()[up]);
+  switch (s.shape) {
+    case WrapShape::kCylinder: {
+      project(WrapCircleS(s.radius, -0.5 * s.length));
+      project(WrapCircleS(s.radius, 0.5 * s.length));
+      const Eigen::Vector3d a = X.linear().col(2);
+      const Eigen::Vector2d a2(a[right], a[up]);
+      if (a2.norm() > 1e-9) {
+        const Eigen::Vector2d n(-a2.y() / a2.norm(), a2.x() / a2.norm());
+        const Eigen::Vector2d h = 0.5 * s.length * a2;
+        for (double side : {-1.0, 1.0}) {
+          out.push_back({c - h + side * s.radius * n, c + h + side * s.radius * n});
+        }
+      }
+      break;
+    }
+    case WrapShape::kSphere: {
+      std::vector<Eigen::Vector2d> p;
+      for (int i = 0; i <= kOutlineSamples; ++i) {
+        const double a = 2 * M_PI * i / kOutlineSamples;
+        p.push_back(c + s.radius * Eigen::Vector2d(std::cos(a), std::sin(a)));
+      }
+      out.push_back(p);
+      break;
+    }
+    case WrapShape::kEllipsoid: {
+      const Eigen::Matrix3d M =
+          X.linear() * s.radii.cwiseAbs2().asDiagonal() * X.linear().transpose();
+      Eigen::Matrix2d B;
+      B << M(right, right), M(right, up), M(up, right), M(up, up);
+      const Eigen::Matrix2d L = B.llt().matrixL();
+      std::vector<Eigen::Vector2d> p;
+      for (int i = 0; i <= kOutlineSamples; ++i) {
+        const double a = 2 * M_PI * i / kOutlineSamples;
+        p.push_back(c + L * Eigen::Vector2d(std::cos(a), std::sin(a)));
+      }
+      out.push_back(p);
+      break;
+    }
+    case WrapShape::kTorus:
+      project(WrapCircleS(s.outer_radius + s.inner_radius, 0.0));
+      project(WrapCircleS(s.outer_radius - s.inner_radius, 0.0));
+      project(WrapCircleS(s.outer_radius, s.inner_radius));
+      project(WrapCircleS(s.outer_radius, -s.inner_radius));
+      break;
+  }
+  return out;
+}
+
 Geometry Collect(const Model& model, const Eigen::VectorXd& q, double axis_length,
-                 const std::vector<std::string>& muscles) {
+                 const std::vector<std::string>& muscles, WrapMode wrap_mode) {
   Data ws(model);
   Geometry g;
   const LimbDescription& d = model.description();
@@ -88,8 +249,43 @@ Geometry Collect(const Model& model, const Eigen::VectorXd& q, double axis_lengt
     }
   }
   for (const std::string& name : muscles) model.MuscleIndex(name);  // throws listing the muscles
-  for (int m : drawn)
-    g.muscles.push_back({model.muscle(m).name, MusclePathPoints(model, ws, q, m)});
+  std::vector<char> shown(d.wrap_objects.size(), muscles.empty() ? 1 : 0);
+  WrappedPath path;
+  for (int m : drawn) {
+    Geometry::Muscle mu{model.muscle(m).name, {}, MusclePathPoints(model, ws, q, m), {}};
+    if (model.muscle(m).wraps.empty()) {
+      mu.points = mu.path_points;
+      g.muscles.push_back(mu);
+      continue;
+    }
+    const WrapPathInput in = MuscleWrapPathInput(model, ws, q, m);
+    ComputeWrappedPath(in, wrap_mode, path);
+    for (const WrapPathWrap& w : in.wraps) shown[static_cast<size_t>(w.object)] = 1;
+    for (size_t e = 0; e < path.elements.size(); ++e) {
+      const WrappedPath::Element& el = path.elements[e];
+      mu.points.push_back(el.position);
+      if (el.wrap < 0 || el.end != 0) continue;
+      const WrappedPath::Wrap& w = path.wraps[static_cast<size_t>(el.wrap)];
+      const WrapPathWrap& pw = in.wraps[static_cast<size_t>(el.wrap)];
+      Geometry::Muscle::Arc arc{d.wrap_objects[static_cast<size_t>(pw.object)].name, {}};
+      for (const Eigen::Vector3d& p_S :
+           SampleWrapArc(pw.surface, w.r1_S, w.r2_S, w.arc_length, kArcSamples)) {
+        arc.points.push_back(pw.X_W_S * p_S);
+      }
+      // The ends are ComputeWrappedPath's tangent points themselves.
+      arc.points.front() = w.r1;
+      arc.points.back() = w.r2;
+      mu.points.insert(mu.points.end(), arc.points.begin() + 1, arc.points.end() - 1);
+      mu.arcs.push_back(arc);
+    }
+    g.muscles.push_back(mu);
+  }
+  for (size_t o = 0; o < d.wrap_objects.size(); ++o) {
+    if (!shown[o]) continue;
+    const WrapObjectSpec& spec = d.wrap_objects[o];
+    g.surfaces.push_back({spec.name, spec.shape, spec.active, WrapSurface::From(spec),
+                          WrapObjectPose(model, ws, q, spec)});
+  }
   return g;
 }
 
@@ -203,7 +399,7 @@ std::string LimbStickFigureSvg(const Model& model, const Eigen::VectorXd& q,
   if (!std::isfinite(options.axis_length)) throw Error("draw: axis length must be finite");
   const double axis_length =
       options.axis_length > 0 ? options.axis_length : kAxisFraction * model.chain_length();
-  const Geometry g = Collect(model, q, axis_length, options.muscles);
+  const Geometry g = Collect(model, q, axis_length, options.muscles, options.wrap_mode);
 
   // Everything that must fit in the views.
   std::vector<Eigen::Vector3d> all = g.bones;
@@ -212,6 +408,24 @@ std::string LimbStickFigureSvg(const Model& model, const Eigen::VectorXd& q,
     all.push_back(a.s.b);
   }
   for (const auto& m : g.muscles) all.insert(all.end(), m.points.begin(), m.points.end());
+  for (const auto& w : g.surfaces) {
+    // Its bounding box in world (the outline lies inside it).
+    Eigen::Vector3d half = Eigen::Vector3d::Zero();
+    switch (w.shape) {
+      case WrapShape::kCylinder:
+        half << w.surface.radius, w.surface.radius, 0.5 * w.surface.length;
+        break;
+      case WrapShape::kSphere: half.setConstant(w.surface.radius); break;
+      case WrapShape::kEllipsoid: half = w.surface.radii; break;
+      case WrapShape::kTorus:
+        half << w.surface.outer_radius + w.surface.inner_radius,
+            w.surface.outer_radius + w.surface.inner_radius, w.surface.inner_radius;
+        break;
+    }
+    const Eigen::Vector3d extent = w.X_W_S.linear().cwiseAbs() * half;
+    all.push_back(w.X_W_S.translation() - extent);
+    all.push_back(w.X_W_S.translation() + extent);
+  }
   for (int k = 0; k < 3; ++k) {
     all.push_back(g.endpoint.translation() + axis_length * g.endpoint.linear().col(k));
     all.push_back(g.endpoint.translation() + axis_length * g.transducer.col(k));
@@ -235,7 +449,9 @@ std::string LimbStickFigureSvg(const Model& model, const Eigen::VectorXd& q,
     view_height = std::max(view_height, (v.max.y() - v.min.y()) * scale);
   }
   const double width = 2 * options.view_px;
-  const double height = kBannerHeight + kViewTitle + view_height + 2 * kPad + kFooter;
+  // A second subtitle line says how wraps are drawn.
+  const double banner = kBannerLines + (g.surfaces.empty() ? 0.0 : kSubtitleLine);
+  const double height = banner + kViewTitle + view_height + 2 * kPad + kFooter;
   const std::string title =
       options.title.empty() ? model.name() + " at " + FormatPosture(model, q) : options.title;
 
@@ -246,10 +462,17 @@ std::string LimbStickFigureSvg(const Model& model, const Eigen::VectorXd& q,
            "muscle paths (red), "
            "endpoint frame x y z (green, blue, red).",
            10, "start", {{"class", "subtitle"}});
+  if (!g.surfaces.empty()) {
+    svg.Text(12, 36 + kSubtitleLine,
+             std::string("Wrap surfaces (blue; dashed = inactive, never wraps), paths wrapped over "
+                         "them (") +
+                 WrapModeName(options.wrap_mode) + " mode): tangent points white, arcs dark red.",
+             10, "start", {{"class", "subtitle"}});
+  }
   for (int i = 0; i < 2; ++i) {
     View& v = views[i];
     v.x0 = options.view_px * i + kPad;
-    v.y0 = kBannerHeight + kViewTitle + kPad;
+    v.y0 = banner + kViewTitle + kPad;
     svg.Open("g", {{"class", "view"},
                    {"data-view", v.name},
                    {"data-right", kAxisName[v.right]},
@@ -258,12 +481,12 @@ std::string LimbStickFigureSvg(const Model& model, const Eigen::VectorXd& q,
                    {"data-origin-x", Num(v.Screen(Eigen::Vector3d::Zero()).x())},
                    {"data-origin-y", Num(v.Screen(Eigen::Vector3d::Zero()).y())}});
     svg.Element("rect", {{"x", Num(options.view_px * i + 4)},
-                         {"y", Num(kBannerHeight)},
+                         {"y", Num(banner)},
                          {"width", Num(options.view_px - 8)},
-                         {"height", Num(height - kBannerHeight - 4)},
+                         {"height", Num(height - banner - 4)},
                          {"fill", "none"},
                          {"stroke", "#dddddd"}});
-    svg.Text(options.view_px * i + 12, kBannerHeight + 14,
+    svg.Text(options.view_px * i + 12, banner + 14,
              i == 0 ? "Top view (x right, y up; looking down -z)"
                     : "Side view (x right, z up; looking along +y)",
              12, "start", {{"class", "view-title"}, {"font-weight", "bold"}});
@@ -287,24 +510,85 @@ std::string LimbStickFigureSvg(const Model& model, const Eigen::VectorXd& q,
       if (a.prismatic) extra.push_back({"stroke-dasharray", "4,2"});
       svg.Line(s0.x(), s0.y(), s1.x(), s1.y(), "#e08000", 1.6, extra);
     }
-    // Muscles.
+    // Wrap surfaces: an outline per shape (WrapOutline); inactive objects dashed, unfilled.
+    for (const auto& w : g.surfaces) {
+      std::string d;
+      for (const auto& line : WrapOutline(w.surface, w.X_W_S, v.right, v.up)) {
+        for (size_t k = 0; k < line.size(); ++k) {
+          const Eigen::Vector3d p3 = Eigen::Vector3d::Unit(v.right) * line[k].x() +
+                                     Eigen::Vector3d::Unit(v.up) * line[k].y();
+          const Eigen::Vector2d s = v.Screen(p3);
+          d += (k == 0 ? "M" : "L") + Num(s.x()) + "," + Num(s.y()) + " ";
+        }
+      }
+      plots::Attributes a = {{"class", "wrap-surface"},
+                             {"data-wrap", w.name},
+                             {"data-shape", WrapShapeName(w.shape)},
+                             {"data-active", w.active ? "true" : "false"},
+                             {"d", d},
+                             {"fill", w.active ? "#2a6fb0" : "none"},
+                             {"fill-opacity", "0.08"},
+                             {"stroke", w.active ? "#2a6fb0" : "#8aa6c0"},
+                             {"stroke-width", "1"}};
+      if (!w.active) a.push_back({"stroke-dasharray", "3,2"});
+      svg.Element("path", a);
+    }
+    // Muscles: the path through its points, tangent points and arcs (wrapped muscles).
     for (const auto& m : g.muscles) {
       std::string mp;
       for (const Eigen::Vector3d& p : m.points) {
         Eigen::Vector2d s = v.Screen(p);
         mp += Num(s.x()) + "," + Num(s.y()) + " ";
+      }
+      svg.Element("polyline", {{"class", "muscle"},
+                               {"data-muscle", m.name},
+                               {"data-wrapped", m.arcs.empty() ? "false" : "true"},
+                               {"points", mp},
+                               {"fill", "none"},
+                               {"stroke", "#c0102a"},
+                               {"stroke-width", "1.8"}});
+      for (const Eigen::Vector3d& p : m.path_points) {
+        Eigen::Vector2d s = v.Screen(p);
         svg.Element("circle", {{"class", "muscle-point"},
                                {"cx", Num(s.x())},
                                {"cy", Num(s.y())},
                                {"r", "2.5"},
                                {"fill", "#c0102a"}});
       }
-      svg.Element("polyline", {{"class", "muscle"},
-                               {"data-muscle", m.name},
-                               {"points", mp},
-                               {"fill", "none"},
-                               {"stroke", "#c0102a"},
-                               {"stroke-width", "1.8"}});
+      for (const auto& arc : m.arcs) {
+        // The arc again, over the path, with its world coordinates (m) along the view's axes
+        // in full precision (data-arc-m: "right,up ..."), and its two tangent points.
+        std::string px, world;
+        for (const Eigen::Vector3d& p : arc.points) {
+          const Eigen::Vector2d s = v.Screen(p);
+          px += Num(s.x()) + "," + Num(s.y()) + " ";
+          world += plots::Exact(p[v.right]) + "," + plots::Exact(p[v.up]) + " ";
+        }
+        svg.Element("polyline", {{"class", "wrap-arc"},
+                                 {"data-muscle", m.name},
+                                 {"data-wrap", arc.wrap},
+                                 {"data-arc-m", world},
+                                 {"points", px},
+                                 {"fill", "none"},
+                                 {"stroke", "#7a0a1c"},
+                                 {"stroke-width", "2.4"}});
+        for (int end = 0; end < 2; ++end) {
+          const Eigen::Vector3d& p = end == 0 ? arc.points.front() : arc.points.back();
+          const Eigen::Vector2d s = v.Screen(p);
+          svg.Element("circle", {{"class", "tangent-point"},
+                                 {"data-muscle", m.name},
+                                 {"data-wrap", arc.wrap},
+                                 {"data-end", end == 0 ? "r1" : "r2"},
+                                 {"data-right-m", plots::Exact(p[v.right])},
+                                 {"data-up-m", plots::Exact(p[v.up])},
+                                 {"cx", Num(s.x())},
+                                 {"cy", Num(s.y())},
+                                 {"r", "2"},
+                                 {"fill", "white"},
+                                 {"stroke", "#7a0a1c"},
+                                 {"stroke-width", "1"}});
+        }
+      }
     }
     // Joint centres.
     for (const auto& c : g.centres) {
@@ -319,8 +603,8 @@ std::string LimbStickFigureSvg(const Model& model, const Eigen::VectorXd& q,
                              {"stroke-width", "1.2"}});
     }
     // Endpoint frame, and the transducer axes when they differ.
-    const Box area{options.view_px * i + 6, kBannerHeight + kViewTitle + 2,
-                   options.view_px * (i + 1) - 6, height - kFooter};
+    const Box area{options.view_px * i + 6, banner + kViewTitle + 2, options.view_px * (i + 1) - 6,
+                   height - kFooter};
     LabelPlacer labels(area);
     std::vector<std::string> left_out;
     // A label at the first free candidate (LabelPlacer); `anchors[k]` is what candidate k labels,
