@@ -90,6 +90,14 @@ struct WrapModeSweep {
 WrapModeSweep SweepWrapModes(const Model& model, Data& data, const Eigen::VectorXd& q0, int muscle,
                              int steps);
 
+/// Differences between the modes below this (m, or m/m) are the rounding of two computations
+/// of one path: the reports print them as 0.
+inline constexpr double kWrapReportNoise = 1e-12;
+
+/// A difference (m, or m/m) as mm (mm/m) text with 3 significant digits, "0" when its size is
+/// below kWrapReportNoise.
+std::string FormatWrapMm(double difference);
+
 /// Indices of the muscles with at least one wrap (MuscleSpec::wraps not empty), model order.
 std::vector<int> WrappingMuscles(const Model& model);
 

@@ -3,12 +3,15 @@
 
 #include <iostream>
 #include <memory>
+#include <sstream>
 
 #include "cli/command.hpp"
 #include "isowrench/error.hpp"
 #include "isowrench/io.hpp"
 #include "isowrench/kinematics.hpp"
 #include "isowrench/opensim.hpp"
+#include "isowrench/posture.hpp"
+#include "isowrench/wrap_report.hpp"
 
 namespace isowrench::cli {
 namespace {
@@ -54,6 +57,89 @@ void CheckEvaluable(OpenSimImport& import, const OpenSimImportOptions& options,
   }
 }
 
+// Values per coordinate of the wrap-mode sweep of `import --report` (SweepWrapModes).
+constexpr int kWrapSweepSteps = 5;
+
+// For each wrapping muscle: how far the opensim and exact modes differ at the default posture
+// and over the sweep, and where OpenSim's algorithm misbehaves (wrap_report.hpp). The rows, and
+// the JSON the same numbers.
+struct WrapModeReport {
+  std::string text;
+  nlohmann::ordered_json json = nlohmann::ordered_json::array();
+};
+
+WrapModeReport ReportWrapModes(const LimbDescription& description) {
+  WrapModeReport out;
+  const Model model(description);
+  const std::vector<int> muscles = WrappingMuscles(model);
+  if (muscles.empty()) return out;
+  Data data(model);
+  const Eigen::VectorXd q0 = model.nominal_posture();
+  std::ostringstream o;
+  o << "\nWrapping muscles: opensim - exact mode at the default posture, and the largest "
+       "differences over a sweep of each coordinate's range ("
+    << kWrapSweepSteps
+    << " values, one coordinate at a time); moment arms in mm (mm/m for a prismatic "
+       "coordinate); where OpenSim's algorithm misbehaves (docs/opensim.md \"Wrapping\")\n";
+  for (int m : muscles) {
+    const WrapModeSweep s = SweepWrapModes(model, data, q0, m, kWrapSweepSteps);
+    const WrapModeDifference& d = s.at_q0;
+    const std::string& name = model.muscle(m).name;
+    auto arm_unit = [&](int c) {
+      return model.coordinate(c).type == JointType::kPrismatic ? " mm/m" : " mm";
+    };
+    o << "  " << name << " (" << d.wraps_engaged << " of " << model.muscle(m).wraps.size()
+      << " wraps engaged): length " << util::FormatNumber(d.length_opensim * 1e3, 6) << " - "
+      << util::FormatNumber(d.length_exact * 1e3, 6) << " = " << FormatWrapMm(d.LengthDifference())
+      << " mm";
+    if (d.coordinate >= 0 && d.moment_arm_difference >= kWrapReportNoise) {
+      o << ", moment arm " << FormatWrapMm(d.moment_arm_difference) << arm_unit(d.coordinate)
+        << " (" << model.joint_names()[d.coordinate] << ")";
+    } else {
+      o << ", moment arms equal";
+    }
+    o << "; sweep of " << s.postures << " postures: length up to "
+      << FormatWrapMm(s.max_length_difference) << " mm";
+    if (s.max_moment_arm_coordinate >= 0 && s.max_moment_arm_difference >= kWrapReportNoise) {
+      o << ", moment arm up to " << FormatWrapMm(s.max_moment_arm_difference)
+        << arm_unit(s.max_moment_arm_coordinate) << " ("
+        << model.joint_names()[s.max_moment_arm_coordinate] << " at "
+        << FormatPosture(model, s.max_moment_arm_posture) << ")";
+    } else {
+      o << ", moment arms equal";
+    }
+    const unsigned bad = d.status_opensim & kWrapMisbehaviour;
+    o << "\n    OpenSim at the default posture: "
+      << (bad ? "misbehaves: " + WrapStatusText(bad) : "behaves") << "; over the sweep: ";
+    if (s.misbehaving_postures == 0) {
+      o << "behaves\n";
+    } else {
+      o << "misbehaves at " << s.misbehaving_postures << " of " << s.postures
+        << " postures: " << WrapStatusText(s.misbehaviour) << " (first at "
+        << FormatPosture(model, s.first_misbehaving_posture) << ")\n";
+    }
+    out.json.push_back(
+        {{"muscle", name},
+         {"wraps", model.muscle(m).wraps.size()},
+         {"wraps_engaged", d.wraps_engaged},
+         {"length_opensim_m", d.length_opensim},
+         {"length_exact_m", d.length_exact},
+         {"length_difference_mm", d.LengthDifference() * 1e3},
+         {"moment_arm_difference_mm", d.moment_arm_difference * 1e3},
+         {"moment_arm_difference_coordinate",
+          d.coordinate >= 0 ? nlohmann::ordered_json(model.joint_names()[d.coordinate])
+                            : nlohmann::ordered_json()},
+         {"opensim_misbehaves", WrapStatusText(bad)},
+         {"sweep_postures", s.postures},
+         {"sweep_max_length_difference_mm", s.max_length_difference * 1e3},
+         {"sweep_max_moment_arm_difference_mm", s.max_moment_arm_difference * 1e3},
+         {"sweep_opensim_misbehaves", WrapStatusText(s.misbehaviour)},
+         {"sweep_misbehaving_postures", s.misbehaving_postures}});
+  }
+  out.text = o.str();
+  return out;
+}
+
 const bool kImportRegistered = RegisterCommand({
     "import",
     "Import an OpenSim model (.osim) as an isowrench URDF: the chain from the clamped body to the "
@@ -82,15 +168,23 @@ const bool kImportRegistered = RegisterCommand({
           ->required();
       app.add_option("--unlock", a->unlock, "Coordinates locked in the .osim to import as free")
           ->delimiter(',');
-      app.add_flag("--report", a->report,
-                   "Print the bodies, joints and their URDF expansion, coordinates and muscles");
-      app.add_flag("--json", a->json, "Print the report tables and the warnings as JSON");
+      app.add_flag(
+          "--report", a->report,
+          "Print the bodies, joints and their URDF expansion, coordinates and muscles, and for "
+          "each wrapping muscle how far the opensim and exact wrap modes differ (default "
+          "posture and a sweep of each coordinate) and where OpenSim's algorithm "
+          "misbehaves");
+      app.add_flag("--json", a->json,
+                   "Print the report tables, the wrap-mode comparison (\"wrap_modes\") and the "
+                   "warnings as JSON");
       return [a]() {
         ParseEndpoint(a->endpoint, a->options);
         a->options.unlock = a->unlock;
         OpenSimImport import = ImportOpenSimFile(a->osim, a->options);
         const LimbDescription& d = import.description;
         CheckEvaluable(import, a->options, a->output);
+        // Computed before the file is written: an error leaves no file and no partial report.
+        const WrapModeReport wraps = a->report || a->json ? ReportWrapModes(d) : WrapModeReport{};
         WriteUrdfFile(d, a->output);
         if (a->json) {
           nlohmann::json tables = nlohmann::json::object();
@@ -110,12 +204,13 @@ const bool kImportRegistered = RegisterCommand({
                                       {"coordinates", d.coordinates.size()},
                                       {"muscles", d.muscles.size()},
                                       {"tables", tables},
+                                      {"wrap_modes", wraps.json},
                                       {"warnings", import.warnings}}
                            .dump(2)
                     << "\n";
           return 0;
         }
-        if (a->report) std::cout << FormatOpenSimReport(import);
+        if (a->report) std::cout << FormatOpenSimReport(import) << wraps.text;
         size_t movable = 0, coupled = 0, locked = 0;
         for (const JointSpec& j : d.joints) {
           if (j.type == JointType::kFixed) continue;

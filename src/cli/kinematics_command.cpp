@@ -11,6 +11,7 @@
 #include "isowrench/kinematics.hpp"
 #include "isowrench/posture.hpp"
 #include "isowrench/statics.hpp"
+#include "isowrench/wrap_report.hpp"
 
 namespace isowrench::cli {
 namespace {
@@ -27,8 +28,9 @@ struct PostureKinematics {
   Eigen::VectorXd q;
   Eigen::Vector3d endpoint;
   Matrix6Xd jacobian;
-  std::vector<double> length;               // per muscle, m
-  std::vector<Eigen::VectorXd> moment_arm;  // per muscle, -dL/dq
+  std::vector<double> length;                  // per muscle, m
+  std::vector<Eigen::VectorXd> moment_arm;     // per muscle, -dL/dq
+  std::vector<WrapModeDifference> wrap_modes;  // per wrapping muscle (wrap_report.hpp)
 };
 
 PostureKinematics EvaluatePosture(const Model& model, Data& ws, const Eigen::VectorXd& q) {
@@ -41,12 +43,45 @@ PostureKinematics EvaluatePosture(const Model& model, Data& ws, const Eigen::Vec
     k.length.push_back(t.length);
     k.moment_arm.push_back(-t.dL_dq.transpose());
   }
+  for (int m : WrappingMuscles(model)) k.wrap_modes.push_back(CompareWrapModes(model, ws, q, m));
   return k;
+}
+
+/// "mm" for a revolute column's moment arm difference, "mm/m" for a prismatic one.
+const char* WrapArmUnit(const Model& model, int column);
+
+/// The wrap-mode lines of one posture: per wrapping muscle how far opensim and exact differ and
+/// where OpenSim's algorithm misbehaves (include/isowrench/wrap_report.hpp).
+std::string WrapModeLines(const Model& model, const std::vector<WrapModeDifference>& modes) {
+  if (modes.empty()) return "";
+  std::ostringstream o;
+  o << "wrapping muscles, opensim - exact mode (wrap library; docs/opensim.md \"Wrapping\"):\n";
+  for (const WrapModeDifference& d : modes) {
+    o << "  " << model.muscle(d.muscle).name << ": length "
+      << util::FormatNumber(d.length_opensim * 1e3, 6) << " - "
+      << util::FormatNumber(d.length_exact * 1e3, 6) << " = " << FormatWrapMm(d.LengthDifference())
+      << " mm";
+    if (d.coordinate >= 0 && d.moment_arm_difference >= kWrapReportNoise) {
+      o << ", largest moment-arm difference " << FormatWrapMm(d.moment_arm_difference) << " "
+        << WrapArmUnit(model, d.coordinate) << " (" << model.joint_names()[d.coordinate] << ")";
+    } else {
+      o << ", moment arms equal";
+    }
+    o << ", " << d.wraps_engaged << " of " << model.muscle(d.muscle).wraps.size()
+      << " wraps engaged";
+    const unsigned bad = d.status_opensim & kWrapMisbehaviour;
+    o << "; OpenSim " << (bad ? "misbehaves: " + WrapStatusText(bad) : "behaves") << "\n";
+  }
+  return o.str();
 }
 
 bool Prismatic(const Model& model, int column) {
   return FindCoordinate(model.description(), model.joint_names()[column]).type ==
          JointType::kPrismatic;
+}
+
+const char* WrapArmUnit(const Model& model, int column) {
+  return Prismatic(model, column) ? "mm/m" : "mm";
 }
 
 /// v with -0 written as 0.
@@ -76,6 +111,23 @@ nlohmann::ordered_json Json(const Model& model, const std::vector<PostureKinemat
                                        {"moment_arm_m", Values(r.data(), r.size())}};
     }
     p["muscles"] = muscles;
+    if (!k.wrap_modes.empty()) {
+      nlohmann::ordered_json wraps = nlohmann::ordered_json::object();
+      for (const WrapModeDifference& d : k.wrap_modes) {
+        const unsigned bad = d.status_opensim & kWrapMisbehaviour;
+        wraps[model.muscle(d.muscle).name] = {
+            {"length_opensim_m", d.length_opensim},
+            {"length_exact_m", d.length_exact},
+            {"length_difference_mm", d.LengthDifference() * 1e3},
+            {"moment_arm_difference_mm", d.moment_arm_difference * 1e3},
+            {"moment_arm_difference_coordinate",
+             d.coordinate >= 0 ? nlohmann::ordered_json(model.joint_names()[d.coordinate])
+                               : nlohmann::ordered_json()},
+            {"wraps_engaged", d.wraps_engaged},
+            {"opensim_misbehaves", WrapStatusText(bad)}};
+      }
+      p["wrap_modes"] = wraps;
+    }
     postures.push_back(p);
   }
   out["postures"] = postures;
@@ -98,7 +150,17 @@ std::string JsonText(const nlohmann::ordered_json& j) {
       out += std::string(m++ ? ",\n               " : "") + nlohmann::ordered_json(name).dump() +
              ": " + muscle.dump();
     }
-    out += "}}";
+    out += "}";
+    if (p.contains("wrap_modes")) {
+      out += ",\n   \"wrap_modes\": {";
+      size_t w = 0;
+      for (const auto& [name, modes] : p["wrap_modes"].items()) {
+        out += std::string(w++ ? ",\n                 " : "") +
+               nlohmann::ordered_json(name).dump() + ": " + modes.dump();
+      }
+      out += "}";
+    }
+    out += "}";
   }
   return out + "]}\n";
 }
@@ -148,6 +210,7 @@ std::string Table(const Model& model, const std::vector<PostureKinematics>& resu
       for (int c = 0; c < n; ++c) o << Cell(k.moment_arm[m][c]);
       o << Cell(k.length[m], 12) << "\n";
     }
+    o << WrapModeLines(model, k.wrap_modes);
   }
   return o.str();
 }
@@ -173,7 +236,11 @@ const bool kKinematicsRegistered = RegisterCommand({
       app.add_flag(
           "--json", options->json,
           "Print {\"coordinates\": [...], \"postures\": [{\"endpoint_m\", \"jacobian\" (6 rows), "
-          "\"muscles\": {name: {\"length_m\", \"moment_arm_m\"}}}]} in SI units, world axes");
+          "\"muscles\": {name: {\"length_m\", \"moment_arm_m\"}}, and for wrapping muscles "
+          "\"wrap_modes\": {name: {\"length_opensim_m\", \"length_exact_m\", "
+          "\"length_difference_mm\", \"moment_arm_difference_mm\", "
+          "\"moment_arm_difference_coordinate\", \"wraps_engaged\", \"opensim_misbehaves\"}}}]} "
+          "in SI units (differences in mm), world axes");
       return [options]() {
         ModelOptions load;
         load.urdf = options->urdf;

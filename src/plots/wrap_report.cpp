@@ -9,6 +9,7 @@
 #include <string>
 
 #include "isowrench/error.hpp"
+#include "util/text.hpp"
 
 namespace isowrench {
 namespace {
@@ -214,6 +215,10 @@ WrapModeSweep SweepWrapModes(const Model& model, Data& data, const Eigen::Vector
     }
   }
   return out;
+}
+
+std::string FormatWrapMm(double difference) {
+  return util::FormatNumber(std::abs(difference) < kWrapReportNoise ? 0.0 : difference * 1e3, 3);
 }
 
 std::vector<int> WrappingMuscles(const Model& model) {
