@@ -60,6 +60,16 @@ const bool kDrawRegistered = RegisterCommand({
                   << (muscles->empty() ? "" : ", " + std::to_string(muscles->size()) + " drawn")
                   << ", leg length " << util::FormatNumber(model.chain_length() * 1e3, 4)
                   << " mm)\n";
+        // Each wrap object is drawn once per view (limb_drawing.cpp, class "wrap-surface").
+        size_t surfaces = 0;
+        for (size_t at = svg.find("class=\"wrap-surface\""); at != std::string::npos;
+             at = svg.find("class=\"wrap-surface\"", at + 1)) {
+          ++surfaces;
+        }
+        if (surfaces > 0) {
+          std::cout << "  " << surfaces / 2 << " wrap object" << (surfaces == 2 ? "" : "s")
+                    << " drawn; wrapping muscles drawn over them in " << *wrap << " mode\n";
+        }
         const size_t note = svg.find("class=\"label-note\"");
         if (note != std::string::npos) {
           std::cout << "  some labels were left out where they would overlap (see the note under "
