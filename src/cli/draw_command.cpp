@@ -35,19 +35,28 @@ const bool kDrawRegistered = RegisterCommand({
       app.add_option("--muscle", *muscles,
                      "Draw only these muscles: name,name,... (default: every muscle)")
           ->delimiter(',');
-      auto wrap = std::make_shared<std::string>("opensim");
-      app.add_option("--wrap", *wrap,
-                     "How wrapped muscle paths are drawn: opensim (OpenSim's algorithms, the "
-                     "default) or exact (the shortest path over each surface)")
-          ->check(CLI::IsMember({"opensim", "exact"}));
-      return [options, output, axis_mm, title, muscles, wrap]() {
+      // --wrap: the shared model options add it once every command takes a wrap mode (issue 27
+      // stage 2); until then draw adds its own. Either way the mode is read from the option.
+      auto wrap = std::make_shared<std::string>();
+      CLI::Option* wrap_option = app.get_option_no_throw("--wrap");
+      if (wrap_option == nullptr) {
+        wrap_option = app.add_option("--wrap", *wrap,
+                                     "How wrapped muscle paths are drawn: opensim (OpenSim's "
+                                     "algorithms, the default) or exact (the shortest path over "
+                                     "each surface)")
+                          ->check(CLI::IsMember({"opensim", "exact"}));
+      }
+      // `wrap` is captured to keep the option's storage alive; the value is read via wrap_option.
+      return [options, output, axis_mm, title, muscles, wrap, wrap_option]() {
         Model model = LoadModel(*options);
         Eigen::VectorXd q = LoadPosture(model, *options);
         LimbDrawingOptions drawing;
         drawing.axis_length = *axis_mm * 1e-3;
         drawing.title = *title;
         drawing.muscles = *muscles;
-        drawing.wrap_mode = ParseWrapMode(*wrap);
+        const std::string mode =
+            wrap_option->count() > 0 ? wrap_option->as<std::string>() : std::string("opensim");
+        drawing.wrap_mode = ParseWrapMode(mode);
         const std::string svg = LimbStickFigureSvg(model, q, drawing);
         if (*output == "-") {
           std::cout << svg;
@@ -68,7 +77,8 @@ const bool kDrawRegistered = RegisterCommand({
         }
         if (surfaces > 0) {
           std::cout << "  " << surfaces / 2 << " wrap object" << (surfaces == 2 ? "" : "s")
-                    << " drawn; wrapping muscles drawn over them in " << *wrap << " mode\n";
+                    << " drawn; wrapping muscles drawn over them in "
+                    << WrapModeName(drawing.wrap_mode) << " mode\n";
         }
         const size_t note = svg.find("class=\"label-note\"");
         if (note != std::string::npos) {
