@@ -35,8 +35,8 @@
 
 namespace isowrench {
 
-/// How wrapped paths are computed (see the file comment).
-enum class WrapMode { kOpenSim, kExact };
+// WrapMode (how wrapped paths are computed: kOpenSim, kExact) is in isowrench/model.hpp, as
+// LimbDescription::wrap_mode.
 
 /// "opensim" or "exact".
 const char* WrapModeName(WrapMode mode);
@@ -185,9 +185,5 @@ void ComputeWrappedPath(const WrapPathInput& input, WrapMode mode, WrappedPath& 
 /// wraps naming existing objects, ranges inside the path (1-based, -1 = end, first <= last).
 /// Model construction calls it. @throws Error naming the model, the muscle and the object.
 void CheckWraps(const LimbDescription& description, const std::string& model_name);
-
-/// The one warning isowrench gives while the engine does not evaluate wraps yet (issue 27
-/// stage 2): "" when no muscle wraps, else a sentence naming the wrapping muscles.
-std::string WrapNotEvaluatedWarning(const LimbDescription& description);
 
 }  // namespace isowrench

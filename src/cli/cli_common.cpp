@@ -10,6 +10,7 @@
 #include "isowrench/input_checks.hpp"
 #include "isowrench/io.hpp"
 #include "isowrench/posture.hpp"
+#include "isowrench/wrap.hpp"
 
 namespace isowrench::cli {
 
@@ -42,6 +43,14 @@ void AddSheetOptions(CLI::App& app, TrialSheetOptions& sheet, const std::string&
       ->check(CLI::NonNegativeNumber);
 }
 
+void AddWrapOption(CLI::App& app, std::string& wrap) {
+  app.add_option("--wrap", wrap,
+                 "How muscles that wrap over wrap objects get their length and moment arms: "
+                 "opensim (default; OpenSim 4.x's algorithms and moment arms) or exact (the "
+                 "shortest path on the side OpenSim chooses; moment arm = -dL/dq)")
+      ->check(CLI::IsMember({"opensim", "exact"}));
+}
+
 void AddModelOptions(CLI::App& app, ModelOptions& o, bool with_muscle) {
   app.add_option("urdf", o.urdf,
                  "Limb URDF with isowrench extension tags (e.g. urdf/rat_hindlimb_5dof.urdf)")
@@ -71,6 +80,7 @@ void AddModelOptions(CLI::App& app, ModelOptions& o, bool with_muscle) {
                  "coord,coord,...; 'none' locks nothing")
       ->delimiter(',')
       ->each([&o](const std::string&) { o.lock_given = true; });
+  AddWrapOption(app, o.wrap);
   if (with_muscle) {
     app.add_option("--muscle", o.muscle, "Muscle name (default: the first muscle in the URDF)");
     app.add_option("--activation", o.activation,
@@ -97,6 +107,7 @@ ModelOverrides Overrides(const ModelOptions& o) {
     overrides.joint_stiffness.push_back(ParseAssignment(item, "--joint-stiffness"));
   }
   if (o.lock_given) overrides.locked = o.lock;
+  if (!o.wrap.empty()) overrides.wrap = ParseWrapMode(o.wrap);
   return overrides;
 }
 

@@ -44,6 +44,7 @@ struct ModelOptions {
   std::vector<std::string> joint_stiffness;  ///< "joint=value"
   std::vector<std::string> lock;             ///< locked coordinates ("none" unlocks all)
   bool lock_given = false;
+  std::string wrap;    ///< --wrap: "opensim" or "exact" ("": the default, opensim)
   std::string muscle;  ///< empty = the first muscle
   double activation = 1.0;
   StaticsOptions statics;
@@ -55,6 +56,9 @@ void AddSheetOptions(CLI::App& app, TrialSheetOptions& sheet, const std::string&
 
 /// Add the shared options (positional <urdf> included) to a subcommand.
 void AddModelOptions(CLI::App& app, ModelOptions& options, bool with_muscle = true);
+
+/// --wrap opensim|exact into `wrap` (the commands that take no other model option call it too).
+void AddWrapOption(CLI::App& app, std::string& wrap);
 
 /// The overrides the options ask for (parsed with the library's parsers, isowrench/frontend.hpp).
 ModelOverrides Overrides(const ModelOptions& options);
