@@ -95,17 +95,19 @@ inline isowrench::Model ChainModel(int coordinates, bool coupled) {
 }
 
 /// Kernel K with GP wrapping over a cylinder on the femur at the knee (axis z, the knee flexion
-/// axis, radius `radius` m, 20 mm long, unconstrained): the cost of one active cylinder against
-/// the same muscle without it (docs/performance.md "Wrapping muscles"). `mode`: the wrap mode.
-inline isowrench::Model WrappedKernelModel(isowrench::WrapMode mode, double radius = 0.006) {
+/// axis, radius 4 mm, 20 mm long, constrained to -y: it wraps GP at every posture of
+/// KernelPostures): the cost of one active cylinder against the same muscle without it
+/// (docs/performance.md "Wrapping muscles"). `mode`: the wrap mode.
+inline isowrench::Model WrappedKernelModel(isowrench::WrapMode mode) {
   isowrench::LimbDescription d = isowrench::ReadUrdfFile(KernelUrdf());
   isowrench::WrapObjectSpec cylinder;
   cylinder.name = "knee_cyl";
   cylinder.link = "femur";
   cylinder.shape = isowrench::WrapShape::kCylinder;
   cylinder.translation = Eigen::Vector3d(0.031, 0, 0);
-  cylinder.radius = radius;
+  cylinder.radius = 0.004;
   cylinder.length = 0.02;
+  cylinder.quadrant = isowrench::WrapQuadrant::Parse("-y");
   d.wrap_objects.push_back(cylinder);
   isowrench::PathWrapSpec wrap;
   wrap.object = "knee_cyl";

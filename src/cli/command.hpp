@@ -71,6 +71,14 @@ std::string ChooseMuscle(const Model& model, const ModelOptions& options);
 
 /// Number formatting for tables: fixed width, signed, 4 significant digits.
 std::string Cell(double value, int width = 11);
+
+/// Muscle `muscle`'s wraps at posture q (issue 27), for the reports: {"mode", "wraps": [{"object",
+/// "wrapped", "arc_m"}], "warning"} (warning: the WrapStatus bits in words, "" when none), or null
+/// when the muscle has no wraps.
+nlohmann::json MuscleWrapJson(const Model& model, const Eigen::VectorXd& q, int muscle);
+
+/// The same as one line of text ("wrap (opensim): knee_cyl wraps, arc 3.21 mm"), "" without wraps.
+std::string MuscleWrapText(const nlohmann::json& wrap);
 /// "[1e+07 1e+07 1e+07 N/m; 1e+07 1e+07 1e+07 N·m/rad]"
 std::string StiffnessText(const Vector6d& s_t);
 /// Header line "fx (N) fy (N) fz (N) mx (N·m) my (N·m) mz (N·m)" aligned with Cell().

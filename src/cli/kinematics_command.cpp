@@ -184,6 +184,8 @@ std::string Padded(const std::string& text, int width) {
 
 std::string Table(const Model& model, const std::vector<PostureKinematics>& results) {
   const int n = model.dof_count();
+  bool wraps = false;
+  for (int m = 0; m < model.muscle_count(); ++m) wraps = wraps || !model.muscle(m).wraps.empty();
   const int label = 10;
   std::ostringstream o;
   o << "model " << model.name() << ": " << n << " coordinates (columns), world axes";
@@ -214,9 +216,14 @@ std::string Table(const Model& model, const std::vector<PostureKinematics>& resu
       o << "\n";
     }
     if (model.muscle_count() == 0) continue;
-    o << "muscles: length (m) and moment arm -dL/dq about each coordinate\n"
-      << header << "  length (m)\n"
-      << units << "\n";
+    o << "muscles: length (m) and moment arm -dL/dq about each coordinate\n";
+    if (wraps) {
+      o << (model.description().wrap_mode == WrapMode::kExact
+                ? "(wrapping muscles: --wrap exact, shortest paths over the wrap objects)\n"
+                : "(wrapping muscles: --wrap opensim, OpenSim's paths and moment arms, which are "
+                  "-dL/dq only where OpenSim's path is a shortest path)\n");
+    }
+    o << header << "  length (m)\n" << units << "\n";
     for (int m = 0; m < model.muscle_count(); ++m) {
       o << Padded(model.muscle(m).name, label);
       for (int c = 0; c < n; ++c) o << Cell(k.moment_arm[m][c]);

@@ -38,3 +38,10 @@ isowrench_cli_test(kinematics_wrap_help "--wrap.*opensim.*exact" kinematics --he
 isowrench_cli_test(wrench_wrap_help "--wrap.*opensim.*exact" wrench --help)
 isowrench_cli_error(kinematics_wrap_unknown 2 "--wrap: shortest not in \\{opensim,exact\\}"
   kinematics ${knee_wrap} --wrap shortest)
+# wrench says which wraps engage (arc in mm) and in which mode; --json puts it under "muscle".
+isowrench_cli_test(wrench_wrap_engaged "wrap \\(exact\\): knee_cyl wraps, arc [0-9.]+ mm"
+  wrench ${knee_wrap} --muscle QUAD --posture knee=-60 --wrap exact)
+isowrench_cli_test(wrench_wrap_clear "wrap \\(opensim\\): knee_cyl does not wrap"
+  wrench ${knee_wrap} --muscle QUAD --posture knee=0)
+isowrench_cli_test(wrench_wrap_json "\"wrap\": \\{[^}]*\"mode\": \"opensim\""
+  wrench ${knee_wrap} --muscle QUAD --posture knee=-60 --json)

@@ -298,6 +298,45 @@ TEST(WrapEngineTest, BatchEqualsSingleForWrappedMuscles) {
   }
 }
 
+// The published rat model (no licence: not in the repository; skipped when absent). The
+// quadriceps extend the knee: they shorten as knee_r_flx grows towards extension, so their moment
+// arm about it is positive (anatomy, not this program's output). Their straight lines cross the
+// knee's wrap surfaces and get the sign wrong at the default posture (-120 deg); wrapped, in both
+// modes, it is positive, and the wrapped path is longer than the straight one.
+TEST(WrapEngineTest, RatQuadricepsExtendTheKneeOnlyWhenWrapped) {
+  const std::string path = "/work/ext/RatHindlimb/models/osim/rat_hindlimb.osim";
+  if (!std::ifstream(path)) GTEST_SKIP() << path << " is not here";
+  OpenSimImportOptions options;
+  options.clamp_body = "pelvis_r";
+  options.endpoint_body = "foot_r";
+  LimbDescription d = ImportOpenSimFile(path, options).description;
+  LimbDescription straight = d;
+  for (MuscleSpec& m : straight.muscles) m.wraps.clear();
+  const Model wrapped(d), unwrapped(straight);
+  d.wrap_mode = WrapMode::kExact;
+  const Model exact(d);
+  Data a(wrapped), b(unwrapped), c(exact);
+  const Eigen::VectorXd q = wrapped.nominal_posture();
+  const int knee = Column(wrapped, "knee_r_flx");
+  ASSERT_NEAR(q[knee], -2.0944, 1e-4);
+  int flipped = 0;
+  for (const std::string name : {"R_RF", "R_VL", "R_VI", "R_VM"}) {
+    const int i = wrapped.MuscleIndex(name);
+    ASSERT_TRUE(ComputeKinematics(unwrapped, b, q, i, 1.0));
+    const double straight_arm = -b.muscle_length_gradient()[knee];
+    ASSERT_TRUE(ComputeKinematics(wrapped, a, q, i, 1.0));
+    const double opensim_arm = -a.muscle_length_gradient()[knee];
+    EXPECT_GT(a.muscle_length(), b.muscle_length() + 1e-3) << name;
+    ASSERT_TRUE(ComputeKinematics(exact, c, q, i, 1.0));
+    const double exact_arm = -c.muscle_length_gradient()[knee];
+    EXPECT_GT(opensim_arm, 1e-3) << name;
+    EXPECT_GT(exact_arm, 1e-3) << name;
+    EXPECT_NEAR(exact_arm, opensim_arm, 2e-4) << name;
+    flipped += straight_arm < 0.0;
+  }
+  EXPECT_EQ(flipped, 4) << "the straight paths' knee moment arms at -120 deg";
+}
+
 TEST(WrapEngineTest, WrapModeIsAModelOverride) {
   ModelOverrides o;
   EXPECT_TRUE(o.empty());
