@@ -123,8 +123,13 @@ Independent IndependentPath(const Model& model, Data& data, const Eigen::VectorX
 // fixture (cylinder on the clamp, cylinder, ellipsoid + torus + inactive sphere with a
 // conditional point), and the muscles without wraps still straight.
 TEST(WrapEngineTest, EngineLengthAndGradientEqualComputeWrappedPath) {
-  for (const WrapMode mode : {WrapMode::kOpenSim, WrapMode::kExact}) {
-    const Model model(WrapsFixture(mode));
+  // (second round: every object active, so that GAS's sphere takes part too)
+  for (const auto& [mode, all_active] :
+       {std::pair{WrapMode::kOpenSim, false}, std::pair{WrapMode::kExact, false},
+        std::pair{WrapMode::kOpenSim, true}, std::pair{WrapMode::kExact, true}}) {
+    LimbDescription d = WrapsFixture(mode);
+    for (WrapObjectSpec& o : d.wrap_objects) o.active = o.active || all_active;
+    const Model model(d);
     Data engine(model), reference(model);
     std::mt19937 rng(7);
     int wrapped = 0, compared = 0;
@@ -146,8 +151,39 @@ TEST(WrapEngineTest, EngineLengthAndGradientEqualComputeWrappedPath) {
         ++compared;
       }
     }
-    EXPECT_EQ(compared, 180);
+    EXPECT_EQ(compared, 180);  // (3 wrapping muscles x 60 postures)
     EXPECT_GT(wrapped, 20) << WrapModeName(mode) << ": too few postures where a wrap engages";
+  }
+}
+
+// The same on a model whose workspace is the large one (a muscle of 70 points: more than the
+// small workspace's 64), the knee_wrap leg of tests/wrap/data.
+TEST(WrapEngineTest, LargeWorkspaceEvaluatesWrapsToo) {
+  LimbDescription d = ReadUrdfFile(std::string(ISOWRENCH_TEST_WRAP_DIR) + "/knee_wrap.urdf");
+  MuscleSpec many;
+  many.name = "MANY";
+  many.max_force = 1.0;
+  for (int k = 0; k < 70; ++k) {
+    many.path.push_back({k % 2 ? "tibia" : "femur", Eigen::Vector3d(0.01 + 1e-4 * k, -0.004, 0)});
+  }
+  d.muscles.push_back(many);
+  for (const WrapMode mode : {WrapMode::kOpenSim, WrapMode::kExact}) {
+    d.wrap_mode = mode;
+    const Model model(d);
+    Data engine(model), reference(model);
+    int wrapped = 0;
+    for (double knee = -2.4; knee <= 2.4; knee += 0.2) {
+      Eigen::VectorXd q(2);
+      q << 0.3, knee;
+      ASSERT_TRUE(ComputeKinematics(model, engine, q, 0, 1.0));
+      const Independent ref = IndependentPath(model, reference, q, 0);
+      EXPECT_NEAR(engine.muscle_length(), ref.path.length, 1e-12) << knee;
+      for (int c = 0; c < 2; ++c) {
+        EXPECT_NEAR(engine.muscle_length_gradient()[c], ref.dL[c], 1e-12) << knee;
+      }
+      wrapped += ref.path.wraps[0].wrapped ? 1 : 0;
+    }
+    EXPECT_GT(wrapped, 3);
   }
 }
 
