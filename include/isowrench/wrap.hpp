@@ -60,8 +60,7 @@ enum WrapStatus : unsigned {
   /// An iteration stopped at its limit: OpenSim's cylinder tangent adjustment (100 restarts),
   /// the ellipsoid's tangent-point solve (50 iterations) or closest point (64), the torus's
   /// lmdif (500 evaluations), the multi-wrap passes (8 without two lengths within 0.5 mm; exact
-  /// mode: 200 without two within 1e-13 m), or
-  /// the exact geodesic solve.
+  /// mode: 200 without two within 1e-13 m), or the exact geodesic solve.
   kWrapNotConverged = 1u << 1,
   /// OpenSim's arc is negative (a constrained sphere wrapped the far side: WrapSphere::wrapLine
   /// gives -(2 pi - angle) R); the length sums it as OpenSim does.
