@@ -45,3 +45,8 @@ isowrench_cli_test(wrench_wrap_clear "wrap \\(opensim\\): knee_cyl does not wrap
   wrench ${knee_wrap} --muscle QUAD --posture knee=0)
 isowrench_cli_test(wrench_wrap_json "\"wrap\": \\{[^}]*\"mode\": \"opensim\""
   wrench ${knee_wrap} --muscle QUAD --posture knee=-60 --json)
+# diagnose and releases say the same per muscle and posture.
+isowrench_cli_test(diagnose_wrap_line "muscle QUAD.*wrap \\(opensim\\): knee_cyl wraps, arc"
+  diagnose ${knee_wrap} --muscle QUAD --posture knee=-60 --no-large-deflection)
+isowrench_cli_test(releases_wrap_json "\"wrap\": \\{[^}]*\"mode\": \"exact\""
+  releases ${knee_wrap} --muscle QUAD --posture knee=-60 --wrap exact --json)
