@@ -68,7 +68,10 @@ LimbDescription ApplyOverrides(LimbDescription d, const ModelOverrides& o, Optio
       throw Error(option + ": " + e.what());
     }
   };
-  for (const auto& [joint, k] : o.joint_stiffness) {
+  for (const std::pair<std::string, double>& entry : o.joint_stiffness) {
+    // (not a structured binding: C++17 lambdas cannot capture those; clang refuses)
+    const std::string& joint = entry.first;
+    const double k = entry.second;
     CheckStiffnessValue(k, name("--joint-stiffness") + " " + joint);
     naming(name("--joint-stiffness"), [&] { d = WithJointStiffness(std::move(d), joint, k); });
   }
