@@ -94,6 +94,28 @@ inline isowrench::Model ChainModel(int coordinates, bool coupled) {
   return isowrench::Model(d);
 }
 
+/// Kernel K with GP wrapping over a cylinder on the femur at the knee (axis z, the knee flexion
+/// axis, radius 4 mm, 20 mm long, constrained to -y: it wraps GP at every posture of
+/// KernelPostures): the cost of one active cylinder against the same muscle without it
+/// (docs/performance.md "Wrapping muscles"). `mode`: the wrap mode.
+inline isowrench::Model WrappedKernelModel(isowrench::WrapMode mode) {
+  isowrench::LimbDescription d = isowrench::ReadUrdfFile(KernelUrdf());
+  isowrench::WrapObjectSpec cylinder;
+  cylinder.name = "knee_cyl";
+  cylinder.link = "femur";
+  cylinder.shape = isowrench::WrapShape::kCylinder;
+  cylinder.translation = Eigen::Vector3d(0.031, 0, 0);
+  cylinder.radius = 0.004;
+  cylinder.length = 0.02;
+  cylinder.quadrant = isowrench::WrapQuadrant::Parse("-y");
+  d.wrap_objects.push_back(cylinder);
+  isowrench::PathWrapSpec wrap;
+  wrap.object = "knee_cyl";
+  d.muscles[0].wraps.push_back(wrap);
+  d.wrap_mode = mode;
+  return isowrench::Model(d);
+}
+
 /// `count` postures around the nominal one: hip and knee angles within +-60 degrees, base
 /// translations within +-1 mm, from a fixed seed (the same postures in every run).
 inline Eigen::MatrixXd KernelPostures(const isowrench::Model& model, int count) {

@@ -27,6 +27,10 @@ struct Setup {
   std::vector<isowrench::WrenchResult> out;
   isowrench::Model coupled{CoupledKernelModel()};
   isowrench::Data coupled_ws{coupled};
+  isowrench::Model wrapped{WrappedKernelModel(isowrench::WrapMode::kOpenSim)};
+  isowrench::Data wrapped_ws{wrapped};
+  isowrench::Model wrapped_exact{WrappedKernelModel(isowrench::WrapMode::kExact)};
+  isowrench::Data wrapped_exact_ws{wrapped_exact};
 };
 
 // A synthetic chain (ChainModel) named by a kernel "fast-chain-N" or "batch-chain-N" (N
@@ -81,6 +85,17 @@ extern "C" __attribute__((noinline)) long isowrench_measured_loop(Setup& s, Chai
     }
     return n;
   }
+  // Kernel K with GP over one cylinder at the knee (WrappedKernelModel), OpenSim's and the
+  // exact mode: against "fast", the same muscle without the wrap.
+  if (std::strcmp(kernel, "fast-wrap") == 0 || std::strcmp(kernel, "fast-wrap-exact") == 0) {
+    const bool exact = kernel[9] == '-';
+    const isowrench::Model& model = exact ? s.wrapped_exact : s.wrapped;
+    isowrench::Data& ws = exact ? s.wrapped_exact_ws : s.wrapped_ws;
+    for (long i = 0; i < n; ++i) {
+      g_sink += isowrench::Evaluate(model, ws, s.postures.col(i & 1023), 0, st).wrench[0];
+    }
+    return n;
+  }
   if (std::strcmp(kernel, "batch-coupled") == 0) {
     const std::vector<isowrench::StiffnessSet> one = {st};
     isowrench::BatchOptions options;
@@ -126,10 +141,12 @@ extern "C" __attribute__((noinline)) long isowrench_measured_loop(Setup& s, Chai
     }
     return n;
   }
-  std::fprintf(stderr,
-               "unknown kernel '%s' (fast, fast-stiffness, fast-coupled, batch, batch-stiffness, "
-               "batch-coupled, kdl, reference, fast-chain-N[c], batch-chain-N[c])\n",
-               kernel);
+  std::fprintf(
+      stderr,
+      "unknown kernel '%s' (fast, fast-stiffness, fast-coupled, fast-wrap, fast-wrap-exact, "
+      "batch, batch-stiffness, "
+      "batch-coupled, kdl, reference, fast-chain-N[c], batch-chain-N[c])\n",
+      kernel);
   std::exit(2);
 }
 
@@ -137,7 +154,8 @@ int main(int argc, char** argv) {
   if (argc != 3) {
     std::fprintf(stderr,
                  "usage: %s "
-                 "fast|fast-stiffness|fast-coupled|batch|batch-stiffness|batch-coupled|kdl|"
+                 "fast|fast-stiffness|fast-coupled|fast-wrap|fast-wrap-exact|batch|batch-stiffness|"
+                 "batch-coupled|kdl|"
                  "reference|fast-chain-N[c]|batch-chain-N[c] <count>\n",
                  argv[0]);
     return 2;
@@ -151,5 +169,13 @@ int main(int argc, char** argv) {
   const long evaluations = isowrench_measured_loop(s, chain.get(), argv[1], std::min(16L, n)) +
                            isowrench_measured_loop(s, chain.get(), argv[1], n);
   std::printf("%s: %ld evaluations collected (checksum %.6g)\n", argv[1], evaluations, g_sink);
+  if (std::strncmp(argv[1], "fast-wrap", 9) == 0) {  // how often the cylinder engages
+    int wrapped = 0;
+    for (int p = 0; p < 1024; ++p) {
+      const Eigen::VectorXd q = s.postures.col(p);
+      wrapped += isowrench::MuscleWrappedPath(s.wrapped, s.wrapped_ws, q, 0).wraps[0].wrapped;
+    }
+    std::printf("the cylinder wraps GP at %d of the 1024 postures\n", wrapped);
+  }
   return 0;
 }

@@ -117,14 +117,15 @@ struct BatchOptions {
 /// register (AVX2 where the CPU has it): four postures share a stiffness set, or, for a
 /// posture left over, four sets share its kinematics. Kinematics are computed once per
 /// posture. A muscle with moving or conditional path points (PathPoint::moving,
-/// PathPoint::active_coordinate) has its kinematics on the scalar path, one posture at a time,
-/// its statics still four sets at a time. An evaluation the lanes cannot decide is redone by the
-/// scalar path: a Cholesky pivot at or below SolveOptions::cholesky_pivot_tolerance (a singular or
-/// nearly singular K), a non-finite result, coincident path points, or a revolute angle |q| >= 1e5
-/// rad. So statuses, self-motion counts and kSelfMotionHeld wrenches are those of Evaluate; kOk
-/// wrenches agree with Evaluate to rounding (the lanes may fuse multiply-adds
-/// differently, which moves W by about eps cond(K)). Allocates only the output and the
-/// workspaces of each thread.
+/// PathPoint::active_coordinate) or with wraps (MuscleSpec::wraps, computed by the scalar wrap
+/// code, include/isowrench/wrap.hpp) has its kinematics on the scalar path, one posture at a
+/// time, its statics still four sets at a time (docs/performance.md). An evaluation the lanes
+/// cannot decide is redone by the scalar path: a Cholesky pivot at or below
+/// SolveOptions::cholesky_pivot_tolerance (a singular or nearly singular K), a non-finite result,
+/// coincident path points, or a revolute angle |q| >= 1e5 rad. So statuses, self-motion counts and
+/// kSelfMotionHeld wrenches are those of Evaluate; kOk wrenches agree with Evaluate to rounding
+/// (the lanes may fuse multiply-adds differently, which moves W by about eps cond(K)). Allocates
+/// only the output and the workspaces of each thread.
 /// @throws Error if postures has the wrong row count or a non-finite entry, the muscle index is
 ///         out of range, a stiffness set has the wrong size, or `stiffness` is empty.
 void EvaluateBatch(const Model& model, const Eigen::Ref<const Eigen::MatrixXd>& postures,

@@ -59,6 +59,9 @@ struct ModelOverrides {
   /// list or {"none"} unlocks every coordinate. Applied last, so it can name the base dofs
   /// base_stiffness added.
   std::optional<std::vector<std::string>> locked;
+  /// How wrapped muscle paths are computed (--wrap opensim|exact; Python wrap="exact"):
+  /// LimbDescription::wrap_mode, read by every length, moment arm, torque and wrench.
+  std::optional<WrapMode> wrap;
 
   /// True when nothing is overridden.
   bool empty() const;

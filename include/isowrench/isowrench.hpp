@@ -19,3 +19,4 @@
 #include "isowrench/plots.hpp"
 #include "isowrench/posture.hpp"
 #include "isowrench/statics.hpp"
+#include "isowrench/wrap.hpp"

@@ -10,6 +10,7 @@
 #include <Eigen/Geometry>
 
 #include "isowrench/model.hpp"
+#include "isowrench/wrap.hpp"
 
 namespace isowrench {
 
@@ -37,6 +38,15 @@ Eigen::Vector3d PointPosition(const Model& model, Data& data, const Eigen::Vecto
 /// while active (PathPoint). @throws Error for a muscle index out of range.
 std::vector<Eigen::Vector3d> MusclePathPoints(const Model& model, Data& data,
                                               const Eigen::VectorXd& q, int muscle_index);
+
+/// Muscle `muscle_index`'s path at posture q as the engine computes it (the model's
+/// LimbDescription::wrap_mode): its length (m, the one of ComputeKinematics), the elements
+/// (active path points and the tangent points of each wrap that wraps, world, m), each wrap's
+/// tangent points, arc and WrapStatus bits, and the path's status (0: no wrap misbehaved). A
+/// muscle without wraps gives its straight path (elements = the active points, no wraps).
+/// @throws Error for a muscle index out of range, a bad posture, or coincident path points.
+WrappedPath MuscleWrappedPath(const Model& model, Data& data, const Eigen::VectorXd& q,
+                              int muscle_index);
 
 /// Linear Jacobian (3 x m, world axes, m/rad or m/m) of a point fixed on a link.
 /// Zero for the root link. @throws Error if the link is not on the chain.

@@ -205,6 +205,12 @@ enum class WrapMethod { kHybrid, kMidpoint, kAxial };
 /// "hybrid", "midpoint", "axial".
 const char* WrapMethodName(WrapMethod method);
 
+/// How the engine computes paths over wrap objects (include/isowrench/wrap.hpp; docs/opensim.md
+/// "Wrapping"): kOpenSim, OpenSim 4.x's algorithms as written (lengths and MomentArmSolver moment
+/// arms as OpenSim reports them); kExact, the stationary (shortest) path on the side OpenSim's
+/// rules choose, with moment arms = -dL/dq exactly.
+enum class WrapMode { kOpenSim, kExact };
+
 /// One entry of a muscle's wrap list (OpenSim: a PathWrap of the GeometryPath's PathWrapSet).
 /// Wraps apply in list order (GeometryPath::applyWrapObjects). `range_first`/`range_last` are
 /// OpenSim's `range`: 1-based numbers of the muscle's path points (MuscleSpec::path, inactive
@@ -318,6 +324,10 @@ struct LimbDescription {
   std::vector<std::pair<std::string, double>> nominal_posture;
   /// Wrap objects on the links (OpenSim WrapObjectSets), named by MuscleSpec::wraps.
   std::vector<WrapObjectSpec> wrap_objects;
+  /// How every length, moment arm, torque and wrench of the model computes the muscles' wraps
+  /// (the --wrap option, Python wrap=; ModelOverrides::wrap). A setting of the evaluation, not
+  /// of the file: URDFs do not store it, and a description read from one has kOpenSim.
+  WrapMode wrap_mode = WrapMode::kOpenSim;
 };
 
 /// The coordinate called `name`.

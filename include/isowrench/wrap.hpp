@@ -35,8 +35,8 @@
 
 namespace isowrench {
 
-/// How wrapped paths are computed (see the file comment).
-enum class WrapMode { kOpenSim, kExact };
+// WrapMode (how wrapped paths are computed: kOpenSim, kExact) is in isowrench/model.hpp, as
+// LimbDescription::wrap_mode.
 
 /// "opensim" or "exact".
 const char* WrapModeName(WrapMode mode);
@@ -59,8 +59,8 @@ enum WrapStatus : unsigned {
   kWrapBelowStraightLine = 1u << 0,
   /// An iteration stopped at its limit: OpenSim's cylinder tangent adjustment (100 restarts),
   /// the ellipsoid's tangent-point solve (50 iterations) or closest point (64), the torus's
-  /// lmdif (500 evaluations), the multi-wrap passes (8 without two lengths within 0.5 mm), or
-  /// the exact geodesic solve.
+  /// lmdif (500 evaluations), the multi-wrap passes (8 without two lengths within 0.5 mm; exact
+  /// mode: 200 without two within 1e-13 m), or the exact geodesic solve.
   kWrapNotConverged = 1u << 1,
   /// OpenSim's arc is negative (a constrained sphere wrapped the far side: WrapSphere::wrapLine
   /// gives -(2 pi - angle) R); the length sums it as OpenSim does.
@@ -185,9 +185,5 @@ void ComputeWrappedPath(const WrapPathInput& input, WrapMode mode, WrappedPath& 
 /// wraps naming existing objects, ranges inside the path (1-based, -1 = end, first <= last).
 /// Model construction calls it. @throws Error naming the model, the muscle and the object.
 void CheckWraps(const LimbDescription& description, const std::string& model_name);
-
-/// The one warning isowrench gives while the engine does not evaluate wraps yet (issue 27
-/// stage 2): "" when no muscle wraps, else a sentence naming the wrapping muscles.
-std::string WrapNotEvaluatedWarning(const LimbDescription& description);
 
 }  // namespace isowrench

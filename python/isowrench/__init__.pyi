@@ -1,7 +1,8 @@
 """Type stubs of the isowrench Python module (issue 15). Angles rad, lengths m, forces N,
 moments N m. See docs/python.md."""
 
-from typing import Any, Callable, Dict, List, Mapping, Optional, Sequence, Tuple, Union, overload
+from typing import (Any, Callable, Dict, List, Literal, Mapping, Optional, Sequence, Tuple, Union,
+                    overload)
 
 import numpy as np
 import numpy.typing as npt
@@ -75,6 +76,8 @@ class Model:
     def leg_length_m(self) -> float: ...
     @property
     def locked(self) -> List[str]: ...
+    @property
+    def wrap(self) -> Literal["opensim", "exact"]: ...
     def kinematics(self, q: Posture = None) -> Dict[str, Any]: ...
     def wrench(self, muscle: str, q: Posture = None, transducer: Transducer = None,
                released: Released = None, activation: float = 1.0,
@@ -93,7 +96,8 @@ class Model:
     def with_overrides(self, released: Released = None, transducer: Transducer = None,
                        base_stiffness: Optional[float] = None,
                        joint_stiffness: Dict[str, float] = ...,
-                       locked: Locked = None) -> "Model": ...
+                       locked: Locked = None,
+                       wrap: Optional[Literal["opensim", "exact"]] = None) -> "Model": ...
     def diagnose(self, muscle: str, q: Posture = None, large_deflection: bool = True,
                  transducer: Transducer = None, released: Released = None,
                  locked: Locked = None) -> Dict[str, Any]: ...
@@ -112,7 +116,8 @@ class Model:
                          spec: Optional[Union[str, Mapping[str, Any]]] = None,
                          from_fit: Optional[str] = None) -> str: ...
 
-def load(path: str, clamp_body: Optional[str] = None, endpoint_body: Optional[str] = None) -> Model: ...
+def load(path: str, clamp_body: Optional[str] = None, endpoint_body: Optional[str] = None,
+         wrap: Optional[Literal["opensim", "exact"]] = None) -> Model: ...
 
 def simulate(model: Model, path: str, effects: Sequence[str] = ..., trials: Optional[int] = None,
              seed: int = 1, noise_force: float = 0.002, noise_moment: float = 5e-5,

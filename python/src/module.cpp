@@ -36,6 +36,7 @@
 #include "isowrench/statics.hpp"
 #include "isowrench/trial_csv.hpp"
 #include "isowrench/uncertainty.hpp"
+#include "isowrench/wrap.hpp"
 
 namespace py = pybind11;
 
@@ -202,15 +203,15 @@ std::shared_ptr<PyModel> Variant(const std::shared_ptr<PyModel>& m, const py::ob
 }
 
 std::shared_ptr<PyModel> LoadUnflushed(const std::string& path, const py::object& clamp,
-                                       const py::object& endpoint);
+                                       const py::object& endpoint, const py::object& wrap);
 
 std::shared_ptr<PyModel> Load(const std::string& path, const py::object& clamp,
-                              const py::object& endpoint) {
-  return Flushing([&] { return LoadUnflushed(path, clamp, endpoint); });
+                              const py::object& endpoint, const py::object& wrap) {
+  return Flushing([&] { return LoadUnflushed(path, clamp, endpoint, wrap); });
 }
 
 std::shared_ptr<PyModel> LoadUnflushed(const std::string& path, const py::object& clamp,
-                                       const py::object& endpoint) {
+                                       const py::object& endpoint, const py::object& wrap) {
   if (!std::filesystem::exists(path)) ThrowFileNotFound(path);
   OpenSimImportOptions options;
   const bool osim = std::filesystem::path(path).extension() == ".osim";
@@ -226,7 +227,12 @@ std::shared_ptr<PyModel> LoadUnflushed(const std::string& path, const py::object
   }
   // The library's loader (isowrench/frontend.hpp), as the CLI's; its warnings are queued and
   // raised as UserWarnings by Load.
-  return std::make_shared<PyModel>(Model(LoadLimb(path, osim ? &options : nullptr)), path);
+  // wrap= is the CLI's --wrap (ModelOverrides::wrap, applied by the library's ApplyOverrides).
+  ModelOverrides overrides;
+  if (!wrap.is_none()) overrides.wrap = ParseWrapMode(wrap.cast<std::string>());
+  return std::make_shared<PyModel>(Model(ApplyOverrides(LoadLimb(path, osim ? &options : nullptr),
+                                                        overrides, OptionStyle::kPython)),
+                                   path);
 }
 
 py::array_t<double> Array(const Eigen::VectorXd& v) {
@@ -1066,6 +1072,13 @@ PYBIND11_MODULE(_core, mod) {
       .def_property_readonly(
           "path", [](const PyModel& m) { return m.path; }, "The file it was loaded from.")
       .def_property_readonly(
+          "wrap",
+          [](const PyModel& m) {
+            return std::string(WrapModeName(m.model.description().wrap_mode));
+          },
+          "How wrapping muscles get lengths and moment arms: 'opensim' or 'exact' (load(wrap=), "
+          "with_overrides(wrap=)).")
+      .def_property_readonly(
           "coordinates", [](const PyModel& m) { return m.model.joint_names(); },
           "Independent coordinate names in column order (the Jacobian's columns, a posture's "
           "entries).")
@@ -1182,13 +1195,15 @@ PYBIND11_MODULE(_core, mod) {
           "with_overrides",
           [](const std::shared_ptr<PyModel>& m, const py::object& released,
              const py::object& transducer, const py::object& base_stiffness,
-             const std::map<std::string, double>& joint_stiffness, const py::object& locked) {
+             const std::map<std::string, double>& joint_stiffness, const py::object& locked,
+             const py::object& wrap) {
             // The library's overrides (isowrench/frontend.hpp ApplyOverrides), as the CLI's
             // --release, --transducer(-stiffness), --base-stiffness, --joint-stiffness and
             // --lock (last, as the CLI applies it, so that it can name the base dofs).
             std::shared_ptr<PyModel> v = Variant(m, transducer, released);
             ModelOverrides overrides;
             if (!base_stiffness.is_none()) overrides.base_stiffness = base_stiffness.cast<double>();
+            if (!wrap.is_none()) overrides.wrap = ParseWrapMode(wrap.cast<std::string>());
             for (const auto& [joint, k] : joint_stiffness) {
               overrides.joint_stiffness.emplace_back(joint, k);
             }
@@ -1202,12 +1217,13 @@ PYBIND11_MODULE(_core, mod) {
           py::arg("released") = py::none(), py::arg("transducer") = py::none(),
           py::arg("base_stiffness") = py::none(),
           py::arg("joint_stiffness") = std::map<std::string, double>{},
-          py::arg("locked") = py::none(),
+          py::arg("locked") = py::none(), py::arg("wrap") = py::none(),
           "with_overrides(released=None, transducer=None, base_stiffness=None, "
-          "joint_stiffness={}, locked=None) -> Model\n\n"
+          "joint_stiffness={}, locked=None, wrap=None) -> Model\n\n"
           "A new Model with the overrides the CLI's --release, --transducer / "
           "--transducer-stiffness, --base-stiffness (N/m; inserts base_x/y/z when the limb has "
-          "none), --joint-stiffness {coordinate: N·m/rad or N/m} and --lock [coordinates] apply, "
+          "none), --joint-stiffness {coordinate: N·m/rad or N/m}, --lock [coordinates] and "
+          "--wrap ('opensim' or 'exact': how wrapping muscles get lengths and moment arms) apply, "
           "through the same "
           "library function (ApplyOverrides). The model itself is unchanged.\n"
           "Raises ValueError naming the keyword and the value (a negative or huge stiffness, an "
@@ -1278,12 +1294,13 @@ Returns {'verdict', 'verdict_message', 'effects_claimed', 'chosen': [{'id', 'par
 'indistinguishable', 'notes', 'report' (text), 'seconds'}. The GIL is released while fitting.
 Raises ValueError for bad options (a negative count, an unknown loss or effect id) or data.)");
   mod.def("load", &Load, py::arg("path"), py::arg("clamp_body") = py::none(),
-          py::arg("endpoint_body") = py::none(),
-          "load(path, clamp_body=None, endpoint_body=None) -> Model\n\n"
+          py::arg("endpoint_body") = py::none(), py::arg("wrap") = py::none(),
+          "load(path, clamp_body=None, endpoint_body=None, wrap=None) -> Model\n\n"
           "Read a limb model: a URDF with isowrench extension tags, or an OpenSim .osim (then "
           "clamp_body and "
           "endpoint_body are required, as for `isowrench import`; import warnings become "
-          "UserWarnings).\n"
+          "UserWarnings). wrap: 'opensim' (default: OpenSim 4.x's wrapping algorithms and "
+          "moment arms) or 'exact' (shortest paths, moment arm = -dL/dq), the CLI's --wrap.\n"
           "Raises FileNotFoundError for a missing file and ValueError (with file and line) for a "
           "bad model.");
   auto model_class =

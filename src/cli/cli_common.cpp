@@ -5,11 +5,14 @@
 #include <iostream>
 
 #include "cli/command.hpp"
+#include "isowrench/engine.hpp"
 #include "isowrench/error.hpp"
 #include "isowrench/frontend.hpp"
 #include "isowrench/input_checks.hpp"
 #include "isowrench/io.hpp"
+#include "isowrench/kinematics.hpp"
 #include "isowrench/posture.hpp"
+#include "isowrench/wrap.hpp"
 
 namespace isowrench::cli {
 
@@ -42,6 +45,14 @@ void AddSheetOptions(CLI::App& app, TrialSheetOptions& sheet, const std::string&
       ->check(CLI::NonNegativeNumber);
 }
 
+void AddWrapOption(CLI::App& app, std::string& wrap) {
+  app.add_option("--wrap", wrap,
+                 "How muscles that wrap over wrap objects get their length and moment arms: "
+                 "opensim (default; OpenSim 4.x's algorithms and moment arms) or exact (the "
+                 "shortest path on the side OpenSim chooses; moment arm = -dL/dq)")
+      ->check(CLI::IsMember({"opensim", "exact"}));
+}
+
 void AddModelOptions(CLI::App& app, ModelOptions& o, bool with_muscle) {
   app.add_option("urdf", o.urdf,
                  "Limb URDF with isowrench extension tags (e.g. urdf/rat_hindlimb_5dof.urdf)")
@@ -71,6 +82,7 @@ void AddModelOptions(CLI::App& app, ModelOptions& o, bool with_muscle) {
                  "coord,coord,...; 'none' locks nothing")
       ->delimiter(',')
       ->each([&o](const std::string&) { o.lock_given = true; });
+  AddWrapOption(app, o.wrap);
   if (with_muscle) {
     app.add_option("--muscle", o.muscle, "Muscle name (default: the first muscle in the URDF)");
     app.add_option("--activation", o.activation,
@@ -97,6 +109,7 @@ ModelOverrides Overrides(const ModelOptions& o) {
     overrides.joint_stiffness.push_back(ParseAssignment(item, "--joint-stiffness"));
   }
   if (o.lock_given) overrides.locked = o.lock;
+  if (!o.wrap.empty()) overrides.wrap = ParseWrapMode(o.wrap);
   return overrides;
 }
 
@@ -120,6 +133,38 @@ std::string ChooseMuscle(const Model& model, const ModelOptions& o) {
   if (model.muscle_count() == 0)
     throw Error("model '" + model.name() + "' has no <isowrench:muscle>");
   return model.muscle(0).name;
+}
+
+nlohmann::json MuscleWrapJson(const Model& model, const Eigen::VectorXd& q, int muscle) {
+  const MuscleSpec& spec = model.muscle(muscle);
+  if (spec.wraps.empty()) return nullptr;
+  Data ws(model);
+  const WrappedPath path = MuscleWrappedPath(model, ws, q, muscle);
+  nlohmann::json wraps = nlohmann::json::array();
+  for (size_t k = 0; k < spec.wraps.size(); ++k) {
+    wraps.push_back({{"object", spec.wraps[k].object},
+                     {"wrapped", path.wraps[k].wrapped},
+                     {"arc_m", path.wraps[k].wrapped ? path.wraps[k].arc_length : 0.0}});
+  }
+  return {{"mode", WrapModeName(model.description().wrap_mode)},
+          {"wraps", wraps},
+          {"warning", WrapStatusText(path.status)}};
+}
+
+std::string MuscleWrapText(const nlohmann::json& wrap) {
+  if (wrap.is_null()) return "";
+  std::string text = "wrap (" + wrap["mode"].get<std::string>() + "):";
+  for (const auto& w : wrap["wraps"]) {
+    text += " " + w["object"].get<std::string>() +
+            (w["wrapped"].get<bool>()
+                 ? " wraps, arc " + util::FormatNumber(w["arc_m"].get<double>() * 1e3, 4) + " mm"
+                 : " does not wrap");
+    text += ";";
+  }
+  text.pop_back();
+  const std::string warning = wrap["warning"].get<std::string>();
+  if (!warning.empty()) text += "; warning: " + warning;
+  return text;
 }
 
 std::string Cell(double value, int width) {

@@ -44,6 +44,7 @@ struct ModelOptions {
   std::vector<std::string> joint_stiffness;  ///< "joint=value"
   std::vector<std::string> lock;             ///< locked coordinates ("none" unlocks all)
   bool lock_given = false;
+  std::string wrap;    ///< --wrap: "opensim" or "exact" ("": the default, opensim)
   std::string muscle;  ///< empty = the first muscle
   double activation = 1.0;
   StaticsOptions statics;
@@ -56,6 +57,9 @@ void AddSheetOptions(CLI::App& app, TrialSheetOptions& sheet, const std::string&
 /// Add the shared options (positional <urdf> included) to a subcommand.
 void AddModelOptions(CLI::App& app, ModelOptions& options, bool with_muscle = true);
 
+/// --wrap opensim|exact into `wrap` (the commands that take no other model option call it too).
+void AddWrapOption(CLI::App& app, std::string& wrap);
+
 /// The overrides the options ask for (parsed with the library's parsers, isowrench/frontend.hpp).
 ModelOverrides Overrides(const ModelOptions& options);
 /// Load the limb (LoadLimb) and apply the overrides (ApplyOverrides). @throws isowrench::Error.
@@ -67,6 +71,14 @@ std::string ChooseMuscle(const Model& model, const ModelOptions& options);
 
 /// Number formatting for tables: fixed width, signed, 4 significant digits.
 std::string Cell(double value, int width = 11);
+
+/// Muscle `muscle`'s wraps at posture q (issue 27), for the reports: {"mode", "wraps": [{"object",
+/// "wrapped", "arc_m"}], "warning"} (warning: the WrapStatus bits in words, "" when none), or null
+/// when the muscle has no wraps.
+nlohmann::json MuscleWrapJson(const Model& model, const Eigen::VectorXd& q, int muscle);
+
+/// The same as one line of text ("wrap (opensim): knee_cyl wraps, arc 3.21 mm"), "" without wraps.
+std::string MuscleWrapText(const nlohmann::json& wrap);
 /// "[1e+07 1e+07 1e+07 N/m; 1e+07 1e+07 1e+07 N·m/rad]"
 std::string StiffnessText(const Vector6d& s_t);
 /// Header line "fx (N) fy (N) fz (N) mx (N·m) my (N·m) mz (N·m)" aligned with Cell().

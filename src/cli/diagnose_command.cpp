@@ -273,10 +273,14 @@ const bool kDiagnoseRegistered = RegisterCommand({
           }
           for (const std::string& muscle : muscles) {
             Diagnosis d = DiagnoseLimb(model, p.q, muscle, options);
+            // Which of the muscle's wraps engage here, and where one misbehaves (issue 27).
+            const nlohmann::json wrap = MuscleWrapJson(model, p.q, model.MuscleIndex(muscle));
             if (o->json) {
               jm.push_back(MuscleJson(d));
+              if (!wrap.is_null()) jm.back()["wrap"] = wrap;
             } else {
               PrintMuscle(d);
+              if (!wrap.is_null()) std::cout << "    " << MuscleWrapText(wrap) << "\n";
             }
             progress.Update(++done);
           }

@@ -11,6 +11,7 @@
 #include "isowrench/kinematics.hpp"
 #include "isowrench/posture.hpp"
 #include "isowrench/statics.hpp"
+#include "isowrench/wrap.hpp"
 #include "isowrench/wrap_report.hpp"
 
 namespace isowrench::cli {
@@ -22,6 +23,7 @@ struct KinematicsOptions {
   std::string postures_csv;
   bool json = false;
   bool wrap_modes = true;  // compare the opensim and exact wrap modes of wrapping muscles
+  std::string wrap;        // --wrap
 };
 
 /// Everything the command prints for one posture (SI units, world axes).
@@ -32,6 +34,7 @@ struct PostureKinematics {
   std::vector<double> length;                  // per muscle, m
   std::vector<Eigen::VectorXd> moment_arm;     // per muscle, -dL/dq
   std::vector<WrapModeDifference> wrap_modes;  // per wrapping muscle (wrap_report.hpp)
+  std::vector<unsigned> wrap_status;           // per muscle, WrapStatus bits (0: none or fine)
 };
 
 PostureKinematics EvaluatePosture(const Model& model, Data& ws, const Eigen::VectorXd& q,
@@ -44,6 +47,8 @@ PostureKinematics EvaluatePosture(const Model& model, Data& ws, const Eigen::Vec
     MuscleTorque t = ComputeMuscleTorque(model, ws, q, m);
     k.length.push_back(t.length);
     k.moment_arm.push_back(-t.dL_dq.transpose());
+    k.wrap_status.push_back(
+        model.muscle(m).wraps.empty() ? 0u : MuscleWrappedPath(model, ws, q, m).status);
   }
   if (wrap_modes) {
     for (int m : WrappingMuscles(model)) k.wrap_modes.push_back(CompareWrapModes(model, ws, q, m));
@@ -113,6 +118,9 @@ nlohmann::ordered_json Json(const Model& model, const std::vector<PostureKinemat
       const Eigen::VectorXd& r = k.moment_arm[m];
       muscles[model.muscle(m).name] = {{"length_m", k.length[m]},
                                        {"moment_arm_m", Values(r.data(), r.size())}};
+      if (k.wrap_status[m] != 0) {  // where a wrap misbehaves (WrapStatusText)
+        muscles[model.muscle(m).name]["wrap_warning"] = WrapStatusText(k.wrap_status[m]);
+      }
     }
     p["muscles"] = muscles;
     if (!k.wrap_modes.empty()) {
@@ -176,6 +184,8 @@ std::string Padded(const std::string& text, int width) {
 
 std::string Table(const Model& model, const std::vector<PostureKinematics>& results) {
   const int n = model.dof_count();
+  bool wraps = false;
+  for (int m = 0; m < model.muscle_count(); ++m) wraps = wraps || !model.muscle(m).wraps.empty();
   const int label = 10;
   std::ostringstream o;
   o << "model " << model.name() << ": " << n << " coordinates (columns), world axes";
@@ -206,13 +216,23 @@ std::string Table(const Model& model, const std::vector<PostureKinematics>& resu
       o << "\n";
     }
     if (model.muscle_count() == 0) continue;
-    o << "muscles: length (m) and moment arm -dL/dq about each coordinate\n"
-      << header << "  length (m)\n"
-      << units << "\n";
+    o << "muscles: length (m) and moment arm -dL/dq about each coordinate\n";
+    if (wraps) {
+      o << (model.description().wrap_mode == WrapMode::kExact
+                ? "(wrapping muscles: --wrap exact, shortest paths over the wrap objects)\n"
+                : "(wrapping muscles: --wrap opensim, OpenSim's paths and moment arms, which are "
+                  "-dL/dq only where OpenSim's path is a shortest path)\n");
+    }
+    o << header << "  length (m)\n" << units << "\n";
     for (int m = 0; m < model.muscle_count(); ++m) {
       o << Padded(model.muscle(m).name, label);
       for (int c = 0; c < n; ++c) o << Cell(k.moment_arm[m][c]);
       o << Cell(k.length[m], 12) << "\n";
+    }
+    for (int m = 0; m < model.muscle_count(); ++m) {
+      if (k.wrap_status[m] == 0) continue;
+      o << "  " << model.muscle(m).name << ": wrap (" << WrapModeName(model.description().wrap_mode)
+        << "): " << WrapStatusText(k.wrap_status[m]) << "\n";
     }
     o << WrapModeLines(model, k.wrap_modes);
   }
@@ -240,17 +260,21 @@ const bool kKinematicsRegistered = RegisterCommand({
       app.add_flag(
           "--json", options->json,
           "Print {\"coordinates\": [...], \"postures\": [{\"endpoint_m\", \"jacobian\" (6 rows), "
-          "\"muscles\": {name: {\"length_m\", \"moment_arm_m\"}}, and for wrapping muscles "
+          "\"muscles\": {name: {\"length_m\", \"moment_arm_m\"[, \"wrap_warning\"]}}, and for "
+          "wrapping muscles "
           "\"wrap_modes\": {name: {\"length_opensim_m\", \"length_exact_m\", "
           "\"length_difference_mm\", \"moment_arm_difference_mm\", "
           "\"moment_arm_difference_coordinate\", \"wraps_engaged\", \"opensim_misbehaves\"}}}]} "
-          "in SI units (differences in mm), world axes");
+          "in SI units (differences in mm), world axes; wrap_warning where a wrap of the muscle "
+          "misbehaves in the --wrap mode");
       app.add_flag("!--no-wrap-modes", options->wrap_modes,
                    "Leave out the opensim-versus-exact comparison of wrapping muscles (about 10 ms "
                    "per posture on the imported rat hindlimb's 22 wrapping muscles)");
+      AddWrapOption(app, options->wrap);
       return [options]() {
         ModelOptions load;
         load.urdf = options->urdf;
+        load.wrap = options->wrap;
         Model model = LoadModel(load);
         Eigen::VectorXd base = model.nominal_posture();
         for (const std::string& assignment : options->posture) {

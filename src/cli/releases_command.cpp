@@ -200,6 +200,8 @@ const bool kReleasesRegistered = RegisterCommand({
           bool first = true;
           for (const std::string& muscle : muscles) {
             ReleaseComparison c = CompareReleases(model, p.q, muscle, candidates, options);
+            // Which of the muscle's wraps engage here, and where one misbehaves (issue 27).
+            const nlohmann::json wrap = MuscleWrapJson(model, p.q, model.MuscleIndex(muscle));
             if (o->json) {
               nlohmann::json list = nlohmann::json::array();
               for (const ReleaseAssessment& a : c.candidates)
@@ -215,6 +217,7 @@ const bool kReleasesRegistered = RegisterCommand({
                         : nlohmann::json(nullptr)},
                    {"release_needed", c.release_needed},
                    {"recommendation", c.recommendation}});
+              if (!wrap.is_null()) jm.back()["wrap"] = wrap;
               if (first) {
                 jsweep = {{"length_scale_m", c.length_scale},
                           {"locked", locked},
@@ -239,8 +242,9 @@ const bool kReleasesRegistered = RegisterCommand({
                             << util::Join(locked, ", ") << "\n";
                 }
               }
-              std::cout << "\n  muscle " << muscle << ":\n"
-                        << "  rank candidate              kind        axis (world)                "
+              std::cout << "\n  muscle " << muscle << ":\n";
+              if (!wrap.is_null()) std::cout << "  " << MuscleWrapText(wrap) << "\n";
+              std::cout << "  rank candidate              kind        axis (world)                "
                            "margin  rank    "
                            "internal  spread (%)  verdict\n";
               PrintRow(c.baseline);

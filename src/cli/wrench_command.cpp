@@ -223,10 +223,15 @@ const bool kWrenchRegistered = RegisterCommand({
         Eigen::VectorXd q = LoadPosture(model, *options);
         WrenchEvaluation e = EvaluateWrench(model, q, ChooseMuscle(model, *options),
                                             options->activation, options->statics);
+        // Where the muscle wraps (issue 27): which wraps engage, and where one misbehaves.
+        const nlohmann::json wrap = MuscleWrapJson(model, q, model.MuscleIndex(e.muscle));
         if (*json) {
-          std::cout << EvaluationJson(model, e, options->urdf).dump(2) << "\n";
+          nlohmann::json out = EvaluationJson(model, e, options->urdf);
+          if (!wrap.is_null()) out["muscle"]["wrap"] = wrap;
+          std::cout << out.dump(2) << "\n";
         } else {
           PrintEvaluation(model, e, options->urdf);
+          if (!wrap.is_null()) std::cout << "  " << MuscleWrapText(wrap) << "\n";
         }
         return e.statics.status == StaticsStatus::kSelfMotion ? 4 : 0;
       };

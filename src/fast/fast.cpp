@@ -235,6 +235,11 @@ Data::Impl::Impl(const WorkspaceSize& s, const FlatChain* chain)
       size(s),
       m(s.columns) {
   J.setZero(6, m);
+  if (chain != nullptr) {
+    for (const FastMuscle& muscle : chain->muscles) {
+      if (!muscle.wraps.empty()) wrap = std::make_unique<WrapWorkspace>();
+    }
+  }
 }
 
 Data::Impl::~Impl() = default;

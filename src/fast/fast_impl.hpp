@@ -114,6 +114,18 @@ struct WorkspaceSize {
   }
 };
 
+/// The buffers of a wrapped muscle's path (src/fast/path_points.cpp, WrappedPathPulls): the input
+/// of ComputeWrappedPath for the last wrapped muscle evaluated (its constant parts, the wraps'
+/// surfaces and ranges, copied when another muscle comes), and its result. A Data of a model
+/// with wraps makes it at construction; after the first evaluation of a muscle, further
+/// evaluations of it do not allocate.
+struct WrapWorkspace {
+  std::uint64_t chain_id = 0;          ///< FlatChain::id of `muscle`
+  const FastMuscle* muscle = nullptr;  ///< whose wraps `input` holds
+  WrapPathInput input;
+  WrappedPath path;  ///< the last wrapped muscle's path (points and tangent points in world)
+};
+
 /// The part of the scalar workspace that every shape has, and the views of the results for the
 /// code outside the kernel (src/fast/kernel.hpp describes what the kernel needs; it reads the
 /// derived shapes' own arrays, SmallWorkspace hiding these views by the same names).
@@ -196,6 +208,9 @@ struct Data::Impl {
   Buffer<int> active;
   int active_count = 0;
   Buffer<double> moving_slope;
+  /// Muscles with wraps (FastMuscle::wraps): their path's buffers (made with the Data when its
+  /// model has a wrap, else at the first wrapped muscle).
+  std::unique_ptr<WrapWorkspace> wrap;
 
  protected:
   /// Called by the derived constructors once their buffers exist: the Maps over them.
@@ -273,6 +288,19 @@ void PreparePathPoints(const FastMuscle& muscle, const double* q, Data::Impl& ws
 /// The kernel's segment step over the active points only: unit directions, pulls (0 at
 /// inactive points) and the length. Returns false when two consecutive active points coincide.
 bool ActivePathPulls(Data::Impl& ws, double* length);
+/// The same for a muscle with wraps (chain: the muscle's, for WrapWorkspace): the wrapped path
+/// (ComputeWrappedPath in the muscle's WrapMode) over the active points, whose pulls it writes,
+/// and each wrap's tangent points and pulls into its two slots (zero pulls when it does not
+/// wrap); the slots' positions and frame rotations on entry give X_W_S. Returns false when two
+/// consecutive active points coincide.
+bool WrappedPathPulls(const FlatChain& chain, const FastMuscle& muscle, Data::Impl& ws,
+                      double* length);
+/// ActivePathPulls, or WrappedPathPulls for a muscle with wraps (the kernel's kDynamic step).
+inline bool DynamicPathPulls(const FlatChain& chain, const FastMuscle& muscle, Data::Impl& ws,
+                             double* length) {
+  if (muscle.wraps.empty()) return ActivePathPulls(ws, length);
+  return WrappedPathPulls(chain, muscle, ws, length);
+}
 /// After the kernel (dL and tau in coordinate columns): dL/dq_c += pull_i . R_i direction df/dq_c
 /// for every moving component, and tau = minus_force dL.
 void AddMovingPointTerms(const FastMuscle& muscle, Data::Impl& ws, double minus_force);

@@ -445,7 +445,7 @@ ISOWRENCH_INLINE void Kinematics(const FlatChain& d, W& ws, const T* q, const Fa
   T total_length = zero;
   if constexpr (kDynamic) {
     double length = 0.0;
-    coincident = !ActivePathPulls(ws, &length);
+    coincident = !DynamicPathPulls(d, mu, ws, &length);
     total_length = length;
   } else {
     V3 before = Zero3<T>();  // u_{i-1}; zero before the origin

@@ -9,6 +9,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <memory>
 
 #include "fast/fast_impl.hpp"
 
@@ -25,7 +26,7 @@ void PreparePathPoints(const FastMuscle& muscle, const double* q, Data::Impl& ws
     ws.moving_slope[j] = inside ? c.function.Derivative(x) : 0.0;
   }
   ws.active_count = 0;
-  for (int i = 0; i < n; ++i) {
+  for (int i = 0; i < muscle.path_points; ++i) {  // (not the wraps' tangent-point slots)
     const FastPathPoint& p = muscle.points[i];
     if (p.active_column < 0 ||
         (q[p.active_column] >= p.active_lower && q[p.active_column] <= p.active_upper)) {
@@ -57,6 +58,54 @@ bool ActivePathPulls(Data::Impl& ws, double* length) {
   }
   ws.pulls[ws.active[ws.active_count - 1]] = FromEigen(before);
   *length = total;
+  return true;
+}
+
+bool WrappedPathPulls(const FlatChain& chain, const FastMuscle& muscle, Data::Impl& ws,
+                      double* length) {
+  if (!ws.wrap) ws.wrap = std::make_unique<WrapWorkspace>();  // (a Data of another model)
+  WrapWorkspace& w = *ws.wrap;
+  WrapPathInput& in = w.input;
+  const int n = muscle.path_points;
+  const int n_wraps = static_cast<int>(muscle.wraps.size());
+  if (w.muscle != &muscle || w.chain_id != chain.id) {  // this muscle's wraps
+    w.muscle = &muscle;
+    w.chain_id = chain.id;
+    in.points.resize(static_cast<size_t>(n));
+    in.active.resize(static_cast<size_t>(n));
+    in.wraps.resize(static_cast<size_t>(n_wraps));
+    for (int j = 0; j < n_wraps; ++j) in.wraps[j] = muscle.wraps[j].wrap;
+  }
+  // The active points (a coincident pair: no path, as ActivePathPulls).
+  std::fill(in.active.begin(), in.active.end(), 0);
+  for (int k = 0; k < ws.active_count; ++k) {
+    const int i = ws.active[k];
+    in.active[i] = 1;
+    if (k > 0 &&
+        !(ToEigen(ws.points[i] - ws.points[ws.active[k - 1]]).norm() >= kFastMinSegmentLength)) {
+      *length = 0.0;
+      return false;
+    }
+  }
+  for (int i = 0; i < n; ++i) in.points[i] = ToEigen(ws.points[i]);
+  for (int j = 0; j < n_wraps; ++j) {  // X_W_S from the first slot's frame
+    const FastWrap& f = muscle.wraps[j];
+    Eigen::Isometry3d& X = in.wraps[j].X_W_S;
+    X.linear() = ToEigen(ws.point_rotation[f.slot].data()) * f.rotation;
+    X.translation() = ToEigen(ws.points[f.slot]);
+  }
+  WrappedPath& out = w.path;
+  ComputeWrappedPath(in, muscle.wrap_mode, out);
+  for (int i = 0; i < n; ++i) ws.pulls[i] = FromEigen(out.point_pull[i]);
+  for (int j = 0; j < n_wraps; ++j) {
+    const int slot = muscle.wraps[j].slot;
+    const WrappedPath::Wrap& r = out.wraps[j];
+    ws.points[slot] = FromEigen(r.r1);
+    ws.points[slot + 1] = FromEigen(r.r2);
+    ws.pulls[slot] = r.wrapped ? FromEigen(r.pull_r1) : Zero3<double>();
+    ws.pulls[slot + 1] = r.wrapped ? FromEigen(r.pull_r2) : Zero3<double>();
+  }
+  *length = out.length;
   return true;
 }
 

@@ -36,7 +36,7 @@ LimbDescription LoadLimb(const std::string& path, const OpenSimImportOptions* os
 
 bool ModelOverrides::empty() const {
   return !released && transducer_preset.empty() && !transducer_stiffness && !base_stiffness &&
-         joint_stiffness.empty() && !locked;
+         joint_stiffness.empty() && !locked && !wrap;
 }
 
 LimbDescription ApplyOverrides(LimbDescription d, const ModelOverrides& o, OptionStyle style) {
@@ -92,6 +92,7 @@ LimbDescription ApplyOverrides(LimbDescription d, const ModelOverrides& o, Optio
     }
     naming(lock, [&] { d = WithLockedCoordinates(std::move(d), names); });
   }
+  if (o.wrap) d.wrap_mode = *o.wrap;
   // A new override: one line here, in the order of ModelOverrides' fields.
   return d;
 }

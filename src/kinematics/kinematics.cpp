@@ -95,7 +95,7 @@ std::vector<Eigen::Vector3d> MusclePathPoints(const Model& model, Data& ws,
   }
   Data::Impl& b = RunKinematics(model, ws, q, -1, 1.0, true);
   const FastMuscle& mu = model.impl().flat.muscles[muscle_index];
-  const int n = static_cast<int>(mu.points.size());
+  const int n = mu.path_points;  // (not the wraps' tangent-point slots)
   if (mu.dynamic) PreparePathPoints(mu, q.data(), b);
   std::vector<Eigen::Vector3d> out;
   for (int k = 0; k < (mu.dynamic ? b.active_count : n); ++k) {
@@ -104,6 +104,31 @@ std::vector<Eigen::Vector3d> MusclePathPoints(const Model& model, Data& ws,
     const int f = mu.points[i].frame;
     out.push_back(f < 0 ? local : Eigen::Vector3d(b.Frame(f) * local + ToEigen(b.origin[f])));
   }
+  return out;
+}
+
+WrappedPath MuscleWrappedPath(const Model& model, Data& ws, const Eigen::VectorXd& q,
+                              int muscle_index) {
+  if (muscle_index < 0 || muscle_index >= model.muscle_count()) {
+    throw Error("muscle index " + std::to_string(muscle_index) + " is out of range for model '" +
+                model.name() + "'");
+  }
+  const Data::Impl& b = RunKinematics(model, ws, q, muscle_index, 1.0, true);
+  const FastMuscle& mu = model.impl().flat.muscles[muscle_index];
+  if (!mu.wraps.empty()) return b.wrap->path;  // (WrappedPathPulls ran for this muscle)
+  WrappedPath out;
+  out.length = b.length;
+  out.point_pull.assign(static_cast<size_t>(mu.path_points), Eigen::Vector3d::Zero());
+  const int n = mu.dynamic ? b.active_count : mu.path_points;
+  for (int k = 0; k < n; ++k) {
+    const int i = mu.dynamic ? b.active[k] : k;
+    WrappedPath::Element e;
+    e.point = i;
+    e.position = ToEigen(b.points[i]);
+    out.elements.push_back(e);
+    out.point_pull[static_cast<size_t>(i)] = ToEigen(b.pulls[i]);
+  }
+  out.passes = 1;
   return out;
 }
 

@@ -17,7 +17,6 @@
 #include "model/function_impl.hpp"
 #include "model/model_impl.hpp"
 #include "util/text.hpp"
-#include "wrap/wrap_impl.hpp"
 
 namespace isowrench {
 namespace {
@@ -343,8 +342,10 @@ FlatChain Compile(const LimbDescription& d) {
     owned[c] = owned[c] || owner[static_cast<size_t>(k)];
     driven += owner[static_cast<size_t>(k)] ? 0 : 1;
   }
-  std::size_t max_points = 0;
-  for (const MuscleSpec& spec : d.muscles) max_points = std::max(max_points, spec.path.size());
+  std::size_t max_points = 0;  // (a muscle's points: its path points and two per wrap)
+  for (const MuscleSpec& spec : d.muscles) {
+    max_points = std::max(max_points, spec.path.size() + 2 * spec.wraps.size());
+  }
   flat.large = flat.m > kSmallJoints || flat.n > kSmallJoints ||
                kSmallJoints + driven > kSmallSlots || max_points > kSmallPoints;
   flat.stride = flat.large ? RoundUpTo4(flat.n) : kSmallJoints;
@@ -404,6 +405,35 @@ FlatChain Compile(const LimbDescription& d) {
       if (point.frame < 0) muscle.ground_points.push_back(static_cast<int>(muscle.points.size()));
       muscle.points.push_back(point);
     }
+    muscle.path_points = static_cast<int>(muscle.points.size());
+    // Wraps (issue 27): two tangent-point slots each, points of the wrap object's frame at the
+    // origin of S (FastWrap).
+    muscle.wrap_mode = d.wrap_mode;
+    for (const PathWrapSpec& w : spec.wraps) {
+      const auto object =
+          std::find_if(d.wrap_objects.begin(), d.wrap_objects.end(),
+                       [&w](const WrapObjectSpec& o) { return o.name == w.object; });
+      const LinkFrame& link = flat.links.at(object->link);  // (CheckWraps: both exist)
+      const Eigen::Isometry3d X_frame_S = link.offset * object->Pose();
+      FastWrap fw;
+      fw.wrap.surface = WrapSurface::From(*object);
+      fw.wrap.first = w.range_first < 1 ? 0 : w.range_first - 1;
+      fw.wrap.last = w.range_last < 1 ? muscle.path_points - 1 : w.range_last - 1;
+      fw.wrap.method = w.method;
+      fw.wrap.active = object->active;
+      fw.wrap.object = static_cast<int>(object - d.wrap_objects.begin());
+      fw.slot = static_cast<int>(muscle.points.size());
+      fw.rotation = X_frame_S.linear();
+      FastPathPoint slot;
+      slot.frame = link.frame;
+      slot.position = X_frame_S.translation();
+      for (int e = 0; e < 2; ++e) {
+        if (slot.frame < 0) muscle.ground_points.push_back(static_cast<int>(muscle.points.size()));
+        muscle.points.push_back(slot);
+      }
+      muscle.wraps.push_back(fw);
+      muscle.dynamic = true;
+    }
     // Point groups {frame, count, indices} for the kernel's joint loops (FastMuscle).
     std::vector<std::vector<int>> by_frame(static_cast<size_t>(flat.m));
     for (size_t k = 0; k < muscle.points.size(); ++k) {
@@ -434,7 +464,6 @@ Model::Model(LimbDescription description) {
   description = NormalizeCoordinates(std::move(description));
   Validate(description);
   CheckWraps(description, "model '" + description.name + "'");  // src/wrap (issue 27)
-  wrap_impl::WarnWrapsNotEvaluatedOnce(description);
   auto impl = std::make_shared<Impl>();
   impl->flat = Compile(description);
   for (const CoordinateSpec& c : description.coordinates) {

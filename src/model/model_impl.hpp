@@ -11,6 +11,7 @@
 
 #include "isowrench/function.hpp"
 #include "isowrench/model.hpp"
+#include "isowrench/wrap.hpp"
 #include "model/function_impl.hpp"
 
 namespace isowrench {
@@ -63,10 +64,30 @@ struct FastMovingComponent {
   double lower = 0.0, upper = 0.0;                      ///< the coordinate's range (rad or m)
 };
 
+/// One wrap of a muscle (MuscleSpec::wraps entry), compiled: the surface, its resolved range and
+/// the two tangent-point slots it owns among the muscle's points. The slots are points of the
+/// wrap object's frame (FastMuscle::points[slot], [slot + 1]) placed at the origin of S: the
+/// kernel's forward loop gives their world position and frame rotation (X_W_S, with `rotation`),
+/// the wrap (src/fast/path_points.cpp, WrappedPathPulls) puts the tangent points r1, r2 and their
+/// pulls there, and the backward sweep adds them to the joints proximal to the wrap's link: the
+/// tangent points held fixed in S (include/isowrench/wrap.hpp, "Moment arms").
+struct FastWrap {
+  WrapPathWrap wrap;  ///< surface, range (0-based), method, active, object; X_W_S set per posture
+  int slot = 0;       ///< r1 at points[slot], r2 at points[slot + 1]
+  Eigen::Matrix3d rotation = Eigen::Matrix3d::Identity();  ///< R of S in the slots' frame
+};
+
 struct FastMuscle {
   double max_force = 0.0;
+  /// Path points (MuscleSpec::path order), then two tangent-point slots per wrap (FastWrap).
   std::vector<FastPathPoint> points;  ///< path order
-  std::vector<int> ground_points;     ///< the points on ground (frame -1)
+  /// The muscle's path points (MuscleSpec::path.size()): points[0 .. path_points - 1].
+  int path_points = 0;
+  /// Its wraps (MuscleSpec::wraps order); non-empty makes the muscle `dynamic`.
+  std::vector<FastWrap> wraps;
+  /// How its wraps are computed (LimbDescription::wrap_mode).
+  WrapMode wrap_mode = WrapMode::kOpenSim;
+  std::vector<int> ground_points;  ///< the points on ground (frame -1)
   /// The points of each frame for the kernel's two joint loops: groups {frame, count, the
   /// count point indices} for the frames that have points (ground points left out), in
   /// ascending frame order ended by the sentinel frame FlatChain::m (forward_points) and in

@@ -137,16 +137,29 @@ Vector6d FemurRemovedWrench(const Model& model, const Eigen::VectorXd& q,
     w_world.head<3>() += f;
     w_world.tail<3>() += (at - endpoint).cross(f);
   };
-  for (size_t i = 1; i < muscle.path.size(); ++i) {
-    const PathPoint& a = muscle.path[i - 1];
-    const PathPoint& b = muscle.path[i];
-    Eigen::Vector3d pa = PointPosition(model, ws, q, a.link, a.position);
-    Eigen::Vector3d pb = PointPosition(model, ws, q, b.link, b.position);
-    Eigen::Vector3d u = (pb - pa).normalized();  // from a toward b
+  // The engine's path (moving and conditional points, and wraps: a tangent point is a point of
+  // its wrap object's link; the arc between a wrap's two tangent points pulls nothing).
+  const int index = model.MuscleIndex(muscle_name);
+  const WrappedPath path = MuscleWrappedPath(model, ws, q, index);
+  auto link_of = [&](const WrappedPath::Element& e) -> const std::string& {
+    if (e.point >= 0) return muscle.path[static_cast<size_t>(e.point)].link;
+    const std::string& object = muscle.wraps[static_cast<size_t>(e.wrap)].object;
+    for (const WrapObjectSpec& w : model.description().wrap_objects) {
+      if (w.name == object) return w.link;
+    }
+    throw Error("muscle '" + muscle.name + "': no wrap object '" + object + "'");
+  };
+  for (size_t i = 1; i < path.elements.size(); ++i) {
+    const WrappedPath::Element& a = path.elements[i - 1];
+    const WrappedPath::Element& b = path.elements[i];
+    if (a.wrap >= 0 && a.wrap == b.wrap && a.end == 0 && b.end == 1) continue;  // the arc
+    const std::string& link_a = link_of(a);
+    const std::string& link_b = link_of(b);
+    Eigen::Vector3d u = (b.position - a.position).normalized();  // from a toward b
     // The segment pulls each of its ends toward the other; the tibia passes what it receives
     // to the transducer (W = what the limb applies to the transducer).
-    if (b.link == tibia && a.link != tibia) add(pb, -force * u);
-    if (a.link == tibia && b.link != tibia) add(pa, force * u);
+    if (link_b == tibia && link_a != tibia) add(b.position, -force * u);
+    if (link_a == tibia && link_b != tibia) add(a.position, force * u);
   }
   Eigen::Matrix3d R = TransducerRotation(model, ws, q);
   Vector6d w;

@@ -2,7 +2,6 @@
 // the checks Model construction runs on wrap objects and muscles' wrap lists.
 
 #include <cmath>
-#include <mutex>
 #include <set>
 
 #include "isowrench/error.hpp"
@@ -181,35 +180,4 @@ void CheckWraps(const LimbDescription& d, const std::string& model) {
   }
 }
 
-std::string WrapNotEvaluatedWarning(const LimbDescription& d) {
-  std::vector<std::string> wrapping;
-  for (const MuscleSpec& m : d.muscles) {
-    if (!m.wraps.empty()) wrapping.push_back(m.name);
-  }
-  if (wrapping.empty()) return "";
-  std::string list;
-  for (size_t i = 0; i < wrapping.size() && i < 8; ++i) list += (i ? ", " : "") + wrapping[i];
-  if (wrapping.size() > 8) list += ", ... (" + std::to_string(wrapping.size()) + " muscles)";
-  const bool one = wrapping.size() == 1;
-  return "wrap objects are read but not yet evaluated: muscle" + std::string(one ? " " : "s ") +
-         list + (one ? " gets" : " get") +
-         " straight paths between their points in every length, moment arm, torque and "
-         "wrench until the engine evaluates wraps (issue 27 stage 2)";
-}
-
-namespace wrap_impl {
-
-void WarnWrapsNotEvaluatedOnce(const LimbDescription& d) {
-  const std::string warning = WrapNotEvaluatedWarning(d);
-  if (warning.empty()) return;
-  static std::mutex mutex;
-  static std::set<std::string> warned;
-  {
-    std::lock_guard<std::mutex> lock(mutex);
-    if (!warned.insert(d.source + "\n" + d.name + "\n" + warning).second) return;
-  }
-  Warn("model '" + d.name + "': " + warning);
-}
-
-}  // namespace wrap_impl
 }  // namespace isowrench

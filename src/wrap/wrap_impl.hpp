@@ -46,10 +46,6 @@ OsSegment OpenSimTorus(double inner_radius, double outer_radius, const WrapQuadr
 /// code and tangent-point side it keeps). Fills r1, r2, length; may add status bits.
 OsSegment ExactSegment(const WrapSurface& surface, const V3& p1, const V3& p2, const OsSegment& os);
 
-/// Warn(WrapNotEvaluatedWarning(d)) once per model name and source in this process (Model
-/// construction calls it; a fit or a sweep that rebuilds the model does not repeat it).
-void WarnWrapsNotEvaluatedOnce(const LimbDescription& description);
-
 namespace lmdif_port {
 /// OpenSim's lmdif_C (OpenSim/Common/Lmdif.cpp), see wrap_lmdif.cpp.
 void lmdif_C(void (*fcn)(int, int, double[], double[], int*, void*), int m, int n, double x[],

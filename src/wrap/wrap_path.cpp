@@ -20,6 +20,11 @@ using wrap_impl::V3;
 constexpr double kPassTolerance = 0.0005;
 // Most passes over several wraps (GeometryPath.cpp maxIterations).
 constexpr int kMaxPasses = 8;
+// Exact mode: the passes go on until the path is stationary as a whole (each wrap's tangent
+// points stationary given its neighbours, which the other wraps move), so that -dL/dq is the
+// pull formula: lengths of two passes within this (m), at most kExactMaxPasses passes.
+constexpr double kExactPassTolerance = 1e-13;
+constexpr int kExactMaxPasses = 200;
 // A straight segment shorter than this has no direction (the engine's kFastMinSegmentLength).
 constexpr double kMinSegment = 1e-9;
 
@@ -130,9 +135,25 @@ void ComputeWrappedPath(const WrapPathInput& input, WrapMode mode, WrappedPath& 
     return length;
   };
   if (n_wraps > 0 && !path.empty()) {
-    std::vector<int> order(n_wraps), result(n_wraps, 0);
-    for (int i = 0; i < n_wraps; ++i) order[i] = i;
-    const int max_passes = n_wraps < 2 ? 1 : kMaxPasses;
+    // The order of the wraps and each one's last wrapLine code: on the stack for up to 16 wraps
+    // (the engine calls this at every posture and must not allocate), else on the heap.
+    int order_small[16], result_small[16];
+    std::vector<int> order_large, result_large;
+    int* order = order_small;
+    int* result = result_small;
+    if (n_wraps > 16) {
+      order_large.resize(static_cast<size_t>(n_wraps));
+      result_large.resize(static_cast<size_t>(n_wraps));
+      order = order_large.data();
+      result = result_large.data();
+    }
+    for (int i = 0; i < n_wraps; ++i) {
+      order[i] = i;
+      result[i] = 0;
+    }
+    const bool exact = mode == WrapMode::kExact;
+    const int max_passes = n_wraps < 2 ? 1 : exact ? kExactMaxPasses : kMaxPasses;
+    const double pass_tolerance = exact ? kExactPassTolerance : kPassTolerance;
     double last_length = std::numeric_limits<double>::infinity();
     bool settled = n_wraps < 2;
     bool aborted = false;
@@ -208,7 +229,7 @@ void ComputeWrappedPath(const WrapPathInput& input, WrapMode mode, WrappedPath& 
       }
       if (aborted) break;
       const double length = path_length();
-      if (std::fabs(length - last_length) < kPassTolerance) {
+      if (std::fabs(length - last_length) < pass_tolerance) {
         settled = true;
         break;
       }

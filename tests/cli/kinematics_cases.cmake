@@ -28,3 +28,25 @@ isowrench_cli_error(kinematics_csv_unknown_column 1
   kinematics ${rat5} --postures ${data}/postures_bad_column.csv)
 isowrench_cli_error(kinematics_csv_missing 1 "isowrench: error: [^\n]*no_such_postures.csv"
   kinematics ${rat5} --postures ${data}/no_such_postures.csv)
+
+# --wrap (issue 27): a mode other than opensim / exact is a usage error naming both; where the
+# cylinder wraps QUAD (knee flexed back) the two modes differ, and exact is shorter than OpenSim's
+# path (its ends are at different heights along the axis); the values themselves are checked in
+# tests/wrap/wrap_engine_test.cpp and python/tests/test_wrap.py.
+set(knee_wrap ${PROJECT_SOURCE_DIR}/tests/wrap/data/knee_wrap.urdf)
+isowrench_cli_test(kinematics_wrap_help "--wrap.*opensim.*exact" kinematics --help)
+isowrench_cli_test(wrench_wrap_help "--wrap.*opensim.*exact" wrench --help)
+isowrench_cli_error(kinematics_wrap_unknown 2 "--wrap: shortest not in \\{opensim,exact\\}"
+  kinematics ${knee_wrap} --wrap shortest)
+# wrench says which wraps engage (arc in mm) and in which mode; --json puts it under "muscle".
+isowrench_cli_test(wrench_wrap_engaged "wrap \\(exact\\): knee_cyl wraps, arc [0-9.]+ mm"
+  wrench ${knee_wrap} --muscle QUAD --posture knee=-60 --wrap exact)
+isowrench_cli_test(wrench_wrap_clear "wrap \\(opensim\\): knee_cyl does not wrap"
+  wrench ${knee_wrap} --muscle QUAD --posture knee=0)
+isowrench_cli_test(wrench_wrap_json "\"wrap\": \\{[^}]*\"mode\": \"opensim\""
+  wrench ${knee_wrap} --muscle QUAD --posture knee=-60 --json)
+# diagnose and releases say the same per muscle and posture.
+isowrench_cli_test(diagnose_wrap_line "muscle QUAD.*wrap \\(opensim\\): knee_cyl wraps, arc"
+  diagnose ${knee_wrap} --muscle QUAD --posture knee=-60 --no-large-deflection)
+isowrench_cli_test(releases_wrap_json "\"wrap\": \\{[^}]*\"mode\": \"exact\""
+  releases ${knee_wrap} --muscle QUAD --posture knee=-60 --wrap exact --json)

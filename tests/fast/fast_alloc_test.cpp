@@ -108,6 +108,35 @@ TEST(FastAllocation, EvaluationsAllocateNothingAfterWarmUp) {
   EXPECT_TRUE(std::isfinite(checksum));
 }
 
+// A muscle over a wrap object (issue 27): the knee_wrap leg of tests/wrap/data, in both wrap
+// modes, over postures where the cylinder wraps and where it does not, and alternating with the
+// straight muscle (the wrap workspace keeps its buffers).
+TEST(FastAllocation, WrappedMuscleEvaluationsAllocateNothingAfterWarmUp) {
+  using namespace isowrench;
+  LimbDescription d = ReadUrdfFile(std::string(ISOWRENCH_TEST_WRAP_URDF));
+  const Model opensim(d);
+  d.wrap_mode = WrapMode::kExact;
+  const Model exact(d);
+  Data ws(opensim), ws_exact(exact);
+  const StiffnessSet stiffness = opensim.model_stiffness();
+  constexpr int kN = 400;
+  Eigen::MatrixXd postures(2, kN);
+  for (int p = 0; p < kN; ++p) postures.col(p) << 0.3, -2.4 + 4.8 * p / (kN - 1);
+  for (int p = 0; p < kN; ++p) {  // warm-up: the buffers grow to the longest path once
+    Evaluate(opensim, ws, postures.col(p), 0, stiffness);
+    Evaluate(exact, ws_exact, postures.col(p), 0, stiffness);
+  }
+  const long before = g_allocations.load();
+  double checksum = 0.0;
+  for (int p = 0; p < kN; ++p) {
+    checksum += Evaluate(opensim, ws, postures.col(p), 0, stiffness).wrench.sum();
+    checksum += Evaluate(opensim, ws, postures.col(p), 1, stiffness).wrench.sum();
+    checksum += Evaluate(exact, ws_exact, postures.col(p), 0, stiffness).wrench.sum();
+  }
+  EXPECT_EQ(g_allocations.load() - before, 0) << "allocations in " << 3 * kN << " evaluations";
+  EXPECT_TRUE(std::isfinite(checksum));
+}
+
 // The same on a large chain (66 movable joints, 33 coordinates: the workspace's buffers sized
 // from the model, the Cholesky's rows in its scratch): regular K, a locked coordinate (the
 // statics' copies of J, tau and S_p), singular K through the eigen fallback, ComputeKinematics

@@ -19,6 +19,7 @@ import sys
 import xml.etree.ElementTree as ET
 
 cli, urdf, count = sys.argv[1], sys.argv[2], int(sys.argv[3])
+extra = sys.argv[4:]  # more options of `isowrench kinematics`, e.g. --wrap exact
 H = 1e-3  # degrees
 
 
@@ -28,7 +29,7 @@ def kinematics(postures, names):
         for p in postures:
             f.write(",".join("%.17g" % p[n] for n in names) + "\n")
     out = subprocess.run([cli, "kinematics", urdf, "--postures", "/tmp/real_model_check.csv",
-                          "--json"], capture_output=True, text=True, check=True)
+                          "--json", *extra], capture_output=True, text=True, check=True)
     return json.loads(out.stdout)["postures"]
 
 
