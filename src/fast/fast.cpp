@@ -223,8 +223,8 @@ std::string StatusMessage(const WrenchResult& result) {
     case StaticsStatus::kInvalidInput: break;
   }
   return "invalid input: a stiffness or torque entry is negative or not finite, a size does not "
-         "match, or two consecutive muscle path points coincide at this posture; W not computed "
-         "(zeros)";
+         "match, two consecutive muscle path points coincide at this posture, or the muscle's "
+         "force model has no equilibrium at its length; W not computed (zeros)";
 }
 
 // ---- Data --------------------------------------------------------------------------
@@ -389,6 +389,22 @@ namespace {
 
 const FastMuscle kNoMuscle{};  // the muscle of a kinematics call without one
 
+// The force stage of a muscle with a force model (FastMuscle::force_curve), after the path
+// stage: F = MuscleForceAt(L_MT, a) (the one definition, MuscleForceOf) into ws.force, and tau
+// (the kernel's -dL/dq times a unit force) scaled by F. A length with no equilibrium
+// (MuscleForceStatus::kNoEquilibrium) leaves tau zero and returns false (kInvalidInput).
+// @throws Error for an activation outside [0, 1] (MuscleForceModel::Evaluate).
+ISOWRENCH_NOINLINE bool ApplyForceStage(const FastMuscle& mu, Data::Impl& ws, double activation) {
+  ws.force = MuscleForceOf(mu, ws.length, activation);
+  if (ws.force.status == MuscleForceStatus::kNoEquilibrium) {
+    ws.tau.setZero();
+    return false;
+  }
+  const double f = ws.force.force;
+  for (int c = 0; c < ws.m; ++c) ws.tau_data[static_cast<std::size_t>(c)] *= f;
+  return true;
+}
+
 // Coupled chains: the joint positions q_joint_k = f_k(q[c_k]) and, for the driven joints (the
 // ones the folds read), dq_joint_k/dq: joint k first takes coordinate k (four per vector), the
 // owners of FlatChain::moved_positions their coordinates, then the driven joints evaluate their
@@ -436,7 +452,10 @@ ISOWRENCH_INLINE bool Kinematics(const FlatChain& d, W& ws, const double* q, int
     Couple(d, ws, q);
     q = ws.q_joint.data();
   }
-  const double minus_force = -(activation * mu.max_force);
+  // The force stage: a constant-force muscle's F = a * max_force goes into the kernel; a muscle
+  // with a force model runs the kernel with a unit force, then ApplyForceStage scales tau by
+  // F(L_MT, a) (bit for bit the same tau as the kernel with -F: -1 * x is exact).
+  const double minus_force = mu.force_curve ? -1.0 : -(activation * mu.max_force);
   const bool rotate = !d.transducer_identity && !(kFrames && world_axes);
   bool coincident;
   kernel::Kinematics<kFrames, kDynamic, kCoupled>(d, ws, q, mu, minus_force, rotate, coincident);
@@ -446,6 +465,7 @@ ISOWRENCH_INLINE bool Kinematics(const FlatChain& d, W& ws, const double* q, int
     return false;
   }
   if (kDynamic) AddMovingPointTerms(mu, ws, minus_force);
+  if (mu.force_curve) return ApplyForceStage(mu, ws, activation);
   return true;
 }
 
@@ -570,6 +590,21 @@ bool ComputeKinematicsWithFrames(const FlatChain& chain, Data::Impl& workspace, 
   return WithShape(chain.large, workspace, [&](auto& ws) {
     return AnyKinematics<true>(chain, ws, q, muscle, activation, world_axes);
   });
+}
+
+const MuscleForceModel& ForceModelOf(const Model& model, int muscle) {
+  const FlatChain& d = model.impl().flat;
+  if (muscle < 0 || muscle >= static_cast<int>(d.muscles.size())) {
+    throw Error("muscle index " + std::to_string(muscle) + " is out of range for model '" +
+                model.name() + "' (" + std::to_string(d.muscles.size()) + " muscles)");
+  }
+  return d.muscles[static_cast<std::size_t>(muscle)].force_model;
+}
+
+MuscleForce MuscleForceAt(const Model& model, int muscle, double length, double activation) {
+  ForceModelOf(model, muscle);  // (the index check)
+  return MuscleForceOf(model.impl().flat.muscles[static_cast<std::size_t>(muscle)], length,
+                       activation);
 }
 
 WrenchResult SolveStatics(const Model& model, Data& workspace, const StiffnessSet& stiffness,

@@ -383,6 +383,8 @@ FlatChain Compile(const LimbDescription& d) {
   for (const MuscleSpec& spec : d.muscles) {
     FastMuscle muscle;
     muscle.max_force = spec.max_force;
+    muscle.force_model = MuscleForceModel(spec.name, spec.max_force, spec.force);
+    muscle.force_curve = spec.force.model != ForceModelType::kConstant;
     for (const PathPoint& p : spec.path) {
       const LinkFrame& link = flat.links.at(p.link);
       FastPathPoint point;
