@@ -439,9 +439,12 @@ ISOWRENCH_INLINE void Couple(const FlatChain& d, W& ws, const double* q) {
 // stored, muscle < 0 allowed, J in world axes if world_axes); the evaluation path runs
 // kFrames = false. A muscle with moving or conditional points runs the kDynamic
 // instantiation (out of line), the others the one where those steps are compiled out.
-// kCoupled: any chain (kernel::Kinematics); false: a chain without couplings only. W: the
-// workspace's shape (SmallWorkspace, LargeWorkspace).
-template <bool kFrames, bool kDynamic, bool kCoupled, class W>
+// kCoupled: any chain (kernel::Kinematics); false: a chain without couplings only. kForce: the
+// muscle has a force model (FastMuscle::force_curve; the instantiations with frames or moving
+// points test it at run time, the evaluation of a fixed path is told at compile time, so that
+// a constant-force muscle runs the code it always ran). W: the workspace's shape
+// (SmallWorkspace, LargeWorkspace).
+template <bool kFrames, bool kDynamic, bool kCoupled, bool kForce = false, class W>
 ISOWRENCH_INLINE bool Kinematics(const FlatChain& d, W& ws, const double* q, int muscle,
                                  double activation, bool world_axes) {
   assert(ws.m == d.n);
@@ -455,7 +458,8 @@ ISOWRENCH_INLINE bool Kinematics(const FlatChain& d, W& ws, const double* q, int
   // The force stage: a constant-force muscle's F = a * max_force goes into the kernel; a muscle
   // with a force model runs the kernel with a unit force, then ApplyForceStage scales tau by
   // F(L_MT, a) (bit for bit the same tau as the kernel with -F: -1 * x is exact).
-  const double minus_force = mu.force_curve ? -1.0 : -(activation * mu.max_force);
+  const bool force_curve = kForce || ((kFrames || kDynamic) && mu.force_curve);
+  const double minus_force = force_curve ? -1.0 : -(activation * mu.max_force);
   const bool rotate = !d.transducer_identity && !(kFrames && world_axes);
   bool coincident;
   kernel::Kinematics<kFrames, kDynamic, kCoupled>(d, ws, q, mu, minus_force, rotate, coincident);
@@ -465,13 +469,33 @@ ISOWRENCH_INLINE bool Kinematics(const FlatChain& d, W& ws, const double* q, int
     return false;
   }
   if (kDynamic) AddMovingPointTerms(mu, ws, minus_force);
-  if (mu.force_curve) return ApplyForceStage(mu, ws, activation);
+  if (force_curve) return ApplyForceStage(mu, ws, activation);
   return true;
 }
 
+// A muscle with a force model on a fixed path: the general kernel, then the force stage (cloned
+// per target as the plain evaluation: the lanes' vectors are AVX2 ones there).
+template <bool kFrames, class W>
+ISOWRENCH_CLONES ISOWRENCH_NOINLINE bool ForceKinematics(const FlatChain& d, W& ws, const double* q,
+                                                         int muscle, double activation,
+                                                         bool world_axes) {
+  if constexpr (!kFrames) {
+    if (!d.coupled)
+      return Kinematics<false, false, false, true>(d, ws, q, muscle, activation, false);
+  }
+  return Kinematics<kFrames, false, true, true>(d, ws, q, muscle, activation, world_axes);
+}
+
+// The muscles off the plain evaluation path (FastMuscle::special): moving or conditional points
+// (the kDynamic kernel), or a force model on a fixed path (ForceKinematics).
 template <bool kFrames, class W>
 ISOWRENCH_NOINLINE bool DynamicKinematics(const FlatChain& d, W& ws, const double* q, int muscle,
                                           double activation, bool world_axes) {
+  if constexpr (!W::kLarge) {  // (a large chain: the kDynamic kernel does both, at run time)
+    if (muscle >= 0 && !d.muscles[muscle].dynamic) {
+      return ForceKinematics<kFrames>(d, ws, q, muscle, activation, world_axes);
+    }
+  }
   return Kinematics<kFrames, true, true>(d, ws, q, muscle, activation, world_axes);
 }
 
@@ -494,12 +518,12 @@ template <bool kFrames, class W>
 ISOWRENCH_INLINE bool AnyKinematics(const FlatChain& d, W& ws, const double* q, int muscle,
                                     double activation, bool world_axes) {
   if constexpr (W::kLarge) {
-    if (kFrames || d.muscles[muscle].dynamic) {
+    if (kFrames || d.muscles[muscle].special) {
       return DynamicKinematics<true>(d, ws, q, muscle, activation, kFrames && world_axes);
     }
     return CoupledKinematics(d, ws, q, muscle, activation);
   } else {
-    if ((!kFrames || muscle >= 0) && d.muscles[muscle].dynamic) {
+    if ((!kFrames || muscle >= 0) && d.muscles[muscle].special) {
       return DynamicKinematics<kFrames>(d, ws, q, muscle, activation, world_axes);
     }
     if constexpr (kFrames) {
@@ -633,7 +657,7 @@ ISOWRENCH_INLINE void EvaluateWith(const FlatChain& d, W& ws, const double* q, i
   if constexpr (W::kLarge) {  // (the kinematics and the solve out of line, each compiled once)
     valid = AnyKinematics<false>(d, ws, q, muscle, activation, false);
   } else {
-    valid = d.muscles[muscle].dynamic
+    valid = d.muscles[muscle].special
                 ? DynamicKinematics<false>(d, ws, q, muscle, activation, false)
                 : Kinematics<false, false, kCoupled>(d, ws, q, muscle, activation, false);
   }

@@ -436,6 +436,7 @@ FlatChain Compile(const LimbDescription& d) {
       muscle.wraps.push_back(fw);
       muscle.dynamic = true;
     }
+    muscle.special = muscle.dynamic || muscle.force_curve;
     // Point groups {frame, count, indices} for the kernel's joint loops (FastMuscle).
     std::vector<std::vector<int>> by_frame(static_cast<size_t>(flat.m));
     for (size_t k = 0; k < muscle.points.size(); ++k) {

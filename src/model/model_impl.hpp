@@ -87,6 +87,9 @@ struct FastMuscle {
   /// path stage (ApplyForceStage, src/fast/fast.cpp; per lane in src/fast/lanes.cpp).
   MuscleForceModel force_model;
   bool force_curve = false;
+  /// dynamic || force_curve: the evaluation runs DynamicKinematics (out of line) instead of
+  /// the plain kernel (src/fast/fast.cpp), one test for both.
+  bool special = false;
   /// Path points (MuscleSpec::path order), then two tangent-point slots per wrap (FastWrap).
   std::vector<FastPathPoint> points;  ///< path order
   /// The muscle's path points (MuscleSpec::path.size()): points[0 .. path_points - 1].
