@@ -22,8 +22,8 @@ struct KinematicsOptions {
   std::vector<std::string> posture;
   std::string postures_csv;
   bool json = false;
-  bool wrap_modes = true;  // compare the opensim and exact wrap modes of wrapping muscles
-  std::string wrap;        // --wrap
+  bool wrap_modes = true;   // compare the opensim and exact wrap modes of wrapping muscles
+  std::string wrap;         // --wrap
   double activation = 1.0;  // the force stage's (force per muscle)
   std::string force_model;  // --force-model (ModelOverrides::force_model)
 };
