@@ -208,8 +208,7 @@ std::shared_ptr<PyModel> LoadUnflushed(const std::string& path, const py::object
 std::shared_ptr<PyModel> Load(const std::string& path, const py::object& clamp,
                               const py::object& endpoint, const py::object& wrap,
                               const py::object& force_model) {
-  std::shared_ptr<PyModel> m =
-      Flushing([&] { return LoadUnflushed(path, clamp, endpoint, wrap); });
+  std::shared_ptr<PyModel> m = Flushing([&] { return LoadUnflushed(path, clamp, endpoint, wrap); });
   if (force_model.is_none()) return m;
   // The CLI's --force-model (ModelOverrides::force_model).
   ModelOverrides overrides;

@@ -11,8 +11,8 @@
 
 #include "isowrench/function.hpp"
 #include "isowrench/model.hpp"
-#include "isowrench/wrap.hpp"
 #include "isowrench/muscle.hpp"
+#include "isowrench/wrap.hpp"
 #include "model/function_impl.hpp"
 
 namespace isowrench {
