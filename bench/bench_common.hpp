@@ -118,6 +118,20 @@ inline isowrench::Model WrappedKernelModel(isowrench::WrapMode mode) {
 
 /// `count` postures around the nominal one: hip and knee angles within +-60 degrees, base
 /// translations within +-1 mm, from a fixed seed (the same postures in every run).
+/// Kernel K with GP under a Millard2012 force model (docs/muscle.md "In the engine"), rigid or
+/// compliant tendon: l_o 18 mm, l_Ts 4 mm, 3 degrees of pennation (GP's path is 26 mm at the
+/// nominal posture), OpenSim's default curves. The force-stage counts compare with "fast".
+inline isowrench::Model ForceKernelModel(bool rigid) {
+  isowrench::LimbDescription d = isowrench::ReadUrdfFile(KernelUrdf());
+  isowrench::MuscleForceSpec& f = d.muscles[0].force;
+  f.model = isowrench::ForceModelType::kMillard2012;
+  f.optimal_fiber_length = 0.018;
+  f.tendon_slack_length = 0.004;
+  f.pennation_angle_at_optimal = 0.0524;
+  f.ignore_tendon_compliance = rigid;
+  return isowrench::Model(d);
+}
+
 inline Eigen::MatrixXd KernelPostures(const isowrench::Model& model, int count) {
   std::mt19937 rng(2026);
   std::uniform_real_distribution<double> angle(-1.0, 1.0);

@@ -31,6 +31,8 @@ struct Setup {
   isowrench::Data wrapped_ws{wrapped};
   isowrench::Model wrapped_exact{WrappedKernelModel(isowrench::WrapMode::kExact)};
   isowrench::Data wrapped_exact_ws{wrapped_exact};
+  isowrench::Model rigid{ForceKernelModel(true)};
+  isowrench::Model compliant{ForceKernelModel(false)};
 };
 
 // A synthetic chain (ChainModel) named by a kernel "fast-chain-N" or "batch-chain-N" (N
@@ -106,6 +108,26 @@ extern "C" __attribute__((noinline)) long isowrench_measured_loop(Setup& s, Chai
     }
     return n * s.postures.cols();
   }
+  // Kernel K with GP's force model (ForceKernelModel): the force stage after the path stage.
+  if (std::strcmp(kernel, "fast-rigid") == 0 || std::strcmp(kernel, "fast-compliant") == 0) {
+    const isowrench::Model& m = kernel[5] == 'r' ? s.rigid : s.compliant;
+    isowrench::Data ws(m);
+    for (long i = 0; i < n; ++i) {
+      g_sink += isowrench::Evaluate(m, ws, s.postures.col(i & 1023), 0, st).wrench[0];
+    }
+    return n;
+  }
+  if (std::strcmp(kernel, "batch-rigid") == 0 || std::strcmp(kernel, "batch-compliant") == 0) {
+    const isowrench::Model& m = kernel[6] == 'r' ? s.rigid : s.compliant;
+    const std::vector<isowrench::StiffnessSet> one = {st};
+    isowrench::BatchOptions options;
+    options.threads = 1;
+    for (long i = 0; i < n; ++i) {
+      isowrench::EvaluateBatch(m, s.postures, 0, one, s.out, 1.0, options);
+      g_sink += s.out[0].wrench[0];
+    }
+    return n * s.postures.cols();
+  }
   if (std::strcmp(kernel, "fast-stiffness") == 0) {  // kinematics once, 20 stiffness sets
     for (long i = 0; i < n; ++i) {
       isowrench::ComputeKinematics(s.compiled, s.ws, s.postures.col(i & 1023), 0);
@@ -144,8 +166,8 @@ extern "C" __attribute__((noinline)) long isowrench_measured_loop(Setup& s, Chai
   std::fprintf(
       stderr,
       "unknown kernel '%s' (fast, fast-stiffness, fast-coupled, fast-wrap, fast-wrap-exact, "
-      "batch, batch-stiffness, "
-      "batch-coupled, kdl, reference, fast-chain-N[c], batch-chain-N[c])\n",
+      "fast-rigid, fast-compliant, batch, batch-stiffness, batch-coupled, batch-rigid, "
+      "batch-compliant, kdl, reference, fast-chain-N[c], batch-chain-N[c])\n",
       kernel);
   std::exit(2);
 }
@@ -154,8 +176,9 @@ int main(int argc, char** argv) {
   if (argc != 3) {
     std::fprintf(stderr,
                  "usage: %s "
-                 "fast|fast-stiffness|fast-coupled|fast-wrap|fast-wrap-exact|batch|batch-stiffness|"
-                 "batch-coupled|kdl|"
+                 "fast|fast-stiffness|fast-coupled|fast-wrap|fast-wrap-exact|fast-rigid|"
+                 "fast-compliant|batch|batch-stiffness|batch-coupled|batch-rigid|batch-compliant|"
+                 "kdl|"
                  "reference|fast-chain-N[c]|batch-chain-N[c] <count>\n",
                  argv[0]);
     return 2;
@@ -176,6 +199,20 @@ int main(int argc, char** argv) {
       wrapped += isowrench::MuscleWrappedPath(s.wrapped, s.wrapped_ws, q, 0).wraps[0].wrapped;
     }
     std::printf("the cylinder wraps GP at %d of the 1024 postures\n", wrapped);
+  }
+  if (std::strstr(argv[1], "-rigid") || std::strstr(argv[1], "-compliant")) {
+    // Outside the measured loop: how the force stage ends over the 1024 postures.
+    const isowrench::Model& m = std::strstr(argv[1], "-rigid") ? s.rigid : s.compliant;
+    isowrench::Data ws(m);
+    int counts[4] = {0, 0, 0, 0};
+    for (int p = 0; p < 1024; ++p) {
+      isowrench::ComputeKinematics(m, ws, s.postures.col(p), 0);
+      ++counts[static_cast<int>(isowrench::MuscleForceAt(m, 0, ws.muscle_length(), 1.0).status)];
+    }
+    std::printf(
+        "force stage over the 1024 postures: %d equilibrium, %d slack, %d fiber at minimum "
+        "length, %d no equilibrium\n",
+        counts[0], counts[1], counts[2], counts[3]);
   }
   return 0;
 }

@@ -69,13 +69,31 @@ struct WrenchResult {
 std::string StatusMessage(const WrenchResult& result);
 
 /// Forward kinematics, endpoint Jacobian (transducer axes) and the muscle torque of muscle
-/// `muscle` at activation `activation` (force = activation * max_force) at posture q
-/// (model.dof_count() entries, rad / m). Results are left in `data` (jacobian(), tau(), ...).
-/// Returns false, leaving tau zero, when two consecutive path points coincide (closer than
-/// 1 nm) at this posture. No allocation. Preconditions (asserted, not checked in release
+/// `muscle` at activation `activation` at posture q (model.dof_count() entries, rad / m):
+/// tau = -F dL/dq with F = MuscleForceAt(model, muscle, L_MT, activation) (a * max_force for a
+/// constant-force muscle). Results are left in `data` (jacobian(), tau(), ...). Returns false,
+/// leaving tau zero, when two consecutive path points coincide (closer than 1 nm) at this
+/// posture, or the muscle's force model has no equilibrium at its length
+/// (MuscleForceStatus::kNoEquilibrium). No allocation. A muscle with a force model throws
+/// Error for an activation outside [0, 1]. Preconditions (asserted, not checked in release
 /// builds): q has dof_count() finite entries and 0 <= muscle < muscle_count().
 bool ComputeKinematics(const Model& model, Data& data, const Eigen::Ref<const Eigen::VectorXd>& q,
                        int muscle, double activation = 1.0);
+
+/// The force stage: the tension F (N) of muscle `muscle` at musculotendon length `length` (m,
+/// the path length L_MT) and activation `activation` (in [0, 1]) from the muscle's force model
+/// (MuscleSpec::force, compiled once when the Model was built; docs/muscle.md). This is the one
+/// F(L_MT, a) the engine multiplies the moment arms with (tau = -F dL/dq): ComputeKinematics,
+/// Evaluate and EvaluateBatch for a muscle with a force model, and every report. The constant
+/// model gives a * max_force at any length (the engine multiplies that into the kernel as it
+/// always did). No allocation.
+/// @throws Error for a muscle index out of range or an activation outside [0, 1] (naming the
+///         muscle and the value).
+MuscleForce MuscleForceAt(const Model& model, int muscle, double length, double activation);
+
+/// The compiled force model of muscle `muscle` (curves, limits, opensim_limitation()), the one
+/// MuscleForceAt evaluates. @throws Error for a muscle index out of range.
+const MuscleForceModel& ForceModelOf(const Model& model, int muscle);
 
 /// Statics on the Jacobian and torque held in `data` (from ComputeKinematics) with one set of
 /// compliances. No allocation.

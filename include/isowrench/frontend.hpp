@@ -62,6 +62,12 @@ struct ModelOverrides {
   /// How wrapped muscle paths are computed (--wrap opensim|exact; Python wrap="exact"):
   /// LimbDescription::wrap_mode, read by every length, moment arm, torque and wrench.
   std::optional<WrapMode> wrap;
+  /// The force model of every muscle for this run (--force-model; Python force_model=):
+  /// "" or "model": each muscle's own (MuscleSpec::force); "constant": F = a * max_force for
+  /// every muscle (the paper's model, today's numbers); "rigid": each muscle's own curves with
+  /// a rigid tendon (MuscleForceSpec::ignore_tendon_compliance; constant muscles stay
+  /// constant). Anything else: an Error naming the value and the known ones.
+  std::string force_model;
 
   /// True when nothing is overridden.
   bool empty() const;

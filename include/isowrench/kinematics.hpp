@@ -55,15 +55,19 @@ Eigen::Matrix3Xd PointJacobian(const Model& model, Data& data, const Eigen::Vect
 
 /// A muscle's length, its derivative and its generalized force at a posture.
 struct MuscleTorque {
-  double length = 0.0;       ///< m, sum of segment lengths
-  double force = 0.0;        ///< N, activation * max_force
+  double length = 0.0;  ///< m, sum of segment lengths (L_MT)
+  double force = 0.0;   ///< N, F(L_MT, a) of the muscle's force model (force_stage.force)
+  /// The force stage at this length (MuscleForceAt): force, active and passive parts, fiber
+  /// length, pennation, status (kNoEquilibrium: tau is 0 and not a number to use).
+  MuscleForce force_stage;
   Eigen::RowVectorXd dL_dq;  ///< 1 x m, m/rad (revolute) or m/m (prismatic)
   Eigen::VectorXd tau;       ///< m, -force * dL_dq^T: N·m (revolute) or N (prismatic)
 };
 
-/// Evaluate muscle `muscle_index` at activation `activation` (force = activation * max_force).
+/// Evaluate muscle `muscle_index` at activation `activation` (force = MuscleForceAt(L_MT, a):
+/// activation * max_force for a constant-force muscle).
 /// @throws Error if a path segment has zero length (coincident points) or activation is not
-///         finite.
+///         finite or not in [0, 1].
 MuscleTorque ComputeMuscleTorque(const Model& model, Data& data, const Eigen::VectorXd& q,
                                  int muscle_index, double activation = 1.0);
 

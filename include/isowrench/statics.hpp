@@ -205,11 +205,21 @@ struct WrenchEvaluation {
   Matrix6Xd jacobian;     ///< J_T_E, transducer axes, all 6 rows
   Eigen::Matrix3d R_W_T;  ///< transducer axes in world
   std::string muscle;
-  double muscle_length = 0.0;  ///< m
-  double muscle_force = 0.0;   ///< N
-  Eigen::VectorXd tau;         ///< N·m / N
-  Vector6d s_t;                ///< effective S_t diagonal (0 on released dofs)
-  Eigen::VectorXd s_p;         ///< S_p per coordinate (locked ones are rigid whatever it says)
+  double muscle_length = 0.0;  ///< m (L_MT)
+  double muscle_force = 0.0;   ///< N: force.force
+  /// The force stage at this length and activation (MuscleForceAt): force, active and passive
+  /// parts, fiber length, pennation, status, opensim_gives_no_number.
+  MuscleForce force;
+  Eigen::VectorXd tau;  ///< N·m / N
+  /// The passive (activation 0) evaluation at the same posture: the force stage at a = 0 (a
+  /// force model's activation floor included: OpenSim's minimum_activation), its torque and
+  /// statics, i.e. the pre-stimulus baseline a lab subtracts. A constant-force muscle: force 0,
+  /// tau 0, W 0.
+  MuscleForce passive_force;
+  Eigen::VectorXd passive_tau;  ///< N·m / N
+  StaticsResult passive_statics;
+  Vector6d s_t;         ///< effective S_t diagonal (0 on released dofs)
+  Eigen::VectorXd s_p;  ///< S_p per coordinate (locked ones are rigid whatever it says)
   /// Per coordinate: true when locked (held rigid; dtheta 0 there): StaticsProblem::locked().
   std::vector<bool> locked;
   StaticsResult statics;                     ///< W in transducer axes
@@ -217,9 +227,13 @@ struct WrenchEvaluation {
   ClassicResult classic;                     ///< J^-T / pinv comparison on the restrained rows
 };
 
-/// Evaluate `muscle` (by name) at posture q with activation in [0, 1] (force scale; > 1 allowed).
-/// The statics is StaticsProblem(model).Solve(): locked coordinates are rigid.
-/// @throws Error for unknown muscle names or a posture of the wrong size / non-finite.
+/// Evaluate `muscle` (by name) at posture q with activation in [0, 1]: F = MuscleForceAt(L_MT,
+/// a) (a * max_force for a constant-force muscle), and the passive (activation 0) evaluation.
+/// The statics is StaticsProblem(model).Solve(): locked coordinates are rigid. Where the force
+/// model has no equilibrium (force.status kNoEquilibrium) tau is 0 and W is not computed
+/// (statics.status kInvalidInput).
+/// @throws Error for unknown muscle names, a posture of the wrong size / non-finite, or an
+///         activation outside [0, 1].
 WrenchEvaluation EvaluateWrench(const Model& model, const Eigen::VectorXd& q,
                                 const std::string& muscle, double activation = 1.0,
                                 const StaticsOptions& options = {});
@@ -229,6 +243,17 @@ WrenchEvaluation EvaluateWrench(const Model& model, const Eigen::VectorXd& q,
 WrenchEvaluation EvaluateWrench(const Model& model, Data& data, const Eigen::VectorXd& q,
                                 int muscle_index, double activation = 1.0,
                                 const StaticsOptions& options = {});
+
+/// The force model muscle `muscle` uses, as every report prints it: "constant (F = a x
+/// max_force)", "millard2012, compliant tendon", "millard2012, rigid tendon", "thelen2003,
+/// rigid-tendon limit (tendon_slack_length 0: OpenSim gives no number)".
+/// @throws Error for a muscle index out of range.
+std::string ForceModelLabel(const Model& model, int muscle);
+
+/// Where OpenSim gives no number for this force evaluation (MuscleForce::
+/// opensim_gives_no_number), why and what isowrench computes instead; "" where OpenSim gives
+/// one. @throws Error for a muscle index out of range.
+std::string OpenSimNote(const Model& model, int muscle, const MuscleForce& force);
 
 /// "hip_rx +1.00, knee_ry +0.97, knee_rx +0.26": a joint-space direction in named joints,
 /// scaled so the largest |entry| is 1, entries below `cutoff` omitted.

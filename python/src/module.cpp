@@ -206,8 +206,15 @@ std::shared_ptr<PyModel> LoadUnflushed(const std::string& path, const py::object
                                        const py::object& endpoint, const py::object& wrap);
 
 std::shared_ptr<PyModel> Load(const std::string& path, const py::object& clamp,
-                              const py::object& endpoint, const py::object& wrap) {
-  return Flushing([&] { return LoadUnflushed(path, clamp, endpoint, wrap); });
+                              const py::object& endpoint, const py::object& wrap,
+                              const py::object& force_model) {
+  std::shared_ptr<PyModel> m = Flushing([&] { return LoadUnflushed(path, clamp, endpoint, wrap); });
+  if (force_model.is_none()) return m;
+  // The CLI's --force-model (ModelOverrides::force_model).
+  ModelOverrides overrides;
+  overrides.force_model = force_model.cast<std::string>();
+  return std::make_shared<PyModel>(
+      Model(ApplyOverrides(m->model.description(), overrides, OptionStyle::kPython)), m->path);
 }
 
 std::shared_ptr<PyModel> LoadUnflushed(const std::string& path, const py::object& clamp,
@@ -249,7 +256,31 @@ py::array_t<double> Array(const Eigen::MatrixXd& m) {
   return a;
 }
 
-py::dict Kinematics(const PyModel& m, const py::object& q_arg) {
+/// The force stage as a dict, the keys of the CLI's JSON "force" objects (cli ForceJson).
+py::dict ForceDict(const Model& model, int muscle, const MuscleForce& force, double activation) {
+  const MuscleForceModel& f = ForceModelOf(model, muscle);
+  py::dict d;
+  d["model"] = ForceModelName(f.type());
+  d["tendon"] = f.type() == ForceModelType::kConstant ? "none"
+                : f.rigid_tendon()                    ? "rigid"
+                                                      : "compliant";
+  d["label"] = ForceModelLabel(model, muscle);
+  d["activation"] = activation;
+  d["force_n"] = force.force + 0.0;
+  d["active_force_n"] = force.active_force + 0.0;
+  d["passive_force_n"] = force.passive_force + 0.0;
+  d["fiber_length_m"] = force.fiber_length + 0.0;
+  d["pennation_rad"] = force.pennation_angle + 0.0;
+  d["tendon_strain"] = force.tendon_strain + 0.0;
+  d["activation_used"] = force.activation;
+  d["status"] = MuscleForceStatusName(force.status);
+  d["opensim_gives_no_number"] = force.opensim_gives_no_number;
+  const std::string note = OpenSimNote(model, muscle, force);
+  if (!note.empty()) d["opensim_note"] = note;
+  return d;
+}
+
+py::dict Kinematics(const PyModel& m, const py::object& q_arg, double activation) {
   const Model& model = m.model;
   const Eigen::VectorXd q = Posture(model, q_arg);
   Data ws(model);
@@ -259,10 +290,11 @@ py::dict Kinematics(const PyModel& m, const py::object& q_arg) {
   out["jacobian"] = Array(Eigen::MatrixXd(EndpointJacobianWorld(model, ws, q)));
   py::dict muscles;
   for (int i = 0; i < model.muscle_count(); ++i) {
-    MuscleTorque t = ComputeMuscleTorque(model, ws, q, i);
+    MuscleTorque t = ComputeMuscleTorque(model, ws, q, i, activation);
     py::dict entry;
     entry["length_m"] = t.length;
     entry["moment_arm_m"] = Array(Eigen::VectorXd(-t.dL_dq.transpose()));
+    entry["force"] = ForceDict(model, i, t.force_stage, activation);
     muscles[py::str(model.muscle(i).name)] = entry;
   }
   out["muscles"] = muscles;
@@ -273,6 +305,8 @@ py::dict Kinematics(const PyModel& m, const py::object& q_arg) {
 struct PyWrench {
   WrenchEvaluation e;
   std::vector<std::string> coordinates;
+  Model model;  // (shared, cheap: the force model's report)
+  double activation = 1.0;
 };
 
 /// A result that exists only at an equilibrium: NaN entries without one (never zeros).
@@ -287,7 +321,7 @@ PyWrench Wrench(const std::shared_ptr<PyModel>& m0, const std::string& muscle, c
                 const py::object& locked) {
   std::shared_ptr<PyModel> m = Variant(m0, transducer, released, locked);
   return {EvaluateWrench(m->model, Posture(m->model, q), muscle, activation),
-          m->model.joint_names()};
+          m->model.joint_names(), m->model, activation};
 }
 
 /// (N, n) float64 C-contiguous postures checked for shape and finiteness.
@@ -510,8 +544,12 @@ py::dict Diagnose(const std::shared_ptr<PyModel>& m0, const std::string& muscle,
   out["constraints"] = constraints;
   out["muscle"] = e.muscle;
   out["force_N"] = e.muscle_force;
+  out["force_model"] =
+      ForceDict(m->model, m->model.MuscleIndex(e.muscle), e.force, options.activation);
   out["tau"] = Array(e.tau);
   const bool equilibrium = e.statics.ok();
+  out["passive_wrench"] =
+      WrenchOrNone(equilibrium && e.passive_statics.ok(), e.passive_statics.wrench);
   out["equilibrium"] = equilibrium;
   out["wrench"] = WrenchOrNone(equilibrium, e.statics.wrench);
   out["compliance_dependent"] = d.compliance_dependent;
@@ -1001,6 +1039,33 @@ PYBIND11_MODULE(_core, mod) {
           "(6,) [fx fy fz mx my mz] in the transducer's axes (N, N·m); released rows are 0; NaN "
           "when there is no equilibrium (status 'self-motion' or 'invalid input').")
       .def_property_readonly(
+          "passive",
+          [](const PyWrench& w) {
+            if (w.e.statics.ok() && w.e.passive_statics.ok()) {
+              return Array(Eigen::VectorXd(w.e.passive_statics.wrench));
+            }
+            return Array(Eigen::VectorXd(
+                Eigen::VectorXd::Constant(6, std::numeric_limits<double>::quiet_NaN())));
+          },
+          "(6,) the passive wrench: the same posture at activation 0 (a force model's passive "
+          "force, its minimum_activation floor included), transducer axes (N, N·m); the "
+          "pre-stimulus baseline a lab subtracts. 0 for a constant-force muscle; NaN without "
+          "equilibrium.")
+      .def_property_readonly(
+          "force",
+          [](const PyWrench& w) {
+            return ForceDict(w.model, w.model.MuscleIndex(w.e.muscle), w.e.force, w.activation);
+          },
+          "The force stage (dict, the CLI JSON's 'force_model'): 'model', 'tendon', 'label', "
+          "'force_n', 'active_force_n', 'passive_force_n', 'fiber_length_m', 'pennation_rad', "
+          "'tendon_strain', 'status', 'opensim_gives_no_number' (and 'opensim_note').")
+      .def_property_readonly(
+          "passive_force",
+          [](const PyWrench& w) {
+            return ForceDict(w.model, w.model.MuscleIndex(w.e.muscle), w.e.passive_force, 0.0);
+          },
+          "The force stage at activation 0 (dict, as force).")
+      .def_property_readonly(
           "world",
           [](const PyWrench& w) { return EquilibriumArray(w, Eigen::VectorXd(w.e.wrench_world)); },
           "(6,) the same wrench in world axes (N, N·m); NaN without equilibrium.")
@@ -1125,8 +1190,8 @@ PYBIND11_MODULE(_core, mod) {
           "locked", [](const PyModel& m) { return StaticsProblem(m.model).LockedNames(); },
           "Locked coordinates (held rigid by the statics; a URDF's locked=\"true\", or the "
           "locked= argument).")
-      .def("kinematics", &Kinematics, py::arg("q") = py::none(),
-           "kinematics(q=None) -> dict\n\n"
+      .def("kinematics", &Kinematics, py::arg("q") = py::none(), py::arg("activation") = 1.0,
+           "kinematics(q=None, activation=1.0) -> dict\n\n"
            "Endpoint position, endpoint Jacobian and every muscle's length and moment arm at "
            "posture q (None: the "
            "default posture; n values in rad / m; or a dict {coordinate: value} over the default "
@@ -1196,7 +1261,7 @@ PYBIND11_MODULE(_core, mod) {
           [](const std::shared_ptr<PyModel>& m, const py::object& released,
              const py::object& transducer, const py::object& base_stiffness,
              const std::map<std::string, double>& joint_stiffness, const py::object& locked,
-             const py::object& wrap) {
+             const py::object& wrap, const py::object& force_model) {
             // The library's overrides (isowrench/frontend.hpp ApplyOverrides), as the CLI's
             // --release, --transducer(-stiffness), --base-stiffness, --joint-stiffness and
             // --lock (last, as the CLI applies it, so that it can name the base dofs).
@@ -1207,6 +1272,7 @@ PYBIND11_MODULE(_core, mod) {
             for (const auto& [joint, k] : joint_stiffness) {
               overrides.joint_stiffness.emplace_back(joint, k);
             }
+            if (!force_model.is_none()) overrides.force_model = force_model.cast<std::string>();
             if (!overrides.empty()) {
               v = std::make_shared<PyModel>(
                   Model(ApplyOverrides(v->model.description(), overrides, OptionStyle::kPython)),
@@ -1218,8 +1284,11 @@ PYBIND11_MODULE(_core, mod) {
           py::arg("base_stiffness") = py::none(),
           py::arg("joint_stiffness") = std::map<std::string, double>{},
           py::arg("locked") = py::none(), py::arg("wrap") = py::none(),
+          py::arg("force_model") = py::none(),
           "with_overrides(released=None, transducer=None, base_stiffness=None, "
-          "joint_stiffness={}, locked=None, wrap=None) -> Model\n\n"
+          "joint_stiffness={}, locked=None, wrap=None, force_model=None) -> Model\n\n"
+          "force_model: 'model' (each muscle's own), 'constant' (F = a x max_force, the "
+          "paper's) or 'rigid' (each muscle's curves with a rigid tendon), as --force-model.\n"
           "A new Model with the overrides the CLI's --release, --transducer / "
           "--transducer-stiffness, --base-stiffness (N/m; inserts base_x/y/z when the limb has "
           "none), --joint-stiffness {coordinate: N·m/rad or N/m}, --lock [coordinates] and "
@@ -1295,7 +1364,11 @@ Returns {'verdict', 'verdict_message', 'effects_claimed', 'chosen': [{'id', 'par
 Raises ValueError for bad options (a negative count, an unknown loss or effect id) or data.)");
   mod.def("load", &Load, py::arg("path"), py::arg("clamp_body") = py::none(),
           py::arg("endpoint_body") = py::none(), py::arg("wrap") = py::none(),
-          "load(path, clamp_body=None, endpoint_body=None, wrap=None) -> Model\n\n"
+          py::arg("force_model") = py::none(),
+          "load(path, clamp_body=None, endpoint_body=None, wrap=None, force_model=None) -> "
+          "Model\n\n"
+          "force_model: the CLI's --force-model, 'model' (each muscle's own, the default), "
+          "'constant' (F = a x max_force) or 'rigid' (each muscle's curves, rigid tendon).\n"
           "Read a limb model: a URDF with isowrench extension tags, or an OpenSim .osim (then "
           "clamp_body and "
           "endpoint_body are required, as for `isowrench import`; import warnings become "

@@ -83,10 +83,17 @@ void AddModelOptions(CLI::App& app, ModelOptions& o, bool with_muscle) {
       ->delimiter(',')
       ->each([&o](const std::string&) { o.lock_given = true; });
   AddWrapOption(app, o.wrap);
+  app.add_option("--force-model", o.force_model,
+                 "Force model of every muscle for this run: model (default: each muscle's own, "
+                 "docs/muscle.md), constant (F = activation x max_force, the paper's), rigid "
+                 "(each muscle's curves with a rigid tendon)")
+      ->check(CLI::IsMember({"model", "constant", "rigid"}));
   if (with_muscle) {
     app.add_option("--muscle", o.muscle, "Muscle name (default: the first muscle in the URDF)");
     app.add_option("--activation", o.activation,
-                   "Force scale: force = activation x max_force (default 1)");
+                   "Activation in [0, 1]: F = F(L_MT, activation) of the muscle's force model "
+                   "(constant model: activation x max_force) (default 1)")
+        ->check(CLI::Range(0.0, 1.0));
   }
   app.add_option("--max-endpoint-fraction", o.statics.max_endpoint_fraction,
                  "Small-motion rule: endpoint translation <= this x leg length (default 0.001)");
@@ -110,6 +117,7 @@ ModelOverrides Overrides(const ModelOptions& o) {
   }
   if (o.lock_given) overrides.locked = o.lock;
   if (!o.wrap.empty()) overrides.wrap = ParseWrapMode(o.wrap);
+  overrides.force_model = o.force_model;
   return overrides;
 }
 

@@ -44,8 +44,9 @@ struct ModelOptions {
   std::vector<std::string> joint_stiffness;  ///< "joint=value"
   std::vector<std::string> lock;             ///< locked coordinates ("none" unlocks all)
   bool lock_given = false;
-  std::string wrap;    ///< --wrap: "opensim" or "exact" ("": the default, opensim)
-  std::string muscle;  ///< empty = the first muscle
+  std::string wrap;         ///< --wrap: "opensim" or "exact" ("": the default, opensim)
+  std::string force_model;  ///< --force-model: "", model, constant, rigid (ModelOverrides)
+  std::string muscle;       ///< empty = the first muscle
   double activation = 1.0;
   StaticsOptions statics;
 };
@@ -89,6 +90,16 @@ nlohmann::json ToJson(const Vector6d& v);
 nlohmann::json ToJson(const Eigen::VectorXd& v);
 /// {"fx": .., "fy": .., ...,"units": {...}}
 nlohmann::json WrenchJson(const Vector6d& w);
+
+/// (ForceModelLabel and OpenSimNote: isowrench/statics.hpp, shared with Python.)
+/// One line of the force stage: "F 1.234 N = active 1.0 N + passive 0.234 N; fiber 12.3 mm,
+/// pennation 4.5°, equilibrium" (the constant model: "F 2.35 N = a x max_force").
+std::string ForceText(const Model& model, int muscle, const MuscleForce& force);
+/// {"model", "tendon", "activation" (requested), "force_n", "active_force_n", "passive_force_n",
+/// "fiber_length_m", "pennation_rad", "tendon_strain", "status", "opensim_gives_no_number"[,
+/// "opensim_note"]}.
+nlohmann::ordered_json ForceJson(const Model& model, int muscle, const MuscleForce& force,
+                                 double activation);
 
 /// A progress bar on stderr when it is a terminal; silent when piped.
 class Progress {

@@ -72,7 +72,7 @@ nlohmann::json ConstraintsJson(const ConstraintAnalysis& a) {
           {"internal_wrench", internal}};
 }
 
-nlohmann::json MuscleJson(const Diagnosis& d) {
+nlohmann::json MuscleJson(const Model& model, const Diagnosis& d, double activation) {
   const WrenchEvaluation& e = d.evaluation;
   nlohmann::json null_k = nlohmann::json::array(), sens = nlohmann::json::array();
   for (const JointMotion& m : d.stiffness_null) null_k.push_back(MotionJson(m));
@@ -89,6 +89,10 @@ nlohmann::json MuscleJson(const Diagnosis& d) {
   nlohmann::json j = {
       {"muscle", e.muscle},
       {"force_N", e.muscle_force},
+      {"force_model", ForceJson(model, model.MuscleIndex(e.muscle), e.force, activation)},
+      {"passive_wrench", e.passive_statics.ok() && equilibrium
+                             ? WrenchJson(e.passive_statics.wrench)
+                             : nlohmann::json(nullptr)},
       {"tau", ToJson(e.tau)},
       {"equilibrium", equilibrium},
       {"wrench", equilibrium ? WrenchJson(e.statics.wrench) : nlohmann::json(nullptr)},
@@ -161,10 +165,17 @@ void PrintConstraints(const ConstraintAnalysis& a) {
   }
 }
 
-void PrintMuscle(const Diagnosis& d) {
+void PrintMuscle(const Model& model, const Diagnosis& d) {
   const WrenchEvaluation& e = d.evaluation;
+  const int muscle = model.MuscleIndex(e.muscle);
   std::cout << "\n  muscle " << e.muscle << " (" << N(e.muscle_force) << " N)\n"
-            << "    statics      " << StatusName(e.statics.status) << ": " << e.statics.message
+            << "    force model  " << ForceModelLabel(model, muscle) << "\n";
+  if (model.muscle(muscle).force.model != ForceModelType::kConstant) {
+    std::cout << "    force        " << ForceText(model, muscle, e.force) << "\n";
+  }
+  const std::string note = OpenSimNote(model, muscle, e.force);
+  if (!note.empty()) std::cout << "    OpenSim      " << note << "\n";
+  std::cout << "    statics      " << StatusName(e.statics.status) << ": " << e.statics.message
             << "\n";
   if (!e.statics.validity_message.empty())
     std::cout << "    warning      " << e.statics.validity_message << "\n";
@@ -174,8 +185,12 @@ void PrintMuscle(const Diagnosis& d) {
     std::cout << "    W, Eq. 10      none: there is no equilibrium\n";
   } else {
     std::cout << "  " << WrenchHeader(w) << "\n  "
-              << WrenchRow("  W, Eq. 10 (limb on transducer)", e.statics.wrench, w) << "\n"
-              << "    compliances  " << d.compliance_verdict << "\n";
+              << WrenchRow("  W, Eq. 10 (limb on transducer)", e.statics.wrench, w) << "\n";
+    if (model.muscle(muscle).force.model != ForceModelType::kConstant && e.passive_statics.ok()) {
+      std::cout << "  " << WrenchRow("  passive W (activation 0)", e.passive_statics.wrench, w)
+                << "\n";
+    }
+    std::cout << "    compliances  " << d.compliance_verdict << "\n";
   }
   for (Eigen::Index i = 0; i < d.internal_coefficients.size(); ++i) {
     std::cout << "    internal part of W: W - pinv(J_r^T) tau = " << N(d.internal_coefficients[i])
@@ -236,7 +251,9 @@ const bool kDiagnoseRegistered = RegisterCommand({
                      "Muscle name(s), repeatable or comma-separated (default: the first)")
           ->delimiter(',');
       app.add_option("--activation", o->activation,
-                     "Force scale: force = activation x max_force (default 1)");
+                     "Activation in [0, 1] of the muscle force model (constant model: force = "
+                     "activation x max_force) (default 1)")
+          ->check(CLI::Range(0.0, 1.0));
       app.add_option(
           "--postures", o->postures,
           "CSV of postures: header of joint names (optional 'label' column), rows in degrees "
@@ -276,10 +293,10 @@ const bool kDiagnoseRegistered = RegisterCommand({
             // Which of the muscle's wraps engage here, and where one misbehaves (issue 27).
             const nlohmann::json wrap = MuscleWrapJson(model, p.q, model.MuscleIndex(muscle));
             if (o->json) {
-              jm.push_back(MuscleJson(d));
+              jm.push_back(MuscleJson(model, d, o->activation));
               if (!wrap.is_null()) jm.back()["wrap"] = wrap;
             } else {
-              PrintMuscle(d);
+              PrintMuscle(model, d);
               if (!wrap.is_null()) std::cout << "    " << MuscleWrapText(wrap) << "\n";
             }
             progress.Update(++done);

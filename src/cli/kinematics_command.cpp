@@ -22,8 +22,10 @@ struct KinematicsOptions {
   std::vector<std::string> posture;
   std::string postures_csv;
   bool json = false;
-  bool wrap_modes = true;  // compare the opensim and exact wrap modes of wrapping muscles
-  std::string wrap;        // --wrap
+  bool wrap_modes = true;   // compare the opensim and exact wrap modes of wrapping muscles
+  std::string wrap;         // --wrap
+  double activation = 1.0;  // the force stage's (force per muscle)
+  std::string force_model;  // --force-model (ModelOverrides::force_model)
 };
 
 /// Everything the command prints for one posture (SI units, world axes).
@@ -33,22 +35,24 @@ struct PostureKinematics {
   Matrix6Xd jacobian;
   std::vector<double> length;                  // per muscle, m
   std::vector<Eigen::VectorXd> moment_arm;     // per muscle, -dL/dq
+  std::vector<MuscleForce> force;              // per muscle, the force stage at `activation`
   std::vector<WrapModeDifference> wrap_modes;  // per wrapping muscle (wrap_report.hpp)
   std::vector<unsigned> wrap_status;           // per muscle, WrapStatus bits (0: none or fine)
 };
 
 PostureKinematics EvaluatePosture(const Model& model, Data& ws, const Eigen::VectorXd& q,
-                                  bool wrap_modes) {
+                                  bool wrap_modes, double activation) {
   PostureKinematics k;
   k.q = q;
   k.endpoint = EndpointPose(model, ws, q).translation();
   k.jacobian = EndpointJacobianWorld(model, ws, q);
   for (int m = 0; m < model.muscle_count(); ++m) {
-    MuscleTorque t = ComputeMuscleTorque(model, ws, q, m);
+    MuscleTorque t = ComputeMuscleTorque(model, ws, q, m, activation);
     k.length.push_back(t.length);
     k.moment_arm.push_back(-t.dL_dq.transpose());
     k.wrap_status.push_back(
         model.muscle(m).wraps.empty() ? 0u : MuscleWrappedPath(model, ws, q, m).status);
+    k.force.push_back(t.force_stage);
   }
   if (wrap_modes) {
     for (int m : WrappingMuscles(model)) k.wrap_modes.push_back(CompareWrapModes(model, ws, q, m));
@@ -100,7 +104,8 @@ std::vector<double> Values(const double* data, Eigen::Index size) {
   return v;
 }
 
-nlohmann::ordered_json Json(const Model& model, const std::vector<PostureKinematics>& results) {
+nlohmann::ordered_json Json(const Model& model, const std::vector<PostureKinematics>& results,
+                            double activation) {
   nlohmann::ordered_json out;
   out["coordinates"] = model.joint_names();
   nlohmann::ordered_json postures = nlohmann::ordered_json::array();
@@ -117,7 +122,8 @@ nlohmann::ordered_json Json(const Model& model, const std::vector<PostureKinemat
     for (int m = 0; m < model.muscle_count(); ++m) {
       const Eigen::VectorXd& r = k.moment_arm[m];
       muscles[model.muscle(m).name] = {{"length_m", k.length[m]},
-                                       {"moment_arm_m", Values(r.data(), r.size())}};
+                                       {"moment_arm_m", Values(r.data(), r.size())},
+                                       {"force", ForceJson(model, m, k.force[m], activation)}};
       if (k.wrap_status[m] != 0) {  // where a wrap misbehaves (WrapStatusText)
         muscles[model.muscle(m).name]["wrap_warning"] = WrapStatusText(k.wrap_status[m]);
       }
@@ -182,7 +188,22 @@ std::string Padded(const std::string& text, int width) {
                                                    : text + std::string(width - text.size(), ' ');
 }
 
-std::string Table(const Model& model, const std::vector<PostureKinematics>& results) {
+// The force stage of every muscle at one posture: model, F with its active and passive parts,
+// fiber length, pennation, status, and where OpenSim gives no number.
+void ForceTable(std::ostream& o, const Model& model, const PostureKinematics& k,
+                double activation) {
+  o << "muscle forces at activation " << util::FormatNumber(activation, 4)
+    << " (force along the tendon, N; docs/muscle.md)\n";
+  for (int m = 0; m < model.muscle_count(); ++m) {
+    o << "  " << model.muscle(m).name << " [" << ForceModelLabel(model, m)
+      << "]: " << ForceText(model, m, k.force[m]) << "\n";
+    const std::string note = OpenSimNote(model, m, k.force[m]);
+    if (!note.empty()) o << "    " << note << "\n";
+  }
+}
+
+std::string Table(const Model& model, const std::vector<PostureKinematics>& results,
+                  double activation) {
   const int n = model.dof_count();
   bool wraps = false;
   for (int m = 0; m < model.muscle_count(); ++m) wraps = wraps || !model.muscle(m).wraps.empty();
@@ -235,15 +256,16 @@ std::string Table(const Model& model, const std::vector<PostureKinematics>& resu
         << "): " << WrapStatusText(k.wrap_status[m]) << "\n";
     }
     o << WrapModeLines(model, k.wrap_modes);
+    ForceTable(o, model, k, activation);
   }
   return o.str();
 }
 
 const bool kKinematicsRegistered = RegisterCommand({
     "kinematics",
-    "Endpoint position, 6 x n endpoint Jacobian and every muscle's length and moment arms (-dL/dq) "
-    "at "
-    "one or more postures, in independent coordinates",
+    "Endpoint position, 6 x n endpoint Jacobian and every muscle's length, moment arms (-dL/dq) "
+    "and force (active, passive, fiber length, pennation) at one or more postures, in "
+    "independent coordinates",
     15,
     [](CLI::App& app) -> std::function<int()> {
       auto options = std::make_shared<KinematicsOptions>();
@@ -257,11 +279,19 @@ const bool kKinematicsRegistered = RegisterCommand({
                      "CSV file: a header naming coordinates, then one posture per row (degrees, mm "
                      "for prismatic); "
                      "coordinates without a column keep the nominal (or --posture) value");
+      app.add_option("--activation", options->activation,
+                     "Activation in [0, 1] of the muscle forces printed (default 1)")
+          ->check(CLI::Range(0.0, 1.0));
+      app.add_option("--force-model", options->force_model,
+                     "Force model of every muscle: model (default: each muscle's own), constant, "
+                     "rigid (docs/muscle.md)")
+          ->check(CLI::IsMember({"model", "constant", "rigid"}));
       app.add_flag(
           "--json", options->json,
           "Print {\"coordinates\": [...], \"postures\": [{\"endpoint_m\", \"jacobian\" (6 rows), "
-          "\"muscles\": {name: {\"length_m\", \"moment_arm_m\"[, \"wrap_warning\"]}}, and for "
-          "wrapping muscles "
+          "\"muscles\": {name: {\"length_m\", \"moment_arm_m\", \"force\": {\"model\", "
+          "\"force_n\", \"active_force_n\", \"passive_force_n\", \"fiber_length_m\", "
+          "\"pennation_rad\", \"status\", ...}[, \"wrap_warning\"]}}, and for wrapping muscles "
           "\"wrap_modes\": {name: {\"length_opensim_m\", \"length_exact_m\", "
           "\"length_difference_mm\", \"moment_arm_difference_mm\", "
           "\"moment_arm_difference_coordinate\", \"wraps_engaged\", \"opensim_misbehaves\"}}}]} "
@@ -275,6 +305,7 @@ const bool kKinematicsRegistered = RegisterCommand({
         ModelOptions load;
         load.urdf = options->urdf;
         load.wrap = options->wrap;
+        load.force_model = options->force_model;
         Model model = LoadModel(load);
         Eigen::VectorXd base = model.nominal_posture();
         for (const std::string& assignment : options->posture) {
@@ -288,12 +319,13 @@ const bool kKinematicsRegistered = RegisterCommand({
         Data ws(model);
         std::vector<PostureKinematics> results;
         for (const Eigen::VectorXd& q : postures)
-          results.push_back(EvaluatePosture(model, ws, q, options->wrap_modes));
+          results.push_back(
+              EvaluatePosture(model, ws, q, options->wrap_modes, options->activation));
         // Everything is computed before anything is printed: an error leaves no partial output.
         if (options->json) {
-          std::cout << JsonText(Json(model, results));
+          std::cout << JsonText(Json(model, results, options->activation));
         } else {
-          std::cout << Table(model, results);
+          std::cout << Table(model, results, options->activation);
         }
         return 0;
       };

@@ -139,7 +139,9 @@ const bool kReleasesRegistered = RegisterCommand({
                      "Muscle name(s), repeatable or comma-separated (default: the first)")
           ->delimiter(',');
       app.add_option("--activation", o->activation,
-                     "Force scale: force = activation x max_force (default 1)");
+                     "Activation in [0, 1] of the muscle force model (constant model: force = "
+                     "activation x max_force) (default 1)")
+          ->check(CLI::Range(0.0, 1.0));
       app.add_option(
           "--postures", o->postures,
           "CSV of postures: header of joint names (optional 'label' column), rows in degrees");
@@ -202,12 +204,21 @@ const bool kReleasesRegistered = RegisterCommand({
             ReleaseComparison c = CompareReleases(model, p.q, muscle, candidates, options);
             // Which of the muscle's wraps engage here, and where one misbehaves (issue 27).
             const nlohmann::json wrap = MuscleWrapJson(model, p.q, model.MuscleIndex(muscle));
+            // The force stage at this posture (force model, active and passive parts) and the
+            // passive (activation 0) wrench of the model as given.
+            const WrenchEvaluation e =
+                EvaluateWrench(model, p.q, muscle, o->activation, o->model.statics);
+            const int index = model.MuscleIndex(muscle);
+            const bool constant = model.muscle(index).force.model == ForceModelType::kConstant;
             if (o->json) {
               nlohmann::json list = nlohmann::json::array();
               for (const ReleaseAssessment& a : c.candidates)
                 list.push_back(AssessmentJson(a, grid_points));
               jm.push_back(
                   {{"muscle", muscle},
+                   {"force_model", ForceJson(model, index, e.force, o->activation)},
+                   {"passive_wrench", e.passive_statics.ok() ? WrenchJson(e.passive_statics.wrench)
+                                                             : nlohmann::json(nullptr)},
                    {"baseline", AssessmentJson(c.baseline, grid_points)},
                    {"candidates", list},
                    {"recommended",
@@ -242,7 +253,17 @@ const bool kReleasesRegistered = RegisterCommand({
                             << util::Join(locked, ", ") << "\n";
                 }
               }
-              std::cout << "\n  muscle " << muscle << ":\n";
+              std::cout << "\n  muscle " << muscle << " [" << ForceModelLabel(model, index)
+                        << "]: " << ForceText(model, index, e.force) << "\n";
+              const std::string note = OpenSimNote(model, index, e.force);
+              if (!note.empty()) std::cout << "  OpenSim: " << note << "\n";
+              if (!constant && e.passive_statics.ok()) {
+                std::cout << "  passive W (activation 0), model as given: "
+                          << util::FormatNumber(e.passive_statics.wrench.head<3>().norm(), 4)
+                          << " N force, "
+                          << util::FormatNumber(e.passive_statics.wrench.tail<3>().norm(), 4)
+                          << " N·m moment (the baseline a lab subtracts)\n";
+              }
               if (!wrap.is_null()) std::cout << "  " << MuscleWrapText(wrap) << "\n";
               std::cout << "  rank candidate              kind        axis (world)                "
                            "margin  rank    "

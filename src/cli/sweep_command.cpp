@@ -7,6 +7,7 @@
 #include <cmath>
 #include <iostream>
 #include <map>
+#include <optional>
 #include <thread>
 
 #include "cli/command.hpp"
@@ -173,6 +174,16 @@ const bool kSweepRegistered = RegisterCommand({
           batch.progress = [&progress](long done, long) { progress.Update(done); };
           EvaluateBatch(model, postures, muscle, sets, results, options->activation, batch);
         }
+        // A muscle with a force model: the passive (activation 0) wrenches too, and per posture
+        // the force stage (F with its active and passive parts) in the CSV.
+        const bool force_model = model.muscle(muscle).force.model != ForceModelType::kConstant;
+        std::vector<WrenchResult> passive;
+        if (force_model) {
+          BatchOptions batch;
+          batch.threads = *threads;
+          batch.solve.rank_tolerance = options->statics.rank_tolerance;
+          EvaluateBatch(model, postures, muscle, sets, passive, 0.0, batch);
+        }
         const double compute_seconds =
             std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
 
@@ -184,7 +195,14 @@ const bool kSweepRegistered = RegisterCommand({
         for (const GridAxis& a : axes) header += a.joint + (a.prismatic ? " (mm)," : " (deg),");
         header +=
             "stiffness_ratio (1),status,"
-            "fx (N),fy (N),fz (N),mx (N·m),my (N·m),mz (N·m),self_motion_dims (1)\n";
+            "fx (N),fy (N),fz (N),mx (N·m),my (N·m),mz (N·m),self_motion_dims (1)";
+        if (force_model) {
+          header +=
+              ",force (N),active_force (N),passive_force (N),fiber_length (m),force_status,"
+              "passive fx (N),passive fy (N),passive fz (N),passive mx (N·m),passive my (N·m),"
+              "passive mz (N·m)";
+        }
+        header += "\n";
         os << header;
         const long S = static_cast<long>(sets.size());
         const int blocks = static_cast<int>(std::clamp<long>(*threads, 1, std::max<long>(P, 1)));
@@ -194,7 +212,15 @@ const bool kSweepRegistered = RegisterCommand({
           const long begin = P * b / blocks, end = P * (b + 1) / blocks;
           std::string& out = text[static_cast<size_t>(b)];
           out.reserve(static_cast<size_t>((end - begin) * S * 120));
+          std::optional<Data> ws;
+          if (force_model) ws.emplace(model);
           for (long p = begin; p < end; ++p) {
+            MuscleForce force;
+            if (force_model) {  // the force stage at this posture's path length
+              if (ComputeKinematics(model, *ws, postures.col(p), muscle, options->activation)) {
+                force = MuscleForceAt(model, muscle, ws->muscle_length(), options->activation);
+              }  // (else: no force, status "no equilibrium", empty cells)
+            }
             // Grid indices of posture p (last axis fastest).
             std::vector<double> user(axes.size());
             long rest = p;
@@ -222,6 +248,23 @@ const bool kSweepRegistered = RegisterCommand({
               }
               out += ',';
               out += std::to_string(w.self_motion_count);
+              if (force_model) {
+                const bool has_force = force.status != MuscleForceStatus::kNoEquilibrium;
+                for (double v :
+                     {force.force, force.active_force, force.passive_force, force.fiber_length}) {
+                  out += ',';
+                  if (has_force) Append(out, v);
+                }
+                out += ',';
+                out += MuscleForceStatusName(force.status);
+                const WrenchResult& pw = passive[static_cast<size_t>(p * S + s)];
+                const bool passive_equilibrium =
+                    pw.status == StaticsStatus::kOk || pw.status == StaticsStatus::kSelfMotionHeld;
+                for (int k = 0; k < 6; ++k) {
+                  out += ',';
+                  if (passive_equilibrium) Append(out, pw.wrench[k]);
+                }
+              }
               out += '\n';
             }
           }
@@ -247,6 +290,7 @@ const bool kSweepRegistered = RegisterCommand({
           for (const auto& [status, n] : counts) status_counts[StatusWord(status)] = n;
           std::cout << nlohmann::json{{"model", model.name()},
                                       {"muscle", muscle_name},
+                                      {"force_model", ForceModelLabel(model, muscle)},
                                       {"postures", P},
                                       {"stiffness_ratios", r},
                                       {"evaluations", evaluations},
@@ -260,8 +304,14 @@ const bool kSweepRegistered = RegisterCommand({
                     << "\n";
         } else {
           std::cout << "isowrench sweep: " << model.name() << ", muscle " << muscle_name << " ("
-                    << util::FormatNumber(options->activation * model.muscle(muscle).max_force, 6)
-                    << " N), other joints at " << FormatPosture(model, base) << "\n"
+                    << (force_model ? ForceModelLabel(model, muscle) + ", activation " +
+                                          util::FormatNumber(options->activation, 4) +
+                                          ": F(L_MT) per posture and the passive (activation 0) "
+                                          "wrench in the CSV"
+                                    : util::FormatNumber(
+                                          options->activation * model.muscle(muscle).max_force, 6) +
+                                          " N")
+                    << "), other joints at " << FormatPosture(model, base) << "\n"
                     << "  " << P << " postures x " << S << " stiffness ratios = " << evaluations
                     << " evaluations on " << *threads
                     << " threads: " << util::FormatNumber(compute_seconds, 3) << " s computing ("

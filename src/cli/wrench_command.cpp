@@ -39,7 +39,7 @@ std::string ClassicOmitted(const std::vector<std::string>& base) {
 bool NoEquilibrium(const StaticsResult& s) { return s.status == StaticsStatus::kSelfMotion; }
 
 nlohmann::json EvaluationJson(const Model& model, const WrenchEvaluation& e,
-                              const std::string& urdf) {
+                              const std::string& urdf, double activation) {
   const StaticsResult& s = e.statics;
   nlohmann::json joints = nlohmann::json::array();
   for (int i = 0; i < model.dof_count(); ++i) {
@@ -83,7 +83,13 @@ nlohmann::json EvaluationJson(const Model& model, const WrenchEvaluation& e,
       {"model", model.name()},
       {"urdf", urdf},
       {"locked", locked},
-      {"muscle", {{"name", e.muscle}, {"force_N", e.muscle_force}, {"length_m", e.muscle_length}}},
+      {"muscle",
+       {{"name", e.muscle},
+        {"force_N", e.muscle_force},
+        {"length_m", e.muscle_length},
+        {"force_model", ForceJson(model, model.MuscleIndex(e.muscle), e.force, activation)},
+        {"passive_force_model",
+         ForceJson(model, model.MuscleIndex(e.muscle), e.passive_force, 0.0)}}},
       {"transducer",
        {{"stiffness", ToJson(e.s_t)},
         {"released", released},
@@ -92,6 +98,16 @@ nlohmann::json EvaluationJson(const Model& model, const WrenchEvaluation& e,
       {"equilibrium", !none},
       {"wrench", none ? nlohmann::json(nullptr) : WrenchJson(s.wrench)},
       {"wrench_world", none ? nlohmann::json(nullptr) : WrenchJson(e.wrench_world)},
+      {"passive_wrench",
+       {{"activation", 0.0},
+        {"status", StatusName(e.passive_statics.status)},
+        {"wrench", NoEquilibrium(e.passive_statics) || !e.passive_statics.ok()
+                       ? nlohmann::json(nullptr)
+                       : WrenchJson(e.passive_statics.wrench)},
+        {"meaning",
+         "the wrench at activation 0 (the force model's passive force; a force model's "
+         "minimum_activation floor included), the baseline a lab subtracts; 0 for the constant "
+         "model"}}},
       {"wrench_sign", "wrench the limb applies to the transducer; moment about the endpoint"},
       {"classic", classic},
       {"statics",
@@ -119,11 +135,21 @@ nlohmann::json EvaluationJson(const Model& model, const WrenchEvaluation& e,
 void PrintEvaluation(const Model& model, const WrenchEvaluation& e, const std::string& urdf) {
   const StaticsResult& s = e.statics;
   const TransducerSpec& t = model.transducer();
+  const int muscle = model.MuscleIndex(e.muscle);
+  const bool constant = model.muscle(muscle).force.model == ForceModelType::kConstant;
   std::cout << "isowrench wrench: " << model.name() << " (" << urdf << ")\n"
             << "  posture      " << FormatPosture(model, e.q) << "\n"
             << "  muscle       " << e.muscle << ": " << util::FormatNumber(e.muscle_force, 4)
             << " N, length " << util::FormatNumber(e.muscle_length * 1e3, 4) << " mm\n"
-            << "  transducer   S_t = " << StiffnessText(t.stiffness) << ", axes "
+            << "  force model  " << ForceModelLabel(model, muscle) << "\n";
+  if (!constant) {
+    std::cout << "  force        " << ForceText(model, muscle, e.force) << "\n"
+              << "  passive      at activation 0: " << ForceText(model, muscle, e.passive_force)
+              << "\n";
+  }
+  const std::string note = OpenSimNote(model, muscle, e.force);
+  if (!note.empty()) std::cout << "  OpenSim      " << note << "\n";
+  std::cout << "  transducer   S_t = " << StiffnessText(t.stiffness) << ", axes "
             << (t.axes_in_world ? "world" : "of link " + t.link) << ", "
             << FormatRotation(t.rotation) << ", released: " << ReleasedText(t) << "\n";
   std::vector<std::string> springs, locked;
@@ -159,15 +185,26 @@ void PrintEvaluation(const Model& model, const WrenchEvaluation& e, const std::s
 
   const int w = 30;
   const std::vector<std::string> base = BaseDofs(model);
+  const bool no_force = e.force.status == MuscleForceStatus::kNoEquilibrium;
   auto eq10 = [&](const std::string& label, const Vector6d& value) {
-    if (!none) return WrenchRow(label, value, w);
+    if (!none && !no_force) return WrenchRow(label, value, w);
     std::string line = label + std::string(static_cast<size_t>(w) - label.size(), ' ');
-    return line + "no equilibrium";
+    return line +
+           (no_force ? "no equilibrium of the force model at this length" : "no equilibrium");
   };
   std::cout << "\nWrench the limb applies to the transducer (moment about the endpoint):\n"
             << WrenchHeader(w) << "\n"
             << eq10("Eq. 10, transducer axes", s.wrench) << "\n"
             << eq10("Eq. 10, world axes", e.wrench_world) << "\n";
+  if (!constant) {  // (the constant model pulls with 0 at activation 0)
+    const StaticsResult& p = e.passive_statics;
+    if (p.ok() && !none && !no_force) {
+      std::cout << WrenchRow("passive (a = 0), transducer", p.wrench, w) << "\n"
+                << WrenchRow("active = Eq. 10 - passive", s.wrench - p.wrench, w) << "\n";
+    } else {
+      std::cout << "passive (a = 0), transducer    no equilibrium\n";
+    }
+  }
   if (!base.empty()) {
     std::cout << "  (classic J^-T / pinv(J^T) tau not shown: " << ClassicOmitted(base) << ")\n";
   } else {
@@ -226,7 +263,7 @@ const bool kWrenchRegistered = RegisterCommand({
         // Where the muscle wraps (issue 27): which wraps engage, and where one misbehaves.
         const nlohmann::json wrap = MuscleWrapJson(model, q, model.MuscleIndex(e.muscle));
         if (*json) {
-          nlohmann::json out = EvaluationJson(model, e, options->urdf);
+          nlohmann::json out = EvaluationJson(model, e, options->urdf, options->activation);
           if (!wrap.is_null()) out["muscle"]["wrap"] = wrap;
           std::cout << out.dump(2) << "\n";
         } else {

@@ -57,6 +57,7 @@ struct Problem {
   Vector6d s_t;         // released rows 0
   Eigen::VectorXd s_p;
   double L0 = 0.0;
+  double F0 = 0.0;  // the force stage at L0 (N)
 
   Problem(const Model& m, const Eigen::VectorXd& q, int muscle, double act)
       : model(m), ws(m), q0(q), muscle_index(muscle), activation(act) {
@@ -65,7 +66,9 @@ struct Problem {
     const StaticsProblem problem(model);  // the effective S_t (released rows 0) and S_p
     s_t = problem.stiffness().s_t;
     s_p = problem.stiffness().s_p;
-    L0 = ComputeMuscleTorque(model, ws, q0, muscle_index, activation).length;
+    const MuscleTorque t0 = ComputeMuscleTorque(model, ws, q0, muscle_index, activation);
+    L0 = t0.length;
+    F0 = t0.force;
   }
 
   Eigen::VectorXd Gradient(const Eigen::VectorXd& theta, double* U, Vector6d* W) {
@@ -81,7 +84,12 @@ struct Problem {
     Je.bottomRows<3>() = R_T.transpose() * InverseLeftJacobian(phi) * Jw.bottomRows<3>();
     const Vector6d force = s_t.cwiseProduct(e);
     const Eigen::VectorXd d = theta - q0;
-    if (U) *U = 0.5 * e.dot(force) + 0.5 * d.dot(s_p.cwiseProduct(d)) + mt.force * (mt.length - L0);
+    // The muscle's potential: the integral of F(L) from L0 (trapezoid: exact for the constant
+    // model, O(dL^3) for a force model over the nanometre-scale deflections here).
+    if (U) {
+      *U = 0.5 * e.dot(force) + 0.5 * d.dot(s_p.cwiseProduct(d)) +
+           0.5 * (F0 + mt.force) * (mt.length - L0);
+    }
     if (W) *W = force;
     return Je.transpose() * force + s_p.cwiseProduct(d) - mt.tau;
   }

@@ -237,6 +237,15 @@ void EvaluateBatch(const Model& model, const Eigen::Ref<const Eigen::MatrixXd>& 
     }
   }
   if (!std::isfinite(activation)) throw Error("EvaluateBatch: activation is not finite");
+  // A force model takes activations in [0, 1] only: checked here, before the threads (its
+  // MuscleForceModel::Evaluate would throw inside them).
+  if (model.impl().flat.muscles[static_cast<size_t>(muscle)].force_curve) {
+    try {
+      static_cast<void>(MuscleForceAt(model, muscle, 1.0, activation));
+    } catch (const Error& e) {
+      throw Error(std::string("EvaluateBatch: ") + e.what());
+    }
+  }
   const long P = static_cast<long>(postures.cols());
   const long S = static_cast<long>(stiffness.size());
   const long total = P * S;

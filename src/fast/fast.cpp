@@ -223,8 +223,8 @@ std::string StatusMessage(const WrenchResult& result) {
     case StaticsStatus::kInvalidInput: break;
   }
   return "invalid input: a stiffness or torque entry is negative or not finite, a size does not "
-         "match, or two consecutive muscle path points coincide at this posture; W not computed "
-         "(zeros)";
+         "match, two consecutive muscle path points coincide at this posture, or the muscle's "
+         "force model has no equilibrium at its length; W not computed (zeros)";
 }
 
 // ---- Data --------------------------------------------------------------------------
@@ -389,6 +389,22 @@ namespace {
 
 const FastMuscle kNoMuscle{};  // the muscle of a kinematics call without one
 
+// The force stage of a muscle with a force model (FastMuscle::force_curve), after the path
+// stage: F = MuscleForceAt(L_MT, a) (the one definition, MuscleForceOf) into ws.force, and tau
+// (the kernel's -dL/dq times a unit force) scaled by F. A length with no equilibrium
+// (MuscleForceStatus::kNoEquilibrium) leaves tau zero and returns false (kInvalidInput).
+// @throws Error for an activation outside [0, 1] (MuscleForceModel::Evaluate).
+ISOWRENCH_NOINLINE bool ApplyForceStage(const FastMuscle& mu, Data::Impl& ws, double activation) {
+  ws.force = MuscleForceOf(mu, ws.length, activation);
+  if (ws.force.status == MuscleForceStatus::kNoEquilibrium) {
+    ws.tau.setZero();
+    return false;
+  }
+  const double f = ws.force.force;
+  for (int c = 0; c < ws.m; ++c) ws.tau_data[static_cast<std::size_t>(c)] *= f;
+  return true;
+}
+
 // Coupled chains: the joint positions q_joint_k = f_k(q[c_k]) and, for the driven joints (the
 // ones the folds read), dq_joint_k/dq: joint k first takes coordinate k (four per vector), the
 // owners of FlatChain::moved_positions their coordinates, then the driven joints evaluate their
@@ -423,9 +439,12 @@ ISOWRENCH_INLINE void Couple(const FlatChain& d, W& ws, const double* q) {
 // stored, muscle < 0 allowed, J in world axes if world_axes); the evaluation path runs
 // kFrames = false. A muscle with moving or conditional points runs the kDynamic
 // instantiation (out of line), the others the one where those steps are compiled out.
-// kCoupled: any chain (kernel::Kinematics); false: a chain without couplings only. W: the
-// workspace's shape (SmallWorkspace, LargeWorkspace).
-template <bool kFrames, bool kDynamic, bool kCoupled, class W>
+// kCoupled: any chain (kernel::Kinematics); false: a chain without couplings only. kForce: the
+// muscle has a force model (FastMuscle::force_curve; the instantiations with frames or moving
+// points test it at run time, the evaluation of a fixed path is told at compile time, so that
+// a constant-force muscle runs the code it always ran). W: the workspace's shape
+// (SmallWorkspace, LargeWorkspace).
+template <bool kFrames, bool kDynamic, bool kCoupled, bool kForce = false, class W>
 ISOWRENCH_INLINE bool Kinematics(const FlatChain& d, W& ws, const double* q, int muscle,
                                  double activation, bool world_axes) {
   assert(ws.m == d.n);
@@ -436,7 +455,11 @@ ISOWRENCH_INLINE bool Kinematics(const FlatChain& d, W& ws, const double* q, int
     Couple(d, ws, q);
     q = ws.q_joint.data();
   }
-  const double minus_force = -(activation * mu.max_force);
+  // The force stage: a constant-force muscle's F = a * max_force goes into the kernel; a muscle
+  // with a force model runs the kernel with a unit force, then ApplyForceStage scales tau by
+  // F(L_MT, a) (bit for bit the same tau as the kernel with -F: -1 * x is exact).
+  const bool force_curve = kForce || ((kFrames || kDynamic) && mu.force_curve);
+  const double minus_force = force_curve ? -1.0 : -(activation * mu.max_force);
   const bool rotate = !d.transducer_identity && !(kFrames && world_axes);
   bool coincident;
   kernel::Kinematics<kFrames, kDynamic, kCoupled>(d, ws, q, mu, minus_force, rotate, coincident);
@@ -446,12 +469,33 @@ ISOWRENCH_INLINE bool Kinematics(const FlatChain& d, W& ws, const double* q, int
     return false;
   }
   if (kDynamic) AddMovingPointTerms(mu, ws, minus_force);
+  if (force_curve) return ApplyForceStage(mu, ws, activation);
   return true;
 }
 
+// A muscle with a force model on a fixed path: the general kernel, then the force stage (cloned
+// per target as the plain evaluation: the lanes' vectors are AVX2 ones there).
+template <bool kFrames, class W>
+ISOWRENCH_CLONES ISOWRENCH_NOINLINE bool ForceKinematics(const FlatChain& d, W& ws, const double* q,
+                                                         int muscle, double activation,
+                                                         bool world_axes) {
+  if constexpr (!kFrames) {
+    if (!d.coupled)
+      return Kinematics<false, false, false, true>(d, ws, q, muscle, activation, false);
+  }
+  return Kinematics<kFrames, false, true, true>(d, ws, q, muscle, activation, world_axes);
+}
+
+// The muscles off the plain evaluation path (FastMuscle::special): moving or conditional points
+// (the kDynamic kernel), or a force model on a fixed path (ForceKinematics).
 template <bool kFrames, class W>
 ISOWRENCH_NOINLINE bool DynamicKinematics(const FlatChain& d, W& ws, const double* q, int muscle,
                                           double activation, bool world_axes) {
+  if constexpr (!W::kLarge) {  // (a large chain: the kDynamic kernel does both, at run time)
+    if (muscle >= 0 && !d.muscles[muscle].dynamic) {
+      return ForceKinematics<kFrames>(d, ws, q, muscle, activation, world_axes);
+    }
+  }
   return Kinematics<kFrames, true, true>(d, ws, q, muscle, activation, world_axes);
 }
 
@@ -474,12 +518,12 @@ template <bool kFrames, class W>
 ISOWRENCH_INLINE bool AnyKinematics(const FlatChain& d, W& ws, const double* q, int muscle,
                                     double activation, bool world_axes) {
   if constexpr (W::kLarge) {
-    if (kFrames || d.muscles[muscle].dynamic) {
+    if (kFrames || d.muscles[muscle].special) {
       return DynamicKinematics<true>(d, ws, q, muscle, activation, kFrames && world_axes);
     }
     return CoupledKinematics(d, ws, q, muscle, activation);
   } else {
-    if ((!kFrames || muscle >= 0) && d.muscles[muscle].dynamic) {
+    if ((!kFrames || muscle >= 0) && d.muscles[muscle].special) {
       return DynamicKinematics<kFrames>(d, ws, q, muscle, activation, world_axes);
     }
     if constexpr (kFrames) {
@@ -572,6 +616,21 @@ bool ComputeKinematicsWithFrames(const FlatChain& chain, Data::Impl& workspace, 
   });
 }
 
+const MuscleForceModel& ForceModelOf(const Model& model, int muscle) {
+  const FlatChain& d = model.impl().flat;
+  if (muscle < 0 || muscle >= static_cast<int>(d.muscles.size())) {
+    throw Error("muscle index " + std::to_string(muscle) + " is out of range for model '" +
+                model.name() + "' (" + std::to_string(d.muscles.size()) + " muscles)");
+  }
+  return d.muscles[static_cast<std::size_t>(muscle)].force_model;
+}
+
+MuscleForce MuscleForceAt(const Model& model, int muscle, double length, double activation) {
+  ForceModelOf(model, muscle);  // (the index check)
+  return MuscleForceOf(model.impl().flat.muscles[static_cast<std::size_t>(muscle)], length,
+                       activation);
+}
+
 WrenchResult SolveStatics(const Model& model, Data& workspace, const StiffnessSet& stiffness,
                           const SolveOptions& options) {
   Data::Impl& ws = workspace.impl();
@@ -598,7 +657,7 @@ ISOWRENCH_INLINE void EvaluateWith(const FlatChain& d, W& ws, const double* q, i
   if constexpr (W::kLarge) {  // (the kinematics and the solve out of line, each compiled once)
     valid = AnyKinematics<false>(d, ws, q, muscle, activation, false);
   } else {
-    valid = d.muscles[muscle].dynamic
+    valid = d.muscles[muscle].special
                 ? DynamicKinematics<false>(d, ws, q, muscle, activation, false)
                 : Kinematics<false, false, kCoupled>(d, ws, q, muscle, activation, false);
   }

@@ -32,6 +32,13 @@
 
 namespace isowrench {
 
+/// The force stage: muscle `mu`'s force model at path length `length` (m) and `activation`:
+/// the one definition of F(L_MT, a) every evaluation and report uses (MuscleForceAt, engine.hpp).
+/// @throws Error for an activation outside [0, 1].
+inline MuscleForce MuscleForceOf(const FastMuscle& mu, double length, double activation) {
+  return mu.force_model.Evaluate(length, activation);
+}
+
 /// A path segment shorter than this (m) has no direction (same rule as ComputeMuscleTorque).
 inline constexpr double kFastMinSegmentLength = 1e-9;
 
@@ -174,6 +181,9 @@ struct Data::Impl {
   Eigen::Map<Eigen::VectorXd> tau{nullptr, 0};
   Eigen::Map<Eigen::VectorXd> dtheta{nullptr, 0};
   double length = 0.0;
+  /// The force stage's result of the last kinematics of a muscle with a force model
+  /// (FastMuscle::force_curve; not written for a constant-force muscle).
+  MuscleForce force;
   /// J, dL and tau have the m columns of the model from construction on (the kernel asks for
   /// its chain's n, which is m).
   void Resize([[maybe_unused]] int n) const { assert(n == m); }

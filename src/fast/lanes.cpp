@@ -201,6 +201,26 @@ LaneWorkspace::~LaneWorkspace() = default;
 
 namespace {
 
+// The force stage of the lanes: F(L_MT, a) of each lane's length by the scalar force model
+// (MuscleForceOf, the one definition; the equilibrium solve is not vectorised), tau scaled by
+// it. Lanes already going to the scalar path (`skip`) are not evaluated; a lane whose force
+// model has no equilibrium goes there too (returned bit), which reports it.
+template <class W>
+ISOWRENCH_NOINLINE unsigned LaneForceStage(const FastMuscle& mu, W& ws, double activation,
+                                           unsigned skip) {
+  unsigned scalar = 0;
+  V f = ISOWRENCH_V4_SPLAT(0.0);
+  for (int l = 0; l < kLanes; ++l) {
+    if (skip & (1u << l)) continue;
+    const MuscleForce force = MuscleForceOf(mu, ws.length[l], activation);
+    if (force.status == MuscleForceStatus::kNoEquilibrium) scalar |= 1u << l;
+    f[l] = force.force;
+  }
+  V* tau = ws.TauData();
+  for (int c = 0; c < ws.m; ++c) tau[c] *= f;
+  return scalar;
+}
+
 template <class W>
 ISOWRENCH_INLINE unsigned LaneKinematicsOf(const FlatChain& d, W& ws, const double* const q[kLanes],
                                            int muscle, double activation) {
@@ -259,13 +279,17 @@ ISOWRENCH_INLINE unsigned LaneKinematicsOf(const FlatChain& d, W& ws, const doub
     }
   }
   const FastMuscle& mu = d.muscles[muscle];
-  const double minus_force = -(activation * mu.max_force);
+  // The force stage as on the scalar path (fast.cpp Kinematics): a unit force in the kernel for
+  // a muscle with a force model, then tau scaled per lane by F(L_MT, a).
+  const double minus_force = mu.force_curve ? -1.0 : -(activation * mu.max_force);
   VI coincident;
   // The general kernel on every chain (without couplings every joint has slot k and no fold;
   // one instantiation for both halves this file's compile time, for ~3 instructions).
   kernel::Kinematics<false, false, true>(d, ws, &ws.q[0], mu, minus_force, !d.transducer_identity,
                                          coincident);
-  return Bits(coincident | out_of_range);
+  unsigned scalar = Bits(coincident | out_of_range);
+  if (mu.force_curve) scalar |= LaneForceStage(mu, ws, activation, scalar);
+  return scalar;
 }
 
 // A large chain's, out of line.

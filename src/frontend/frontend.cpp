@@ -36,7 +36,8 @@ LimbDescription LoadLimb(const std::string& path, const OpenSimImportOptions* os
 
 bool ModelOverrides::empty() const {
   return !released && transducer_preset.empty() && !transducer_stiffness && !base_stiffness &&
-         joint_stiffness.empty() && !locked && !wrap;
+         joint_stiffness.empty() && !locked && !wrap &&
+         (force_model.empty() || force_model == "model");
 }
 
 LimbDescription ApplyOverrides(LimbDescription d, const ModelOverrides& o, OptionStyle style) {
@@ -93,6 +94,20 @@ LimbDescription ApplyOverrides(LimbDescription d, const ModelOverrides& o, Optio
     naming(lock, [&] { d = WithLockedCoordinates(std::move(d), names); });
   }
   if (o.wrap) d.wrap_mode = *o.wrap;
+  if (!o.force_model.empty() && o.force_model != "model") {
+    if (o.force_model != "constant" && o.force_model != "rigid") {
+      throw Error(name("--force-model") + " '" + o.force_model +
+                  "' is not a force model override: model (each muscle's own), constant (F = a "
+                  "x max_force) or rigid (each muscle's curves with a rigid tendon)");
+    }
+    for (MuscleSpec& m : d.muscles) {
+      if (o.force_model == "constant") {
+        m.force.model = ForceModelType::kConstant;
+      } else {
+        m.force.ignore_tendon_compliance = true;
+      }
+    }
+  }
   // A new override: one line here, in the order of ModelOverrides' fields.
   return d;
 }

@@ -6,6 +6,7 @@
 #include <cmath>
 #include <vector>
 
+#include "isowrench/engine.hpp"
 #include "isowrench/error.hpp"
 #include "isowrench/posture.hpp"
 #include "kinematics/kinematics_impl.hpp"
@@ -38,6 +39,12 @@ Data::Impl& RunKinematics(const Model& model, Data& ws, const Eigen::VectorXd& q
   Data::Impl& b = ws.impl();
   if (!ComputeKinematicsWithFrames(model.impl().flat, b, q.data(), muscle, activation,
                                    world_axes)) {
+    // The force stage found no equilibrium at this length (tau zero): the callers report the
+    // force's status (MuscleForceAt), not an error.
+    if (model.impl().flat.muscles[muscle].force_curve &&
+        b.force.status == MuscleForceStatus::kNoEquilibrium) {
+      return b;
+    }
     const MuscleSpec& spec = model.muscle(muscle);
     // The points in the path at this posture (conditional ones may be out).
     std::vector<int> path;
@@ -221,7 +228,8 @@ MuscleTorque ComputeMuscleTorque(const Model& model, Data& ws, const Eigen::Vect
   const Data::Impl& b = RunKinematics(model, ws, q, muscle_index, activation, false);
   MuscleTorque out;
   out.length = b.length;
-  out.force = activation * model.muscle(muscle_index).max_force;
+  out.force_stage = MuscleForceAt(model, muscle_index, b.length, activation);
+  out.force = out.force_stage.force;
   out.dL_dq = b.dL.transpose();
   out.tau = b.tau;
   return out;

@@ -383,6 +383,8 @@ FlatChain Compile(const LimbDescription& d) {
   for (const MuscleSpec& spec : d.muscles) {
     FastMuscle muscle;
     muscle.max_force = spec.max_force;
+    muscle.force_model = MuscleForceModel(spec.name, spec.max_force, spec.force);
+    muscle.force_curve = spec.force.model != ForceModelType::kConstant;
     for (const PathPoint& p : spec.path) {
       const LinkFrame& link = flat.links.at(p.link);
       FastPathPoint point;
@@ -434,6 +436,7 @@ FlatChain Compile(const LimbDescription& d) {
       muscle.wraps.push_back(fw);
       muscle.dynamic = true;
     }
+    muscle.special = muscle.dynamic || muscle.force_curve;
     // Point groups {frame, count, indices} for the kernel's joint loops (FastMuscle).
     std::vector<std::vector<int>> by_frame(static_cast<size_t>(flat.m));
     for (size_t k = 0; k < muscle.points.size(); ++k) {

@@ -11,6 +11,7 @@
 
 #include "isowrench/function.hpp"
 #include "isowrench/model.hpp"
+#include "isowrench/muscle.hpp"
 #include "isowrench/wrap.hpp"
 #include "model/function_impl.hpp"
 
@@ -79,6 +80,16 @@ struct FastWrap {
 
 struct FastMuscle {
   double max_force = 0.0;
+  /// The force stage (docs/muscle.md "In the engine"): the muscle's force model, compiled once
+  /// when the Model is built; MuscleForceAt (engine.hpp) evaluates it. `force_curve` false:
+  /// the constant model, F = a * max_force, multiplied into tau inside the kernel as it always
+  /// was; true: the kernel runs with a unit force and tau is scaled by F(L_MT, a) after the
+  /// path stage (ApplyForceStage, src/fast/fast.cpp; per lane in src/fast/lanes.cpp).
+  MuscleForceModel force_model;
+  bool force_curve = false;
+  /// dynamic || force_curve: the evaluation runs DynamicKinematics (out of line) instead of
+  /// the plain kernel (src/fast/fast.cpp), one test for both.
+  bool special = false;
   /// Path points (MuscleSpec::path order), then two tangent-point slots per wrap (FastWrap).
   std::vector<FastPathPoint> points;  ///< path order
   /// The muscle's path points (MuscleSpec::path.size()): points[0 .. path_points - 1].

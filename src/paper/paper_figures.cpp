@@ -131,7 +131,9 @@ Vector6d FemurRemovedWrench(const Model& model, const Eigen::VectorXd& q,
   Data ws(model);
   const std::string& tibia = model.transducer().link;
   Eigen::Vector3d endpoint = EndpointPose(model, ws, q).translation();
-  const double force = activation * muscle.max_force;
+  // The force stage at this posture (a x max_force for the paper's constant-force muscles).
+  const double force =
+      ComputeMuscleTorque(model, ws, q, model.MuscleIndex(muscle_name), activation).force;
   Vector6d w_world = Vector6d::Zero();
   auto add = [&](const Eigen::Vector3d& at, const Eigen::Vector3d& f) {
     w_world.head<3>() += f;

@@ -2,6 +2,7 @@
 
 #include <cmath>
 
+#include "isowrench/engine.hpp"
 #include "isowrench/error.hpp"
 #include "isowrench/kinematics.hpp"
 #include "isowrench/posture.hpp"
@@ -31,23 +32,63 @@ WrenchEvaluation EvaluateWrench(const Model& model, Data& ws, const Eigen::Vecto
   e.q = q;
   e.muscle = model.muscle(muscle_index).name;
   // One run of the kinematics kernel: J in transducer axes, R_W_T and the muscle torque.
+  // The activation is checked first, for every force model (the constant one too).
+  static_cast<void>(MuscleForceAt(model, muscle_index, 1.0, activation));
   const Data::Impl& k = RunKinematics(model, ws, q, muscle_index, activation, false);
   e.R_W_T = k.TransducerRotation();
   e.jacobian = k.Jacobian();
   e.muscle_length = k.length;
-  e.muscle_force = activation * model.muscle(muscle_index).max_force;
+  // The force stage (the one the kernel applied): F(L_MT, a) and its parts.
+  e.force = MuscleForceAt(model, muscle_index, k.length, activation);
+  e.muscle_force = e.force.force;
   e.tau = k.tau;
+  const bool no_equilibrium = e.force.status == MuscleForceStatus::kNoEquilibrium;
+  // The passive evaluation: the engine at activation 0 (a constant-force muscle pulls with 0).
+  e.passive_force = MuscleForceAt(model, muscle_index, k.length, 0.0);
+  if (model.muscle(muscle_index).force.model == ForceModelType::kConstant) {
+    e.passive_tau = Eigen::VectorXd::Zero(model.dof_count());
+  } else {
+    e.passive_tau = RunKinematics(model, ws, q, muscle_index, 0.0, false).tau;
+    RunKinematics(model, ws, q, muscle_index, activation, false);  // (ws as the caller expects)
+  }
   const StaticsProblem problem(model);
   e.s_t = problem.stiffness().s_t;
   e.s_p = problem.stiffness().s_p;
   for (int c = 0; c < model.dof_count(); ++c) e.locked.push_back(problem.locked(c));
   // Locked coordinates are rigid: the statics and the classic answer run on the columns of K,
-  // and dtheta and the self-motion basis are 0 on the locked ones.
+  // and dtheta and the self-motion basis are 0 on the locked ones. No equilibrium of the force
+  // model: no W (kInvalidInput, zeros), never a number.
   e.statics = problem.Solve(e.jacobian, e.tau, options);
+  e.passive_statics = problem.Solve(e.jacobian, e.passive_tau, options);
+  if (no_equilibrium) {  // (tau is 0: the solve gave W = 0 with every buffer sized)
+    e.statics.status = StaticsStatus::kInvalidInput;
+    e.statics.message = "the force model of muscle '" + e.muscle +
+                        "' has no equilibrium at its length: W not computed";
+    e.passive_statics = e.statics;
+  }
   e.classic = problem.Classic(e.jacobian, e.tau);
   e.wrench_world.head<3>() = e.R_W_T * e.statics.wrench.head<3>();
   e.wrench_world.tail<3>() = e.R_W_T * e.statics.wrench.tail<3>();
   return e;
+}
+
+std::string ForceModelLabel(const Model& model, int muscle) {
+  const MuscleForceModel& f = ForceModelOf(model, muscle);
+  if (f.type() == ForceModelType::kConstant) return "constant (F = a x max_force)";
+  std::string label = ForceModelName(f.type());
+  if (!f.opensim_limitation().empty() && model.muscle(muscle).force.tendon_slack_length == 0.0 &&
+      !model.muscle(muscle).force.ignore_tendon_compliance) {
+    return label + ", rigid-tendon limit (tendon_slack_length 0: OpenSim gives no number)";
+  }
+  return label + (f.rigid_tendon() ? ", rigid tendon" : ", compliant tendon");
+}
+
+std::string OpenSimNote(const Model& model, int muscle, const MuscleForce& force) {
+  if (!force.opensim_gives_no_number) return "";
+  const std::string& limitation = ForceModelOf(model, muscle).opensim_limitation();
+  if (!limitation.empty()) return "OpenSim gives no number for this muscle: " + limitation;
+  return "OpenSim's own equilibrium iteration fails at this length (MuscleCannotEquilibrate); "
+         "isowrench's bracketed solve found the equilibrium";
 }
 
 std::string DescribeJointMotion(const Model& model, const Eigen::VectorXd& direction,

@@ -814,6 +814,16 @@ UncertaintyStudy::UncertaintyStudy(const Model& model, const std::string& muscle
   if (options.threads < 1)
     throw Error("uncertainty: threads " + std::to_string(options.threads) + " must be >= 1");
   if (!std::isfinite(options.activation)) throw Error("uncertainty: activation must be finite");
+  // The study scales W linearly with the activation and the force factors (W1 at activation
+  // 1): true for the constant force model only. A force model's F(L_MT, a) is not linear in a
+  // (passive force, activation floor) and depends on the sampled posture's length.
+  if (model.muscle(s.muscle).force.model != ForceModelType::kConstant) {
+    throw Error("uncertainty: muscle '" + muscle + "' uses the force model " +
+                ForceModelName(model.muscle(s.muscle).force.model) +
+                ", whose force is not linear in activation and max_force as the study assumes; "
+                "run the study with the constant model (--force-model constant; Python "
+                "force_model=\"constant\")");
+  }
   if (postures.rows() != model.dof_count() || postures.cols() < 1) {
     throw Error("uncertainty: postures must be " + std::to_string(model.dof_count()) +
                 " x P (P >= 1), got " + std::to_string(postures.rows()) + " x " +

@@ -8,7 +8,7 @@ isowrench_cli_test(kinematics_table_units
   "endpoint \\(m\\).*Jacobian: rows vx vy vz in m/rad.*moment arm -dL/dq.*GP"
   kinematics ${rat5})
 isowrench_cli_test(kinematics_json_layout
-  "^\\{\"coordinates\": \\[\"hip_rz\",\"hip_ry\",\"hip_rx\",\"knee_rz\",\"knee_rx\"\\],\n \"postures\": \\[\\{\"endpoint_m\": \\[[^]]*\\],\n   \"jacobian\": \\[\\[.*\"muscles\": \\{\"GP\": \\{\"length_m\":[^,]*,\"moment_arm_m\":\\[[^]]*\\]\\}\\}\\}\\]\\}"
+  "^\\{\"coordinates\": \\[\"hip_rz\",\"hip_ry\",\"hip_rx\",\"knee_rz\",\"knee_rx\"\\],\n \"postures\": \\[\\{\"endpoint_m\": \\[[^]]*\\],\n   \"jacobian\": \\[\\[.*\"muscles\": \\{\"GP\": \\{\"length_m\":[^,]*,\"moment_arm_m\":\\[[^]]*\\],\"force\":\\{\"model\":\"constant\"[^}]*\\}\\}\\}\\}\\]\\}"
   kinematics ${rat5} --json)
 # Three CSV rows -> three postures; the second row's empty knee_rx keeps the nominal value.
 isowrench_cli_test(kinematics_postures_csv "\"endpoint_m\".*\"endpoint_m\".*\"endpoint_m\""
