@@ -267,6 +267,28 @@ const char* LogHistogram::Read(const char* p, const char* end) {
   return p;
 }
 
+// A vector whose resize leaves new doubles uninitialised (they are written right after): the
+// percentile values of a study are hundreds of megabytes at the budget's limit.
+template <class T>
+struct UncDefaultInit : std::allocator<T> {
+  template <class U>
+  struct rebind {
+    using other = UncDefaultInit<U>;
+  };
+  UncDefaultInit() = default;
+  template <class U>
+  UncDefaultInit(const UncDefaultInit<U>&) noexcept {}
+  template <class U>
+  void construct(U* p) noexcept {
+    ::new (static_cast<void*>(p)) U;
+  }
+  template <class U, class... A>
+  void construct(U* p, A&&... a) {
+    ::new (static_cast<void*>(p)) U(std::forward<A>(a)...);
+  }
+};
+using ValueVector = std::vector<double, UncDefaultInit<double>>;
+
 // ---- per-block sums ----
 // Layout of one (block, posture) record, all doubles, added in block order:
 //   [0] rows, [1] valid, [2] no equilibrium, [3] invalid, [4] small-motion failures,
@@ -1079,7 +1101,7 @@ class BlockRunner {
 
   // Block b: its records (one per posture) into `record` and, for exact percentiles, its
   // values into `values` (per posture and quantity).
-  void Run(long b, double* record, std::vector<std::vector<double>>* values) {
+  void Run(long b, double* record, std::vector<ValueVector>* values) {
     const long j0 = b * kUncertaintyBlockSamples;
     const long j1 = std::min(s_.samples, j0 + kUncertaintyBlockSamples);
     const long count = j1 - j0;
@@ -1300,7 +1322,7 @@ class BlockRunner {
     return 0;
   }
 
-  void Accumulate(long p, long count, double* rec, std::vector<std::vector<double>>* values) {
+  void Accumulate(long p, long count, double* rec, std::vector<ValueVector>* values) {
     const int G = s_.G();
     const double* nominal = s_.posture_data[static_cast<size_t>(p)].nominal.data();
     double c_lanes[kLanes] = {};
@@ -1340,7 +1362,7 @@ class BlockRunner {
     for (int l = 0; l < kLanes - 1; ++l) {
       const size_t i = static_cast<size_t>(p * kQ + quantity_of[l]);
       if (s_.exact) {
-        std::vector<double>& kept = (*values)[i];
+        ValueVector& kept = (*values)[i];
         const size_t old = kept.size();
         kept.resize(old + static_cast<size_t>(stat_rows * count));
         out[l] = kept.data() + old;
@@ -1385,7 +1407,7 @@ class BlockRunner {
       per_q[q * kPerQuantity + 1] += s1[l / 4][l % 4];
       per_q[q * kPerQuantity + 2] += s2[l / 4][l % 4];
       if (s_.exact) {
-        std::vector<double>& kept = (*values)[static_cast<size_t>(p * kQ + q)];
+        ValueVector& kept = (*values)[static_cast<size_t>(p * kQ + q)];
         kept.resize(static_cast<size_t>(out[l] - kept.data()));
       }
     }
@@ -1503,7 +1525,7 @@ UncertaintyPartial RunUncertaintyBlocks(const UncertaintyStudy& study, long firs
   const long P = s.postures.cols();
   const int RS = s.RecordSize();
   std::vector<double> records(static_cast<size_t>(n_blocks * P * RS), 0.0);
-  std::vector<std::vector<std::vector<double>>> values(static_cast<size_t>(n_blocks));
+  std::vector<std::vector<ValueVector>> values(static_cast<size_t>(n_blocks));
   std::vector<LogHistogram> histograms(s.exact ? 0 : static_cast<size_t>(P * kQ));
   std::atomic<long> next{0};
   std::atomic<long> done{0};
@@ -1524,7 +1546,7 @@ UncertaintyPartial RunUncertaintyBlocks(const UncertaintyStudy& study, long firs
         const long b = first_block + k;
         if (s.exact) {
           values[static_cast<size_t>(k)].assign(static_cast<size_t>(P * kQ), {});
-          for (std::vector<double>& v : values[static_cast<size_t>(k)])
+          for (ValueVector& v : values[static_cast<size_t>(k)])
             v.reserve(static_cast<size_t>(2 * kUncertaintyBlockSamples));
         }
         runner.Run(b, &records[static_cast<size_t>(k * P * RS)], &values[static_cast<size_t>(k)]);
@@ -1560,11 +1582,17 @@ UncertaintyPartial RunUncertaintyBlocks(const UncertaintyStudy& study, long firs
   partial.first_block = first_block;
   partial.last_block = last_block;
   std::string& out = partial.data;
+  size_t bytes = records.size() * sizeof(double);
+  if (s.exact) {
+    for (const std::vector<ValueVector>& block : values)
+      for (const ValueVector& v : block) bytes += sizeof(std::uint64_t) + v.size() * sizeof(double);
+  }
+  out.reserve(bytes);
   out.append(reinterpret_cast<const char*>(records.data()), records.size() * sizeof(double));
   if (s.exact) {
     for (long k = 0; k < n_blocks; ++k) {
       for (long i = 0; i < P * kQ; ++i) {
-        const std::vector<double>& v = values[static_cast<size_t>(k)][static_cast<size_t>(i)];
+        const ValueVector& v = values[static_cast<size_t>(k)][static_cast<size_t>(i)];
         Put(out, static_cast<std::uint64_t>(v.size()));
         out.append(reinterpret_cast<const char*>(v.data()), v.size() * sizeof(double));
       }
@@ -1630,21 +1658,58 @@ const char* UncertaintyQuantityUnit(int q) {
 
 namespace {
 
-// Type 7 percentiles of `v` at ascending `levels` (v is reordered): each level's order
-// statistics are selected in the part of v above the previous level's.
-void ExactPercentiles(std::vector<double>& v, const double* levels, int count, double* out) {
-  size_t from = 0;
-  for (int k = 0; k < count; ++k) {
+// Puts the order statistics of the ascending distinct `ranks` (each in [first, last)) at their
+// places in v[first, last): the rank nearest the middle of the range first (nth_element), then the
+// ranks on each side within their side only; a rank at the start of its range is that range's
+// minimum. Any selection gives the same values (order statistics are unique, a +0 / -0 tie
+// aside, which the interpolation below turns into +0 either way).
+template <class Vector>
+void SelectRanks(Vector& v, size_t first, size_t last, const size_t* ranks, int count) {
+  if (count == 0) return;
+  const size_t middle = first + (last - first) / 2;
+  int m = 0;
+  for (int k = 1; k < count; ++k) {
+    const size_t dk = ranks[k] > middle ? ranks[k] - middle : middle - ranks[k];
+    const size_t dm = ranks[m] > middle ? ranks[m] - middle : middle - ranks[m];
+    if (dk < dm) m = k;
+  }
+  const size_t r = ranks[m];
+  const auto begin = v.begin();
+  if (r == first) {
+    std::iter_swap(begin + static_cast<std::ptrdiff_t>(first),
+                   std::min_element(begin + static_cast<std::ptrdiff_t>(first),
+                                    begin + static_cast<std::ptrdiff_t>(last)));
+  } else {
+    std::nth_element(begin + static_cast<std::ptrdiff_t>(first),
+                     begin + static_cast<std::ptrdiff_t>(r),
+                     begin + static_cast<std::ptrdiff_t>(last));
+  }
+  SelectRanks(v, first, r, ranks, m);
+  SelectRanks(v, r + 1, last, ranks + m + 1, count - m - 1);
+}
+
+// Type 7 percentiles of `v` at ascending `levels` (v is reordered): the order statistics at
+// floor(h) and floor(h) + 1 of every level are selected at once (SelectRanks).
+template <class Vector>
+void ExactPercentiles(Vector& v, const double* levels, int count, double* out) {
+  size_t ranks[8];
+  int n_ranks = 0;
+  for (int k = 0; k < count && k < 4; ++k) {
     const double h = (static_cast<double>(v.size()) - 1.0) * levels[k];
     const size_t lo = static_cast<size_t>(std::floor(h));
     const size_t hi = std::min(v.size() - 1, lo + 1);
-    std::nth_element(v.begin() + static_cast<std::ptrdiff_t>(from),
-                     v.begin() + static_cast<std::ptrdiff_t>(lo), v.end());
+    for (size_t r : {lo, hi})
+      if (n_ranks == 0 || ranks[n_ranks - 1] < r) ranks[n_ranks++] = r;
+  }
+  SelectRanks(v, 0, v.size(), ranks, n_ranks);
+  for (int k = 0; k < count && k < 4; ++k) {
+    const double h = (static_cast<double>(v.size()) - 1.0) * levels[k];
+    const size_t lo = static_cast<size_t>(std::floor(h));
+    const size_t hi = std::min(v.size() - 1, lo + 1);
     const double a = v[lo];
     double b = a;
-    if (hi != lo) b = *std::min_element(v.begin() + static_cast<std::ptrdiff_t>(hi), v.end());
+    if (hi != lo) b = v[hi];
     out[k] = a + (h - static_cast<double>(lo)) * (b - a);
-    from = lo;
   }
 }
 
@@ -1694,7 +1759,7 @@ UncertaintyResult FinishUncertainty(const UncertaintyStudy& study,
   const int RS = s.RecordSize();
   const int G = s.G();
   std::vector<double> sum(static_cast<size_t>(P * RS), 0.0);
-  std::vector<std::vector<double>> values(s.exact ? static_cast<size_t>(P * kQ) : 0);
+  std::vector<ValueVector> values(s.exact ? static_cast<size_t>(P * kQ) : 0);
   std::vector<LogHistogram> histograms(s.exact ? 0 : static_cast<size_t>(P * kQ));
   for (const UncertaintyPartial* part : partials) {
     const long n_blocks = part->last_block - part->first_block;
@@ -1707,6 +1772,18 @@ UncertaintyResult FinishUncertainty(const UncertaintyStudy& study,
       for (long i = 0; i < P * RS; ++i)
         sum[static_cast<size_t>(i)] += aligned[static_cast<size_t>(k * P * RS + i)];
     }
+  }
+  // The values each quantity keeps: its count of valid values (one allocation each).
+  for (long p = 0; s.exact && p < P; ++p) {
+    for (int q = 0; q < kQ; ++q) {
+      const double n = sum[static_cast<size_t>(p * RS + kCounts + q * kPerQuantity)];
+      if (n > 0 && n < 1e12)
+        values[static_cast<size_t>(p * kQ + q)].reserve(static_cast<size_t>(n));
+    }
+  }
+  for (const UncertaintyPartial* part : partials) {
+    const long n_blocks = part->last_block - part->first_block;
+    const size_t record_bytes = static_cast<size_t>(n_blocks * P * RS) * sizeof(double);
     const char* p = part->data.data() + record_bytes;
     const char* end = part->data.data() + part->data.size();
     if (s.exact) {
@@ -1716,7 +1793,7 @@ UncertaintyResult FinishUncertainty(const UncertaintyStudy& study,
           p = Get(p, end, &n);
           if (static_cast<std::uint64_t>(end - p) < n * sizeof(double))
             throw Error("uncertainty partial: truncated values");
-          std::vector<double>& v = values[static_cast<size_t>(i)];
+          ValueVector& v = values[static_cast<size_t>(i)];
           const size_t old = v.size();
           v.resize(old + static_cast<size_t>(n));
           std::memcpy(v.data() + old, p, static_cast<size_t>(n) * sizeof(double));
