@@ -1083,6 +1083,51 @@ typedef double UncV4 __attribute__((vector_size(32)));
 typedef double UncV4u __attribute__((vector_size(32), aligned(8), may_alias));
 #define UNC_LOAD(p) (*reinterpret_cast<const UncV4u*>(p))
 
+// The hot sums are compiled twice, for AVX (4 doubles per instruction) and for the baseline; the
+// loader picks the one the CPU runs (GNU ifunc, as src/fast/simd.hpp's ISOWRENCH_CLONES). "avx"
+// and not x86-64-v3: without FMA no multiply-add is formed, so both round as scalar code does.
+#if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__) && defined(__linux__) && \
+    !defined(ISOWRENCH_NO_CLONES)
+#define UNC_CLONES __attribute__((target_clones("avx", "default")))
+#else
+#define UNC_CLONES
+#endif
+
+// The Sobol sums of one input group over a block's samples, for the four lanes of vector k:
+// ab_rows: that group's rows (kLanes doubles per sample), a_rows / b_rows: f(A) - c, f(B) - c
+// (kW doubles per sample), code: 0 skip the sample, 1 every value finite, 2 lane by lane
+// (finite: kSobolLanes flags per sample). first / total: sum b (ab - a) and sum (a - ab)^2 of
+// the four lanes, in sample order.
+UNC_CLONES void SobolLaneSums(const double* ab_rows, const double* a_rows, const double* b_rows,
+                              int kW, const char* code, const char* finite, long count,
+                              const double* c, int k, double* first_out, double* total_out) {
+  UncV4 first = {0.0, 0.0, 0.0, 0.0}, total = first;
+  const UncV4 ck = UNC_LOAD(c + 4 * k);
+  for (long jj = 0; jj < count; ++jj) {
+    if (code[jj] == 0) continue;
+    const double* yab = ab_rows + jj * kLanes + 4 * k;
+    const double* a = a_rows + jj * kW + 4 * k;
+    const double* b = b_rows + jj * kW + 4 * k;
+    if (code[jj] == 1) {
+      const UncV4 ab = UNC_LOAD(yab) - ck, av = UNC_LOAD(a);
+      first += UNC_LOAD(b) * (ab - av);
+      const UncV4 e = av - ab;
+      total += e * e;
+    } else {
+      for (int i = 0; i < 4 && 4 * k + i < kSobolLanes; ++i) {
+        if (!finite[jj * kSobolLanes + 4 * k + i]) continue;
+        const double ab = yab[i] - c[4 * k + i];
+        first[i] += b[i] * (ab - a[i]);
+        total[i] += (a[i] - ab) * (a[i] - ab);
+      }
+    }
+  }
+  for (int i = 0; i < 4; ++i) {
+    first_out[i] = first[i];
+    total_out[i] = total[i];
+  }
+}
+
 // One thread's evaluation of blocks.
 class BlockRunner {
  public:
@@ -1453,27 +1498,9 @@ class BlockRunner {
       per_q[quantity_of[l] * kPerQuantity + 3] += ns[l] + static_cast<double>(fast);
     for (int g = 0; g < G; ++g) {
       for (int k = 0; k < kSobolVectors; ++k) {
-        UncV4 first = zero, total = zero;
-        for (long jj = 0; jj < count; ++jj) {
-          const char code = code_[static_cast<size_t>(jj)];
-          if (code == 0) continue;
-          const double* yAB = Row(2 + g, jj) + 4 * k;
-          const double* a = &dA_[static_cast<size_t>(jj * kW + 4 * k)];
-          const double* b = &dB_[static_cast<size_t>(jj * kW + 4 * k)];
-          if (code == 1) {
-            const UncV4 ab = UNC_LOAD(yAB) - c[k], av = UNC_LOAD(a);
-            first += UNC_LOAD(b) * (ab - av);
-            const UncV4 e = av - ab;
-            total += e * e;
-          } else {
-            for (int i = 0; i < 4 && 4 * k + i < kSobolLanes; ++i) {
-              if (!finite_lane_[static_cast<size_t>(jj * kSobolLanes + 4 * k + i)]) continue;
-              const double ab = yAB[i] - c_lanes[4 * k + i];
-              first[i] += b[i] * (ab - a[i]);
-              total[i] += (a[i] - ab) * (a[i] - ab);
-            }
-          }
-        }
+        double first[4], total[4];
+        SobolLaneSums(Row(2 + g, 0), dA_.data(), dB_.data(), kW, code_.data(), finite_lane_.data(),
+                      count, c_lanes, k, first, total);
         for (int i = 0; i < 4 && 4 * k + i < kSobolLanes; ++i) {
           const int q = quantity_of[4 * k + i];
           sobol[(g * kQ + q) * 2 + 0] += first[i];
