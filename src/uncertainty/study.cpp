@@ -18,6 +18,7 @@
 #include "isowrench/input_checks.hpp"
 #include "isowrench/io.hpp"
 #include "isowrench/uncertainty.hpp"
+#include "uncertainty/normal_quantile.hpp"
 
 namespace isowrench {
 
@@ -1128,6 +1129,19 @@ UNC_CLONES void SobolLaneSums(const double* ab_rows, const double* a_rows, const
   }
 }
 
+// z[i] = NormalQuantile(p[i]), i < n: the central branch (|p - 0.5| <= 0.425, most draws) four
+// at a time with the scalar's operations (CentralNormalQuantile), the tails by NormalQuantile.
+UNC_CLONES void NormalQuantiles(const double* p, double* z, long n) {
+  long i = 0;
+  for (; i + 4 <= n; i += 4) {
+    const UncV4 q = UNC_LOAD(p + i) - 0.5;
+    const UncV4 central = CentralNormalQuantile(q);
+    for (int l = 0; l < 4; ++l)
+      z[i + l] = std::abs(q[l]) <= 0.425 ? central[l] : NormalQuantile(p[i + l]);
+  }
+  for (; i < n; ++i) z[i] = NormalQuantile(p[i]);
+}
+
 // One thread's evaluation of blocks.
 class BlockRunner {
  public:
@@ -1229,17 +1243,30 @@ class BlockRunner {
     const size_t n = static_cast<size_t>(count * rows);
     sets_.resize(n, s_.nominal_set);  // allocated once per runner (and the last block)
     scale_.resize(n);
+    const bool block_values = s_.fit_group < 0;
+    if (block_values) BlockValues(j0, count);
+    const int matrices = s_.options.sobol ? 2 : 1;
+    valuesA_.resize(static_cast<size_t>(D_));
+    valuesB_.resize(static_cast<size_t>(D_));
     for (long jj = 0; jj < count; ++jj) {
-      s_.Draw(j0 + jj, 0, uA_.data());
-      if (s_.options.sobol) s_.Draw(j0 + jj, 1, uB_.data());
+      if (block_values) {
+        for (int k = 0; k < D_; ++k) {
+          const double* v = &block_values_[static_cast<size_t>((k * count + jj) * matrices)];
+          valuesA_[static_cast<size_t>(k)] = v[0];
+          if (matrices == 2) valuesB_[static_cast<size_t>(k)] = v[1];
+        }
+      } else {
+        s_.Draw(j0 + jj, 0, uA_.data());
+        if (s_.options.sobol) s_.Draw(j0 + jj, 1, uB_.data());
+        s_.Values(uA_.data(), valuesA_);
+        if (s_.options.sobol) s_.Values(uB_.data(), valuesB_);
+      }
       StiffnessSet* set = &sets_[static_cast<size_t>(jj * rows)];
       double* scale = &scale_[static_cast<size_t>(jj * rows)];
       double factor_a, activation_a, factor, activation;
-      s_.Values(uA_.data(), valuesA_);
       SetRow(valuesA_.data(), valuesA_.data(), -1, set[0], factor_a, activation_a);
       scale[0] = factor_a * activation_a;
       if (!s_.options.sobol) continue;
-      s_.Values(uB_.data(), valuesB_);
       SetRow(valuesB_.data(), valuesB_.data(), -1, set[1], factor, activation);
       scale[1] = factor * activation;
       for (int g = 0; g < s_.G(); ++g) {
@@ -1259,6 +1286,50 @@ class BlockRunner {
           SetRow(valuesA_.data(), valuesB_.data(), g, to, factor, activation);
         }
         scale[2 + g] = factor * activation;
+      }
+    }
+  }
+
+  // Every dimension's value of every sample of the block (without a fit: its transform needs a
+  // whole sample), as Impl::Draw + Impl::Values compute them, dimension by dimension: the
+  // normal quantiles four at a time (NormalQuantiles). block_values_[(k * count + jj) *
+  // matrices + m]: dimension k, sample jj, matrix m (A, B).
+  void BlockValues(long j0, long count) {
+    const int matrices = s_.options.sobol ? 2 : 1;
+    const long n = count * matrices;
+    block_u_.resize(static_cast<size_t>(D_ * n));
+    block_values_.resize(static_cast<size_t>(D_ * n));
+    for (long jj = 0; jj < count; ++jj) {
+      for (int mx = 0; mx < matrices; ++mx) {
+        for (int k = 0; k < D_; k += 4) {
+          const std::array<double, 4> r =
+              PhiloxUniforms(s_.options.seed, static_cast<std::uint64_t>(j0 + jj),
+                             static_cast<std::uint64_t>(mx), static_cast<std::uint64_t>(k / 4));
+          for (int l = 0; l < 4 && k + l < D_; ++l)
+            block_u_[static_cast<size_t>((k + l) * n + jj * matrices + mx)] =
+                r[static_cast<size_t>(l)];
+        }
+      }
+    }
+    for (int k = 0; k < D_; ++k) {
+      const Dimension& d = s_.dims[static_cast<size_t>(k)];
+      const double* u = &block_u_[static_cast<size_t>(k * n)];
+      double* v = &block_values_[static_cast<size_t>(k * n)];
+      switch (d.distribution) {
+        case InputDistribution::kNormal:
+          NormalQuantiles(u, v, n);
+          for (long i = 0; i < n; ++i) v[i] = d.a + d.b * v[i];
+          break;
+        case InputDistribution::kLogNormal:
+          NormalQuantiles(u, v, n);
+          for (long i = 0; i < n; ++i) v[i] = d.a * std::exp(d.b * v[i]);
+          break;
+        case InputDistribution::kUniform:
+          for (long i = 0; i < n; ++i) v[i] = d.a + u[i] * (d.b - d.a);
+          break;
+        case InputDistribution::kLogUniform:
+          for (long i = 0; i < n; ++i) v[i] = std::exp(d.a + u[i] * (d.b - d.a));
+          break;
       }
     }
   }
@@ -1516,6 +1587,7 @@ class BlockRunner {
   SolveOptions solve_;
   bool sets_only_ = false;
   std::vector<double> uA_, uB_, valuesA_, valuesB_;
+  std::vector<double> block_u_, block_values_;  // BlockValues
   Eigen::VectorXd b_, JtW_, dtheta_, qr_, last_q_;
   std::vector<RowInputs> inputs_;
   std::vector<StiffnessSet> sets_;
