@@ -1156,6 +1156,7 @@ class BlockRunner {
     // Without angle and reading inputs a row is a stiffness set and a force factor: those are
     // built directly (the sets the batch reads), not through RowInputs.
     sets_only_ = !s.kinematic && !s.has_post;
+    if (sets_only_) PlanEntries();
   }
 
   // Block b: its records (one per posture) into `record` and, for exact percentiles, its
@@ -1263,6 +1264,10 @@ class BlockRunner {
       }
       StiffnessSet* set = &sets_[static_cast<size_t>(jj * rows)];
       double* scale = &scale_[static_cast<size_t>(jj * rows)];
+      if (entry_plan_) {
+        PlannedRows(set, scale);
+        continue;
+      }
       double factor_a, activation_a, factor, activation;
       SetRow(valuesA_.data(), valuesA_.data(), -1, set[0], factor_a, activation_a);
       scale[0] = factor_a * activation_a;
@@ -1287,6 +1292,99 @@ class BlockRunner {
         }
         scale[2 + g] = factor * activation;
       }
+    }
+  }
+
+  // When every dimension sets stiffness entries no other dimension sets, or the force factor, or
+  // (one) the activation: the rows of a sample without copies. Each row's entries are those of
+  // a fresh assembly from its sources (row A: A; row B: B; row A_B^g: group g from B, the others
+  // from A), which is what CopyRow + Apply give when no two dimensions share an entry; entries
+  // no dimension sets keep the model's value from sets_'s first fill. The arithmetic is Apply's.
+  struct PlannedEntry {
+    int dim = 0;
+    int group = 0;
+    bool s_p = false;       // else s_t
+    int index = 0;          // entry
+    bool absolute = false;  // the value itself, else nominal x value
+    double nominal = 0.0;
+  };
+  void PlanEntries() {
+    entry_plan_ = false;
+    planned_.clear();
+    force_dims_.clear();
+    activation_dim_ = -1;
+    const int m = s_.model.dof_count();
+    std::vector<char> used(static_cast<size_t>(6 + m), 0);
+    auto add = [&](int k, const Dimension& d, bool s_p, int index, bool absolute) {
+      const size_t u = static_cast<size_t>(s_p ? 6 + index : index);
+      if (used[u]) return false;
+      used[u] = 1;
+      PlannedEntry e;
+      e.dim = k;
+      e.group = d.group;
+      e.s_p = s_p;
+      e.index = index;
+      e.absolute = absolute;
+      e.nominal = s_p ? s_.nominal_set.s_p[index] : s_.nominal_set.s_t[index];
+      planned_.push_back(e);
+      return true;
+    };
+    for (int k = 0; k < D_; ++k) {
+      const Dimension& d = s_.dims[static_cast<size_t>(k)];
+      switch (d.target) {
+        case Target::kTransducerStiffness:
+          if (!add(k, d, false, d.index, d.absolute)) return;
+          break;
+        case Target::kTransducerRotationFactor:
+          for (int r = 3; r < 6; ++r)
+            if (!add(k, d, false, r, false)) return;
+          break;
+        case Target::kJointStiffness:
+          for (int c : d.columns)
+            if (!add(k, d, true, c, d.absolute)) return;
+          break;
+        case Target::kForceFactor: force_dims_.push_back(k); break;
+        case Target::kActivation:
+          if (activation_dim_ >= 0) return;
+          activation_dim_ = k;
+          break;
+        case Target::kNone: break;
+        default: return;
+      }
+    }
+    entry_plan_ = true;
+  }
+  void PlannedRows(StiffnessSet* set, double* scale) const {
+    const int rows = s_.Rows();
+    const double* A = valuesA_.data();
+    const double* B = valuesB_.data();
+    for (const PlannedEntry& e : planned_) {
+      // The entry from A and from B; row v takes B when v == 1 or v == 2 + its group.
+      const double a = e.absolute ? A[e.dim] : e.nominal * A[e.dim];
+      if (e.s_p) {
+        set[0].s_p[e.index] = a;
+        if (rows == 1) continue;
+        const double b = e.absolute ? B[e.dim] : e.nominal * B[e.dim];
+        set[1].s_p[e.index] = b;
+        for (int v = 2; v < rows; ++v) set[v].s_p[e.index] = v - 2 == e.group ? b : a;
+      } else {
+        set[0].s_t[e.index] = a;
+        if (rows == 1) continue;
+        const double b = e.absolute ? B[e.dim] : e.nominal * B[e.dim];
+        set[1].s_t[e.index] = b;
+        for (int v = 2; v < rows; ++v) set[v].s_t[e.index] = v - 2 == e.group ? b : a;
+      }
+    }
+    for (int v = 0; v < rows; ++v) {
+      // Row v's source of dimension k: A, B, or B for group v - 2 only.
+      auto value = [&](int k) {
+        return v == 1 || s_.dims[static_cast<size_t>(k)].group == v - 2 ? B[k] : A[k];
+      };
+      double factor = 1.0;
+      for (int k : force_dims_) factor *= value(k);
+      const double activation =
+          activation_dim_ < 0 ? s_.nominal_activation : value(activation_dim_);
+      scale[v] = factor * activation;
     }
   }
 
@@ -1588,6 +1686,10 @@ class BlockRunner {
   bool sets_only_ = false;
   std::vector<double> uA_, uB_, valuesA_, valuesB_;
   std::vector<double> block_u_, block_values_;  // BlockValues
+  bool entry_plan_ = false;                     // PlanEntries
+  std::vector<PlannedEntry> planned_;
+  std::vector<int> force_dims_;
+  int activation_dim_ = -1;
   Eigen::VectorXd b_, JtW_, dtheta_, qr_, last_q_;
   std::vector<RowInputs> inputs_;
   std::vector<StiffnessSet> sets_;
