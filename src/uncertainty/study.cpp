@@ -1914,6 +1914,39 @@ void ExactPercentiles(Vector& v, const double* levels, int count, double* out) {
   }
 }
 
+// The smallest and largest of v[0, n) as folds of std::min / std::max from +-inf in order would
+// give them: four lanes at a time; a zero extreme (where +0 and -0 compare equal, so the fold's
+// first one wins) is found again by the ordered fold. Other equal values have equal bits.
+UNC_CLONES void Extremes(const double* v, long n, double* lo_out, double* hi_out) {
+  const double inf = std::numeric_limits<double>::infinity();
+  UncV4 lo = {inf, inf, inf, inf}, hi = -lo;
+  long i = 0;
+  for (; i + 4 <= n; i += 4) {
+    const UncV4 x = UNC_LOAD(v + i);
+    lo = x < lo ? x : lo;
+    hi = x > hi ? x : hi;
+  }
+  double l = inf, h = -inf;
+  for (int k = 0; k < 4; ++k) {
+    l = std::min(l, lo[k]);
+    h = std::max(h, hi[k]);
+  }
+  for (; i < n; ++i) {
+    l = std::min(l, v[i]);
+    h = std::max(h, v[i]);
+  }
+  if (l == 0.0 || h == 0.0) {
+    l = inf;
+    h = -inf;
+    for (long j = 0; j < n; ++j) {
+      l = std::min(l, v[j]);
+      h = std::max(h, v[j]);
+    }
+  }
+  *lo_out = l;
+  *hi_out = h;
+}
+
 double HistogramPercentile(const LogHistogram& h, double level) {
   const std::uint64_t n = h.count();
   const double pos = (static_cast<double>(n) - 1.0) * level;
@@ -2056,7 +2089,8 @@ UncertaintyResult FinishUncertainty(const UncertaintyStudy& study,
           hi = std::max(hi, v);
         };
         if (s.exact) {
-          for (double v : values[static_cast<size_t>(p * kQ + q)]) extremes(v, 1);
+          const ValueVector& v = values[static_cast<size_t>(p * kQ + q)];
+          Extremes(v.data(), static_cast<long>(v.size()), &lo, &hi);
         } else {
           histograms[static_cast<size_t>(p * kQ + q)].ForEach(extremes);
         }
@@ -2071,7 +2105,15 @@ UncertaintyResult FinishUncertainty(const UncertaintyStudy& study,
           st.histogram[static_cast<size_t>(k)] += static_cast<long>(count);
         };
         if (s.exact) {
-          for (double v : values[static_cast<size_t>(p * kQ + q)]) bin(v, 1);
+          const ValueVector& v = values[static_cast<size_t>(p * kQ + q)];
+          const double lower = st.histogram_lower, upper = st.histogram_upper;
+          long* counts = st.histogram.data();
+          for (const double x : v) {
+            if (x < lower || x > upper) continue;
+            long k = width > 0 ? static_cast<long>((x - lower) / width) : 0;
+            k = std::clamp<long>(k, 0, kUncertaintyHistogramBins - 1);
+            ++counts[k];
+          }
         } else {
           histograms[static_cast<size_t>(p * kQ + q)].ForEach(bin);
         }
