@@ -18,12 +18,25 @@
 #include "isowrench/input_checks.hpp"
 #include "isowrench/io.hpp"
 #include "isowrench/uncertainty.hpp"
+#include "uncertainty/normal_quantile.hpp"
 
 namespace isowrench {
 
 namespace {
 
 constexpr int kQ = kUncertaintyQuantities;
+// A row's quantities are kept as kLanes doubles in "lane order", so that four quantities of a row
+// are one 4-double vector: the Sobol quantities first (the reading, |f|, |m|, the angle: lanes
+// 0-8), then the world axes (9-14), a pad (15). kLaneOf[q]: the lane of quantity q.
+constexpr int kLanes = 16;
+constexpr int kSobolLanes = 9;
+constexpr int kLaneOf[kQ] = {0, 1, 2, 3, 4, 5, 9, 10, 11, 12, 13, 14, 6, 7, 8};
+// What Quantities says of a row's values: every lane but the angle's (and the pad) is finite
+// (the world lanes only when they were computed); the angle is finite. When a flag is missing
+// the sums below look at each value.
+constexpr int kRowFinite = 1;
+constexpr int kAngleFinite = 2;
+constexpr int kAllFinite = kRowFinite | kAngleFinite;
 constexpr double kPi = 3.14159265358979323846;
 constexpr double kPercentileLevels[4] = {0.025, 0.5, 0.95, 0.975};
 
@@ -255,6 +268,28 @@ const char* LogHistogram::Read(const char* p, const char* end) {
   return p;
 }
 
+// A vector whose resize leaves new doubles uninitialised (they are written right after): the
+// percentile values of a study are hundreds of megabytes at the budget's limit.
+template <class T>
+struct UncDefaultInit : std::allocator<T> {
+  template <class U>
+  struct rebind {
+    using other = UncDefaultInit<U>;
+  };
+  UncDefaultInit() = default;
+  template <class U>
+  UncDefaultInit(const UncDefaultInit<U>&) noexcept {}
+  template <class U>
+  void construct(U* p) noexcept {
+    ::new (static_cast<void*>(p)) U;
+  }
+  template <class U, class... A>
+  void construct(U* p, A&&... a) {
+    ::new (static_cast<void*>(p)) U(std::forward<A>(a)...);
+  }
+};
+using ValueVector = std::vector<double, UncDefaultInit<double>>;
+
 // ---- per-block sums ----
 // Layout of one (block, posture) record, all doubles, added in block order:
 //   [0] rows, [1] valid, [2] no equilibrium, [3] invalid, [4] small-motion failures,
@@ -327,27 +362,42 @@ struct UncertaintyStudy::Impl {
   // A row's inputs: the dimensions of group `swap` from values_b, the others from values_a.
   void Assemble(const double* values_a, const double* values_b, int swap, RowInputs& row) const;
   void Apply(const Dimension& d, double value, RowInputs& row) const;
+  // The stiffness targets of Apply (others: nothing).
+  void ApplyToSet(const Dimension& d, double value, StiffnessSet& set) const;
   void Nominal(RowInputs& row) const;
   // `to` = `from`, the parts the study uses only.
   void CopyRow(const RowInputs& from, RowInputs& to) const;
-  // The reading's quantities from W (transducer axes, activation 1) and the row's inputs.
-  // world: also the world-axes components (else 0: A_B^i rows need only the Sobol quantities).
-  void Quantities(const PostureData& pd, const Vector6d& W1, const RowInputs& row, double* y,
-                  bool world = true) const;
+  // The reading's quantities from W (transducer axes, activation 1) and the row's inputs, in
+  // lane order (kLanes entries, kLaneOf). world: also the world-axes components (else 0: A_B^i
+  // rows need only the Sobol quantities).
+  // Returns kRowFinite / kAngleFinite flags (below).
+  int Quantities(const PostureData& pd, const Vector6d& W1, const RowInputs& row, double* y,
+                 bool world = true) const;
+  // The same from the reading W itself.
+  static int ReadingQuantities(const PostureData& pd, const Vector6d& W, double* y, bool world);
   bool SmallMotionFails(const Matrix6Xd& J, const Eigen::VectorXd& dtheta) const;
 };
+
+void UncertaintyStudy::Impl::ApplyToSet(const Dimension& d, double v, StiffnessSet& set) const {
+  switch (d.target) {
+    case Target::kTransducerStiffness:
+      set.s_t[d.index] = d.absolute ? v : nominal_set.s_t[d.index] * v;
+      break;
+    case Target::kTransducerRotationFactor:
+      for (int r = 3; r < 6; ++r) set.s_t[r] = nominal_set.s_t[r] * v;
+      break;
+    case Target::kJointStiffness:
+      for (int c : d.columns) set.s_p[c] = d.absolute ? v : nominal_set.s_p[c] * v;
+      break;
+    default: break;
+  }
+}
 
 void UncertaintyStudy::Impl::Apply(const Dimension& d, double v, RowInputs& row) const {
   switch (d.target) {
     case Target::kTransducerStiffness:
-      row.set.s_t[d.index] = d.absolute ? v : nominal_set.s_t[d.index] * v;
-      break;
     case Target::kTransducerRotationFactor:
-      for (int r = 3; r < 6; ++r) row.set.s_t[r] = nominal_set.s_t[r] * v;
-      break;
-    case Target::kJointStiffness:
-      for (int c : d.columns) row.set.s_p[c] = d.absolute ? v : nominal_set.s_p[c] * v;
-      break;
+    case Target::kJointStiffness: ApplyToSet(d, v, row.set); break;
     case Target::kAngle: row.dq[d.index] += v; break;
     case Target::kForceFactor: row.factor *= v; break;
     case Target::kActivation: row.activation = v; break;
@@ -428,8 +478,8 @@ void UncertaintyStudy::Impl::Assemble(const double* values_a, const double* valu
   }
 }
 
-void UncertaintyStudy::Impl::Quantities(const PostureData& pd, const Vector6d& W1,
-                                        const RowInputs& row, double* y, bool world) const {
+int UncertaintyStudy::Impl::Quantities(const PostureData& pd, const Vector6d& W1,
+                                       const RowInputs& row, double* y, bool world) const {
   Vector6d W = (row.factor * row.activation) * W1;
   if (has_post) {
     // Misalignment: readings in axes turned by R = exp([r]x): R^T W.
@@ -452,24 +502,36 @@ void UncertaintyStudy::Impl::Quantities(const PostureData& pd, const Vector6d& W
     }
     W = reading + row.offset;
   }
+  return ReadingQuantities(pd, W, y, world);
+}
+
+int UncertaintyStudy::Impl::ReadingQuantities(const PostureData& pd, const Vector6d& W, double* y,
+                                              bool world) {
+  // y in lane order (kLaneOf): the reading, |f|, |m|, the angle, the world axes, a pad.
   for (int i = 0; i < 6; ++i) y[i] = W[i];
+  bool finite = true;
   if (world) {
     const Eigen::Vector3d f = pd.R_W_T * W.head<3>(), m = pd.R_W_T * W.tail<3>();
     for (int i = 0; i < 3; ++i) {
-      y[6 + i] = f[i];
-      y[9 + i] = m[i];
+      y[9 + i] = f[i];
+      y[12 + i] = m[i];
     }
+    for (int i = 9; i < 15; ++i) finite = finite && std::isfinite(y[i]);
   } else {
-    for (int i = 6; i < 12; ++i) y[i] = 0.0;  // not a Sobol quantity (kSobolQuantity)
+    for (int i = 9; i < 15; ++i) y[i] = 0.0;  // not a Sobol quantity (kSobolQuantity)
   }
-  y[12] = W.head<3>().norm();
-  y[13] = W.tail<3>().norm();
-  if (pd.force_direction.isZero() || y[12] == 0.0) {
-    y[14] = std::numeric_limits<double>::quiet_NaN();
+  y[15] = 0.0;
+  y[6] = W.head<3>().norm();
+  y[7] = W.tail<3>().norm();
+  if (pd.force_direction.isZero() || y[6] == 0.0) {
+    y[8] = std::numeric_limits<double>::quiet_NaN();
   } else {
     const Eigen::Vector3d fw = W.head<3>();
-    y[14] = std::atan2(fw.cross(pd.force_direction).norm(), fw.dot(pd.force_direction));
+    y[8] = std::atan2(fw.cross(pd.force_direction).norm(), fw.dot(pd.force_direction));
   }
+  // A finite |f| (the square root of the sum of squares) has finite components; so has |m|.
+  finite = finite && std::isfinite(y[6]) && std::isfinite(y[7]);
+  return (finite ? kRowFinite : 0) | (std::isfinite(y[8]) ? kAngleFinite : 0);
 }
 
 bool UncertaintyStudy::Impl::SmallMotionFails(const Matrix6Xd& J,
@@ -966,7 +1028,9 @@ UncertaintyStudy::UncertaintyStudy(const Model& model, const std::string& muscle
     pd.nominal_status = w.status;
     pd.force_direction.setZero();
     if (w.status == StaticsStatus::kOk || w.status == StaticsStatus::kSelfMotionHeld) {
-      s.Quantities(pd, w.wrench, nominal, pd.nominal.data());
+      double y[kLanes];
+      s.Quantities(pd, w.wrench, nominal, y);
+      for (int q = 0; q < kQ; ++q) pd.nominal[static_cast<size_t>(q)] = y[kLaneOf[q]];
       pd.nominal[14] = 0.0;
       const Eigen::Vector3d f(pd.nominal[0], pd.nominal[1], pd.nominal[2]);
       if (f.norm() > 0) pd.force_direction = f / f.norm();
@@ -1021,6 +1085,73 @@ const Model& UncertaintyStudy::model() const { return impl_->model; }
 
 namespace {
 
+// 4 doubles (GCC/Clang vector extensions, as src/fast/simd.hpp): four lanes of a row's
+// quantities at once. Each lane's sum runs over the samples in the order one scalar sum would,
+// and no multiply-add is formed (the library is compiled for baseline x86-64), so every lane
+// rounds as the scalar code does: the same bits. UNC_LOAD: 4 doubles from p (any alignment); a
+// macro, as a 32-byte vector passed or returned by value draws GCC's -Wpsabi note.
+typedef double UncV4 __attribute__((vector_size(32)));
+typedef double UncV4u __attribute__((vector_size(32), aligned(8), may_alias));
+#define UNC_LOAD(p) (*reinterpret_cast<const UncV4u*>(p))
+
+// The hot sums are compiled twice, for AVX (4 doubles per instruction) and for the baseline; the
+// loader picks the one the CPU runs (GNU ifunc, as src/fast/simd.hpp's ISOWRENCH_CLONES). "avx"
+// and not x86-64-v3: without FMA no multiply-add is formed, so both round as scalar code does.
+#if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__) && defined(__linux__) && \
+    !defined(ISOWRENCH_NO_CLONES)
+#define UNC_CLONES __attribute__((target_clones("avx", "default")))
+#else
+#define UNC_CLONES
+#endif
+
+// The Sobol sums of one input group over a block's samples, for the four lanes of vector k:
+// ab_rows: that group's rows (kLanes doubles per sample), a_rows / b_rows: f(A) - c, f(B) - c
+// (kW doubles per sample), code: 0 skip the sample, 1 every value finite, 2 lane by lane
+// (finite: kSobolLanes flags per sample). first / total: sum b (ab - a) and sum (a - ab)^2 of
+// the four lanes, in sample order.
+UNC_CLONES void SobolLaneSums(const double* ab_rows, const double* a_rows, const double* b_rows,
+                              int kW, const char* code, const char* finite, long count,
+                              const double* c, int k, double* first_out, double* total_out) {
+  UncV4 first = {0.0, 0.0, 0.0, 0.0}, total = first;
+  const UncV4 ck = UNC_LOAD(c + 4 * k);
+  for (long jj = 0; jj < count; ++jj) {
+    if (code[jj] == 0) continue;
+    const double* yab = ab_rows + jj * kLanes + 4 * k;
+    const double* a = a_rows + jj * kW + 4 * k;
+    const double* b = b_rows + jj * kW + 4 * k;
+    if (code[jj] == 1) {
+      const UncV4 ab = UNC_LOAD(yab) - ck, av = UNC_LOAD(a);
+      first += UNC_LOAD(b) * (ab - av);
+      const UncV4 e = av - ab;
+      total += e * e;
+    } else {
+      for (int i = 0; i < 4 && 4 * k + i < kSobolLanes; ++i) {
+        if (!finite[jj * kSobolLanes + 4 * k + i]) continue;
+        const double ab = yab[i] - c[4 * k + i];
+        first[i] += b[i] * (ab - a[i]);
+        total[i] += (a[i] - ab) * (a[i] - ab);
+      }
+    }
+  }
+  for (int i = 0; i < 4; ++i) {
+    first_out[i] = first[i];
+    total_out[i] = total[i];
+  }
+}
+
+// z[i] = NormalQuantile(p[i]), i < n: the central branch (|p - 0.5| <= 0.425, most draws) four
+// at a time with the scalar's operations (CentralNormalQuantile), the tails by NormalQuantile.
+UNC_CLONES void NormalQuantiles(const double* p, double* z, long n) {
+  long i = 0;
+  for (; i + 4 <= n; i += 4) {
+    const UncV4 q = UNC_LOAD(p + i) - 0.5;
+    const UncV4 central = CentralNormalQuantile(q);
+    for (int l = 0; l < 4; ++l)
+      z[i + l] = std::abs(q[l]) <= 0.425 ? central[l] : NormalQuantile(p[i + l]);
+  }
+  for (; i < n; ++i) z[i] = NormalQuantile(p[i]);
+}
+
 // One thread's evaluation of blocks.
 class BlockRunner {
  public:
@@ -1032,11 +1163,15 @@ class BlockRunner {
     solve_.excitation_tolerance = s.options.statics.excitation_tolerance;
     const long P = s.postures.cols();
     if (!s.exact) histograms_.assign(static_cast<size_t>(P * kQ), LogHistogram());
+    // Without angle and reading inputs a row is a stiffness set and a force factor: those are
+    // built directly (the sets the batch reads), not through RowInputs.
+    sets_only_ = !s.kinematic && !s.has_post;
+    if (sets_only_) PlanEntries();
   }
 
   // Block b: its records (one per posture) into `record` and, for exact percentiles, its
   // values into `values` (per posture and quantity).
-  void Run(long b, double* record, std::vector<std::vector<double>>* values) {
+  void Run(long b, double* record, std::vector<ValueVector>* values) {
     const long j0 = b * kUncertaintyBlockSamples;
     const long j1 = std::min(s_.samples, j0 + kUncertaintyBlockSamples);
     const long count = j1 - j0;
@@ -1044,7 +1179,30 @@ class BlockRunner {
     const long P = s_.postures.cols();
     const int RS = s_.RecordSize();
     std::fill(record, record + P * RS, 0.0);
-    // Inputs of every row of the block.
+    count_ = count;
+    if (sets_only_) {
+      AssembleSets(j0, count);
+    } else {
+      AssembleRows(j0, count);
+    }
+    results_.resize(static_cast<size_t>(count * rows));
+    quantities_.resize(static_cast<size_t>(count * rows * kLanes));
+    status_.resize(static_cast<size_t>(count * rows));
+    flags_.resize(static_cast<size_t>(count * rows));
+    for (long p = 0; p < P; ++p) {
+      EvaluatePosture(p, count * rows);
+      Accumulate(p, count, record + p * RS, values);
+    }
+  }
+
+  void MergeHistogramsInto(std::vector<LogHistogram>& total) const {
+    for (size_t k = 0; k < histograms_.size(); ++k) total[k].Merge(histograms_[k]);
+  }
+
+ private:
+  // Inputs of every row of the block as RowInputs (angle and reading inputs).
+  void AssembleRows(long j0, long count) {
+    const int rows = s_.Rows();
     inputs_.resize(static_cast<size_t>(count * rows));
     for (long jj = 0; jj < count; ++jj) {
       s_.Draw(j0 + jj, 0, uA_.data());
@@ -1066,30 +1224,237 @@ class BlockRunner {
         }
       }
     }
-    results_.resize(static_cast<size_t>(count * rows));
-    quantities_.resize(static_cast<size_t>(count * rows * kQ));
-    status_.resize(static_cast<size_t>(count * rows));
-    count_ = count;
-    for (long p = 0; p < P; ++p) {
-      EvaluatePosture(p, count * rows);
-      Accumulate(p, count, record + p * RS, values);
+  }
+
+  // What RowInputs holds for a row without angle and reading inputs: the stiffness set, the
+  // force factor and the activation, with the arithmetic of Impl::Nominal and Impl::Apply.
+  void SetTarget(const Dimension& d, double v, StiffnessSet& set, double& factor,
+                 double& activation) const {
+    switch (d.target) {
+      case Target::kForceFactor: factor *= v; break;
+      case Target::kActivation: activation = v; break;
+      default: s_.ApplyToSet(d, v, set); break;
+    }
+  }
+  void SetRow(const double* values_a, const double* values_b, int swap, StiffnessSet& set,
+              double& factor, double& activation) const {
+    set.s_t = s_.nominal_set.s_t;
+    set.s_p = s_.nominal_set.s_p;
+    factor = 1.0;
+    activation = s_.nominal_activation;
+    for (int k = 0; k < D_; ++k) {
+      const Dimension& d = s_.dims[static_cast<size_t>(k)];
+      SetTarget(d, d.group == swap ? values_b[k] : values_a[k], set, factor, activation);
+    }
+  }
+  // The rows' stiffness sets (sets_, the batch's input) and W factors (scale_), as
+  // AssembleRows + the batch path would make them.
+  void AssembleSets(long j0, long count) {
+    const int rows = s_.Rows();
+    const size_t n = static_cast<size_t>(count * rows);
+    sets_.resize(n, s_.nominal_set);  // allocated once per runner (and the last block)
+    scale_.resize(n);
+    const bool block_values = s_.fit_group < 0;
+    if (block_values) BlockValues(j0, count);
+    const int matrices = s_.options.sobol ? 2 : 1;
+    valuesA_.resize(static_cast<size_t>(D_));
+    valuesB_.resize(static_cast<size_t>(D_));
+    for (long jj = 0; jj < count; ++jj) {
+      if (block_values) {
+        for (int k = 0; k < D_; ++k) {
+          const double* v = &block_values_[static_cast<size_t>((k * count + jj) * matrices)];
+          valuesA_[static_cast<size_t>(k)] = v[0];
+          if (matrices == 2) valuesB_[static_cast<size_t>(k)] = v[1];
+        }
+      } else {
+        s_.Draw(j0 + jj, 0, uA_.data());
+        if (s_.options.sobol) s_.Draw(j0 + jj, 1, uB_.data());
+        s_.Values(uA_.data(), valuesA_);
+        if (s_.options.sobol) s_.Values(uB_.data(), valuesB_);
+      }
+      StiffnessSet* set = &sets_[static_cast<size_t>(jj * rows)];
+      double* scale = &scale_[static_cast<size_t>(jj * rows)];
+      if (entry_plan_) {
+        PlannedRows(set, scale);
+        continue;
+      }
+      double factor_a, activation_a, factor, activation;
+      SetRow(valuesA_.data(), valuesA_.data(), -1, set[0], factor_a, activation_a);
+      scale[0] = factor_a * activation_a;
+      if (!s_.options.sobol) continue;
+      SetRow(valuesB_.data(), valuesB_.data(), -1, set[1], factor, activation);
+      scale[1] = factor * activation;
+      for (int g = 0; g < s_.G(); ++g) {
+        StiffnessSet& to = set[2 + g];
+        if (s_.group_sets_only[static_cast<size_t>(g)]) {
+          // Row A with group g's values from B (Impl::CopyRow + Impl::Apply).
+          to.s_t = set[0].s_t;
+          to.s_p = set[0].s_p;
+          factor = factor_a;
+          activation = activation_a;
+          for (int k = 0; k < D_; ++k) {
+            const Dimension& d = s_.dims[static_cast<size_t>(k)];
+            if (d.group == g)
+              SetTarget(d, valuesB_[static_cast<size_t>(k)], to, factor, activation);
+          }
+        } else {
+          SetRow(valuesA_.data(), valuesB_.data(), g, to, factor, activation);
+        }
+        scale[2 + g] = factor * activation;
+      }
     }
   }
 
-  void MergeHistogramsInto(std::vector<LogHistogram>& total) const {
-    for (size_t k = 0; k < histograms_.size(); ++k) total[k].Merge(histograms_[k]);
+  // When every dimension sets stiffness entries no other dimension sets, or the force factor, or
+  // (one) the activation: the rows of a sample without copies. Each row's entries are those of
+  // a fresh assembly from its sources (row A: A; row B: B; row A_B^g: group g from B, the others
+  // from A), which is what CopyRow + Apply give when no two dimensions share an entry; entries
+  // no dimension sets keep the model's value from sets_'s first fill. The arithmetic is Apply's.
+  struct PlannedEntry {
+    int dim = 0;
+    int group = 0;
+    bool s_p = false;       // else s_t
+    int index = 0;          // entry
+    bool absolute = false;  // the value itself, else nominal x value
+    double nominal = 0.0;
+  };
+  void PlanEntries() {
+    entry_plan_ = false;
+    planned_.clear();
+    force_dims_.clear();
+    activation_dim_ = -1;
+    const int m = s_.model.dof_count();
+    std::vector<char> used(static_cast<size_t>(6 + m), 0);
+    auto add = [&](int k, const Dimension& d, bool s_p, int index, bool absolute) {
+      const size_t u = static_cast<size_t>(s_p ? 6 + index : index);
+      if (used[u]) return false;
+      used[u] = 1;
+      PlannedEntry e;
+      e.dim = k;
+      e.group = d.group;
+      e.s_p = s_p;
+      e.index = index;
+      e.absolute = absolute;
+      e.nominal = s_p ? s_.nominal_set.s_p[index] : s_.nominal_set.s_t[index];
+      planned_.push_back(e);
+      return true;
+    };
+    for (int k = 0; k < D_; ++k) {
+      const Dimension& d = s_.dims[static_cast<size_t>(k)];
+      switch (d.target) {
+        case Target::kTransducerStiffness:
+          if (!add(k, d, false, d.index, d.absolute)) return;
+          break;
+        case Target::kTransducerRotationFactor:
+          for (int r = 3; r < 6; ++r)
+            if (!add(k, d, false, r, false)) return;
+          break;
+        case Target::kJointStiffness:
+          for (int c : d.columns)
+            if (!add(k, d, true, c, d.absolute)) return;
+          break;
+        case Target::kForceFactor: force_dims_.push_back(k); break;
+        case Target::kActivation:
+          if (activation_dim_ >= 0) return;
+          activation_dim_ = k;
+          break;
+        case Target::kNone: break;
+        default: return;
+      }
+    }
+    entry_plan_ = true;
+  }
+  void PlannedRows(StiffnessSet* set, double* scale) const {
+    const int rows = s_.Rows();
+    const double* A = valuesA_.data();
+    const double* B = valuesB_.data();
+    for (const PlannedEntry& e : planned_) {
+      // The entry from A and from B; row v takes B when v == 1 or v == 2 + its group.
+      const double a = e.absolute ? A[e.dim] : e.nominal * A[e.dim];
+      if (e.s_p) {
+        set[0].s_p[e.index] = a;
+        if (rows == 1) continue;
+        const double b = e.absolute ? B[e.dim] : e.nominal * B[e.dim];
+        set[1].s_p[e.index] = b;
+        for (int v = 2; v < rows; ++v) set[v].s_p[e.index] = v - 2 == e.group ? b : a;
+      } else {
+        set[0].s_t[e.index] = a;
+        if (rows == 1) continue;
+        const double b = e.absolute ? B[e.dim] : e.nominal * B[e.dim];
+        set[1].s_t[e.index] = b;
+        for (int v = 2; v < rows; ++v) set[v].s_t[e.index] = v - 2 == e.group ? b : a;
+      }
+    }
+    for (int v = 0; v < rows; ++v) {
+      // Row v's source of dimension k: A, B, or B for group v - 2 only.
+      auto value = [&](int k) {
+        return v == 1 || s_.dims[static_cast<size_t>(k)].group == v - 2 ? B[k] : A[k];
+      };
+      double factor = 1.0;
+      for (int k : force_dims_) factor *= value(k);
+      const double activation =
+          activation_dim_ < 0 ? s_.nominal_activation : value(activation_dim_);
+      scale[v] = factor * activation;
+    }
   }
 
- private:
+  // Every dimension's value of every sample of the block (without a fit: its transform needs a
+  // whole sample), as Impl::Draw + Impl::Values compute them, dimension by dimension: the
+  // normal quantiles four at a time (NormalQuantiles). block_values_[(k * count + jj) *
+  // matrices + m]: dimension k, sample jj, matrix m (A, B).
+  void BlockValues(long j0, long count) {
+    const int matrices = s_.options.sobol ? 2 : 1;
+    const long n = count * matrices;
+    block_u_.resize(static_cast<size_t>(D_ * n));
+    block_values_.resize(static_cast<size_t>(D_ * n));
+    for (long jj = 0; jj < count; ++jj) {
+      for (int mx = 0; mx < matrices; ++mx) {
+        for (int k = 0; k < D_; k += 4) {
+          const std::array<double, 4> r =
+              PhiloxUniforms(s_.options.seed, static_cast<std::uint64_t>(j0 + jj),
+                             static_cast<std::uint64_t>(mx), static_cast<std::uint64_t>(k / 4));
+          for (int l = 0; l < 4 && k + l < D_; ++l)
+            block_u_[static_cast<size_t>((k + l) * n + jj * matrices + mx)] =
+                r[static_cast<size_t>(l)];
+        }
+      }
+    }
+    for (int k = 0; k < D_; ++k) {
+      const Dimension& d = s_.dims[static_cast<size_t>(k)];
+      const double* u = &block_u_[static_cast<size_t>(k * n)];
+      double* v = &block_values_[static_cast<size_t>(k * n)];
+      switch (d.distribution) {
+        case InputDistribution::kNormal:
+          NormalQuantiles(u, v, n);
+          for (long i = 0; i < n; ++i) v[i] = d.a + d.b * v[i];
+          break;
+        case InputDistribution::kLogNormal:
+          NormalQuantiles(u, v, n);
+          for (long i = 0; i < n; ++i) v[i] = d.a * std::exp(d.b * v[i]);
+          break;
+        case InputDistribution::kUniform:
+          for (long i = 0; i < n; ++i) v[i] = d.a + u[i] * (d.b - d.a);
+          break;
+        case InputDistribution::kLogUniform:
+          for (long i = 0; i < n; ++i) v[i] = std::exp(d.a + u[i] * (d.b - d.a));
+          break;
+      }
+    }
+  }
+
   // 0 valid, 1 no equilibrium, 2 invalid; small-motion failure as bit 4.
   void EvaluatePosture(long p, long n_rows) {
     const UncertaintyStudy::Impl::PostureData& pd = s_.posture_data[static_cast<size_t>(p)];
     const Eigen::VectorXd q = s_.postures.col(p);
+    const int rows = s_.Rows();
+    const int stat_rows = s_.options.sobol ? 2 : 1;
     if (!s_.kinematic) {
       // Batch path: every row shares the posture's kinematics; rows are stiffness sets.
-      sets_.resize(static_cast<size_t>(n_rows));
-      for (long r = 0; r < n_rows; ++r)
-        sets_[static_cast<size_t>(r)] = inputs_[static_cast<size_t>(r)].set;
+      if (!sets_only_) {
+        sets_.resize(static_cast<size_t>(n_rows), s_.nominal_set);
+        for (long r = 0; r < n_rows; ++r)
+          sets_[static_cast<size_t>(r)] = inputs_[static_cast<size_t>(r)].set;
+      }
       BatchOptions batch;
       batch.threads = 1;
       batch.solve = solve_;
@@ -1100,75 +1465,80 @@ class BlockRunner {
       b.resize(pd.dtheta_from.cols());
       dtheta.resize(m);
       JtW_.resize(m);
-      for (long r = 0; r < n_rows; ++r) {
-        const WrenchResult& w = results_[static_cast<size_t>(r)];
-        const RowInputs& row = inputs_[static_cast<size_t>(r)];
-        int status = Classify(w);
-        if (status == 0 && !StatisticsRow(r)) {
+      long r = 0;
+      for (long jj = 0; jj < count_; ++jj) {
+        for (int v = 0; v < rows; ++v, ++r) {
+          const WrenchResult& w = results_[static_cast<size_t>(r)];
+          const StiffnessSet& set = sets_[static_cast<size_t>(r)];
+          const double scale = sets_only_ ? scale_[static_cast<size_t>(r)]
+                                          : inputs_[static_cast<size_t>(r)].factor *
+                                                inputs_[static_cast<size_t>(r)].activation;
+          double* y = Row(v, jj);
+          int status = Classify(w);
           // A_B^i rows serve the Sobol sums only: no small-motion check, no world axes.
-          s_.Quantities(pd, w.wrench, row, y_, false);
-          Scatter(r);
-        } else if (status == 0) {
-          // dtheta at activation 1 from W (see the reconstruction in the constructor).
-          Eigen::Index k = 0;
-          for (int rr : s_.restrained_rows) b[k++] = w.wrench[rr] / row.set.s_t[rr];
-          JtW_.noalias() = pd.J.transpose() * w.wrench;
-          for (int c : s_.stiff_columns) b[k++] = (pd.tau[c] - JtW_[c]) / row.set.s_p[c];
-          dtheta.noalias() = pd.dtheta_from * b;
-          dtheta *= row.factor * row.activation;
-          if (s_.SmallMotionFails(pd.J, dtheta)) status |= 4;
-          s_.Quantities(pd, w.wrench, row, y_);
-          Scatter(r);
+          const bool statistics = v < stat_rows;
+          if (status == 0 && statistics) {
+            // dtheta at activation 1 from W (see the reconstruction in the constructor).
+            Eigen::Index k = 0;
+            for (int rr : s_.restrained_rows) b[k++] = w.wrench[rr] / set.s_t[rr];
+            JtW_.noalias() = pd.J.transpose() * w.wrench;
+            for (int c : s_.stiff_columns) b[k++] = (pd.tau[c] - JtW_[c]) / set.s_p[c];
+            dtheta.noalias() = pd.dtheta_from * b;
+            dtheta *= scale;
+            if (s_.SmallMotionFails(pd.J, dtheta)) status |= 4;
+          }
+          if (status == 0 || status == 4) {
+            if (sets_only_) {
+              const Vector6d W = scale * w.wrench;
+              flags_[Status(v, jj)] = static_cast<unsigned char>(
+                  UncertaintyStudy::Impl::ReadingQuantities(pd, W, y, statistics));
+            } else {
+              flags_[Status(v, jj)] = static_cast<unsigned char>(
+                  s_.Quantities(pd, w.wrench, inputs_[static_cast<size_t>(r)], y, statistics));
+            }
+          }
+          status_[static_cast<size_t>(v * count_ + jj)] = status;
         }
-        status_[Status(r)] = status;
       }
       return;
     }
     // Scalar path: rows whose posture differs from the previous row's recompute kinematics.
     bool have_kinematics = false;
-    for (long r = 0; r < n_rows; ++r) {
-      const RowInputs& row = inputs_[static_cast<size_t>(r)];
-      qr_ = q + row.dq;
-      if (!have_kinematics || qr_ != last_q_) {
-        kinematics_ok_ = ComputeKinematics(s_.model, data_, qr_, s_.muscle, 1.0);
-        J_ = data_.jacobian();
-        last_q_ = qr_;
-        have_kinematics = true;
+    long r = 0;
+    for (long jj = 0; jj < count_; ++jj) {
+      for (int v = 0; v < rows; ++v, ++r) {
+        const RowInputs& row = inputs_[static_cast<size_t>(r)];
+        qr_ = q + row.dq;
+        if (!have_kinematics || qr_ != last_q_) {
+          kinematics_ok_ = ComputeKinematics(s_.model, data_, qr_, s_.muscle, 1.0);
+          J_ = data_.jacobian();
+          last_q_ = qr_;
+          have_kinematics = true;
+        }
+        const WrenchResult w = kinematics_ok_ ? SolveStatics(s_.model, data_, row.set, solve_)
+                                              : WrenchResult{};  // coincident path points
+        int status = Classify(w);
+        double* y = Row(v, jj);
+        if (status == 0 && v >= stat_rows) {
+          flags_[Status(v, jj)] =
+              static_cast<unsigned char>(s_.Quantities(pd, w.wrench, row, y, false));
+        } else if (status == 0) {
+          dtheta_ = data_.dtheta();
+          dtheta_ *= row.factor * row.activation;
+          if (s_.SmallMotionFails(J_, dtheta_)) status |= 4;
+          flags_[Status(v, jj)] = static_cast<unsigned char>(s_.Quantities(pd, w.wrench, row, y));
+        }
+        status_[static_cast<size_t>(v * count_ + jj)] = status;
       }
-      const WrenchResult w = kinematics_ok_ ? SolveStatics(s_.model, data_, row.set, solve_)
-                                            : WrenchResult{};  // coincident path points
-      int status = Classify(w);
-      if (status == 0 && !StatisticsRow(r)) {
-        s_.Quantities(pd, w.wrench, row, y_, false);
-        Scatter(r);
-      } else if (status == 0) {
-        dtheta_ = data_.dtheta();
-        dtheta_ *= row.factor * row.activation;
-        if (s_.SmallMotionFails(J_, dtheta_)) status |= 4;
-        s_.Quantities(pd, w.wrench, row, y_);
-        Scatter(r);
-      }
-      status_[Status(r)] = status;
     }
   }
 
-  // Layout of a block's quantities and statuses: variant v (A, B, A_B^1 ...), quantity q,
-  // sample jj (structure of arrays, so the sums below run over contiguous samples).
-  size_t Q(int v, int q, long jj) const {
-    return static_cast<size_t>((static_cast<long>(v) * kQ + q) * count_ + jj);
+  // A block's quantities: variant v (A, B, A_B^1 ...), sample jj, kLanes doubles in lane order
+  // (so the sums below take four quantities of a row at once). Statuses: variant, sample.
+  size_t Status(int v, long jj) const { return static_cast<size_t>(v * count_ + jj); }
+  double* Row(int v, long jj) {
+    return &quantities_[static_cast<size_t>((static_cast<long>(v) * count_ + jj) * kLanes)];
   }
-  size_t Status(long r) const {
-    const long rows = s_.Rows();
-    return static_cast<size_t>((r % rows) * count_ + r / rows);
-  }
-  void Scatter(long r) {
-    const int v = static_cast<int>(r % s_.Rows());
-    const long jj = r / s_.Rows();
-    for (int q = 0; q < kQ; ++q) quantities_[Q(v, q, jj)] = y_[q];
-  }
-
-  // Rows A and B (the statistics' samples); the others are A_B^i.
-  bool StatisticsRow(long r) const { return r % s_.Rows() < (s_.options.sobol ? 2 : 1); }
 
   static int Classify(const WrenchResult& w) {
     if (w.status == StaticsStatus::kSelfMotion) return 1;
@@ -1176,22 +1546,25 @@ class BlockRunner {
     return 0;
   }
 
-  void Accumulate(long p, long count, double* rec, std::vector<std::vector<double>>* values) {
+  void Accumulate(long p, long count, double* rec, std::vector<ValueVector>* values) {
     const int G = s_.G();
-    const double* c = s_.posture_data[static_cast<size_t>(p)].nominal.data();
+    const double* nominal = s_.posture_data[static_cast<size_t>(p)].nominal.data();
+    double c_lanes[kLanes] = {};
+    for (int q = 0; q < kQ; ++q) c_lanes[kLaneOf[q]] = nominal[q];
+    UncV4 c[4];
+    for (int k = 0; k < 4; ++k) c[k] = UNC_LOAD(c_lanes + 4 * k);
+    int quantity_of[kLanes] = {};
+    for (int q = 0; q < kQ; ++q) quantity_of[kLaneOf[q]] = q;
     double* per_q = rec + kCounts;
     double* sobol = rec + kCounts + kQ * kPerQuantity;
     const int stat_rows = s_.options.sobol ? 2 : 1;
     const int rows = s_.Rows();
+    const UncV4 zero = {0.0, 0.0, 0.0, 0.0}, one = {1.0, 1.0, 1.0, 1.0};
     // Counts; a row with a non-finite quantity (the angle aside) is invalid.
     for (int v = 0; v < stat_rows; ++v) {
       for (long jj = 0; jj < count; ++jj) {
-        int& st = status_[static_cast<size_t>(v * count + jj)];
-        if ((st & 3) == 0) {
-          for (int q = 0; q < kQ; ++q) {
-            if (q != 14 && !std::isfinite(quantities_[Q(v, q, jj)])) st = 2;
-          }
-        }
+        int& st = status_[Status(v, jj)];
+        if ((st & 3) == 0 && !(flags_[Status(v, jj)] & kRowFinite)) st = 2;
         rec[0] += 1;
         if ((st & 3) == 1) {
           rec[2] += 1;
@@ -1203,67 +1576,116 @@ class BlockRunner {
         }
       }
     }
-    // Moments and percentile data per quantity, over the valid A and B rows.
-    for (int q = 0; q < kQ; ++q) {
-      double n = 0, s1 = 0, s2 = 0;
-      for (int v = 0; v < stat_rows; ++v) {
-        const double* y = &quantities_[Q(v, q, 0)];
-        const int* st = &status_[static_cast<size_t>(v * count)];
-        std::vector<double>* kept =
-            s_.exact ? &(*values)[static_cast<size_t>(p * kQ + q)] : nullptr;
-        for (long jj = 0; jj < count; ++jj) {
-          if ((st[jj] & 3) != 0 || !std::isfinite(y[jj])) continue;
-          const double d = y[jj] - c[q];
-          n += 1;
-          s1 += d;
-          s2 += d * d;
-          if (kept != nullptr) {
-            kept->push_back(y[jj]);
-          } else {
-            histograms_[static_cast<size_t>(p * kQ + q)].Add(y[jj]);
+    // Moments and percentile data per quantity (lane), over the valid A and B rows, A's then
+    // B's in sample order, as one scalar sum per quantity would add them. In a valid row only
+    // the angle can be non-finite (kAngleFinite).
+    UncV4 n[4] = {zero, zero, zero, zero}, s1[4] = {zero, zero, zero, zero},
+          s2[4] = {zero, zero, zero, zero};
+    double* out[kLanes] = {};
+    LogHistogram* histogram[kLanes] = {};
+    for (int l = 0; l < kLanes - 1; ++l) {
+      const size_t i = static_cast<size_t>(p * kQ + quantity_of[l]);
+      if (s_.exact) {
+        ValueVector& kept = (*values)[i];
+        const size_t old = kept.size();
+        kept.resize(old + static_cast<size_t>(stat_rows * count));
+        out[l] = kept.data() + old;
+      } else {
+        histogram[l] = &histograms_[i];
+      }
+    }
+    for (int v = 0; v < stat_rows; ++v) {
+      for (long jj = 0; jj < count; ++jj) {
+        if ((status_[Status(v, jj)] & 3) != 0) continue;
+        const double* y = Row(v, jj);
+        const bool angle = (flags_[Status(v, jj)] & kAngleFinite) != 0;
+        for (int k = 0; k < 4; ++k) {
+          if (k == 2 && !angle) {
+            for (int i = 1; i < 4; ++i) {
+              const double d = y[8 + i] - c_lanes[8 + i];
+              n[2][i] += 1.0;
+              s1[2][i] += d;
+              s2[2][i] += d * d;
+            }
+            continue;
           }
+          const UncV4 d = UNC_LOAD(y + 4 * k) - c[k];
+          n[k] += one;
+          s1[k] += d;
+          s2[k] += d * d;
+        }
+        if (s_.exact) {
+          for (int l = 0; l < kLanes - 1; ++l) {
+            *out[l] = y[l];
+            out[l] += (l != 8 || angle) ? 1 : 0;
+          }
+        } else {
+          for (int l = 0; l < kLanes - 1; ++l)
+            if (l != 8 || angle) histogram[l]->Add(y[l]);
         }
       }
-      per_q[q * kPerQuantity + 0] += n;
-      per_q[q * kPerQuantity + 1] += s1;
-      per_q[q * kPerQuantity + 2] += s2;
+    }
+    for (int l = 0; l < kLanes - 1; ++l) {
+      const int q = quantity_of[l];
+      per_q[q * kPerQuantity + 0] += n[l / 4][l % 4];
+      per_q[q * kPerQuantity + 1] += s1[l / 4][l % 4];
+      per_q[q * kPerQuantity + 2] += s2[l / 4][l % 4];
+      if (s_.exact) {
+        ValueVector& kept = (*values)[static_cast<size_t>(p * kQ + q)];
+        kept.resize(static_cast<size_t>(out[l] - kept.data()));
+      }
     }
     if (!s_.options.sobol) return;
-    // Sobol sums over the samples whose every row is valid and finite for the quantity.
-    ok_.resize(static_cast<size_t>(count));
+    // Sobol sums over the samples whose every row is valid and finite for the quantity (lanes
+    // 0-8 of three vectors; lanes 9-11 ride along and are dropped). Per sample: 0 skipped, 1
+    // every value finite, 2 each lane decided on its own (finite_lane_).
+    constexpr int kSobolVectors = (kSobolLanes + 3) / 4;
+    constexpr int kW = 4 * kSobolVectors;
+    code_.resize(static_cast<size_t>(count));
+    dA_.resize(static_cast<size_t>(count * kW));
+    dB_.resize(static_cast<size_t>(count * kW));
+    finite_lane_.resize(static_cast<size_t>(count * kSobolLanes));
+    double ns[kW] = {};
+    long fast = 0;
     for (long jj = 0; jj < count; ++jj) {
       bool all = true;
-      for (int v = 0; v < rows; ++v)
-        all = all && (status_[static_cast<size_t>(v * count + jj)] & 3) == 0;
-      ok_[static_cast<size_t>(jj)] = all;
+      int flags = kAllFinite;
+      for (int v = 0; v < rows; ++v) {
+        all = all && (status_[Status(v, jj)] & 3) == 0;
+        flags &= flags_[Status(v, jj)];
+      }
+      code_[static_cast<size_t>(jj)] = static_cast<char>(!all ? 0 : flags == kAllFinite ? 1 : 2);
+      if (!all) continue;
+      const double* yA = Row(0, jj);
+      const double* yB = Row(1, jj);
+      for (int l = 0; l < kW; ++l) {
+        dA_[static_cast<size_t>(jj * kW + l)] = yA[l] - c_lanes[l];
+        dB_[static_cast<size_t>(jj * kW + l)] = yB[l] - c_lanes[l];
+      }
+      if (flags == kAllFinite) {
+        ++fast;
+        continue;
+      }
+      for (int l = 0; l < kSobolLanes; ++l) {
+        bool finite = true;
+        for (int v = 0; v < rows; ++v) finite = finite && std::isfinite(Row(v, jj)[l]);
+        finite_lane_[static_cast<size_t>(jj * kSobolLanes + l)] = finite;
+        if (finite) ns[l] += 1.0;
+      }
     }
-    for (int q = 0; q < kQ; ++q) {
-      if (!UncertaintySobolQuantity(q)) continue;
-      const double* yA = &quantities_[Q(0, q, 0)];
-      const double* yB = &quantities_[Q(1, q, 0)];
-      double n = 0;
-      for (long jj = 0; jj < count; ++jj) {
-        bool finite =
-            ok_[static_cast<size_t>(jj)] && std::isfinite(yA[jj]) && std::isfinite(yB[jj]);
-        for (int g = 0; g < G && finite; ++g) finite = std::isfinite(quantities_[Q(2 + g, q, jj)]);
-        ok_[static_cast<size_t>(jj)] =
-            static_cast<char>(finite ? 3 : (ok_[static_cast<size_t>(jj)] & 1));
-        if (finite) n += 1;
-      }
-      per_q[q * kPerQuantity + 3] += n;
-      for (int g = 0; g < G; ++g) {
-        const double* yAB = &quantities_[Q(2 + g, q, 0)];
-        double first = 0, total = 0;
-        for (long jj = 0; jj < count; ++jj) {
-          if (ok_[static_cast<size_t>(jj)] != 3) continue;
-          const double a = yA[jj] - c[q], bq = yB[jj] - c[q], ab = yAB[jj] - c[q];
-          first += bq * (ab - a);
-          total += (a - ab) * (a - ab);
+    for (int l = 0; l < kSobolLanes; ++l)
+      per_q[quantity_of[l] * kPerQuantity + 3] += ns[l] + static_cast<double>(fast);
+    for (int g = 0; g < G; ++g) {
+      for (int k = 0; k < kSobolVectors; ++k) {
+        double first[4], total[4];
+        SobolLaneSums(Row(2 + g, 0), dA_.data(), dB_.data(), kW, code_.data(), finite_lane_.data(),
+                      count, c_lanes, k, first, total);
+        for (int i = 0; i < 4 && 4 * k + i < kSobolLanes; ++i) {
+          const int q = quantity_of[4 * k + i];
+          sobol[(g * kQ + q) * 2 + 0] += first[i];
+          sobol[(g * kQ + q) * 2 + 1] += total[i];
         }
-        sobol[(g * kQ + q) * 2 + 0] += first;
-        sobol[(g * kQ + q) * 2 + 1] += total;
       }
-      for (long jj = 0; jj < count; ++jj) ok_[static_cast<size_t>(jj)] &= 1;
     }
   }
 
@@ -1271,16 +1693,24 @@ class BlockRunner {
   Data data_;
   int D_;
   SolveOptions solve_;
+  bool sets_only_ = false;
   std::vector<double> uA_, uB_, valuesA_, valuesB_;
+  std::vector<double> block_u_, block_values_;  // BlockValues
+  bool entry_plan_ = false;                     // PlanEntries
+  std::vector<PlannedEntry> planned_;
+  std::vector<int> force_dims_;
+  int activation_dim_ = -1;
   Eigen::VectorXd b_, JtW_, dtheta_, qr_, last_q_;
   std::vector<RowInputs> inputs_;
   std::vector<StiffnessSet> sets_;
+  std::vector<double> scale_;
   std::vector<WrenchResult> results_;
   std::vector<double> quantities_;
   std::vector<int> status_;
+  std::vector<unsigned char> flags_;  // Quantities' kRowFinite / kAngleFinite, as status_
+  std::vector<char> code_, finite_lane_;
+  std::vector<double> dA_, dB_;  // f(A) - c, f(B) - c per sample, kW lanes
   long count_ = 0;
-  double y_[kQ] = {};
-  std::vector<char> ok_;
   bool kinematics_ok_ = true;
   Matrix6Xd J_;
   std::vector<LogHistogram> histograms_;
@@ -1306,7 +1736,7 @@ UncertaintyPartial RunUncertaintyBlocks(const UncertaintyStudy& study, long firs
   const long P = s.postures.cols();
   const int RS = s.RecordSize();
   std::vector<double> records(static_cast<size_t>(n_blocks * P * RS), 0.0);
-  std::vector<std::vector<std::vector<double>>> values(static_cast<size_t>(n_blocks));
+  std::vector<std::vector<ValueVector>> values(static_cast<size_t>(n_blocks));
   std::vector<LogHistogram> histograms(s.exact ? 0 : static_cast<size_t>(P * kQ));
   std::atomic<long> next{0};
   std::atomic<long> done{0};
@@ -1327,7 +1757,7 @@ UncertaintyPartial RunUncertaintyBlocks(const UncertaintyStudy& study, long firs
         const long b = first_block + k;
         if (s.exact) {
           values[static_cast<size_t>(k)].assign(static_cast<size_t>(P * kQ), {});
-          for (std::vector<double>& v : values[static_cast<size_t>(k)])
+          for (ValueVector& v : values[static_cast<size_t>(k)])
             v.reserve(static_cast<size_t>(2 * kUncertaintyBlockSamples));
         }
         runner.Run(b, &records[static_cast<size_t>(k * P * RS)], &values[static_cast<size_t>(k)]);
@@ -1363,11 +1793,17 @@ UncertaintyPartial RunUncertaintyBlocks(const UncertaintyStudy& study, long firs
   partial.first_block = first_block;
   partial.last_block = last_block;
   std::string& out = partial.data;
+  size_t bytes = records.size() * sizeof(double);
+  if (s.exact) {
+    for (const std::vector<ValueVector>& block : values)
+      for (const ValueVector& v : block) bytes += sizeof(std::uint64_t) + v.size() * sizeof(double);
+  }
+  out.reserve(bytes);
   out.append(reinterpret_cast<const char*>(records.data()), records.size() * sizeof(double));
   if (s.exact) {
     for (long k = 0; k < n_blocks; ++k) {
       for (long i = 0; i < P * kQ; ++i) {
-        const std::vector<double>& v = values[static_cast<size_t>(k)][static_cast<size_t>(i)];
+        const ValueVector& v = values[static_cast<size_t>(k)][static_cast<size_t>(i)];
         Put(out, static_cast<std::uint64_t>(v.size()));
         out.append(reinterpret_cast<const char*>(v.data()), v.size() * sizeof(double));
       }
@@ -1433,22 +1869,92 @@ const char* UncertaintyQuantityUnit(int q) {
 
 namespace {
 
-// Type 7 percentiles of `v` at ascending `levels` (v is reordered): each level's order
-// statistics are selected in the part of v above the previous level's.
-void ExactPercentiles(std::vector<double>& v, const double* levels, int count, double* out) {
-  size_t from = 0;
-  for (int k = 0; k < count; ++k) {
+// Puts the order statistics of the ascending distinct `ranks` (each in [first, last)) at their
+// places in v[first, last): the rank nearest the middle of the range first (nth_element), then the
+// ranks on each side within their side only; a rank at the start of its range is that range's
+// minimum. Any selection gives the same values (order statistics are unique, a +0 / -0 tie
+// aside, which the interpolation below turns into +0 either way).
+template <class Vector>
+void SelectRanks(Vector& v, size_t first, size_t last, const size_t* ranks, int count) {
+  if (count == 0) return;
+  const size_t middle = first + (last - first) / 2;
+  int m = 0;
+  for (int k = 1; k < count; ++k) {
+    const size_t dk = ranks[k] > middle ? ranks[k] - middle : middle - ranks[k];
+    const size_t dm = ranks[m] > middle ? ranks[m] - middle : middle - ranks[m];
+    if (dk < dm) m = k;
+  }
+  const size_t r = ranks[m];
+  const auto begin = v.begin();
+  if (r == first) {
+    std::iter_swap(begin + static_cast<std::ptrdiff_t>(first),
+                   std::min_element(begin + static_cast<std::ptrdiff_t>(first),
+                                    begin + static_cast<std::ptrdiff_t>(last)));
+  } else {
+    std::nth_element(begin + static_cast<std::ptrdiff_t>(first),
+                     begin + static_cast<std::ptrdiff_t>(r),
+                     begin + static_cast<std::ptrdiff_t>(last));
+  }
+  SelectRanks(v, first, r, ranks, m);
+  SelectRanks(v, r + 1, last, ranks + m + 1, count - m - 1);
+}
+
+// Type 7 percentiles of `v` at ascending `levels` (v is reordered): the order statistics at
+// floor(h) and floor(h) + 1 of every level are selected at once (SelectRanks).
+template <class Vector>
+void ExactPercentiles(Vector& v, const double* levels, int count, double* out) {
+  size_t ranks[8];
+  int n_ranks = 0;
+  for (int k = 0; k < count && k < 4; ++k) {
     const double h = (static_cast<double>(v.size()) - 1.0) * levels[k];
     const size_t lo = static_cast<size_t>(std::floor(h));
     const size_t hi = std::min(v.size() - 1, lo + 1);
-    std::nth_element(v.begin() + static_cast<std::ptrdiff_t>(from),
-                     v.begin() + static_cast<std::ptrdiff_t>(lo), v.end());
+    for (size_t r : {lo, hi})
+      if (n_ranks == 0 || ranks[n_ranks - 1] < r) ranks[n_ranks++] = r;
+  }
+  SelectRanks(v, 0, v.size(), ranks, n_ranks);
+  for (int k = 0; k < count && k < 4; ++k) {
+    const double h = (static_cast<double>(v.size()) - 1.0) * levels[k];
+    const size_t lo = static_cast<size_t>(std::floor(h));
+    const size_t hi = std::min(v.size() - 1, lo + 1);
     const double a = v[lo];
     double b = a;
-    if (hi != lo) b = *std::min_element(v.begin() + static_cast<std::ptrdiff_t>(hi), v.end());
+    if (hi != lo) b = v[hi];
     out[k] = a + (h - static_cast<double>(lo)) * (b - a);
-    from = lo;
   }
+}
+
+// The smallest and largest of v[0, n) as folds of std::min / std::max from +-inf in order would
+// give them: four lanes at a time; a zero extreme (where +0 and -0 compare equal, so the fold's
+// first one wins) is found again by the ordered fold. Other equal values have equal bits.
+UNC_CLONES void Extremes(const double* v, long n, double* lo_out, double* hi_out) {
+  const double inf = std::numeric_limits<double>::infinity();
+  UncV4 lo = {inf, inf, inf, inf}, hi = -lo;
+  long i = 0;
+  for (; i + 4 <= n; i += 4) {
+    const UncV4 x = UNC_LOAD(v + i);
+    lo = x < lo ? x : lo;
+    hi = x > hi ? x : hi;
+  }
+  double l = inf, h = -inf;
+  for (int k = 0; k < 4; ++k) {
+    l = std::min(l, lo[k]);
+    h = std::max(h, hi[k]);
+  }
+  for (; i < n; ++i) {
+    l = std::min(l, v[i]);
+    h = std::max(h, v[i]);
+  }
+  if (l == 0.0 || h == 0.0) {
+    l = inf;
+    h = -inf;
+    for (long j = 0; j < n; ++j) {
+      l = std::min(l, v[j]);
+      h = std::max(h, v[j]);
+    }
+  }
+  *lo_out = l;
+  *hi_out = h;
 }
 
 double HistogramPercentile(const LogHistogram& h, double level) {
@@ -1497,7 +2003,7 @@ UncertaintyResult FinishUncertainty(const UncertaintyStudy& study,
   const int RS = s.RecordSize();
   const int G = s.G();
   std::vector<double> sum(static_cast<size_t>(P * RS), 0.0);
-  std::vector<std::vector<double>> values(s.exact ? static_cast<size_t>(P * kQ) : 0);
+  std::vector<ValueVector> values(s.exact ? static_cast<size_t>(P * kQ) : 0);
   std::vector<LogHistogram> histograms(s.exact ? 0 : static_cast<size_t>(P * kQ));
   for (const UncertaintyPartial* part : partials) {
     const long n_blocks = part->last_block - part->first_block;
@@ -1510,6 +2016,18 @@ UncertaintyResult FinishUncertainty(const UncertaintyStudy& study,
       for (long i = 0; i < P * RS; ++i)
         sum[static_cast<size_t>(i)] += aligned[static_cast<size_t>(k * P * RS + i)];
     }
+  }
+  // The values each quantity keeps: its count of valid values (one allocation each).
+  for (long p = 0; s.exact && p < P; ++p) {
+    for (int q = 0; q < kQ; ++q) {
+      const double n = sum[static_cast<size_t>(p * RS + kCounts + q * kPerQuantity)];
+      if (n > 0 && n < 1e12)
+        values[static_cast<size_t>(p * kQ + q)].reserve(static_cast<size_t>(n));
+    }
+  }
+  for (const UncertaintyPartial* part : partials) {
+    const long n_blocks = part->last_block - part->first_block;
+    const size_t record_bytes = static_cast<size_t>(n_blocks * P * RS) * sizeof(double);
     const char* p = part->data.data() + record_bytes;
     const char* end = part->data.data() + part->data.size();
     if (s.exact) {
@@ -1519,7 +2037,7 @@ UncertaintyResult FinishUncertainty(const UncertaintyStudy& study,
           p = Get(p, end, &n);
           if (static_cast<std::uint64_t>(end - p) < n * sizeof(double))
             throw Error("uncertainty partial: truncated values");
-          std::vector<double>& v = values[static_cast<size_t>(i)];
+          ValueVector& v = values[static_cast<size_t>(i)];
           const size_t old = v.size();
           v.resize(old + static_cast<size_t>(n));
           std::memcpy(v.data() + old, p, static_cast<size_t>(n) * sizeof(double));
@@ -1581,7 +2099,8 @@ UncertaintyResult FinishUncertainty(const UncertaintyStudy& study,
           hi = std::max(hi, v);
         };
         if (s.exact) {
-          for (double v : values[static_cast<size_t>(p * kQ + q)]) extremes(v, 1);
+          const ValueVector& v = values[static_cast<size_t>(p * kQ + q)];
+          Extremes(v.data(), static_cast<long>(v.size()), &lo, &hi);
         } else {
           histograms[static_cast<size_t>(p * kQ + q)].ForEach(extremes);
         }
@@ -1596,7 +2115,15 @@ UncertaintyResult FinishUncertainty(const UncertaintyStudy& study,
           st.histogram[static_cast<size_t>(k)] += static_cast<long>(count);
         };
         if (s.exact) {
-          for (double v : values[static_cast<size_t>(p * kQ + q)]) bin(v, 1);
+          const ValueVector& v = values[static_cast<size_t>(p * kQ + q)];
+          const double lower = st.histogram_lower, upper = st.histogram_upper;
+          long* counts = st.histogram.data();
+          for (const double x : v) {
+            if (x < lower || x > upper) continue;
+            long k = width > 0 ? static_cast<long>((x - lower) / width) : 0;
+            k = std::clamp<long>(k, 0, kUncertaintyHistogramBins - 1);
+            ++counts[k];
+          }
         } else {
           histograms[static_cast<size_t>(p * kQ + q)].ForEach(bin);
         }

@@ -303,6 +303,61 @@ TEST(UncertaintyStudy, SameBitsOnAnyThreadCountAndPartition) {
   }
 }
 
+TEST(UncertaintyStudy, StiffnessRowsWrittenDirectlyEqualTheGeneralPath) {
+  // Stiffness, force and activation inputs alone take the direct path (the rows' stiffness
+  // sets written entry by entry, the draws dimension by dimension); a misalignment of sd 0
+  // (R = I: the reading is W) sends the same draws through RowInputs. Both must give the same
+  // numbers for the common inputs (the uniforms depend on the sample and dimension only).
+  const Model model = Model(WithBaseStiffness(Rat5().description(), 1e6));
+  Eigen::MatrixXd postures(model.dof_count(), 2);
+  postures.col(0) = model.nominal_posture();
+  postures.col(1) = model.nominal_posture();
+  postures(model.JointIndex("knee_rz"), 1) += 20 * kDeg;
+  UncertaintySpec direct;
+  direct.inputs.push_back(Input("transducer_stiffness:x", InputDistribution::kLogNormal, {0.4}));
+  direct.inputs.push_back(Input("transducer_stiffness:rz", InputDistribution::kLogNormal, {0.6}));
+  direct.inputs.push_back(Input("base_stiffness", InputDistribution::kLogUniform, {}, 1e4, 1e7));
+  direct.inputs.push_back(Input("max_force", InputDistribution::kNormal, {0.2}));
+  direct.inputs.push_back(Input("activation", InputDistribution::kUniform, {}, 0.5, 1.0));
+  UncertaintySpec general = direct;
+  general.inputs.push_back(Input("misalignment", InputDistribution::kNormal, {0.0}));
+  for (bool sobol : {true, false}) {
+    UncertaintyOptions options;
+    options.samples = 2 * kUncertaintyBlockSamples + 37;  // 3 blocks, the last one short
+    options.sobol = sobol;
+    const UncertaintyResult a = RunUncertainty(model, "GP", postures, direct, options);
+    const UncertaintyResult b = RunUncertainty(model, "GP", postures, general, options);
+    ASSERT_EQ(a.postures.size(), b.postures.size());
+    for (size_t p = 0; p < a.postures.size(); ++p) {
+      const PostureUncertainty &x = a.postures[p], &y = b.postures[p];
+      EXPECT_EQ(x.valid, y.valid);
+      EXPECT_EQ(x.small_motion_failed, y.small_motion_failed);
+      EXPECT_EQ(x.sobol_rows, y.sobol_rows);
+      for (int q = 0; q < kUncertaintyQuantities; ++q) {
+        const QuantityStatistics &s = x.statistics[static_cast<size_t>(q)],
+                                 &t = y.statistics[static_cast<size_t>(q)];
+        EXPECT_EQ(s.count, t.count) << q;
+        EXPECT_EQ(s.mean, t.mean) << q;
+        EXPECT_EQ(s.sd, t.sd) << q;
+        EXPECT_EQ(s.percentiles, t.percentiles) << q;
+        EXPECT_EQ(s.histogram, t.histogram) << q;
+        for (size_t g = 0; g < x.sobol.size(); ++g) {
+          EXPECT_EQ(x.sobol[g][static_cast<size_t>(q)].first,
+                    y.sobol[g][static_cast<size_t>(q)].first)
+              << q << " " << g;
+          EXPECT_EQ(x.sobol[g][static_cast<size_t>(q)].total,
+                    y.sobol[g][static_cast<size_t>(q)].total)
+              << q << " " << g;
+        }
+      }
+      // The inputs matter: the indices are not all zero.
+      if (sobol) {
+        EXPECT_GT(x.sobol[2][0].first, 0.05);
+      }
+    }
+  }
+}
+
 TEST(UncertaintyStudy, SmallMotionFromTheWrenchEqualsTheEnginesDtheta) {
   // Stiffness-only studies take dtheta from W (batch path); with an angle input of sd 0 the
   // same draws go through the scalar path, which reads the engine's dtheta. Soft transducers
