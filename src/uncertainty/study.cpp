@@ -262,7 +262,7 @@ const char* LogHistogram::Read(const char* p, const char* end) {
     if (static_cast<std::uint64_t>(end - p) < n * sizeof(std::uint64_t))
       throw Error("uncertainty partial: truncated histogram");
     s->counts.resize(static_cast<size_t>(n));
-    std::memcpy(s->counts.data(), p, static_cast<size_t>(n) * sizeof(std::uint64_t));
+    if (n > 0) std::memcpy(s->counts.data(), p, static_cast<size_t>(n) * sizeof(std::uint64_t));
     p += n * sizeof(std::uint64_t);
   }
   return p;
@@ -2040,7 +2040,8 @@ UncertaintyResult FinishUncertainty(const UncertaintyStudy& study,
           ValueVector& v = values[static_cast<size_t>(i)];
           const size_t old = v.size();
           v.resize(old + static_cast<size_t>(n));
-          std::memcpy(v.data() + old, p, static_cast<size_t>(n) * sizeof(double));
+          // n == 0 leaves an empty vector's data() null: memcpy's pointers must not be (UBSan).
+          if (n > 0) std::memcpy(v.data() + old, p, static_cast<size_t>(n) * sizeof(double));
           p += n * sizeof(double);
         }
       }
