@@ -617,6 +617,9 @@ struct DesignOptions {
   double noise_force = 0.002;        ///< expected noise sd (N), weights the Fisher information
   double noise_moment = 5e-5;        ///< expected noise sd (N·m)
   std::vector<std::string> muscles;  ///< grid muscles, cycled (empty = all)
+  /// Grid centre (rad / m per coordinate, the model's order); empty = the nominal posture.
+  /// Unused when candidate trials are given.
+  Eigen::VectorXd center;
 };
 
 /// The chosen postures and what they are expected to give.

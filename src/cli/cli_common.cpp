@@ -53,13 +53,15 @@ void AddWrapOption(CLI::App& app, std::string& wrap) {
       ->check(CLI::IsMember({"opensim", "exact"}));
 }
 
-void AddModelOptions(CLI::App& app, ModelOptions& o, bool with_muscle) {
+void AddModelOptions(CLI::App& app, ModelOptions& o, ModelOptionParts parts) {
   app.add_option("urdf", o.urdf,
                  "Limb URDF with isowrench extension tags (e.g. urdf/rat_hindlimb_5dof.urdf)")
       ->required();
-  app.add_option("--posture", o.posture,
-                 "Joint positions over the URDF's nominal posture: joint=value,... in degrees "
-                 "(mm for prismatic joints), e.g. hip_rz=-110,knee_rz=105");
+  if (parts.posture) {
+    app.add_option("--posture", o.posture,
+                   "Joint positions over the URDF's nominal posture: joint=value,... in degrees "
+                   "(mm for prismatic joints), e.g. hip_rz=-110,knee_rz=105");
+  }
   app.add_option("--release", o.release,
                  "Released transducer dofs (x y z rx ry rz, in transducer axes), replacing the "
                  "URDF's; 'none' restrains all six")
@@ -88,13 +90,14 @@ void AddModelOptions(CLI::App& app, ModelOptions& o, bool with_muscle) {
                  "docs/muscle.md), constant (F = activation x max_force, the paper's), rigid "
                  "(each muscle's curves with a rigid tendon)")
       ->check(CLI::IsMember({"model", "constant", "rigid"}));
-  if (with_muscle) {
+  if (parts.muscle) {
     app.add_option("--muscle", o.muscle, "Muscle name (default: the first muscle in the URDF)");
     app.add_option("--activation", o.activation,
                    "Activation in [0, 1]: F = F(L_MT, activation) of the muscle's force model "
                    "(constant model: activation x max_force) (default 1)")
         ->check(CLI::Range(0.0, 1.0));
   }
+  if (!parts.statics) return;
   app.add_option("--max-endpoint-fraction", o.statics.max_endpoint_fraction,
                  "Small-motion rule: endpoint translation <= this x leg length (default 0.001)");
   app.add_option("--max-joint-rotation", o.statics.max_joint_rotation,

@@ -55,8 +55,16 @@ struct ModelOptions {
 /// a command reads is laid out (TrialSheetOptions). `what` names the file in the help text.
 void AddSheetOptions(CLI::App& app, TrialSheetOptions& sheet, const std::string& what);
 
+/// Which of the shared options a command takes: a command offers only options it reads, so an
+/// option it would ignore is an error ("The following argument was not expected") instead.
+struct ModelOptionParts {
+  bool muscle = true;   ///< --muscle, --activation (one muscle per run)
+  bool posture = true;  ///< --posture (fit reads each trial's posture from its data)
+  bool statics = true;  ///< --max-endpoint-fraction, --max-joint-rotation, --rank-tolerance
+};
+
 /// Add the shared options (positional <urdf> included) to a subcommand.
-void AddModelOptions(CLI::App& app, ModelOptions& options, bool with_muscle = true);
+void AddModelOptions(CLI::App& app, ModelOptions& options, ModelOptionParts parts = {});
 
 /// --wrap opensim|exact into `wrap` (the commands that take no other model option call it too).
 void AddWrapOption(CLI::App& app, std::string& wrap);

@@ -62,7 +62,7 @@ const bool kDesignRegistered = RegisterCommand(
      "with the expected standard errors and the correlations that remain",
      42, [](CLI::App& app) -> std::function<int()> {
        auto o = std::make_shared<DesignCommandOptions>();
-       AddModelOptions(app, o->model, /*with_muscle=*/false);
+       AddModelOptions(app, o->model, {/*muscle=*/false, /*posture=*/true, /*statics=*/false});
        app.add_option("--effects", o->effects,
                       "Effect ids to identify, comma separated (`isowrench fit --list-effects`)")
            ->required();
@@ -74,8 +74,10 @@ const bool kDesignRegistered = RegisterCommand(
        app.add_option("--grid", o->grid,
                       "Random grid size when no --postures file is given (default 400)");
        app.add_option("--seed", o->seed, "Grid seed (default 1)");
-       app.add_option("--range", o->range_deg,
-                      "Grid: each limb joint in nominal ± this many degrees (default 15)");
+       app.add_option(
+           "--range", o->range_deg,
+           "Grid: each limb joint in the --posture (default: the nominal one) ± this many "
+           "degrees (default 15)");
        app.add_option("--noise-force", o->noise_force,
                       "Expected noise sd per force component, N (default 0.002)");
        app.add_option("--noise-moment", o->noise_moment,
@@ -99,6 +101,13 @@ const bool kDesignRegistered = RegisterCommand(
          d.noise_force = o->noise_force;
          d.noise_moment = o->noise_moment;
          d.muscles = o->muscles;
+         if (!o->model.posture.empty()) {
+           if (!o->postures.empty()) {
+             throw Error("design: --posture sets the centre of the sampled grid, and --postures " +
+                         o->postures + " gives the candidate postures: give one of them");
+           }
+           d.center = LoadPosture(model, o->model);
+         }
          std::vector<Trial> candidates;
          if (!o->postures.empty()) candidates = CandidatesFromFile(model, *o);
          DesignResult r =

@@ -246,7 +246,7 @@ const bool kDiagnoseRegistered = RegisterCommand({
     20,
     [](CLI::App& app) -> std::function<int()> {
       auto o = std::make_shared<DiagnoseOptions>();
-      AddModelOptions(app, o->model, /*with_muscle=*/false);
+      AddModelOptions(app, o->model, {/*muscle=*/false});
       app.add_option("--muscle", o->muscles,
                      "Muscle name(s), repeatable or comma-separated (default: the first)")
           ->delimiter(',');

@@ -24,7 +24,7 @@ const bool kDrawRegistered = RegisterCommand({
       auto output = std::make_shared<std::string>();
       auto axis_mm = std::make_shared<double>(0.0);
       auto title = std::make_shared<std::string>();
-      AddModelOptions(app, *options, false);
+      AddModelOptions(app, *options, {/*muscle=*/false, /*posture=*/true, /*statics=*/false});
       app.add_option("-o,--output", *output, "SVG file to write ('-' = standard output)")
           ->required();
       app.add_option(
@@ -35,28 +35,14 @@ const bool kDrawRegistered = RegisterCommand({
       app.add_option("--muscle", *muscles,
                      "Draw only these muscles: name,name,... (default: every muscle)")
           ->delimiter(',');
-      // --wrap: the shared model options add it once every command takes a wrap mode (issue 27
-      // stage 2); until then draw adds its own. Either way the mode is read from the option.
-      auto wrap = std::make_shared<std::string>();
-      CLI::Option* wrap_option = app.get_option_no_throw("--wrap");
-      if (wrap_option == nullptr) {
-        wrap_option = app.add_option("--wrap", *wrap,
-                                     "How wrapped muscle paths are drawn: opensim (OpenSim's "
-                                     "algorithms, the default) or exact (the shortest path over "
-                                     "each surface)")
-                          ->check(CLI::IsMember({"opensim", "exact"}));
-      }
-      // `wrap` is captured to keep the option's storage alive; the value is read via wrap_option.
-      return [options, output, axis_mm, title, muscles, wrap, wrap_option]() {
+      return [options, output, axis_mm, title, muscles]() {
         Model model = LoadModel(*options);
         Eigen::VectorXd q = LoadPosture(model, *options);
         LimbDrawingOptions drawing;
         drawing.axis_length = *axis_mm * 1e-3;
         drawing.title = *title;
         drawing.muscles = *muscles;
-        const std::string mode =
-            wrap_option->count() > 0 ? wrap_option->as<std::string>() : std::string("opensim");
-        drawing.wrap_mode = ParseWrapMode(mode);
+        drawing.wrap_mode = model.description().wrap_mode;  // the model's, or --wrap
         const std::string svg = LimbStickFigureSvg(model, q, drawing);
         if (*output == "-") {
           std::cout << svg;

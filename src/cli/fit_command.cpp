@@ -373,7 +373,7 @@ const bool kFitRegistered = RegisterCommand(
      "and write the augmented model",
      41, [](CLI::App& app) -> std::function<int()> {
        auto o = std::make_shared<FitCommandOptions>();
-       AddModelOptions(app, o->model, /*with_muscle=*/false);
+       AddModelOptions(app, o->model, {/*muscle=*/false, /*posture=*/false, /*statics=*/false});
        app.add_option("data", o->data, "Measured wrenches, CSV (format: docs/identification.md)");
        AddSheetOptions(app, o->sheet, "the data");
        app.add_option("-o,--output", o->output,

@@ -134,7 +134,7 @@ const bool kReleasesRegistered = RegisterCommand({
     21,
     [](CLI::App& app) -> std::function<int()> {
       auto o = std::make_shared<ReleasesOptions>();
-      AddModelOptions(app, o->model, /*with_muscle=*/false);
+      AddModelOptions(app, o->model, {/*muscle=*/false});
       app.add_option("--muscle", o->muscles,
                      "Muscle name(s), repeatable or comma-separated (default: the first)")
           ->delimiter(',');

@@ -52,7 +52,7 @@ const bool kSimulateRegistered = RegisterCommand(
      "with seeded Gaussian or Student-t noise and optional gross outliers",
      40, [](CLI::App& app) -> std::function<int()> {
        auto o = std::make_shared<SimulateOptions>();
-       AddModelOptions(app, o->model, /*with_muscle=*/false);
+       AddModelOptions(app, o->model, {/*muscle=*/false, /*posture=*/true, /*statics=*/false});
        app.add_option("--effect", o->effects,
                       "Undeclared effect NAME=V1[,V2...] in user units, repeatable; e.g. "
                       "base_isotropic=1e6 (N/m), "
@@ -94,9 +94,11 @@ const bool kSimulateRegistered = RegisterCommand(
        app.add_option("--seed", o->seed,
                       "Random seed: the same seed gives the same file" +
                           Default(static_cast<double>(o->seed)));
-       app.add_option("--range", o->range_deg,
-                      "Each limb joint is drawn uniformly in nominal ± this many degrees" +
-                          Default(o->range_deg) + "; with --postures, around each row (default 0)")
+       app.add_option(
+              "--range", o->range_deg,
+              "Each limb joint is drawn uniformly in the --posture (default: the nominal one) ± "
+              "this many degrees" +
+                  Default(o->range_deg) + "; with --postures, around each row (default 0)")
            ->each([o](const std::string&) { o->range_given = true; });
        app.add_option("--range-mm", o->range_mm,
                       "Same for prismatic limb joints, mm" + Default(o->range_mm))
@@ -130,6 +132,11 @@ const bool kSimulateRegistered = RegisterCommand(
          s.outlier_fraction = o->outliers;
          s.outlier_size = o->outlier_size;
          s.center = LoadPosture(model, o->model);
+         if (!o->postures.empty() && !o->model.posture.empty()) {
+           throw Error(
+               "simulate: --posture sets the centre of the sampled postures, and --postures " +
+               o->postures + " gives the postures: give one of them");
+         }
          if (!o->postures.empty()) {
            SimulateAtPostureSheet(model, o->postures, o->trials_given ? o->trials : 0,
                                   o->range_given, &s, o->sheet);

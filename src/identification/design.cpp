@@ -78,6 +78,7 @@ DesignResult DesignExperiment(const Model& model, const std::vector<std::string>
     so.seed = options.seed;
     so.joint_range = options.joint_range;
     so.muscles = options.muscles;
+    so.center = options.center;
     so.noise_force = 0;
     so.noise_moment = 0;
     grid = SimulateTrials(model, ApplyEffects(model.description(), {}), so);

@@ -40,3 +40,17 @@ input_cli_exit(uncertainty_nominal_without_equilibrium_json 0
   "\"nominal_status\": \"self-motion\".*\"fx\": {\n *\"unit\": \"N\",\n *\"nominal\": null"
   uncertainty ${urdf}/planar_4r.urdf --joint-stiffness j1=0,j2=0,j3=0,j4=0
   --input max_force=normal:0.1 --samples 64 --json)
+# A command takes only the options it reads (AddModelOptions' ModelOptionParts): fit reads each
+# trial's posture from its data, and fit/design/simulate/draw run no statics check.
+input_cli_exit(fit_takes_no_posture 2 "not expected: [^\n]*--posture"
+  fit ${rat5} ${data}/trials_declared_units.csv --posture knee_rz=90)
+input_cli_exit(simulate_takes_no_statics_option 2 "not expected: [^\n]*--max-joint-rotation"
+  simulate ${rat5} --max-joint-rotation 0.1 -o never.csv)
+# design --posture is the centre of its grid: knee 60° +- 5° (the nominal knee is 105°).
+input_cli_exit(design_grid_centre_is_the_posture 0
+  "1\\. GP at [^\n]*knee_rz=(5[5-9]|6[0-5])[.0-9]*°"
+  design ${rat5} --effects base_isotropic --n 1 --grid 20 --range 5 --posture knee_rz=60)
+input_cli_exit(design_posture_with_a_posture_sheet 1
+  "design: --posture sets the centre of the sampled grid, and --postures [^\n]* gives the candidate postures: give one of them"
+  design ${rat5} --effects base_isotropic --postures ${data}/trials_declared_units.csv
+  --posture knee_rz=60)
