@@ -37,6 +37,12 @@ class EffectType {
     (void)model, (void)trials, (void)wrench, (void)options, (void)effect;
     return "";
   }
+  /// Why `id` (an id of this kind's pattern) is not a candidate of `model`, or "" when the
+  /// kind has nothing to say (FindEffect then lists the known ids). Default "".
+  virtual std::string WhyNotCandidate(const Model& model, const std::string& id) const {
+    (void)model, (void)id;
+    return "";
+  }
 };
 
 /// Every registered kind, sorted by kind name.

@@ -165,6 +165,12 @@ Effect FindEffect(const Model& model, const std::string& id) {
     if (e.id == id) return e;
     ids.push_back(e.id);
   }
+  for (const ident::EffectType* t : ident::EffectTypes()) {
+    const std::string kind = t->Info().kind;
+    if (id.compare(0, kind.size() + 1, kind + ":") != 0) continue;
+    const std::string why = t->WhyNotCandidate(model, id);
+    if (!why.empty()) throw Error("effect '" + id + "': " + why);
+  }
   throw Error("unknown effect '" + id + "' for model '" + model.name() +
               "' (known: " + util::Join(ids, ", ") + ")");
 }
