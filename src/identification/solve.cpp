@@ -65,8 +65,9 @@ std::string TrialForceClaim(const Context& c, const SolveResult& r) {
   if (!model) model = std::make_shared<const Model>(c.base.description);
   const std::string trend = FactorTrend(*model, *c.trials, c.subset, levels);
   if (!trend.empty()) {
-    return "the factors follow the posture, a systematic effect (force-length or another outside "
-           "the library), not trial variation: they follow " +
+    return "the factors follow the posture, a systematic effect (force-length: force_length:MUSCLE "
+           "for a muscle with a force model; or another effect outside the library), not trial "
+           "variation: they follow " +
            trend;
   }
   return "";

@@ -162,8 +162,9 @@ struct Probe {
 };
 
 /// The probes that name a variable directly: a small stiffness and an offset at each limb
-/// coordinate, each muscle's force, its force following its length (a quadratic: force-length
-/// behaviour) and its path points (three directions per point).
+/// coordinate, each muscle's force, its force-length parameters (a muscle with a force model),
+/// its force following its length (a quadratic: force-length behaviour outside the model) and
+/// its path points (three directions per point).
 std::vector<Probe> MakeProbes(const Model& nominal, const std::vector<Trial>& trials,
                               const AugmentedModel& at, TraceSkips* skips) {
   std::vector<Probe> probes;
@@ -209,6 +210,24 @@ std::vector<Probe> MakeProbes(const Model& nominal, const std::vector<Trial>& tr
     m.description.muscles[i].max_force *= 1.001;
     force.models.push_back(m);
     probes.push_back(std::move(force));
+    // A muscle with a force model: its force-length operating point (the force_length effect's
+    // parameters, stepped by 0.1 %): the exact direction of a misplaced force-length curve.
+    if (muscle.force.model != ForceModelType::kConstant) {
+      Probe curve{"force-length of " + muscle.name + " (force_length:" + muscle.name + ")",
+                  "this muscle's optimal fiber length or tendon slack length differs from its "
+                  "force model (fit with --candidates force_length:" +
+                      muscle.name + ")",
+                  {}};
+      AugmentedModel fiber = at;
+      fiber.description.muscles[i].force.optimal_fiber_length *= 1.001;
+      curve.models.push_back(std::move(fiber));
+      if (muscle.force.tendon_slack_length > 0) {
+        AugmentedModel tendon = at;
+        tendon.description.muscles[i].force.tendon_slack_length *= 1.001;
+        curve.models.push_back(std::move(tendon));
+      }
+      probes.push_back(std::move(curve));
+    }
     // The muscle's force as a quadratic in its length (standardised over its trials): what a
     // force-length curve outside the model leaves, and what per-trial factors would absorb.
     Probe length{"force of " + muscle.name + " following its length",
