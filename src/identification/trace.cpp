@@ -211,20 +211,24 @@ std::vector<Probe> MakeProbes(const Model& nominal, const std::vector<Trial>& tr
     force.models.push_back(m);
     probes.push_back(std::move(force));
     // A muscle with a force model: its force-length operating point (the force_length effect's
-    // parameters, stepped by 0.1 %): the exact direction of a misplaced force-length curve.
+    // parameters). Each length is stepped by -10 % and +10 %: the two secants span the first-
+    // and second-order change, so a curve off by 10-20 % (not only an infinitesimal shift) is
+    // explained.
     if (muscle.force.model != ForceModelType::kConstant) {
       Probe curve{"force-length of " + muscle.name + " (force_length:" + muscle.name + ")",
                   "this muscle's optimal fiber length or tendon slack length differs from its "
                   "force model (fit with --candidates force_length:" +
                       muscle.name + ")",
                   {}};
-      AugmentedModel fiber = at;
-      fiber.description.muscles[i].force.optimal_fiber_length *= 1.001;
-      curve.models.push_back(std::move(fiber));
-      if (muscle.force.tendon_slack_length > 0) {
-        AugmentedModel tendon = at;
-        tendon.description.muscles[i].force.tendon_slack_length *= 1.001;
-        curve.models.push_back(std::move(tendon));
+      for (double factor : {0.9, 1.1}) {
+        AugmentedModel fiber = at;
+        fiber.description.muscles[i].force.optimal_fiber_length *= factor;
+        curve.models.push_back(std::move(fiber));
+        if (muscle.force.tendon_slack_length > 0) {
+          AugmentedModel tendon = at;
+          tendon.description.muscles[i].force.tendon_slack_length *= factor;
+          curve.models.push_back(std::move(tendon));
+        }
       }
       probes.push_back(std::move(curve));
     }

@@ -2,6 +2,7 @@
 // optimal fiber length and the tendon slack length scaled (issue 28 item 4).
 
 #include "identification/effect_type.hpp"
+#include "identification/identification_impl.hpp"
 #include "isowrench/error.hpp"
 #include "util/text.hpp"
 
@@ -50,14 +51,14 @@ class ForceLength final : public EffectType {
                       ") optimal fiber length" +
                       (m.force.tendon_slack_length > 0 ? " and tendon slack length" : "") +
                       " differ from the model by a factor";
-      e.parameters.push_back(LogParameter("l_o_scale", "x", 1.0, 1.0, kForceLengthLower,
-                                          kForceLengthUpper));
+      e.parameters.push_back(
+          LogParameter("l_o_scale", "x", 1.0, 1.0, kForceLengthLower, kForceLengthUpper));
       if (m.force.tendon_slack_length > 0) {
-        e.parameters.push_back(LogParameter("l_Ts_scale", "x", 1.0, 1.0, kForceLengthLower,
-                                            kForceLengthUpper));
+        e.parameters.push_back(
+            LogParameter("l_Ts_scale", "x", 1.0, 1.0, kForceLengthLower, kForceLengthUpper));
       }
-      e.confounders = {"force_scale:" + m.name, "attachment:" + m.name + ":", "joint_offset:",
-                       "trial_force"};
+      e.confounders = {"force_scale:" + m.name, "attachment:" + m.name + ":",
+                       "joint_offset:", "trial_force"};
       out.push_back(e);
     }
     return out;
@@ -66,6 +67,56 @@ class ForceLength final : public EffectType {
     const std::string name = id.substr(id.find(':') + 1);
     for (const MuscleSpec& m : model.description().muscles) {
       if (m.name == name && m.force.model == ForceModelType::kConstant) return ConstantMuscle(m);
+    }
+    return "";
+  }
+  /// l_Ts_scale is held at 1 when the trials cannot tell it from l_o_scale: over a small range
+  /// of muscle lengths both shift the force along the same curve (their whitened sensitivities
+  /// at the nominal model correlated beyond options.max_correlation, the fit's identifiability
+  /// limit), or it changes nothing.
+  std::string RestrictToData(const Model& model, const std::vector<Trial>& trials,
+                             const std::vector<Vector6d>& wrench, const FitOptions& options,
+                             Effect* effect) const override {
+    if (effect->parameters.size() < 2) return "";
+    std::vector<Trial> own;
+    for (const Trial& t : trials) {
+      if (t.muscle == effect->muscle) own.push_back(t);
+    }
+    // A sample is enough to judge the correlation (evenly spaced: the file order is kept).
+    constexpr size_t kMaxTrials = 2000;
+    if (own.size() > kMaxTrials) {
+      std::vector<Trial> sample;
+      for (size_t i = 0; i < kMaxTrials; ++i) sample.push_back(own[i * own.size() / kMaxTrials]);
+      own = std::move(sample);
+    }
+    (void)wrench;
+    Eigen::MatrixXd G = Eigen::MatrixXd::Zero(2, 2);
+    try {
+      std::vector<Prediction> p;
+      for (const std::vector<double>& v :
+           {std::vector<double>{1.0, 1.0}, {1.001, 1.0}, {1.0, 1.001}})
+        p.push_back(PredictTrials(ApplyEffects(model.description(), {{*effect, v}}), own));
+      for (size_t k = 0; k < own.size(); ++k) {
+        if (!p[0].ok[k] || !p[1].ok[k] || !p[2].ok[k]) continue;
+        for (int c = 0; c < 6; ++c) {
+          const double w = Weight(own[k], c, options);
+          const Eigen::Vector2d g(w * (p[1].wrench[k][c] - p[0].wrench[k][c]),
+                                  w * (p[2].wrench[k][c] - p[0].wrench[k][c]));
+          G += g * g.transpose();
+        }
+      }
+    } catch (const Error&) {
+      return "";  // the fit will say what cannot be evaluated
+    }
+    const double d = std::sqrt(G(0, 0) * G(1, 1));
+    const double r = d > 0 ? -G(0, 1) / d : 1.0;  // correlation of the two estimates
+    if (!(G(1, 1) > 0) || !(std::abs(r) <= options.max_correlation)) {
+      effect->parameters.resize(1);
+      effect->description += " (l_Ts_scale held at 1)";
+      return effect->id + ": l_Ts_scale held at 1: over these trials' lengths a tendon slack " +
+             "length change acts like an optimal fiber length change (estimates correlated, r = " +
+             util::FormatNumber(r, 4) + "), so l_o_scale stands for both; `isowrench design " +
+             "--effects " + effect->id + "` picks postures that separate them";
     }
     return "";
   }
