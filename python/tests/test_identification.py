@@ -164,3 +164,27 @@ def test_fit_option_errors(rat, tmp_path):
 
     with pytest.raises(Stop, match="round 1"):
         isowrench.fit(rat, path, rounds=1, progress=stop)
+
+
+def test_fit_finds_a_planted_force_length_effect(tmp_path):
+    # Issue 28 item 4: a muscle with a force model whose optimal fiber length is 15 % longer than
+    # the model's: the fit names force_length:GP_compliant and l_o_scale comes back within 4 SE.
+    limb = isowrench.load(str(REPO / "tests" / "data" / "force_model_limb.urdf"))
+    path = isowrench.simulate(limb, str(tmp_path / "data.csv"),
+                              effects=["force_length:GP_compliant=l_o_scale:1.15"],
+                              muscles=["GP_compliant"], trials=60, seed=3)
+    fit = isowrench.fit(limb, path, rounds=2,
+                        candidates=["force_length:GP_compliant", "force_scale:GP_compliant",
+                                    "joint_offset:knee_rz", "trial_force"])
+    assert fit["verdict"] == "explained"
+    assert [c["id"] for c in fit["chosen"]] == ["force_length:GP_compliant"]
+    l_o = fit["chosen"][0]["parameters"][0]
+    assert l_o["name"] == "l_o_scale" and l_o["unit"] == "x"
+    assert 0 < l_o["standard_error"] < 0.01
+    assert abs(l_o["value"] - 1.15) < 4 * l_o["standard_error"]
+
+
+def test_force_length_of_a_constant_muscle_is_an_error(tmp_path):
+    limb = isowrench.load(str(REPO / "tests" / "data" / "force_model_limb.urdf"))
+    with pytest.raises(ValueError, match="muscle 'GP_constant' has the constant force model"):
+        isowrench.simulate(limb, str(tmp_path / "x.csv"), effects=["force_length:GP_constant=1.1"])
