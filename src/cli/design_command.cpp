@@ -2,6 +2,7 @@
 // so that the named effects can be identified and told apart (D-optimal on the Fisher
 // information at the nominal model).
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <iostream>
@@ -166,15 +167,20 @@ const bool kDesignRegistered = RegisterCommand(
                           util::FormatNumber(r.log_det, 5) + " vs " +
                           util::FormatNumber(r.log_det_random, 5) + " for the first " +
                           std::to_string(o->n) + " candidates)\n\n";
-         std::cout
-             << "Expected standard error of each parameter (noise "
-             << util::FormatNumber(o->noise_force, 3) << " N, "
-             << util::FormatNumber(o->noise_moment, 3) << " N·m):\n"
-             << "  parameter                              at         SE (design)   SE (first N)\n";
+         std::cout << "Expected standard error of each parameter (noise "
+                   << util::FormatNumber(o->noise_force, 3) << " N, "
+                   << util::FormatNumber(o->noise_moment, 3) << " N·m):\n";
+         // The label column as wide as the longest label (force_length:MUSCLE.l_Ts_scale).
+         int width = 34;
+         for (const std::string& l : r.labels) width = std::max(width, static_cast<int>(l.size()));
+         char header[400];
+         std::snprintf(header, sizeof(header), "  %-*s %10s %14s %14s\n", width, "parameter", "at",
+                       "SE (design)", "SE (first N)");
+         std::cout << header;
          for (size_t i = 0; i < r.labels.size(); ++i) {
-           char line[200];
-           std::snprintf(line, sizeof(line), "  %-34s %10s %14s %14s  %s\n", r.labels[i].c_str(),
-                         util::FormatNumber(r.values[i], 4).c_str(),
+           char line[400];
+           std::snprintf(line, sizeof(line), "  %-*s %10s %14s %14s  %s\n", width,
+                         r.labels[i].c_str(), util::FormatNumber(r.values[i], 4).c_str(),
                          util::FormatNumber(r.standard_errors[i], 3).c_str(),
                          util::FormatNumber(r.random_standard_errors[i], 3).c_str(),
                          r.units[i].c_str());
