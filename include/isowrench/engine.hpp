@@ -101,6 +101,8 @@ WrenchResult SolveStatics(const Model& model, Data& data, const StiffnessSet& st
                           const SolveOptions& options = {});
 
 /// ComputeKinematics + SolveStatics: one evaluation of the kernel. No allocation.
+/// @throws Error naming the muscle and the value for an activation outside [0, 1] or NaN (every
+///         force model, the constant one too).
 WrenchResult Evaluate(const Model& model, Data& data, const Eigen::Ref<const Eigen::VectorXd>& q,
                       int muscle, const StiffnessSet& stiffness, double activation = 1.0,
                       const SolveOptions& options = {});
@@ -145,7 +147,8 @@ struct BatchOptions {
 /// (the lanes may fuse multiply-adds differently, which moves W by about eps cond(K)). Allocates
 /// only the output and the workspaces of each thread.
 /// @throws Error if postures has the wrong row count or a non-finite entry, the muscle index is
-///         out of range, a stiffness set has the wrong size, or `stiffness` is empty.
+///         out of range, a stiffness set has the wrong size, `stiffness` is empty, or the
+///         activation is outside [0, 1] or NaN (every force model; naming the muscle and value).
 void EvaluateBatch(const Model& model, const Eigen::Ref<const Eigen::MatrixXd>& postures,
                    int muscle, const std::vector<StiffnessSet>& stiffness,
                    std::vector<WrenchResult>& out, double activation = 1.0,

@@ -236,15 +236,13 @@ void EvaluateBatch(const Model& model, const Eigen::Ref<const Eigen::MatrixXd>& 
                   std::to_string(m) + " joints");
     }
   }
-  if (!std::isfinite(activation)) throw Error("EvaluateBatch: activation is not finite");
-  // A force model takes activations in [0, 1] only: checked here, before the threads (its
-  // MuscleForceModel::Evaluate would throw inside them).
-  if (model.impl().flat.muscles[static_cast<size_t>(muscle)].force_curve) {
-    try {
-      static_cast<void>(MuscleForceAt(model, muscle, 1.0, activation));
-    } catch (const Error& e) {
-      throw Error(std::string("EvaluateBatch: ") + e.what());
-    }
+  // Every force model (the constant one too) takes activations in [0, 1] only: checked once
+  // here, before the threads (a force model's MuscleForceModel::Evaluate would throw inside
+  // them; a constant-force muscle would scale the wrench by it silently).
+  try {
+    static_cast<void>(MuscleForceAt(model, muscle, 1.0, activation));
+  } catch (const Error& e) {
+    throw Error(std::string("EvaluateBatch: ") + e.what());
   }
   const long P = static_cast<long>(postures.cols());
   const long S = static_cast<long>(stiffness.size());

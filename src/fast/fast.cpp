@@ -691,10 +691,26 @@ ISOWRENCH_CLONES ISOWRENCH_NOINLINE WrenchResult EvaluateChain(
 
 }  // namespace
 
+namespace {
+
+// An activation outside [0, 1] (or NaN): the error MuscleForceModel::Evaluate gives, naming the
+// muscle and the value, for every force model (the constant one too). Out of line and cold.
+[[noreturn]] ISOWRENCH_NOINLINE void ThrowActivation(const Model& model, int muscle,
+                                                     double activation) {
+  static_cast<void>(MuscleForceAt(model, muscle, 1.0, activation));  // throws
+  throw Error("activation " + std::to_string(activation) + " is outside [0, 1]");
+}
+
+}  // namespace
+
 ISOWRENCH_CLONES WrenchResult Evaluate(const Model& model, Data& workspace,
                                        const Eigen::Ref<const Eigen::VectorXd>& q, int muscle,
                                        const StiffnessSet& stiffness, double activation,
                                        const SolveOptions& options) {
+  // One test per call (false for NaN too): a constant-force muscle multiplies the activation
+  // into the kernel and would scale the wrench by an invalid value silently.
+  if (__builtin_expect(!(activation >= 0.0 && activation <= 1.0), 0))
+    ThrowActivation(model, muscle, activation);
   const FlatChain& d = model.impl().flat;
   if (d.large) {
     return EvaluateChain<true, LargeWorkspace>(model, workspace, q, muscle, stiffness, activation,

@@ -16,6 +16,7 @@
 #include "kinematics/kinematics_impl.hpp"
 #include "model/function_impl.hpp"
 #include "model/model_impl.hpp"
+#include "muscle/tendon_check.hpp"
 #include "util/text.hpp"
 
 namespace isowrench {
@@ -506,6 +507,8 @@ Model::Model(LimbDescription description) {
   // The leg length through the joint centres (docs/model.md "Leg length"): kinematics of the
   // compiled chain at the nominal posture.
   impl->chain_length = ComputeLegLength(*this);
+  // A tendon longer than the path at every posture: the muscle never pulls (src/muscle).
+  CheckTendonsCanStretch(*this);
 }
 
 Model Model::FromUrdfFile(const std::string& path) { return Model(ReadUrdfFile(path)); }
