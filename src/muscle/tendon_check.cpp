@@ -1,14 +1,19 @@
 // A tendon slack length longer than the musculotendon path at every posture (issue 28 item 7):
-// the muscle is slack wherever the limb goes and can never pull; an error when the Model is built.
+// the muscle is slack wherever the limb goes and can never pull; a warning when the Model is
+// built (once per model and muscle in a process).
 
 #include "muscle/tendon_check.hpp"
 
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <mutex>
+#include <set>
 #include <string>
+#include <utility>
 
 #include "isowrench/error.hpp"
+#include "isowrench/input_checks.hpp"
 #include "isowrench/kinematics.hpp"
 #include "isowrench/model.hpp"
 #include "isowrench/posture.hpp"
@@ -39,6 +44,15 @@ double TendonCheckUniform(std::uint64_t* state) {
   return static_cast<double>((z ^ (z >> 31)) >> 11) * 0x1.0p-53;
 }
 
+/// True the first time (model, muscle) is seen in this process: the warning is given once, and a
+/// fit that rebuilds the model per evaluation neither repeats it nor searches again.
+bool TendonCheckFirstTime(const std::string& model, const std::string& muscle) {
+  static std::mutex mutex;
+  static std::set<std::pair<std::string, std::string>> seen;
+  std::lock_guard<std::mutex> lock(mutex);
+  return seen.emplace(model, muscle).second;
+}
+
 }  // namespace
 
 void CheckTendonsCanStretch(const Model& model) {
@@ -65,7 +79,7 @@ void CheckTendonsCanStretch(const Model& model) {
       }
       return longest > slack;
     };
-    if (length_at(nominal)) continue;
+    if (length_at(nominal) || !TendonCheckFirstTime(model.name(), m.name)) continue;
     bool stretched = false;
     for (int c = 0; c < n && !stretched; ++c) {
       double lo = 0, hi = 0;
@@ -87,13 +101,13 @@ void CheckTendonsCanStretch(const Model& model) {
       stretched = length_at(q);
     }
     if (stretched) continue;
-    throw Error(
-        "muscle '" + m.name + "': tendon_slack_length " + util::FormatNumber(slack * 1e3, 4) +
-        " mm is longer than its musculotendon path at every posture checked (" +
-        std::to_string(checked) + " within the coordinates' ranges; longest path " +
-        (longest >= 0 ? util::FormatNumber(longest * 1e3, 4) + " mm at " + FormatPosture(model, at)
-                      : std::string("not evaluable")) +
-        "): the tendon is always slack and the muscle can never pull");
+    Warn("muscle '" + m.name + "': tendon_slack_length " + util::FormatNumber(slack * 1e3, 4) +
+         " mm is longer than its musculotendon path at every posture checked (" +
+         std::to_string(checked) + " within the coordinates' ranges; longest path " +
+         (longest >= 0 ? util::FormatNumber(longest * 1e3, 4) + " mm at " + FormatPosture(model, at)
+                       : std::string("not evaluable")) +
+         "): the tendon is always slack and the muscle never pulls (force 0, status slack; " +
+         "OpenSim gives 0 too)");
   }
 }
 

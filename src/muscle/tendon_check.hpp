@@ -1,6 +1,6 @@
 #pragma once
 // The check that a muscle's tendon can be stretched at some posture (issue 28 item 7): called
-// once when a Model is built.
+// when a Model is built.
 
 namespace isowrench {
 
@@ -13,7 +13,11 @@ class Model;
 /// checked over kTendonCheckPostures postures (each coordinate at the ends and middle of its
 /// range, then seeded random postures in the box; unbounded revolute coordinates over nominal
 /// +- 180°, unbounded prismatic ones nominal +- 0.1 m).
-/// @throws Error naming the muscle, its tendon_slack_length and the longest path found (mm).
+/// Such a muscle gets a warning (Warn, input_checks.hpp) naming it, its tendon_slack_length and
+/// the longest path found (mm), once per model name and muscle in a process (a fit rebuilding
+/// the model per evaluation neither repeats the warning nor the search). A warning, not an
+/// error: OpenSim accepts such a model (a muscle left at the class default tendon_slack_length
+/// of 0.2 m) and gives that muscle 0 force.
 void CheckTendonsCanStretch(const Model& model);
 
 }  // namespace isowrench

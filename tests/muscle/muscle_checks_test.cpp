@@ -1,5 +1,5 @@
 // Bad input of issue 28 item 7 not caught before: a tendon slack length longer than the
-// musculotendon path at every posture (an error when the Model is built), and an activation
+// musculotendon path at every posture (a warning when the Model is built), and an activation
 // outside [0, 1] given to Evaluate / EvaluateBatch for a constant-force muscle.
 
 #include <gmock/gmock.h>
@@ -12,6 +12,7 @@
 
 #include "isowrench/engine.hpp"
 #include "isowrench/error.hpp"
+#include "isowrench/input_checks.hpp"
 #include "isowrench/kinematics.hpp"
 #include "isowrench/model.hpp"
 
@@ -37,20 +38,30 @@ double ChecksLongestPossiblePath(const MuscleSpec& m) {
   return m.path.front().position.norm() + 0.031 + m.path.back().position.norm();
 }
 
-TEST(TendonCheck, ATendonLongerThanThePathEverywhereIsAnErrorNamingTheMuscle) {
+TEST(TendonCheck, ATendonLongerThanThePathEverywhereIsAWarningNamingTheMuscle) {
   LimbDescription d = ChecksLimb();
+  d.name = "tendon_check_everywhere";  // (the warning is given once per model and muscle)
   MuscleSpec& m = ChecksMuscle(d, "GP_thelen");
   const double bound = ChecksLongestPossiblePath(m);
   EXPECT_NEAR(bound, 0.0648, 1e-4);
   m.force.tendon_slack_length = bound + 0.001;
-  try {
+  {
+    WarningCollector warnings;
     Model model(d);
-    FAIL() << "no error";
-  } catch (const Error& e) {
-    EXPECT_THAT(e.what(), HasSubstr("muscle 'GP_thelen': tendon_slack_length 65.75 mm"));
-    EXPECT_THAT(e.what(), HasSubstr("is longer than its musculotendon path at every posture"));
-    EXPECT_THAT(e.what(), HasSubstr("longest path"));
+    EXPECT_THAT(warnings.text(), HasSubstr("muscle 'GP_thelen': tendon_slack_length 65.75 mm"));
+    EXPECT_THAT(warnings.text(),
+                HasSubstr("is longer than its musculotendon path at every posture"));
+    EXPECT_THAT(warnings.text(), HasSubstr("longest path"));
+    // The muscle never pulls: force 0 (slack) at the nominal posture.
+    Data data(model);
+    EXPECT_EQ(
+        ComputeMuscleTorque(model, data, model.nominal_posture(), model.MuscleIndex("GP_thelen"))
+            .force,
+        0.0);
   }
+  WarningCollector again;  // the same model built again (a fit's rebuild): no repetition
+  Model rebuilt(d);
+  EXPECT_EQ(again.warnings().size(), 0u) << again.text();
 }
 
 TEST(TendonCheck, ATendonSlackAtTheNominalPostureButStretchedElsewhereIsAccepted) {
@@ -67,7 +78,10 @@ TEST(TendonCheck, ATendonSlackAtTheNominalPostureButStretchedElsewhereIsAccepted
   const double stretched = ComputeMuscleTorque(reference, data, straight, gp).length;
   ASSERT_LT(nominal + 0.005, stretched);
   ChecksMuscle(d, "GP_rigid").force.tendon_slack_length = 0.5 * (nominal + stretched);
+  d.name = "tendon_check_stretched";
+  WarningCollector warnings;
   EXPECT_NO_THROW(Model model(d));
+  EXPECT_EQ(warnings.warnings().size(), 0u) << warnings.text();
   // A constant-force muscle or a tendon of length 0 is never checked (no tendon to be slack).
   LimbDescription c = ChecksLimb();
   ChecksMuscle(c, "GP_constant").force.tendon_slack_length = 1.0;
