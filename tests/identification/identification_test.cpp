@@ -229,13 +229,15 @@ TEST(Effects, NamedAssignmentsSetTheNamedParametersAndLeaveTheOthersNeutral) {
 }
 
 TEST(Effects, LibraryOfTheRatLimbHasEveryKind) {
-  // Every registered kind but coactivation (the rat limb has one muscle) applies to the rat.
+  // Every registered kind but coactivation (the rat limb has one muscle) and force_length (its
+  // muscle has the constant force model) applies to the rat.
   std::set<std::string> kinds;
   for (const Effect& e : CandidateEffects(RatWithoutHipRx())) kinds.insert(e.kind);
   std::set<std::string> registered;
   for (const EffectKindInfo& k : EffectKinds()) registered.insert(k.kind);
-  EXPECT_EQ(registered.size(), 16u);
+  EXPECT_EQ(registered.size(), 17u);
   registered.erase("coactivation");
+  registered.erase("force_length");
   EXPECT_EQ(kinds, registered);
   EXPECT_THAT(ParseEffectAssignment(Rat(), "base_isotropic=1e6").effect.id, "base_isotropic");
   EXPECT_THROW(ParseEffectAssignment(Rat(), "misalignment=1"), Error);
