@@ -24,6 +24,12 @@
 namespace isowrench {
 namespace {
 
+#if defined(__GNUC__)
+#define ISOWRENCH_MUSCLE_INLINE inline __attribute__((always_inline))
+#else
+#define ISOWRENCH_MUSCLE_INLINE inline
+#endif
+
 // SimTK constants (SimTKcommon/Scalar.h): Eps, SignificantReal = Eps^(7/8), SqrtEps.
 constexpr double kSimTKEps = std::numeric_limits<double>::epsilon();
 const double kSignificantReal = std::pow(kSimTKEps, 0.875);
@@ -163,7 +169,7 @@ struct MuscleForceModel::Impl {
   // kExact: the curves' exact slopes (the reported stiffness); false: the iteration's
   // (ActiveSolve...). The values are the same bits either way.
   template <bool kExact = false>
-  Sample At(double l, double length, double a) const {
+  ISOWRENCH_MUSCLE_INLINE Sample At(double l, double length, double a) const {
     Sample s;
     Pennation(l, &s.sin_phi, &s.cos_phi);
     const double norm = l * inv_optimal_fiber_length;
@@ -191,15 +197,25 @@ struct MuscleForceModel::Impl {
     return s;
   }
 
+  // What the iterations read of a sample (At, inlined: the rest is not computed). The same
+  // values as At<true>'s, bit for bit.
+  struct Step {
+    double residual = 0.0, slope = 0.0, tendon_force = 0.0, fiber_along = 0.0;
+  };
+  Step Iterate(double l, double length, double a) const {
+    const Sample s = At(l, length, a);
+    return {s.residual, s.slope, s.tendon_force, s.fiber_along};
+  }
+
   // OpenSim's own equilibrium iteration, step for step: Millard2012EquilibriumMuscle::
   // estimateMuscleFiberState (static solution) and Thelen2003Muscle::initMuscleState with
   // zero path speed (f_V = 1): Newton's method on the fiber length with step halving while
   // |error| does not decrease, the fiber clamped at its minimum length. Returns whether it
   // converged to OpenSim's tolerance; *l is where it stopped.
-  bool OpenSimIteration(double length, double a, double* l, Sample* last, int* iterations) const {
+  bool OpenSimIteration(double length, double a, double* l, Step* last, int* iterations) const {
     double lce = FiberLength(length, 1.01 * tendon_slack_length);
     if (clamp_initial_guess) lce = std::max(lce, min_fiber);
-    Sample s = At(lce, length, a);
+    Step s = Iterate(lce, length, a);
     double ferr = s.residual, ferr_prev = ferr, lce_prev = lce, slope = s.slope;
     int iter = 0;
     while (std::abs(ferr) > opensim_tolerance && iter < opensim_max_iterations) {
@@ -214,7 +230,7 @@ struct MuscleForceModel::Impl {
           h = 0;
         }
         if (lce < min_fiber) lce = min_fiber;
-        s = At(lce, length, a);
+        s = Iterate(lce, length, a);
         ferr = s.residual;
         if (h <= kSqrtEps) break;
         h = 0.5 * h;
@@ -255,9 +271,23 @@ struct MuscleForceModel::Impl {
     double active_force = 0.0, passive_force = 0.0;  // N along the tendon
   };
   bool RigidForce(double length, double a, RigidFiber* r) const {
-    r->l = std::max(FiberLength(length, tendon_slack_length), min_fiber);
-    if (r->l <= min_fiber) return false;
-    Pennation(r->l, &r->sin_phi, &r->cos_phi);
+    // FiberLength(length, tendon_slack_length) and Pennation(l): below the pennation model's
+    // shortest fiber along the tendon the fiber is at pennation_min_fiber <= min_fiber, so
+    // clamped; above it cos(phi) = (L - l_Ts) / l (the parallelogram).
+    const double along = length - tendon_slack_length;
+    if (!(along >= pennation_min_fiber_along_tendon)) return false;
+    r->l = std::sqrt(height * height + along * along);
+    if (!(r->l > min_fiber)) return false;
+    if (!pennated) {
+      r->sin_phi = 0.0;
+      r->cos_phi = 1.0;
+    } else if (height / r->l < max_sin) {
+      r->sin_phi = height / r->l;
+      r->cos_phi = along / r->l;
+    } else {
+      r->sin_phi = max_sin;
+      r->cos_phi = max_cos;
+    }
     r->norm = r->l * inv_optimal_fiber_length;
     r->active_force = max_force * a * ActiveValue(r->norm) * r->cos_phi;
     r->passive_force = max_force * PassiveValue(r->norm) * r->cos_phi;
@@ -311,7 +341,7 @@ struct MuscleForceModel::Impl {
   struct Solution {
     MuscleForceStatus status = MuscleForceStatus::kSlack;
     double l = 0.0;
-    Sample s;
+    Step s;
     int iterations = 0;
     bool opensim_fails = false;
   };
@@ -327,7 +357,7 @@ struct MuscleForceModel::Impl {
     bool lo_negative = false;
     int iterations = 0;
     double x = guess;
-    Sample s;
+    Step s;
     bool have_sample = false;
     if (!(guess > lo && guess < hi)) {
       // Cold start: OpenSim's own iteration picks the equilibrium (and says when it fails).
@@ -345,7 +375,7 @@ struct MuscleForceModel::Impl {
     // [lo, hi] and at least halves the step before the last one, bisection otherwise, so the
     // bracket shrinks geometrically even where Newton's method crawls (an exponential passive
     // curve far from its root).
-    if (!have_sample) s = At(x, length, a);
+    if (!have_sample) s = Iterate(x, length, a);
     double step_before = hi - lo, step = step_before;
     for (int i = 0; i < 200; ++i) {
       if (std::abs(s.residual) <= tolerance) break;
@@ -362,7 +392,7 @@ struct MuscleForceModel::Impl {
       if (!(next > lo && next < hi) || slow) {
         if (!lo_negative) {
           // Does the fiber want to be shorter than its minimum length?
-          const Sample low = At(min_fiber, length, a);
+          const Step low = Iterate(min_fiber, length, a);
           ++iterations;
           if (low.residual >= 0) {
             out.status = MuscleForceStatus::kFiberAtMinimumLength;
@@ -377,7 +407,7 @@ struct MuscleForceModel::Impl {
       }
       step = next - x;
       x = next;
-      s = At(x, length, a);
+      s = Iterate(x, length, a);
       ++iterations;
     }
     out.status = !lo_negative && x <= min_fiber && s.residual > tolerance
@@ -425,8 +455,8 @@ struct MuscleForceModel::Impl {
       }
       *force = r.active_force + r.passive_force;
       *status = MuscleForceStatus::kEquilibrium;
-      return std::abs(r.active_force) <= kLarge && std::abs(r.passive_force) <= kLarge &&
-             r.l <= kLarge;
+      // (both parts are >= 0: their sum bounds each; NaN fails)
+      return *force <= kLarge && r.l <= kLarge;
     }
     const Solution solution = Solve(length, a, 0.0);
     *status = solution.status;
