@@ -173,8 +173,17 @@ struct MuscleForceModel::Impl {
     Sample s;
     Pennation(l, &s.sin_phi, &s.cos_phi);
     const double norm = l * inv_optimal_fiber_length;
-    const CurvePoint fal = kExact ? Active(norm) : ActiveSolve(norm);
-    const CurvePoint fpe = kExact ? Passive(norm) : PassiveSolve(norm);
+    CurvePoint fal, fpe;
+    if (kExact) {
+      fal = Active(norm);
+      fpe = Passive(norm);
+    } else if (type == ForceModelType::kMillard2012) {
+      fal = active.SolveEvaluate(norm);
+      fpe = passive.SolveEvaluate(norm);
+    } else {
+      fal = Active(norm);
+      fpe = Passive(norm);
+    }
     s.active = max_force * a * fal.value;
     s.passive = max_force * fpe.value;
     const double fiber = s.active + s.passive;
@@ -270,7 +279,7 @@ struct MuscleForceModel::Impl {
     double l = 0.0, sin_phi = 0.0, cos_phi = 1.0, norm = 0.0;
     double active_force = 0.0, passive_force = 0.0;  // N along the tendon
   };
-  bool RigidForce(double length, double a, RigidFiber* r) const {
+  ISOWRENCH_MUSCLE_INLINE bool RigidForce(double length, double a, RigidFiber* r) const {
     // FiberLength(length, tendon_slack_length) and Pennation(l): below the pennation model's
     // shortest fiber along the tendon the fiber is at pennation_min_fiber <= min_fiber, so
     // clamped; above it cos(phi) = (L - l_Ts) / l (the parallelogram).
@@ -455,9 +464,11 @@ struct MuscleForceModel::Impl {
       }
       *force = r.active_force + r.passive_force;
       *status = MuscleForceStatus::kEquilibrium;
-      // (both parts are >= 0: their sum bounds each; NaN fails)
-      return *force <= kLarge && r.l <= kLarge;
+      // (both parts are >= 0: their sum bounds each; NaN fails, as an infinite fiber length
+      // gives: cos(phi) = (L - l_Ts) / l = 0 times an infinite curve value)
+      return *force <= kLarge;
     }
+    if (!(length <= std::numeric_limits<double>::max())) return false;  // (Evaluate: none)
     const Solution solution = Solve(length, a, 0.0);
     *status = solution.status;
     if (solution.status == MuscleForceStatus::kSlack) {
@@ -702,8 +713,7 @@ MuscleForce MuscleForceModel::Evaluate(double length, double activation,
 double MuscleForceModel::Tension(double length, double activation,
                                  MuscleForceStatus* status) const {
   const Impl& m = *impl_;
-  if (m.fast_tension && activation >= 0.0 && activation <= 1.0 && length > 0.0 &&
-      length <= std::numeric_limits<double>::max()) {
+  if (m.fast_tension && activation >= 0.0 && activation <= 1.0 && length > 0.0) {
     double force = 0.0;
     if (m.Tension(length, std::max(activation, m.min_activation), &force, status)) return force;
   }

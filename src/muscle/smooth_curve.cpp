@@ -150,9 +150,17 @@ SmoothCurve::SmoothCurve(const ControlPoints* segments, int count, double y0, do
       c[4] = -15.0 * A + 7.0 * B - C;
       c[5] = 6.0 * A - 3.0 * B + 0.5 * C;
     }
+    double* end = &g.guess[6 * static_cast<std::size_t>(kGuessIntervals)];
+    end[0] = u[kGuessIntervals];
+    end[1] = m[kGuessIntervals];
+    end[2] = 0.5 * c2[kGuessIntervals];
   }
   x0_ = segments[0].x[0];
   x1_ = segments[count - 1].x[5];
+  for (int s = 0; s + 1 < kMaxSegments; ++s) {
+    ends_[static_cast<std::size_t>(s)] =
+        s + 1 < count ? segments[s].x[5] : std::numeric_limits<double>::infinity();
+  }
 }
 
 double SmoothCurve::Converge(const Segment& g, double x, double u, double* dxdu) const {

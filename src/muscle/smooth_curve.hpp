@@ -94,8 +94,9 @@ class SmoothCurve {
     std::array<double, 6> x{}, y{};    // power-basis coefficients of x(u), y(u)
     std::array<double, 5> dx{}, dy{};  // of dx/du, dy/du (k a_k)
     // The quintic Hermite guess of u on interval k as a quintic in r = t - k:
-    // guess[6k + i] r^i.
-    std::array<double, 6 * kGuessIntervals> guess{};
+    // guess[6k + i] r^i; interval kGuessIntervals (t rounded to it at x = x_end) is u's
+    // Taylor polynomial there.
+    std::array<double, 6 * (kGuessIntervals + 1)> guess{};
   };
 
   static double Poly(const std::array<double, 6>& a, double u) {
@@ -104,17 +105,18 @@ class SmoothCurve {
   static double Slope(const std::array<double, 5>& b, double u) {
     return (((b[4] * u + b[3]) * u + b[2]) * u + b[1]) * u + b[0];
   }
-  // calcIndex: the segment with x_begin <= x < x_end (the last one for x = x1).
+  // calcIndex: the segment with x_begin <= x < x_end (the last one for x = x1): the number
+  // of inner segment ends at or before x, without a loop (ends_ past the last are +inf).
   const Segment& Find(double x) const {
-    int s = 0;
-    while (s + 1 < count_ && x >= segments_[static_cast<std::size_t>(s)].x_end) ++s;
+    int s = x >= ends_[0];
+    if (count_ > 2) s += (x >= ends_[1]) + (x >= ends_[2]) + (x >= ends_[3]);
     return segments_[static_cast<std::size_t>(s)];
   }
   // calcU: u in [0, 1] with x(u) = x on segment g (x in [x_begin, x_end]); *dxdu: dx/du at
   // the u before the last Newton step.
   double U(const Segment& g, double x, double* dxdu) const {
-    const double t = (x - g.x_begin) * g.inv_step;
-    const int k = std::min(static_cast<int>(t), kGuessIntervals - 1);
+    const double t = (x - g.x_begin) * g.inv_step;  // in [0, kGuessIntervals (1 + 2 eps)]
+    const int k = static_cast<int>(t);
     const double r = t - k;
     const double* c = &g.guess[6 * static_cast<std::size_t>(k)];
     // (No clamp to [0, 1]: the guess is within ~4e-7 of u in [0, 1], and the polynomials are
@@ -133,6 +135,8 @@ class SmoothCurve {
   double Converge(const Segment& g, double x, double u, double* dxdu) const;
 
   std::vector<Segment> segments_;  // (sized once: an evaluation allocates nothing)
+  // x_end of segments 0 .. count - 2, then +inf.
+  std::array<double, kMaxSegments - 1> ends_{};
   std::array<ControlPoints, kMaxSegments> control_{};
   int count_ = 0;
   double x0_ = 0.0, x1_ = 0.0, y0_ = 0.0, y1_ = 0.0, slope0_ = 0.0, slope1_ = 0.0;
