@@ -52,6 +52,8 @@ struct MuscleForceModel::Impl {
   double max_force = 1.0;
   double optimal_fiber_length = 0.0, inv_optimal_fiber_length = 0.0;
   double tendon_slack_length = 0.0, inv_tendon_slack_length = 0.0;
+  double force_per_optimal_length = 0.0;       // N/m, max_force / l_o
+  double force_per_tendon_slack_length = 0.0;  // N/m, max_force / l_Ts (0 if l_Ts is 0)
   // MuscleFixedWidthPennationModel
   bool pennated = false;  // pennation_angle_at_optimal > Eps
   double height = 0.0;    // parallelogram height l_o sin(phi_o)
@@ -104,17 +106,6 @@ struct MuscleForceModel::Impl {
     return {0.0, 0.0};
   }
 
-  // The curves as the equilibrium iteration reads them: the same values, a Millard slope with
-  // dx/du from before the last Newton step of u(x) (SmoothCurve::SolveEvaluate).
-  CurvePoint ActiveSolve(double x) const {
-    return type == ForceModelType::kMillard2012 ? active.SolveEvaluate(x) : Active(x);
-  }
-  CurvePoint PassiveSolve(double x) const {
-    return type == ForceModelType::kMillard2012 ? passive.SolveEvaluate(x) : Passive(x);
-  }
-  CurvePoint TendonSolve(double x) const {
-    return type == ForceModelType::kMillard2012 ? tendon.SolveEvaluate(x) : Tendon(x);
-  }
   // The values alone (the same bits as Active(x).value, Passive(x).value).
   double ActiveValue(double x) const {
     return type == ForceModelType::kMillard2012 ? active.Value(x) : Active(x).value;
@@ -140,7 +131,7 @@ struct MuscleForceModel::Impl {
     const double s = l > pennation_min_fiber ? height / l : max_sin;
     if (s < max_sin) {
       *sin_phi = s;
-      *cos_phi = std::sqrt(1.0 - s * s);
+      *cos_phi = std::sqrt(std::abs(1.0 - s * s));  // (> 0; abs: no errno path)
     } else {
       *sin_phi = max_sin;
       *cos_phi = max_cos;
@@ -173,32 +164,30 @@ struct MuscleForceModel::Impl {
     Sample s;
     Pennation(l, &s.sin_phi, &s.cos_phi);
     const double norm = l * inv_optimal_fiber_length;
-    CurvePoint fal, fpe;
-    if (kExact) {
-      fal = Active(norm);
-      fpe = Passive(norm);
-    } else if (type == ForceModelType::kMillard2012) {
+    const double tendon_length = length - l * s.cos_phi;  // calcTendonLength
+    s.norm_tendon_length = tendon_length * inv_tendon_slack_length;
+    CurvePoint fal, fpe, fse;
+    if (!kExact && type == ForceModelType::kMillard2012) {
       fal = active.SolveEvaluate(norm);
       fpe = passive.SolveEvaluate(norm);
+      fse = tendon.SolveEvaluate(s.norm_tendon_length);
     } else {
       fal = Active(norm);
       fpe = Passive(norm);
+      fse = Tendon(s.norm_tendon_length);
     }
     s.active = max_force * a * fal.value;
     s.passive = max_force * fpe.value;
     const double fiber = s.active + s.passive;
-    const double dfiber = max_force * (a * fal.slope + fpe.slope) * inv_optimal_fiber_length;
+    const double dfiber = (a * fal.slope + fpe.slope) * force_per_optimal_length;
     // d cos(phi) / dl = sin^2(phi) / (l cos(phi)) (Thelen2003Muscle::calcDFmATDlce;
     // Millard2012EquilibriumMuscle::calc_DFiberForceAT_DFiberLength).
-    const double dcos = s.sin_phi != 0.0 ? s.sin_phi * s.sin_phi / (l * s.cos_phi) : 0.0;
+    // (0 without pennation: l cos(phi) >= l >= min_fiber > 0)
+    const double dcos = s.sin_phi * s.sin_phi / (l * s.cos_phi);
     s.fiber_along = fiber * s.cos_phi;
     s.dfiber_along = dfiber * s.cos_phi + fiber * dcos;
-    const double tendon_length = length - l * s.cos_phi;  // calcTendonLength
-    s.norm_tendon_length = tendon_length * inv_tendon_slack_length;
-    const CurvePoint fse =
-        kExact ? Tendon(s.norm_tendon_length) : TendonSolve(s.norm_tendon_length);
     s.tendon_force = max_force * fse.value;
-    s.tendon_stiffness = max_force * fse.slope * inv_tendon_slack_length;
+    s.tendon_stiffness = fse.slope * force_per_tendon_slack_length;
     s.residual = s.fiber_along - s.tendon_force;
     // d l_T / dl = -1 / cos(phi) (calc_DTendonLength_DfiberLength).
     s.slope = s.dfiber_along + s.tendon_stiffness / s.cos_phi;
@@ -569,6 +558,8 @@ MuscleForceModel::MuscleForceModel(const std::string& muscle, double max_force,
   m.inv_optimal_fiber_length = 1.0 / ofl;
   m.tendon_slack_length = spec.tendon_slack_length;
   m.inv_tendon_slack_length = spec.tendon_slack_length > 0 ? 1.0 / spec.tendon_slack_length : 0.0;
+  m.force_per_optimal_length = max_force * m.inv_optimal_fiber_length;
+  m.force_per_tendon_slack_length = max_force * m.inv_tendon_slack_length;
   const double height = ofl * std::sin(pen);  // m_parallelogramHeight
   m.pennated = pen > kSimTKEps;
   m.height = m.pennated ? height : 0.0;

@@ -50,9 +50,9 @@ class SmoothCurve {
   SmoothCurve(const ControlPoints* segments, int count, double y0, double y1, double slope0,
               double slope1);
 
-  /// Value and slope at x (linear extrapolation outside [x0, x1]); x must not be NaN.
+  /// Value and slope at x (linear extrapolation outside [x0, x1]; NaN for NaN).
   CurvePoint Evaluate(double x) const {
-    if (x < x0_) return {y0_ + slope0_ * (x - x0_), slope0_};
+    if (!(x >= x0_)) return {y0_ + slope0_ * (x - x0_), slope0_};
     if (x > x1_) return {y1_ + slope1_ * (x - x1_), slope1_};
     const Segment& g = Find(x);
     double dxdu = 0.0;
@@ -63,7 +63,7 @@ class SmoothCurve {
   }
   /// Evaluate(x).value, without the slope.
   double Value(double x) const {
-    if (x < x0_) return y0_ + slope0_ * (x - x0_);
+    if (!(x >= x0_)) return y0_ + slope0_ * (x - x0_);
     if (x > x1_) return y1_ + slope1_ * (x - x1_);
     const Segment& g = Find(x);
     double dxdu = 0.0;
@@ -73,7 +73,7 @@ class SmoothCurve {
   /// (relative error ~ |x''/x'| |du|, about 1e-10): for Newton iterations on the curve, where
   /// the slope only steers.
   CurvePoint SolveEvaluate(double x) const {
-    if (x < x0_) return {y0_ + slope0_ * (x - x0_), slope0_};
+    if (!(x >= x0_)) return {y0_ + slope0_ * (x - x0_), slope0_};
     if (x > x1_) return {y1_ + slope1_ * (x - x1_), slope1_};
     const Segment& g = Find(x);
     double dxdu = 0.0;
