@@ -157,8 +157,8 @@ struct MuscleForceModel::Impl {
     double slope = 0.0;         // N/m, d residual / dl
   };
 
-  // kExact: the curves' exact slopes (the reported stiffness); false: the iteration's
-  // (ActiveSolve...). The values are the same bits either way.
+  // kExact: the curves' exact slopes (the reported stiffness); false: a Millard2012 curve's
+  // iteration slope (SmoothCurve::SolveEvaluate). The values are the same bits either way.
   template <bool kExact = false>
   ISOWRENCH_MUSCLE_INLINE Sample At(double l, double length, double a) const {
     Sample s;

@@ -6,15 +6,15 @@
 // A curve is a chain of quintic Bezier segments (x(u), y(u)), u in [0, 1], each monotone in x,
 // joined end to end over [x0, x1], and the straight lines y0 + slope0 (x - x0) left of x0 and
 // y1 + slope1 (x - x1) right of x1. y(x) needs u(x): OpenSim fits a cubic spline of u(x) per
-// segment and refines it by Newton's method to |x(u) - x| <= 100 eps (calcU); here a cubic
-// Hermite guess from 65 exact samples of u, du/dx and d2u/dx2 per segment (error
-// up to ~4e-7, mostly far less) is refined by one Newton step
-// to machine precision (more steps only where that step exceeds 1e-8, which the table's
-// accuracy makes rare), so the values are those of the exact curve.
+// segment and refines it by Newton's method to |x(u) - x| <= 100 eps (calcU); here a quintic
+// Hermite guess from u, du/dx and d2u/dx2 at 65 exact samples per segment (error up to ~4e-7,
+// mostly far less) is refined by one Newton step to machine precision (more steps only where
+// that step exceeds 1e-8, which the table's accuracy makes rare: one end of the active curve),
+// so the values are those of the exact curve.
 //
 // Three evaluations share that u(x), so they give the same value to the last bit: Evaluate
 // (value and exact slope), Value (value only: the rigid tendon's force) and SolveEvaluate (value
-// and a slope from dx/du before the Newton step, ~1e-10 relative: the equilibrium iteration's
+// and a slope from dx/du before the Newton step, ~1e-9 relative: the equilibrium iteration's
 // Newton slope, one polynomial fewer).
 
 #include <algorithm>
