@@ -227,6 +227,12 @@ class MuscleForceModel {
   /// @throws Error naming the muscle and the value if activation is not in [0, 1].
   MuscleForce Evaluate(double length, double activation, double fiber_length_guess = 0.0) const;
 
+  /// Evaluate(length, activation).force (N), bit for bit, with its status in *status, without
+  /// the other fields (no stiffness, fiber-length slope, pennation angle): the engine's force
+  /// stage. A compliant tendon starts cold (no guess), as Evaluate without one.
+  /// @throws Error naming the muscle and the value if activation is not in [0, 1].
+  double Tension(double length, double activation, MuscleForceStatus* status) const;
+
   /// Active force-length multiplier f_L at normalized fiber length l/l_o (kConstant: 1, 0).
   CurvePoint ActiveForceLength(double norm_fiber_length) const;
   /// Passive fiber force-length multiplier f_PE at l/l_o (kConstant: 0, 0).

@@ -390,18 +390,27 @@ namespace {
 const FastMuscle kNoMuscle{};  // the muscle of a kinematics call without one
 
 // The force stage of a muscle with a force model (FastMuscle::force_curve), after the path
-// stage: F = MuscleForceAt(L_MT, a) (the one definition, MuscleForceOf) into ws.force, and tau
-// (the kernel's -dL/dq times a unit force) scaled by F. A length with no equilibrium
-// (MuscleForceStatus::kNoEquilibrium) leaves tau zero and returns false (kInvalidInput).
-// @throws Error for an activation outside [0, 1] (MuscleForceModel::Evaluate).
-ISOWRENCH_NOINLINE bool ApplyForceStage(const FastMuscle& mu, Data::Impl& ws, double activation) {
-  ws.force = MuscleForceOf(mu, ws.length, activation);
-  if (ws.force.status == MuscleForceStatus::kNoEquilibrium) {
+// stage: F = MuscleForceAt(L_MT, a).force (the one definition, here by MuscleTensionOf: the
+// force and status only) into ws.force, and tau (the kernel's -dL/dq times a unit force)
+// scaled by F. A length with no equilibrium (MuscleForceStatus::kNoEquilibrium) leaves tau zero
+// and returns false (kInvalidInput).
+// @throws Error for an activation outside [0, 1] (MuscleForceModel::Tension).
+ISOWRENCH_INLINE bool ApplyForceStage(const FastMuscle& mu, Data::Impl& ws, double activation) {
+  const double f = MuscleTensionOf(mu, ws.length, activation, &ws.force_status);
+  ws.force = f;
+  if (ws.force_status == MuscleForceStatus::kNoEquilibrium) {
     ws.tau.setZero();
     return false;
   }
-  const double f = ws.force.force;
-  for (int c = 0; c < ws.m; ++c) ws.tau_data[static_cast<std::size_t>(c)] *= f;
+  // Whole 4-double vectors (the buffer holds the stride; the entries past m stay 0).
+  const V4 scale = ISOWRENCH_V4_SPLAT(f);
+  double* tau = ws.tau_data.data();
+  for (int c = 0; c < ws.m; c += 4) {
+    V4 v;
+    std::memcpy(&v, tau + c, sizeof v);
+    v *= scale;
+    std::memcpy(tau + c, &v, sizeof v);
+  }
   return true;
 }
 
@@ -499,6 +508,18 @@ ISOWRENCH_NOINLINE bool DynamicKinematics(const FlatChain& d, W& ws, const doubl
   return Kinematics<kFrames, true, true>(d, ws, q, muscle, activation, world_axes);
 }
 
+// The evaluation of a muscle off the plain path (FastMuscle::special): a force model on a fixed
+// path straight to ForceKinematics (DynamicKinematics' large frame costs ~40 instructions),
+// moving or conditional points to DynamicKinematics.
+template <class W>
+ISOWRENCH_NOINLINE bool SpecialKinematics(const FlatChain& d, W& ws, const double* q, int muscle,
+                                          double activation) {
+  if (!d.muscles[muscle].dynamic) {
+    return ForceKinematics<false>(d, ws, q, muscle, activation, false);
+  }
+  return DynamicKinematics<false>(d, ws, q, muscle, activation, false);
+}
+
 // ComputeKinematics on a chain with couplings, in a function of its own (as EvaluateChain, below:
 // inlined, it would crowd the registers and stack of the chains without couplings).
 template <class W>
@@ -524,6 +545,11 @@ ISOWRENCH_INLINE bool AnyKinematics(const FlatChain& d, W& ws, const double* q, 
     return CoupledKinematics(d, ws, q, muscle, activation);
   } else {
     if ((!kFrames || muscle >= 0) && d.muscles[muscle].special) {
+      // (a force model on a fixed path straight to its kernel: DynamicKinematics' frame
+      // costs ~40 instructions)
+      if (!d.muscles[muscle].dynamic) {
+        return ForceKinematics<kFrames>(d, ws, q, muscle, activation, world_axes);
+      }
       return DynamicKinematics<kFrames>(d, ws, q, muscle, activation, world_axes);
     }
     if constexpr (kFrames) {
@@ -658,7 +684,7 @@ ISOWRENCH_INLINE void EvaluateWith(const FlatChain& d, W& ws, const double* q, i
     valid = AnyKinematics<false>(d, ws, q, muscle, activation, false);
   } else {
     valid = d.muscles[muscle].special
-                ? DynamicKinematics<false>(d, ws, q, muscle, activation, false)
+                ? SpecialKinematics(d, ws, q, muscle, activation)
                 : Kinematics<false, false, kCoupled>(d, ws, q, muscle, activation, false);
   }
   if (!valid || stiffness.s_p.size() != d.n) {

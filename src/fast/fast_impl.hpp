@@ -39,6 +39,14 @@ inline MuscleForce MuscleForceOf(const FastMuscle& mu, double length, double act
   return mu.force_model.Evaluate(length, activation);
 }
 
+/// MuscleForceOf(mu, length, activation).force and .status, bit for bit, without the other
+/// fields (MuscleForceModel::Tension): the kernels' force stage.
+/// @throws Error for an activation outside [0, 1].
+inline double MuscleTensionOf(const FastMuscle& mu, double length, double activation,
+                              MuscleForceStatus* status) {
+  return mu.force_model.Tension(length, activation, status);
+}
+
 /// A path segment shorter than this (m) has no direction (same rule as ComputeMuscleTorque).
 inline constexpr double kFastMinSegmentLength = 1e-9;
 
@@ -182,8 +190,10 @@ struct Data::Impl {
   Eigen::Map<Eigen::VectorXd> dtheta{nullptr, 0};
   double length = 0.0;
   /// The force stage's result of the last kinematics of a muscle with a force model
-  /// (FastMuscle::force_curve; not written for a constant-force muscle).
-  MuscleForce force;
+  /// (FastMuscle::force_curve; not written for a constant-force muscle): F (N) and its status
+  /// (MuscleTensionOf; MuscleForceAt gives every field).
+  double force = 0.0;
+  MuscleForceStatus force_status = MuscleForceStatus::kNoEquilibrium;
   /// J, dL and tau have the m columns of the model from construction on (the kernel asks for
   /// its chain's n, which is m).
   void Resize([[maybe_unused]] int n) const { assert(n == m); }

@@ -202,9 +202,9 @@ LaneWorkspace::~LaneWorkspace() = default;
 namespace {
 
 // The force stage of the lanes: F(L_MT, a) of each lane's length by the scalar force model
-// (MuscleForceOf, the one definition; the equilibrium solve is not vectorised), tau scaled by
-// it. Lanes already going to the scalar path (`skip`) are not evaluated; a lane whose force
-// model has no equilibrium goes there too (returned bit), which reports it.
+// (MuscleTensionOf: MuscleForceOf's force, the one definition; the equilibrium solve is not
+// vectorised), tau scaled by it. Lanes already going to the scalar path (`skip`) are not evaluated;
+// a lane whose force model has no equilibrium goes there too (returned bit), which reports it.
 template <class W>
 ISOWRENCH_NOINLINE unsigned LaneForceStage(const FastMuscle& mu, W& ws, double activation,
                                            unsigned skip) {
@@ -212,9 +212,9 @@ ISOWRENCH_NOINLINE unsigned LaneForceStage(const FastMuscle& mu, W& ws, double a
   V f = ISOWRENCH_V4_SPLAT(0.0);
   for (int l = 0; l < kLanes; ++l) {
     if (skip & (1u << l)) continue;
-    const MuscleForce force = MuscleForceOf(mu, ws.length[l], activation);
-    if (force.status == MuscleForceStatus::kNoEquilibrium) scalar |= 1u << l;
-    f[l] = force.force;
+    MuscleForceStatus status;
+    f[l] = MuscleTensionOf(mu, ws.length[l], activation, &status);
+    if (status == MuscleForceStatus::kNoEquilibrium) scalar |= 1u << l;
   }
   V* tau = ws.TauData();
   for (int c = 0; c < ws.m; ++c) tau[c] *= f;

@@ -42,7 +42,7 @@ Data::Impl& RunKinematics(const Model& model, Data& ws, const Eigen::VectorXd& q
     // The force stage found no equilibrium at this length (tau zero): the callers report the
     // force's status (MuscleForceAt), not an error.
     if (model.impl().flat.muscles[muscle].force_curve &&
-        b.force.status == MuscleForceStatus::kNoEquilibrium) {
+        b.force_status == MuscleForceStatus::kNoEquilibrium) {
       return b;
     }
     const MuscleSpec& spec = model.muscle(muscle);

@@ -47,6 +47,10 @@ inline double PolySlope(const std::array<double, 6>& a, double u) {
   return (((5.0 * a[5] * u + 4.0 * a[4]) * u + 3.0 * a[3]) * u + 2.0 * a[2]) * u + a[1];
 }
 
+inline double PolyCurvature(const std::array<double, 6>& a, double u) {
+  return ((20.0 * a[5] * u + 12.0 * a[4]) * u + 6.0 * a[3]) * u + 2.0 * a[2];
+}
+
 // u in [0, 1] with x(u) = x, by bisection polished by Newton (construction only).
 double SolveU(const std::array<double, 6>& a, double x) {
   double lo = 0.0, hi = 1.0;
@@ -101,56 +105,76 @@ double BezierValue(const std::array<double, 6>& points, double u) {
 
 SmoothCurve::SmoothCurve(const ControlPoints* segments, int count, double y0, double y1,
                          double slope0, double slope1)
-    : count_(count), y0_(y0), y1_(y1), slope0_(slope0), slope1_(slope1) {
+    : segments_(static_cast<std::size_t>(count)),
+      count_(count),
+      y0_(y0),
+      y1_(y1),
+      slope0_(slope0),
+      slope1_(slope1) {
   for (int s = 0; s < count; ++s) {
     control_[s] = segments[s];
-    Segment& g = segments_[s];
+    Segment& g = segments_[static_cast<std::size_t>(s)];
     g.x = PowerBasis(segments[s].x);
     g.y = PowerBasis(segments[s].y);
+    for (int k = 0; k < 5; ++k) {
+      g.dx[k] = (k + 1) * g.x[k + 1];
+      g.dy[k] = (k + 1) * g.y[k + 1];
+    }
     g.x_begin = segments[s].x[0];
     g.x_end = segments[s].x[5];
     const double step = (g.x_end - g.x_begin) / kGuessIntervals;
     g.inv_step = 1.0 / step;
+    // Exact u, du/dx and d2u/dx2 = -x''(u) / x'(u)^3 at the 65 knots, then each interval's
+    // quintic Hermite guess in r (per unit r: du/dr = step du/dx, d2u/dr2 = step^2 d2u/dx2).
+    std::array<double, kGuessIntervals + 1> u{}, m{}, c2{};
     for (int j = 0; j <= kGuessIntervals; ++j) {
       const double x = j == kGuessIntervals ? g.x_end : g.x_begin + j * step;
-      g.u[j] = j == 0 ? 0.0 : j == kGuessIntervals ? 1.0 : SolveU(g.x, x);
-      const double d = PolySlope(g.x, g.u[j]);
-      g.dudx[j] = d > 1e-12 ? 1.0 / d : 0.0;  // 0: the Hermite guess uses no slope there
+      u[j] = j == 0 ? 0.0 : j == kGuessIntervals ? 1.0 : SolveU(g.x, x);
+      const double d = PolySlope(g.x, u[j]);
+      if (d > 1e-12) {  // (else: the guess uses no derivatives there)
+        const double dd = PolyCurvature(g.x, u[j]);
+        m[j] = step / d;
+        c2[j] = -dd / (d * d * d) * step * step;
+      }
     }
+    for (int j = 0; j < kGuessIntervals; ++j) {
+      // p(r) = sum c_i r^i with p, p', p'' equal to u, m, c2 at r = 0 and r = 1.
+      const double A = u[j + 1] - u[j] - m[j] - 0.5 * c2[j];
+      const double B = m[j + 1] - m[j] - c2[j];
+      const double C = c2[j + 1] - c2[j];
+      double* c = &g.guess[6 * static_cast<std::size_t>(j)];
+      c[0] = u[j];
+      c[1] = m[j];
+      c[2] = 0.5 * c2[j];
+      c[3] = 10.0 * A - 4.0 * B + 0.5 * C;
+      c[4] = -15.0 * A + 7.0 * B - C;
+      c[5] = 6.0 * A - 3.0 * B + 0.5 * C;
+    }
+    double* end = &g.guess[6 * static_cast<std::size_t>(kGuessIntervals)];
+    end[0] = u[kGuessIntervals];
+    end[1] = m[kGuessIntervals];
+    end[2] = 0.5 * c2[kGuessIntervals];
   }
   x0_ = segments[0].x[0];
   x1_ = segments[count - 1].x[5];
+  for (int s = 0; s + 1 < kMaxSegments; ++s) {
+    ends_[static_cast<std::size_t>(s)] =
+        s + 1 < count ? segments[s].x[5] : std::numeric_limits<double>::infinity();
+  }
 }
 
-CurvePoint SmoothCurve::Evaluate(double x) const {
-  // SmoothSegmentedFunction.cpp calcSelectedDerivatives: lines outside [x0, x1].
-  if (x < x0_) return {y0_ + slope0_ * (x - x0_), slope0_};
-  if (x > x1_) return {y1_ + slope1_ * (x - x1_), slope1_};
-  // calcIndex: the segment with x_begin <= x < x_end (the last one for x = x1).
-  int s = 0;
-  while (s + 1 < count_ && x >= segments_[s].x_end) ++s;
-  const Segment& g = segments_[s];
-  // calcU: a cubic Hermite guess of u(x), then Newton's method on x(u) = x.
-  const double t = (x - g.x_begin) * g.inv_step;
-  const int k = std::min(static_cast<int>(t), kGuessIntervals - 1);
-  const double r = t - k, h = 1.0 / g.inv_step;
-  const double r2 = r * r, r3 = r2 * r;
-  double u = (2 * r3 - 3 * r2 + 1) * g.u[k] + (r3 - 2 * r2 + r) * h * g.dudx[k] +
-             (-2 * r3 + 3 * r2) * g.u[k + 1] + (r3 - r2) * h * g.dudx[k + 1];
-  u = std::clamp(u, 0.0, 1.0);
-  double dxdu = PolySlope(g.x, u);
-  // Newton converges quadratically: after a step of size du the error in u is about
-  // |x''/(2 x')| du^2, below 1e-15 once |du| <= 1e-8 (x'' / x' is O(1) to O(10) on these
-  // corners), so that step is the last.
+double SmoothCurve::Converge(const Segment& g, double x, double u, double* dxdu) const {
+  double d = Slope(g.dx, u);
+  *dxdu = d;
   for (int i = 0; i < 8; ++i) {
-    if (!(dxdu > 0.0)) break;
-    const double du = (Poly(g.x, u) - x) / dxdu;
+    if (!(d > 0.0)) break;
+    const double du = (Poly(g.x, u) - x) / d;
+    *dxdu = d;
     u = std::clamp(u - du, 0.0, 1.0);
-    dxdu = PolySlope(g.x, u);
+    d = Slope(g.dx, u);
     if (std::abs(du) <= 1e-8) break;
   }
-  // calcQuinticBezierCurveDerivDYDX: dy/dx = (dy/du) / (dx/du).
-  return {Poly(g.y, u), dxdu > 0.0 ? PolySlope(g.y, u) / dxdu : 0.0};
+  return u;
 }
 
 SmoothCurve ActiveForceLengthCurve(const ActiveForceLengthCurveSpec& spec, double ylow,

@@ -8,6 +8,7 @@
 
 #include <cmath>
 #include <limits>
+#include <map>
 #include <vector>
 
 #include "isowrench/error.hpp"
@@ -145,6 +146,40 @@ std::vector<MuscleForceSpec> RatLikeSpecs() {
   return {MillardSpec(0.0293, 0.00639, 0.0524), MillardSpec(0.0198, 0.0245, 0.244),
           MillardSpec(0.0042, 0.0086, 0.314),   MillardSpec(0.0206, 0.00034, 0.192),
           ThelenSpec(0.0287, 0.0064, 0.0576),   ThelenSpec(0.0149, 0.025, 0.164)};
+}
+
+// Tension (the engine's force stage) is Evaluate's force and status to the last bit: every
+// model kind (rigid and compliant Millard2012, Thelen2003, a zero tendon slack length), slack
+// and minimum-length postures, activations at and below the floor, and lengths so absurd that
+// Evaluate's field check decides (Tension then runs Evaluate).
+TEST(MuscleForce, TensionIsEvaluatesForceBitForBit) {
+  std::vector<MuscleForceSpec> specs = RatLikeSpecs();
+  for (MuscleForceSpec spec : RatLikeSpecs()) {
+    spec.ignore_tendon_compliance = true;
+    specs.push_back(spec);
+  }
+  std::map<MuscleForceStatus, int> seen;
+  for (const MuscleForceSpec& spec : specs) {
+    const MuscleForceModel m("R", 10.0, spec);
+    const double span = spec.optimal_fiber_length + spec.tendon_slack_length;
+    std::vector<double> lengths = {1e-300, 1e200, 1e300, std::numeric_limits<double>::max()};
+    for (double x = 0.05; x <= 3.0; x += 0.0037) lengths.push_back(x * span);
+    for (double length : lengths) {
+      for (double a : {0.0, 0.005, 0.3, 1.0}) {
+        const MuscleForce f = m.Evaluate(length, a);
+        MuscleForceStatus status = MuscleForceStatus::kEquilibrium;
+        const double tension = m.Tension(length, a, &status);
+        ASSERT_EQ(status, f.status) << ForceModelName(spec.model) << " L " << length << " a " << a;
+        ASSERT_EQ(tension, f.force) << ForceModelName(spec.model) << " L " << length << " a " << a;
+        ++seen[status];
+      }
+    }
+  }
+  EXPECT_GT(seen[MuscleForceStatus::kEquilibrium], 5000);
+  EXPECT_GT(seen[MuscleForceStatus::kSlack], 100);
+  EXPECT_GT(seen[MuscleForceStatus::kNoEquilibrium], 0);
+  MuscleForceStatus status;
+  EXPECT_THROW(MuscleForceModel("R", 10.0, RatLikeSpecs()[0]).Tension(0.03, 1.5, &status), Error);
 }
 
 TEST(MuscleForce, EquilibriumResidualBelow1e10NewtonAtEverySolution) {
