@@ -294,12 +294,10 @@ py::dict Kinematics(const PyModel& m, const py::object& q_arg, double activation
   out["muscles"] = muscles;
   // Per wrapping muscle, how far the opensim and exact modes differ (kinematics --json's
   // "wrap_modes", the library's WrapModeJson).
-  const std::vector<int> wrapping = WrappingMuscles(model);
-  if (wrap_modes && !wrapping.empty()) {
+  if (wrap_modes && !WrappingMuscles(model).empty()) {
     py::dict modes;
-    for (int i : wrapping) {
-      modes[py::str(model.muscle(i).name)] =
-          JsonToPython(WrapModeJson(model, CompareWrapModes(model, ws, q, i)));
+    for (const WrapModeDifference& d : CompareWrapModes(model, ws, q)) {
+      modes[py::str(model.muscle(d.muscle).name)] = JsonToPython(WrapModeJson(model, d));
     }
     out["wrap_modes"] = modes;
   }

@@ -56,7 +56,7 @@ PostureKinematics EvaluatePosture(const Model& model, Data& ws, const Eigen::Vec
     k.force.push_back(t.force_stage);
   }
   if (wrap_modes) {
-    for (int m : WrappingMuscles(model)) k.wrap_modes.push_back(CompareWrapModes(model, ws, q, m));
+    k.wrap_modes = CompareWrapModes(model, ws, q);  // every wrapping muscle
   }
   return k;
 }

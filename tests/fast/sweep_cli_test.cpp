@@ -16,7 +16,6 @@
 
 #include "isowrench/isowrench.hpp"
 #include "isowrench/wrap.hpp"
-#include "isowrench/wrap_report.hpp"
 
 namespace {
 
@@ -109,8 +108,9 @@ TEST(SweepCli, CsvRowsEqualEvaluateWrenchWithUnitsInHeader) {
 
 // A wrapping muscle: per posture, the CSV says how many wraps engage and OpenSim's warnings in
 // the words of wrench/diagnose/releases; the summary (text and JSON) counts them with the first
-// posture of each. Reference: the wrap library fed by the forward kinematics
-// (MuscleWrapPathInput + ComputeWrappedPath, not the engine's path stage) at each grid posture.
+// posture of each. Reference: the wrap library (ComputeWrappedPath) fed by the file's geometry
+// built by hand at each grid posture (not the engine's path stage): the femur's point fixed,
+// the tibia's turned about the knee at (40, 0, 0) mm, the sphere (10 mm, +y) centred there.
 // sphere_far_side.urdf wraps the far side of a constrained sphere (negative arc, below the
 // straight line) from knee about -65 to +20 degrees, and behaves elsewhere.
 TEST(SweepCli, WrapWarningsPerPostureInTheCsvAndCountedInTheSummary) {
@@ -120,8 +120,16 @@ TEST(SweepCli, WrapWarningsPerPostureInTheCsvAndCountedInTheSummary) {
   const CliRun text =
       RunCli("sweep " + urdf + " --grid knee=-90:40:5 --stiffness-ratio 1,0.5 -o " + csv, dir);
   ASSERT_EQ(text.exit_code, 0) << text.output;
-  const isowrench::Model model(isowrench::ReadUrdfFile(urdf));
-  isowrench::Data data(model);
+  isowrench::WrapPathInput hand;
+  hand.active = {1, 1};
+  isowrench::WrapPathWrap ball;
+  ball.surface.shape = isowrench::WrapShape::kSphere;
+  ball.surface.radius = 0.01;
+  ball.surface.quadrant = isowrench::WrapQuadrant::Parse("+y");
+  ball.X_W_S.translation() = Eigen::Vector3d(0.04, 0, 0);
+  ball.first = 0;
+  ball.last = 1;
+  hand.wraps = {ball};
   std::ifstream in(csv);
   std::string header;
   std::getline(in, header);
@@ -133,11 +141,12 @@ TEST(SweepCli, WrapWarningsPerPostureInTheCsvAndCountedInTheSummary) {
     if (!line.empty() && line.back() == ',') cells.emplace_back();  // an empty last cell
     ASSERT_EQ(cells.size(), 12u) << line;
     const double knee = std::stod(cells[0]);
-    Eigen::VectorXd q = model.nominal_posture();
-    q[model.JointIndex("knee")] = knee * kPi / 180;
+    hand.points = {Eigen::Vector3d(0.046, -0.009, 0.0005),
+                   Eigen::Vector3d(0.04, 0, 0) +
+                       Eigen::AngleAxisd(knee * kPi / 180, Eigen::Vector3d::UnitZ()) *
+                           Eigen::Vector3d(-0.006, -0.009, 0)};
     isowrench::WrappedPath path;
-    isowrench::ComputeWrappedPath(isowrench::MuscleWrapPathInput(model, data, q, 0),
-                                  isowrench::WrapMode::kOpenSim, path);
+    isowrench::ComputeWrappedPath(hand, isowrench::WrapMode::kOpenSim, path);
     EXPECT_EQ(cells[10], path.wraps[0].wrapped ? "1" : "0") << knee;
     EXPECT_EQ(cells[11], isowrench::WrapStatusText(path.status)) << knee;
     if (rows % 2 == 1) continue;  // the same posture at the second ratio
