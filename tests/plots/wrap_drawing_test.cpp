@@ -17,6 +17,7 @@
 #include <tuple>
 #include <vector>
 
+#include "isowrench/error.hpp"
 #include "isowrench/io.hpp"
 #include "isowrench/model.hpp"
 #include "isowrench/opensim.hpp"
