@@ -24,6 +24,9 @@
 
 namespace isowrench {
 
+struct MuscleForce;         // isowrench/muscle.hpp
+struct WrapModeDifference;  // isowrench/wrap_report.hpp
+
 /// Whose names an option has in messages: the command line's ("--joint-stiffness") or Python's
 /// keyword ("joint_stiffness").
 enum class OptionStyle { kCommandLine, kPython };
@@ -170,5 +173,26 @@ void SimulateAtPostureSheet(const Model& model, const std::string& path, int tri
 /// `comment` becomes the first line ("# ...").
 std::string PostureSheetText(const Model& model, const std::vector<Trial>& trials,
                              const std::string& comment);
+
+/// Muscle `muscle`'s force stage `force` (at the asked `activation`) as one JSON object, in
+/// text: the "force" entry of every report's --json (kinematics, wrench, releases, diagnose) and,
+/// parsed, Python's force dicts, so the two cannot drift: {"model" (ForceModelName), "tendon"
+/// ("none", "rigid", "compliant"), "activation" (as asked), "force_n", "active_force_n",
+/// "passive_force_n" (N, along the tendon), "fiber_length_m" (m), "pennation_rad" (rad),
+/// "tendon_strain" (1), "activation_used" (as the force model clamps it), "status"
+/// (MuscleForceStatusName), "opensim_gives_no_number"[, "opensim_note" (OpenSimNote, when
+/// not empty)]}. Numbers round-trip exactly (shortest text that reads back the same double).
+std::string ForceStageJson(const Model& model, int muscle, const MuscleForce& force,
+                           double activation);
+
+/// How far the opensim and exact wrap modes differ for one wrapping muscle at one posture
+/// (CompareWrapModes, include/isowrench/wrap_report.hpp) as one JSON object, in text: the
+/// "wrap_modes" entries of `kinematics --json` and, parsed, of Python's Model.kinematics():
+/// {"length_opensim_m", "length_exact_m" (m), "length_difference_mm" (opensim - exact, mm),
+/// "moment_arm_difference_mm" (the largest |opensim - exact| over the coordinates, mm; mm/m for
+/// a prismatic coordinate), "moment_arm_difference_coordinate" (its coordinate, null when the
+/// model has none), "wraps_engaged", "opensim_misbehaves" (WrapStatusText of the
+/// kWrapMisbehaviour bits, "" when OpenSim's algorithm behaves)}.
+std::string WrapModeJson(const Model& model, const WrapModeDifference& difference);
 
 }  // namespace isowrench

@@ -325,8 +325,8 @@ struct LimbDescription {
   /// Wrap objects on the links (OpenSim WrapObjectSets), named by MuscleSpec::wraps.
   std::vector<WrapObjectSpec> wrap_objects;
   /// How every length, moment arm, torque and wrench of the model computes the muscles' wraps
-  /// (the --wrap option, Python wrap=; ModelOverrides::wrap). A setting of the evaluation, not
-  /// of the file: URDFs do not store it, and a description read from one has kOpenSim.
+  /// (the URDF's `<robot isowrench:wrap_mode=...>`, kOpenSim when absent; the --wrap option
+  /// and Python wrap= override it: ModelOverrides::wrap). WriteUrdfString writes it.
   WrapMode wrap_mode = WrapMode::kOpenSim;
 };
 

@@ -136,6 +136,7 @@ struct LimbDrawingOptions {
   std::vector<std::string> muscles;
   /// How wrapped paths are computed (wrap.hpp): a muscle with wraps is drawn through its wrapped
   /// path (straight segments to each wrap's tangent points, the arc over the surface sampled).
+  /// `isowrench draw` sets the model's mode unless --wrap says otherwise.
   WrapMode wrap_mode = WrapMode::kOpenSim;
 };
 
@@ -156,8 +157,9 @@ struct LimbDrawingOptions {
 /// (class "wrap-surface", data-wrap, data-shape, data-active): a cylinder's end circles and two
 /// silhouette lines, a sphere's circle, an ellipsoid's shadow ellipse, a torus's equator circles
 /// and the circles along the top and bottom of its tube; an inactive object (`active` false) is
-/// drawn dashed and unfilled and never bends a path. A muscle with wraps is drawn through
-/// ComputeWrappedPath(options.wrap_mode)'s elements; each engaged wrap adds its arc (class
+/// drawn dashed and unfilled and never bends a path. A muscle with wraps is drawn through the
+/// elements of the engine's MuscleWrappedPath in options.wrap_mode (the model itself when that
+/// is its mode, else ModelInWrapMode); each engaged wrap adds its arc (class
 /// "wrap-arc", sampled on the surface; data-arc-m the world coordinates along the view's axes, m)
 /// and its tangent points (class "tangent-point", data-end r1/r2, data-right-m/data-up-m in m).
 /// @throws Error for a posture of the wrong size or non-finite entries.

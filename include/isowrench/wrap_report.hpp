@@ -1,10 +1,10 @@
 #pragma once
 /// @file
-/// A model's wrapping muscles at one posture through the wrap library (wrap.hpp), for the
-/// reports that show the wraps: `draw` (the wrapped path and the wrap surfaces), `import
-/// --report` and `kinematics` (how far the opensim and exact modes differ, and where OpenSim's
-/// algorithm misbehaves). These functions evaluate ComputeWrappedPath directly; they do not go
-/// through the engine.
+/// A model's wrapping muscles at one posture for the reports that show the wraps: `draw` (the
+/// wrapped path and the wrap surfaces), `import --report` and `kinematics` (how far the opensim
+/// and exact modes differ, and where OpenSim's algorithm misbehaves). The paths are the
+/// engine's (MuscleWrappedPath, include/isowrench/kinematics.hpp: the one walk of a muscle's
+/// points and wraps); the other mode is the same model in that mode (ModelInWrapMode).
 
 #include <Eigen/Core>
 #include <Eigen/Geometry>
@@ -22,23 +22,10 @@ namespace isowrench {
 Eigen::Isometry3d WrapObjectPose(const Model& model, Data& data, const Eigen::VectorXd& q,
                                  const WrapObjectSpec& object);
 
-/// Muscle `muscle`'s path at posture q as ComputeWrappedPath takes it: the world position of
-/// every path point of MuscleSpec::path (moving components where their functions put them),
-/// whether each is in the path (conditional points: OpenSim's range with kActiveRangeTolerance),
-/// and its wraps in MuscleSpec::wraps order with their surfaces, world poses, 0-based ranges
-/// (-1 = the first / the last point), methods, `active` and object indices (into
-/// LimbDescription::wrap_objects). @throws Error for a muscle index out of range.
-WrapPathInput MuscleWrapPathInput(const Model& model, Data& data, const Eigen::VectorXd& q,
-                                  int muscle);
-
-/// The moment arms (m per rad, or m per m for a prismatic coordinate; one per coordinate) of a
-/// wrapped path of muscle `muscle` at posture q: the generalized force of a unit tension,
-///     Q_c = - sum_e pull_e . dx_e/dq_c
-/// over the path points (a moving point's Jacobian includes its functions' derivatives) and the
-/// tangent points held fixed in their wrap object's frame (wrap.hpp). `path` must come from
-/// ComputeWrappedPath(MuscleWrapPathInput(model, data, q, muscle), ...).
-Eigen::VectorXd WrappedMomentArms(const Model& model, Data& data, const Eigen::VectorXd& q,
-                                  int muscle, const WrappedPath& path);
+/// `model` with its wraps computed in `mode` (LimbDescription::wrap_mode = mode, everything else
+/// the same): how a report evaluates the mode the model is not in (a Model costs about 0.2 ms
+/// to build for the 39-wrap rat hindlimb).
+Model ModelInWrapMode(const Model& model, WrapMode mode);
 
 /// How far the opensim and exact modes differ for one wrapping muscle at one posture.
 struct WrapModeDifference {
@@ -58,9 +45,17 @@ struct WrapModeDifference {
   double LengthDifference() const { return length_opensim - length_exact; }
 };
 
-/// The two modes of muscle `muscle` at posture q (WrappedMomentArms in each).
+/// The two modes of muscle `muscle` at posture q: in each, the engine's length, status and
+/// moment arms (MuscleWrappedPath, -ComputeMuscleTorque().dL_dq) of `model` (on `data`) for its
+/// own mode and of ModelInWrapMode(model, other) for the other; the straight length through the
+/// active points (MusclePathPoints). @throws Error for a bad index, posture or coincident points.
 WrapModeDifference CompareWrapModes(const Model& model, Data& data, const Eigen::VectorXd& q,
                                     int muscle);
+
+/// CompareWrapModes of every wrapping muscle (WrappingMuscles order) at posture q, the model
+/// in the other mode built once: `kinematics` and Python's Model.kinematics() "wrap_modes".
+std::vector<WrapModeDifference> CompareWrapModes(const Model& model, Data& data,
+                                                 const Eigen::VectorXd& q);
 
 /// The status bits of OpenSim's algorithm that mean it misbehaves (a path below the straight
 /// line, no convergence, a negative arc, a degenerate configuration): the bits a report names.

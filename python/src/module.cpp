@@ -37,6 +37,7 @@
 #include "isowrench/trial_csv.hpp"
 #include "isowrench/uncertainty.hpp"
 #include "isowrench/wrap.hpp"
+#include "isowrench/wrap_report.hpp"
 
 namespace py = pybind11;
 
@@ -256,31 +257,20 @@ py::array_t<double> Array(const Eigen::MatrixXd& m) {
   return a;
 }
 
-/// The force stage as a dict, the keys of the CLI's JSON "force" objects (cli ForceJson).
+/// JSON text from the library (the CLI prints the same text) as Python objects.
+py::object JsonToPython(const std::string& text) {
+  return py::module_::import("json").attr("loads")(text);
+}
+
+/// The force stage as a dict: the library's ForceStageJson (the CLI's JSON "force" objects, key
+/// for key), plus "label" (ForceModelLabel).
 py::dict ForceDict(const Model& model, int muscle, const MuscleForce& force, double activation) {
-  const MuscleForceModel& f = ForceModelOf(model, muscle);
-  py::dict d;
-  d["model"] = ForceModelName(f.type());
-  d["tendon"] = f.type() == ForceModelType::kConstant ? "none"
-                : f.rigid_tendon()                    ? "rigid"
-                                                      : "compliant";
+  py::dict d = JsonToPython(ForceStageJson(model, muscle, force, activation));
   d["label"] = ForceModelLabel(model, muscle);
-  d["activation"] = activation;
-  d["force_n"] = force.force + 0.0;
-  d["active_force_n"] = force.active_force + 0.0;
-  d["passive_force_n"] = force.passive_force + 0.0;
-  d["fiber_length_m"] = force.fiber_length + 0.0;
-  d["pennation_rad"] = force.pennation_angle + 0.0;
-  d["tendon_strain"] = force.tendon_strain + 0.0;
-  d["activation_used"] = force.activation;
-  d["status"] = MuscleForceStatusName(force.status);
-  d["opensim_gives_no_number"] = force.opensim_gives_no_number;
-  const std::string note = OpenSimNote(model, muscle, force);
-  if (!note.empty()) d["opensim_note"] = note;
   return d;
 }
 
-py::dict Kinematics(const PyModel& m, const py::object& q_arg, double activation) {
+py::dict Kinematics(const PyModel& m, const py::object& q_arg, double activation, bool wrap_modes) {
   const Model& model = m.model;
   const Eigen::VectorXd q = Posture(model, q_arg);
   Data ws(model);
@@ -295,9 +285,22 @@ py::dict Kinematics(const PyModel& m, const py::object& q_arg, double activation
     entry["length_m"] = t.length;
     entry["moment_arm_m"] = Array(Eigen::VectorXd(-t.dL_dq.transpose()));
     entry["force"] = ForceDict(model, i, t.force_stage, activation);
+    // Where a wrap misbehaves, in words (kinematics --json's "wrap_warning").
+    const unsigned status =
+        model.muscle(i).wraps.empty() ? 0u : MuscleWrappedPath(model, ws, q, i).status;
+    if (status != 0) entry["wrap_warning"] = WrapStatusText(status);
     muscles[py::str(model.muscle(i).name)] = entry;
   }
   out["muscles"] = muscles;
+  // Per wrapping muscle, how far the opensim and exact modes differ (kinematics --json's
+  // "wrap_modes", the library's WrapModeJson).
+  if (wrap_modes && !WrappingMuscles(model).empty()) {
+    py::dict modes;
+    for (const WrapModeDifference& d : CompareWrapModes(model, ws, q)) {
+      modes[py::str(model.muscle(d.muscle).name)] = JsonToPython(WrapModeJson(model, d));
+    }
+    out["wrap_modes"] = modes;
+  }
   return out;
 }
 
@@ -843,10 +846,6 @@ UncertaintyStudy MakeUncertaintyStudy(const std::string& urdf, const std::string
                           UncertaintyOptionsFrom(options));
 }
 
-py::object JsonToPython(const std::string& text) {
-  return py::module_::import("json").attr("loads")(text);
-}
-
 /// The spec of Model.uncertainty / isowrench.study: `inputs` (strings in the CLI's syntax, or
 /// dicts like the spec file's entries), a spec file path or dict, a fit JSON path.
 UncertaintySpec SpecFromPython(const Model& model, const py::object& inputs, const py::object& spec,
@@ -1191,16 +1190,21 @@ PYBIND11_MODULE(_core, mod) {
           "Locked coordinates (held rigid by the statics; a URDF's locked=\"true\", or the "
           "locked= argument).")
       .def("kinematics", &Kinematics, py::arg("q") = py::none(), py::arg("activation") = 1.0,
-           "kinematics(q=None, activation=1.0) -> dict\n\n"
-           "Endpoint position, endpoint Jacobian and every muscle's length and moment arm at "
-           "posture q (None: the "
-           "default posture; n values in rad / m; or a dict {coordinate: value} over the default "
-           "posture).\n"
-           "Returns {'q': (n,), 'endpoint_m': (3,) world position (m), 'jacobian': (6, n) world "
-           "axes, rows vx vy vz "
-           "(m/rad) wx wy wz (rad/rad), 'muscles': {name: {'length_m': float, 'moment_arm_m': (n,) "
-           "-dL/dq}}}: the "
-           "same numbers as `isowrench kinematics --json`.\nRaises ValueError for a bad posture.")
+           py::arg("wrap_modes") = true,
+           R"(kinematics(q=None, activation=1.0, wrap_modes=True) -> dict
+
+Endpoint position, endpoint Jacobian and every muscle's length, moment arm and force at posture q
+(None: the default posture; n values in rad / m; or a dict {coordinate: value} over the default
+posture).
+Returns {'q': (n,), 'endpoint_m': (3,) world position (m), 'jacobian': (6, n) world axes, rows
+vx vy vz (m/rad) wx wy wz (rad/rad), 'muscles': {name: {'length_m': float, 'moment_arm_m': (n,)
+-dL/dq, 'force': dict (the force stage at `activation`), 'wrap_warning': str (only where a wrap of
+the muscle misbehaves)}}, 'wrap_modes': {name: {'length_opensim_m', 'length_exact_m',
+'length_difference_mm', 'moment_arm_difference_mm', 'moment_arm_difference_coordinate',
+'wraps_engaged', 'opensim_misbehaves'}} (per wrapping muscle, how far the opensim and exact wrap
+modes differ; only when the model has wrapping muscles and wrap_modes is True)}: the same numbers
+and keys as `isowrench kinematics --json` (wrap_modes=False: its --no-wrap-modes).
+Raises ValueError for a bad posture.)")
       .def("wrench", &Wrench, py::arg("muscle"), py::arg("q") = py::none(),
            py::arg("transducer") = py::none(), py::arg("released") = py::none(),
            py::arg("activation") = 1.0, py::arg("locked") = py::none(),
@@ -1372,8 +1376,9 @@ Raises ValueError for bad options (a negative count, an unknown loss or effect i
           "Read a limb model: a URDF with isowrench extension tags, or an OpenSim .osim (then "
           "clamp_body and "
           "endpoint_body are required, as for `isowrench import`; import warnings become "
-          "UserWarnings). wrap: 'opensim' (default: OpenSim 4.x's wrapping algorithms and "
-          "moment arms) or 'exact' (shortest paths, moment arm = -dL/dq), the CLI's --wrap.\n"
+          "UserWarnings). wrap: 'opensim' (OpenSim 4.x's wrapping algorithms and moment arms) or "
+          "'exact' (shortest paths, moment arm = -dL/dq), the CLI's --wrap; default: the URDF's "
+          "isowrench:wrap_mode, else 'opensim'.\n"
           "Raises FileNotFoundError for a missing file and ValueError (with file and line) for a "
           "bad model.");
   auto model_class =

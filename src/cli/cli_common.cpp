@@ -48,8 +48,9 @@ void AddSheetOptions(CLI::App& app, TrialSheetOptions& sheet, const std::string&
 void AddWrapOption(CLI::App& app, std::string& wrap) {
   app.add_option("--wrap", wrap,
                  "How muscles that wrap over wrap objects get their length and moment arms: "
-                 "opensim (default; OpenSim 4.x's algorithms and moment arms) or exact (the "
-                 "shortest path on the side OpenSim chooses; moment arm = -dL/dq)")
+                 "opensim (OpenSim 4.x's algorithms and moment arms) or exact (the shortest "
+                 "path on the side OpenSim chooses; moment arm = -dL/dq); default: the URDF's "
+                 "isowrench:wrap_mode, else opensim")
       ->check(CLI::IsMember({"opensim", "exact"}));
 }
 

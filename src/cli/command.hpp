@@ -103,9 +103,8 @@ nlohmann::json WrenchJson(const Vector6d& w);
 /// One line of the force stage: "F 1.234 N = active 1.0 N + passive 0.234 N; fiber 12.3 mm,
 /// pennation 4.5°, equilibrium" (the constant model: "F 2.35 N = a x max_force").
 std::string ForceText(const Model& model, int muscle, const MuscleForce& force);
-/// {"model", "tendon", "activation" (requested), "force_n", "active_force_n", "passive_force_n",
-/// "fiber_length_m", "pennation_rad", "tendon_strain", "status", "opensim_gives_no_number"[,
-/// "opensim_note"]}.
+/// The library's ForceStageJson (isowrench/frontend.hpp: the keys Python's force dicts have
+/// too) as a JSON object: {"model", "tendon", "activation" (requested), "force_n", ...}.
 nlohmann::ordered_json ForceJson(const Model& model, int muscle, const MuscleForce& force,
                                  double activation);
 

@@ -6,6 +6,7 @@
 
 #include "cli/command.hpp"
 #include "isowrench/engine.hpp"
+#include "isowrench/frontend.hpp"
 #include "isowrench/io.hpp"
 #include "isowrench/muscle.hpp"
 
@@ -24,27 +25,10 @@ std::string ForceText(const Model& model, int muscle, const MuscleForce& force) 
   return text;
 }
 
+// The keys and values are the library's (ForceStageJson), which Python's force dicts parse too.
 nlohmann::ordered_json ForceJson(const Model& model, int muscle, const MuscleForce& force,
                                  double activation) {
-  const MuscleForceModel& f = ForceModelOf(model, muscle);
-  nlohmann::ordered_json j;
-  j["model"] = ForceModelName(f.type());
-  j["tendon"] = f.type() == ForceModelType::kConstant ? "none"
-                : f.rigid_tendon()                    ? "rigid"
-                                                      : "compliant";
-  j["activation"] = activation;
-  j["force_n"] = force.force + 0.0;
-  j["active_force_n"] = force.active_force + 0.0;
-  j["passive_force_n"] = force.passive_force + 0.0;
-  j["fiber_length_m"] = force.fiber_length + 0.0;
-  j["pennation_rad"] = force.pennation_angle + 0.0;
-  j["tendon_strain"] = force.tendon_strain + 0.0;
-  j["activation_used"] = force.activation;
-  j["status"] = MuscleForceStatusName(force.status);
-  j["opensim_gives_no_number"] = force.opensim_gives_no_number;
-  const std::string note = OpenSimNote(model, muscle, force);
-  if (!note.empty()) j["opensim_note"] = note;
-  return j;
+  return nlohmann::ordered_json::parse(ForceStageJson(model, muscle, force, activation));
 }
 
 }  // namespace isowrench::cli

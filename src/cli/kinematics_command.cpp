@@ -6,6 +6,7 @@
 
 #include "cli/command.hpp"
 #include "isowrench/error.hpp"
+#include "isowrench/frontend.hpp"
 #include "isowrench/input_checks.hpp"
 #include "isowrench/io.hpp"
 #include "isowrench/kinematics.hpp"
@@ -55,7 +56,7 @@ PostureKinematics EvaluatePosture(const Model& model, Data& ws, const Eigen::Vec
     k.force.push_back(t.force_stage);
   }
   if (wrap_modes) {
-    for (int m : WrappingMuscles(model)) k.wrap_modes.push_back(CompareWrapModes(model, ws, q, m));
+    k.wrap_modes = CompareWrapModes(model, ws, q);  // every wrapping muscle
   }
   return k;
 }
@@ -131,18 +132,8 @@ nlohmann::ordered_json Json(const Model& model, const std::vector<PostureKinemat
     p["muscles"] = muscles;
     if (!k.wrap_modes.empty()) {
       nlohmann::ordered_json wraps = nlohmann::ordered_json::object();
-      for (const WrapModeDifference& d : k.wrap_modes) {
-        const unsigned bad = d.status_opensim & kWrapMisbehaviour;
-        wraps[model.muscle(d.muscle).name] = {
-            {"length_opensim_m", d.length_opensim},
-            {"length_exact_m", d.length_exact},
-            {"length_difference_mm", d.LengthDifference() * 1e3},
-            {"moment_arm_difference_mm", d.moment_arm_difference * 1e3},
-            {"moment_arm_difference_coordinate",
-             d.coordinate >= 0 ? nlohmann::ordered_json(model.joint_names()[d.coordinate])
-                               : nlohmann::ordered_json()},
-            {"wraps_engaged", d.wraps_engaged},
-            {"opensim_misbehaves", WrapStatusText(bad)}};
+      for (const WrapModeDifference& d : k.wrap_modes) {  // the library's keys (WrapModeJson)
+        wraps[model.muscle(d.muscle).name] = nlohmann::ordered_json::parse(WrapModeJson(model, d));
       }
       p["wrap_modes"] = wraps;
     }

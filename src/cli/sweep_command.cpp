@@ -14,7 +14,9 @@
 #include "isowrench/engine.hpp"
 #include "isowrench/error.hpp"
 #include "isowrench/io.hpp"
+#include "isowrench/kinematics.hpp"
 #include "isowrench/posture.hpp"
+#include "isowrench/wrap.hpp"
 
 namespace isowrench::cli {
 namespace {
@@ -95,6 +97,116 @@ const char* StatusWord(StaticsStatus s) {
     case StaticsStatus::kInvalidInput: return "invalid";
   }
   return "?";
+}
+
+// The grid values (user units) of posture p, the last axis fastest.
+std::vector<double> GridValues(const std::vector<GridAxis>& axes, long p) {
+  std::vector<double> user(axes.size());
+  long rest = p;
+  for (size_t a = axes.size(); a-- > 0;) {
+    const long n = static_cast<long>(axes[a].user_values.size());
+    user[a] = axes[a].user_values[static_cast<size_t>(rest % n)];
+    rest /= n;
+  }
+  return user;
+}
+
+// The column header of grid axis a ("knee (deg)", "base_x (mm)"): the CSV's and the JSON's.
+std::string AxisHeader(const GridAxis& a) { return a.joint + (a.prismatic ? " (mm)" : " (deg)"); }
+
+// A CSV cell holding text: quoted (RFC 4180) when it holds a separator, a quote or a newline.
+std::string CsvText(const std::string& text) {
+  if (text.find_first_of(",\"\n\r") == std::string::npos) return text;
+  std::string quoted = "\"";
+  for (char c : text) quoted += c == '"' ? std::string("\"\"") : std::string(1, c);
+  return quoted + "\"";
+}
+
+// The WrapStatus bits a sweep counts, in WrapStatusText's order.
+constexpr unsigned kSweepWrapBits[] = {kWrapBelowStraightLine, kWrapNotConverged,  kWrapNegativeArc,
+                                       kWrapDegenerate,        kWrapExactFallback, kWrapRangeEmpty};
+constexpr size_t kSweepWrapBitCount = sizeof(kSweepWrapBits) / sizeof(kSweepWrapBits[0]);
+
+// What the wraps of the swept muscle did over the postures (MuscleWrappedPath at each, in the
+// model's wrap mode): the same words as wrench/diagnose/releases, counted.
+struct WrapTally {
+  std::vector<long> engaged;  // per wrap of the muscle: postures where it wraps
+  long warned = 0;            // postures with any WrapStatus bit
+  long unevaluated = 0;       // postures where the path cannot be computed (coincident points)
+  long count[kSweepWrapBitCount] = {};
+  long first[kSweepWrapBitCount] = {-1, -1, -1, -1, -1, -1};
+
+  void Merge(const WrapTally& o) {  // o covers later postures than *this
+    if (engaged.size() < o.engaged.size()) engaged.resize(o.engaged.size(), 0);
+    for (size_t k = 0; k < o.engaged.size(); ++k) engaged[k] += o.engaged[k];
+    warned += o.warned;
+    unevaluated += o.unevaluated;
+    for (size_t b = 0; b < kSweepWrapBitCount; ++b) {
+      count[b] += o.count[b];
+      if (first[b] < 0) first[b] = o.first[b];
+    }
+  }
+};
+
+// {"mode", "wraps": [{"object", "wrapped_postures"}], "warning_postures", "warnings":
+// [{"warning", "postures", "first_posture": {"<axis header>": value}}], "unevaluated_postures"}.
+nlohmann::json WrapTallyJson(const Model& model, int muscle, const std::vector<GridAxis>& axes,
+                             const WrapTally& t) {
+  const MuscleSpec& spec = model.muscle(muscle);
+  nlohmann::json wraps = nlohmann::json::array();
+  for (size_t k = 0; k < spec.wraps.size(); ++k) {
+    wraps.push_back({{"object", spec.wraps[k].object}, {"wrapped_postures", t.engaged[k]}});
+  }
+  nlohmann::json warnings = nlohmann::json::array();
+  for (size_t b = 0; b < kSweepWrapBitCount; ++b) {
+    if (t.count[b] == 0) continue;
+    nlohmann::json first = nlohmann::json::object();
+    const std::vector<double> user = GridValues(axes, t.first[b]);
+    for (size_t a = 0; a < axes.size(); ++a) first[AxisHeader(axes[a])] = user[a];
+    warnings.push_back({{"warning", WrapStatusText(kSweepWrapBits[b])},
+                        {"postures", t.count[b]},
+                        {"first_posture", first}});
+  }
+  return {{"mode", WrapModeName(model.description().wrap_mode)},
+          {"wraps", wraps},
+          {"warning_postures", t.warned},
+          {"warnings", warnings},
+          {"unevaluated_postures", t.unevaluated}};
+}
+
+// The tally as text lines (each indented by two spaces, ending in a newline).
+std::string WrapTallyText(const nlohmann::json& j, long postures) {
+  std::string text = "  wrap (" + j["mode"].get<std::string>() + "):";
+  for (const auto& w : j["wraps"]) {
+    text += " " + w["object"].get<std::string>() + " wraps at " +
+            std::to_string(w["wrapped_postures"].get<long>()) + " of " + std::to_string(postures) +
+            " postures;";
+  }
+  text.pop_back();
+  text += "\n";
+  const long warned = j["warning_postures"].get<long>();
+  if (warned == 0) {
+    text += "  wrap warnings: none (OpenSim's algorithm behaves at every posture)\n";
+  } else {
+    text += "  wrap warnings at " + std::to_string(warned) + " of " + std::to_string(postures) +
+            " postures (column wrap_warning of the CSV):\n";
+    for (const auto& w : j["warnings"]) {
+      std::string first;
+      for (const auto& [axis, value] : w["first_posture"].items()) {
+        const bool mm = axis.size() > 5 && axis.compare(axis.size() - 5, 5, " (mm)") == 0;
+        first += (first.empty() ? "" : ", ") + axis.substr(0, axis.rfind(" (")) + "=" +
+                 util::FormatNumber(value.get<double>(), 6) + (mm ? " mm" : "°");
+      }
+      text += "    " + w["warning"].get<std::string>() + ": " +
+              std::to_string(w["postures"].get<long>()) + " postures, first at " + first + "\n";
+    }
+  }
+  const long unevaluated = j["unevaluated_postures"].get<long>();
+  if (unevaluated > 0) {
+    text += "  wrapped path not computed at " + std::to_string(unevaluated) +
+            " postures (coincident path points; status invalid)\n";
+  }
+  return text;
 }
 
 const bool kSweepRegistered = RegisterCommand({
@@ -192,7 +304,7 @@ const bool kSweepRegistered = RegisterCommand({
         util::AtomicOutputFile file(*output);
         std::ostream& os = file.stream();
         std::string header;
-        for (const GridAxis& a : axes) header += a.joint + (a.prismatic ? " (mm)," : " (deg),");
+        for (const GridAxis& a : axes) header += AxisHeader(a) + ",";
         header +=
             "stiffness_ratio (1),status,"
             "fx (N),fy (N),fz (N),mx (N·m),my (N·m),mz (N·m),self_motion_dims (1)";
@@ -202,33 +314,58 @@ const bool kSweepRegistered = RegisterCommand({
               "passive fx (N),passive fy (N),passive fz (N),passive mx (N·m),passive my (N·m),"
               "passive mz (N·m)";
         }
+        // A wrapping muscle: per posture, how many of its wraps engage and OpenSim's algorithm's
+        // warnings in words (MuscleWrappedPath, the model's wrap mode; "" when none).
+        const size_t wrap_count = model.muscle(muscle).wraps.size();
+        if (wrap_count > 0) header += ",wraps_engaged (1),wrap_warning";
         header += "\n";
         os << header;
         const long S = static_cast<long>(sets.size());
         const int blocks = static_cast<int>(std::clamp<long>(*threads, 1, std::max<long>(P, 1)));
         std::vector<std::string> text(static_cast<size_t>(blocks));
         std::vector<std::map<StaticsStatus, long>> block_counts(static_cast<size_t>(blocks));
+        std::vector<WrapTally> block_wraps(static_cast<size_t>(blocks));
         auto format_block = [&](int b) {
           const long begin = P * b / blocks, end = P * (b + 1) / blocks;
           std::string& out = text[static_cast<size_t>(b)];
           out.reserve(static_cast<size_t>((end - begin) * S * 120));
           std::optional<Data> ws;
-          if (force_model) ws.emplace(model);
+          if (force_model || wrap_count > 0) ws.emplace(model);
+          WrapTally& tally = block_wraps[static_cast<size_t>(b)];
+          tally.engaged.assign(wrap_count, 0);
           for (long p = begin; p < end; ++p) {
+            std::string wrap_cells;
+            if (wrap_count > 0) {
+              try {
+                const WrappedPath path = MuscleWrappedPath(model, *ws, postures.col(p), muscle);
+                int engaged = 0;
+                for (size_t k = 0; k < wrap_count && k < path.wraps.size(); ++k) {
+                  if (!path.wraps[k].wrapped) continue;
+                  ++engaged;
+                  ++tally.engaged[k];
+                }
+                if (path.status != 0) {
+                  ++tally.warned;
+                  for (size_t k = 0; k < kSweepWrapBitCount; ++k) {
+                    if ((path.status & kSweepWrapBits[k]) == 0) continue;
+                    ++tally.count[k];
+                    if (tally.first[k] < 0) tally.first[k] = p;
+                  }
+                }
+                wrap_cells =
+                    "," + std::to_string(engaged) + "," + CsvText(WrapStatusText(path.status));
+              } catch (const Error&) {  // coincident path points: the batch says invalid
+                ++tally.unevaluated;
+                wrap_cells = ",,";
+              }
+            }
             MuscleForce force;
             if (force_model) {  // the force stage at this posture's path length
               if (ComputeKinematics(model, *ws, postures.col(p), muscle, options->activation)) {
                 force = MuscleForceAt(model, muscle, ws->muscle_length(), options->activation);
               }  // (else: no force, status "no equilibrium", empty cells)
             }
-            // Grid indices of posture p (last axis fastest).
-            std::vector<double> user(axes.size());
-            long rest = p;
-            for (size_t a = axes.size(); a-- > 0;) {
-              const long n = static_cast<long>(axes[a].user_values.size());
-              user[a] = axes[a].user_values[static_cast<size_t>(rest % n)];
-              rest /= n;
-            }
+            const std::vector<double> user = GridValues(axes, p);
             for (long s = 0; s < S; ++s) {
               const WrenchResult& w = results[static_cast<size_t>(p * S + s)];
               ++block_counts[static_cast<size_t>(b)][w.status];
@@ -265,6 +402,7 @@ const bool kSweepRegistered = RegisterCommand({
                   if (passive_equilibrium) Append(out, pw.wrench[k]);
                 }
               }
+              out += wrap_cells;
               out += '\n';
             }
           }
@@ -276,6 +414,11 @@ const bool kSweepRegistered = RegisterCommand({
           for (std::thread& t : helpers) t.join();
         }
         std::map<StaticsStatus, long> counts;
+        WrapTally wrap_tally;
+        wrap_tally.engaged.assign(wrap_count, 0);
+        for (const WrapTally& t : block_wraps) wrap_tally.Merge(t);
+        const nlohmann::json wrap_json =
+            wrap_count > 0 ? WrapTallyJson(model, muscle, axes, wrap_tally) : nlohmann::json();
         for (int b = 0; b < blocks; ++b) {
           os << text[static_cast<size_t>(b)];
           std::string().swap(text[static_cast<size_t>(b)]);
@@ -299,6 +442,7 @@ const bool kSweepRegistered = RegisterCommand({
                                       {"total_seconds", total_seconds},
                                       {"status_counts", status_counts},
                                       {"locked", StaticsProblem(model).LockedNames()},
+                                      {"wrap", wrap_json},
                                       {"output", *output}}
                            .dump(2)
                     << "\n";
@@ -324,7 +468,9 @@ const bool kSweepRegistered = RegisterCommand({
           if (!locked.empty()) {
             std::cout << "\n  locked (rigid, no dof): " << util::Join(locked, ", ");
           }
-          std::cout << "\n  wrote " << *output
+          std::cout << "\n";
+          if (wrap_count > 0) std::cout << WrapTallyText(wrap_json, P);
+          std::cout << "  wrote " << *output
                     << " (W in N and N·m, transducer axes; empty where there is no "
                        "equilibrium)\n";
         }

@@ -8,10 +8,15 @@
 #include <fstream>
 #include <nlohmann/json.hpp>
 
+#include "isowrench/engine.hpp"
 #include "isowrench/error.hpp"
 #include "isowrench/input_checks.hpp"
 #include "isowrench/io.hpp"
+#include "isowrench/muscle.hpp"
 #include "isowrench/posture.hpp"
+#include "isowrench/statics.hpp"
+#include "isowrench/wrap.hpp"
+#include "isowrench/wrap_report.hpp"
 
 namespace isowrench {
 
@@ -289,6 +294,47 @@ std::string PostureSheetText(const Model& model, const std::vector<Trial>& trial
     text += util::Join(row, ",") + ",,,,,,\n";
   }
   return text;
+}
+
+// The CLI's ForceJson (src/cli/force_report.cpp) and Python's ForceDict parse this: one list of
+// keys (issue 28).
+std::string ForceStageJson(const Model& model, int muscle, const MuscleForce& force,
+                           double activation) {
+  const MuscleForceModel& f = ForceModelOf(model, muscle);
+  nlohmann::ordered_json j;
+  j["model"] = ForceModelName(f.type());
+  j["tendon"] = f.type() == ForceModelType::kConstant ? "none"
+                : f.rigid_tendon()                    ? "rigid"
+                                                      : "compliant";
+  j["activation"] = activation;
+  j["force_n"] = force.force + 0.0;  // (+ 0.0: no -0)
+  j["active_force_n"] = force.active_force + 0.0;
+  j["passive_force_n"] = force.passive_force + 0.0;
+  j["fiber_length_m"] = force.fiber_length + 0.0;
+  j["pennation_rad"] = force.pennation_angle + 0.0;
+  j["tendon_strain"] = force.tendon_strain + 0.0;
+  j["activation_used"] = force.activation;
+  j["status"] = MuscleForceStatusName(force.status);
+  j["opensim_gives_no_number"] = force.opensim_gives_no_number;
+  const std::string note = OpenSimNote(model, muscle, force);
+  if (!note.empty()) j["opensim_note"] = note;
+  return j.dump();
+}
+
+// `kinematics --json` and Python's Model.kinematics() parse this (issue 27).
+std::string WrapModeJson(const Model& model, const WrapModeDifference& d) {
+  const unsigned bad = d.status_opensim & kWrapMisbehaviour;
+  nlohmann::ordered_json j;
+  j["length_opensim_m"] = d.length_opensim;
+  j["length_exact_m"] = d.length_exact;
+  j["length_difference_mm"] = d.LengthDifference() * 1e3;
+  j["moment_arm_difference_mm"] = d.moment_arm_difference * 1e3;
+  j["moment_arm_difference_coordinate"] =
+      d.coordinate >= 0 ? nlohmann::ordered_json(model.joint_names()[d.coordinate])
+                        : nlohmann::ordered_json();
+  j["wraps_engaged"] = d.wraps_engaged;
+  j["opensim_misbehaves"] = WrapStatusText(bad);
+  return j.dump();
 }
 
 }  // namespace isowrench

@@ -17,6 +17,7 @@
 #include "isowrench/input_checks.hpp"
 #include "isowrench/model.hpp"
 #include "isowrench/muscle.hpp"
+#include "isowrench/wrap.hpp"
 #include "model/function_xml.hpp"
 #include "model/urdf_checks.hpp"
 #include "model/urdf_coordinates.hpp"
@@ -401,6 +402,28 @@ void ReadMuscleForce(const Reader& r, const tinyxml2::XMLElement& e, MuscleSpec&
   }
 }
 
+// isowrench: attributes of <robot> (docs/urdf-extensions.md "Wrap mode"): isowrench:wrap_mode.
+void ReadRobotAttributes(const Reader& r, const tinyxml2::XMLElement& robot, LimbDescription& d) {
+  static const std::vector<std::string> kKnown = {"isowrench:wrap_mode"};
+  for (const tinyxml2::XMLAttribute* a = robot.FirstAttribute(); a; a = a->Next()) {
+    const std::string name = a->Name();
+    if (name.rfind(kPrefix, 0) != 0 ||
+        std::find(kKnown.begin(), kKnown.end(), name) != kKnown.end()) {
+      continue;
+    }
+    r.Fail(&robot, "<robot> has no attribute '" + name + "'" + DidYouMean(name, kKnown) +
+                       "; its isowrench attribute is isowrench:wrap_mode");
+  }
+  if (const char* mode = robot.Attribute("isowrench:wrap_mode")) {
+    const std::string text = mode;
+    if (text != WrapModeName(WrapMode::kOpenSim) && text != WrapModeName(WrapMode::kExact)) {
+      r.Fail(&robot, "<robot> isowrench:wrap_mode = '" + text +
+                         "' is not one of opensim, exact (how wrapped muscle paths are computed)");
+    }
+    d.wrap_mode = ParseWrapMode(text);
+  }
+}
+
 int DofIndex(const std::string& name) {
   for (int i = 0; i < 6; ++i) {
     if (name == DofName(i)) return i;
@@ -472,6 +495,7 @@ LimbDescription ReadUrdfString(const std::string& xml, const std::string& source
   d.name = urdf_model->getName();
   d.source = source_name;
   d.root_link = root->name;
+  ReadRobotAttributes(r, *robot, d);
 
   // Extension tags.
   const tinyxml2::XMLElement* transducer = nullptr;

@@ -6,6 +6,7 @@
 
 #include "isowrench/error.hpp"
 #include "isowrench/model.hpp"
+#include "isowrench/wrap.hpp"
 #include "model/function_xml.hpp"
 #include "util/atomic_file.hpp"
 #include "util/text.hpp"
@@ -222,7 +223,14 @@ std::string WriteUrdfString(const LimbDescription& description) {
     o << " from " << d.source;
   }
   o << ". Extension tags: docs/urdf-extensions.md -->\n";
-  o << "<robot name=\"" << d.name << "\" xmlns:isowrench=\"urn:isowrench:urdf:1\">\n";
+  o << "<robot name=\"" << d.name << "\" xmlns:isowrench=\"urn:isowrench:urdf:1\"";
+  // The wrap mode (docs/urdf-extensions.md "Wrap mode"): written whenever the limb has wrap
+  // objects, so that a file carries how its lengths were computed, and whenever it is not the
+  // default.
+  if (!d.wrap_objects.empty() || d.wrap_mode != WrapMode::kOpenSim) {
+    o << " isowrench:wrap_mode=\"" << WrapModeName(d.wrap_mode) << "\"";
+  }
+  o << ">\n";
   for (const std::string& link : d.links) o << "  <link name=\"" << link << "\"/>\n";
   for (const JointSpec& j : d.joints) {
     const CoordinateSpec* own = j.coordinate == j.name ? Coordinate(d, j.name) : nullptr;

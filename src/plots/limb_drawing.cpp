@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cmath>
 #include <map>
+#include <optional>
 
 #include "isowrench/error.hpp"
 #include "isowrench/kinematics.hpp"
@@ -250,27 +251,38 @@ Geometry Collect(const Model& model, const Eigen::VectorXd& q, double axis_lengt
   }
   for (const std::string& name : muscles) model.MuscleIndex(name);  // throws listing the muscles
   std::vector<char> shown(d.wrap_objects.size(), muscles.empty() ? 1 : 0);
-  WrappedPath path;
+  // The wrapped paths are the engine's (MuscleWrappedPath), of the model in the drawing's mode.
+  std::optional<Model> in_mode;
+  if (wrap_mode != d.wrap_mode) in_mode.emplace(ModelInWrapMode(model, wrap_mode));
+  const Model& path_model = in_mode ? *in_mode : model;
+  Data path_ws(path_model);
   for (int m : drawn) {
     Geometry::Muscle mu{model.muscle(m).name, {}, MusclePathPoints(model, ws, q, m), {}};
-    if (model.muscle(m).wraps.empty()) {
+    const MuscleSpec& spec = model.muscle(m);
+    if (spec.wraps.empty()) {
       mu.points = mu.path_points;
       g.muscles.push_back(mu);
       continue;
     }
-    const WrapPathInput in = MuscleWrapPathInput(model, ws, q, m);
-    ComputeWrappedPath(in, wrap_mode, path);
-    for (const WrapPathWrap& w : in.wraps) shown[static_cast<size_t>(w.object)] = 1;
+    const WrappedPath path = MuscleWrappedPath(path_model, path_ws, q, m);
+    std::vector<size_t> objects;  // per wrap of the muscle, its index in d.wrap_objects
+    for (const PathWrapSpec& w : spec.wraps) {
+      const auto it = std::find_if(d.wrap_objects.begin(), d.wrap_objects.end(),
+                                   [&](const WrapObjectSpec& o) { return o.name == w.object; });
+      objects.push_back(static_cast<size_t>(it - d.wrap_objects.begin()));  // (Model checked it)
+      shown[objects.back()] = 1;
+    }
     for (size_t e = 0; e < path.elements.size(); ++e) {
       const WrappedPath::Element& el = path.elements[e];
       mu.points.push_back(el.position);
       if (el.wrap < 0 || el.end != 0) continue;
       const WrappedPath::Wrap& w = path.wraps[static_cast<size_t>(el.wrap)];
-      const WrapPathWrap& pw = in.wraps[static_cast<size_t>(el.wrap)];
-      Geometry::Muscle::Arc arc{d.wrap_objects[static_cast<size_t>(pw.object)].name, {}};
+      const WrapObjectSpec& object = d.wrap_objects[objects[static_cast<size_t>(el.wrap)]];
+      const Eigen::Isometry3d X_W_S = WrapObjectPose(model, ws, q, object);
+      Geometry::Muscle::Arc arc{object.name, {}};
       for (const Eigen::Vector3d& p_S :
-           SampleWrapArc(pw.surface, w.r1_S, w.r2_S, w.arc_length, kArcSamples)) {
-        arc.points.push_back(pw.X_W_S * p_S);
+           SampleWrapArc(WrapSurface::From(object), w.r1_S, w.r2_S, w.arc_length, kArcSamples)) {
+        arc.points.push_back(X_W_S * p_S);
       }
       // The ends are ComputeWrappedPath's tangent points themselves.
       arc.points.front() = w.r1;

@@ -1,6 +1,6 @@
-// A model's wrapping muscles through the wrap library at one posture (include/isowrench/
-// wrap_report.hpp): the input of ComputeWrappedPath built from the model, the moment arms of a
-// wrapped path, and the opensim-versus-exact comparison the reports print.
+// A model's wrapping muscles at one posture for the reports (include/isowrench/wrap_report.hpp):
+// the opensim-versus-exact comparison, from the engine's path (MuscleWrappedPath,
+// ComputeMuscleTorque) in each mode; no walk of the muscle's points of its own.
 
 #include "isowrench/wrap_report.hpp"
 
@@ -9,6 +9,7 @@
 #include <string>
 
 #include "isowrench/error.hpp"
+#include "isowrench/kinematics.hpp"
 #include "util/text.hpp"
 
 namespace isowrench {
@@ -27,41 +28,20 @@ Eigen::Isometry3d WrapReportLinkPose(const Model& model, Data& data, const Eigen
   return X;
 }
 
-const WrapObjectSpec& WrapReportObject(const LimbDescription& d, const std::string& name,
-                                       int* index) {
-  for (size_t i = 0; i < d.wrap_objects.size(); ++i) {
-    if (d.wrap_objects[i].name == name) {
-      *index = static_cast<int>(i);
-      return d.wrap_objects[i];
-    }
-  }
-  throw Error("wrap object '" + name + "' is not in model '" + d.name + "'");
-}
+// The engine's path of one muscle in one mode: MuscleWrappedPath and the moment arms -dL/dq of
+// ComputeMuscleTorque (the generalized force of a unit tension: in opensim mode OpenSim's
+// MomentArmSolver's, in exact mode -dL/dq exactly; include/isowrench/wrap.hpp).
+struct WrapReportEvaluation {
+  WrappedPath path;
+  Eigen::VectorXd moment_arm;
+};
 
-void WrapReportCheckMuscle(const Model& model, int muscle) {
-  if (muscle < 0 || muscle >= model.muscle_count()) {
-    throw Error("muscle index " + std::to_string(muscle) + " is out of range for model '" +
-                model.name() + "'");
-  }
-}
-
-// The value a moving component's function reads: q clamped to its coordinate's range
-// (MovingComponent); `inside` false where the clamp acts (the derivative is 0 there).
-double WrapReportMovingArgument(const Model& model, const MovingComponent& c,
-                                const Eigen::VectorXd& q, bool* inside) {
-  const int column = model.JointIndex(c.coordinate);
-  const CoordinateSpec& spec = model.coordinate(column);
-  const double x = std::clamp(q[column], spec.lower, spec.upper);
-  if (inside) *inside = x == q[column];
-  return x;
-}
-
-// The position of path point p in its link's frame at q (moving components evaluated).
-Eigen::Vector3d WrapReportLocal(const Model& model, const PathPoint& p, const Eigen::VectorXd& q) {
-  Eigen::Vector3d local = p.position;
-  for (const MovingComponent& c : p.moving)
-    local[c.axis] = c.function.Value(WrapReportMovingArgument(model, c, q, nullptr));
-  return local;
+WrapReportEvaluation WrapReportEvaluate(const Model& model, Data& data, const Eigen::VectorXd& q,
+                                        int muscle) {
+  WrapReportEvaluation out;
+  out.path = MuscleWrappedPath(model, data, q, muscle);
+  out.moment_arm = -ComputeMuscleTorque(model, data, q, muscle).dL_dq.transpose();
+  return out;
 }
 
 }  // namespace
@@ -71,99 +51,44 @@ Eigen::Isometry3d WrapObjectPose(const Model& model, Data& data, const Eigen::Ve
   return WrapReportLinkPose(model, data, q, object.link) * object.Pose();
 }
 
-WrapPathInput MuscleWrapPathInput(const Model& model, Data& data, const Eigen::VectorXd& q,
-                                  int muscle) {
-  WrapReportCheckMuscle(model, muscle);
-  const MuscleSpec& m = model.muscle(muscle);
-  const LimbDescription& d = model.description();
-  WrapPathInput in;
-  for (const PathPoint& p : m.path) {
-    in.points.push_back(PointPosition(model, data, q, p.link, WrapReportLocal(model, p, q)));
-    bool active = true;
-    if (!p.active_coordinate.empty()) {
-      const double x = q[model.JointIndex(p.active_coordinate)];
-      active = p.active_lower - kActiveRangeTolerance <= x &&
-               x <= p.active_upper + kActiveRangeTolerance;
-    }
-    in.active.push_back(active ? 1 : 0);
-  }
-  const int n = static_cast<int>(m.path.size());
-  for (const PathWrapSpec& w : m.wraps) {
-    WrapPathWrap pw;
-    const WrapObjectSpec& o = WrapReportObject(d, w.object, &pw.object);
-    pw.surface = WrapSurface::From(o);
-    pw.X_W_S = WrapObjectPose(model, data, q, o);
-    pw.first = w.range_first < 1 ? 0 : w.range_first - 1;
-    pw.last = w.range_last < 1 ? n - 1 : w.range_last - 1;
-    pw.method = w.method;
-    pw.active = o.active;
-    in.wraps.push_back(pw);
-  }
-  return in;
+Model ModelInWrapMode(const Model& model, WrapMode mode) {
+  LimbDescription d = model.description();
+  d.wrap_mode = mode;
+  return Model(d);
 }
 
-Eigen::VectorXd WrappedMomentArms(const Model& model, Data& data, const Eigen::VectorXd& q,
-                                  int muscle, const WrappedPath& path) {
-  WrapReportCheckMuscle(model, muscle);
-  const MuscleSpec& m = model.muscle(muscle);
-  const LimbDescription& d = model.description();
-  if (path.point_pull.size() != m.path.size() || path.wraps.size() != m.wraps.size()) {
-    throw Error("the wrapped path given for muscle '" + m.name + "' is not this muscle's");
-  }
-  Eigen::VectorXd arm = Eigen::VectorXd::Zero(model.dof_count());
-  for (size_t i = 0; i < m.path.size(); ++i) {
-    const Eigen::Vector3d& pull = path.point_pull[i];
-    if (pull.isZero(0.0)) continue;
-    const PathPoint& p = m.path[i];
-    const Eigen::Vector3d local = WrapReportLocal(model, p, q);
-    arm -= (pull.transpose() * PointJacobian(model, data, q, p.link, local)).transpose();
-    if (p.moving.empty()) continue;
-    // A moving component x_axis = f(q_c) moves the point along the link's axis in world.
-    const Eigen::Isometry3d X = WrapReportLinkPose(model, data, q, p.link);
-    for (const MovingComponent& c : p.moving) {
-      bool inside = false;
-      const double x = WrapReportMovingArgument(model, c, q, &inside);
-      if (!inside) continue;
-      arm[model.JointIndex(c.coordinate)] -=
-          pull.dot(X.linear().col(c.axis)) * c.function.Derivative(x);
-    }
-  }
-  for (size_t w = 0; w < m.wraps.size(); ++w) {
-    const WrappedPath::Wrap& r = path.wraps[w];
-    if (!r.wrapped) continue;
-    int index = -1;
-    const WrapObjectSpec& o = WrapReportObject(d, m.wraps[w].object, &index);
-    // The tangent points, fixed in S, are points of the object's link.
-    const Eigen::Isometry3d X_link_S = o.Pose();
-    arm -= (r.pull_r1.transpose() * PointJacobian(model, data, q, o.link, X_link_S * r.r1_S))
-               .transpose();
-    arm -= (r.pull_r2.transpose() * PointJacobian(model, data, q, o.link, X_link_S * r.r2_S))
-               .transpose();
-  }
-  return arm;
+namespace {
+
+WrapMode OtherWrapMode(const Model& model) {
+  return model.description().wrap_mode == WrapMode::kOpenSim ? WrapMode::kExact
+                                                             : WrapMode::kOpenSim;
 }
 
-WrapModeDifference CompareWrapModes(const Model& model, Data& data, const Eigen::VectorXd& q,
-                                    int muscle) {
-  const WrapPathInput in = MuscleWrapPathInput(model, data, q, muscle);
+// CompareWrapModes with the model in the other mode built by the caller (once per sweep).
+WrapModeDifference CompareWrapModesWith(const Model& model, Data& data, const Model& other,
+                                        Data& other_data, const Eigen::VectorXd& q, int muscle) {
+  if (muscle < 0 || muscle >= model.muscle_count()) {
+    throw Error("muscle index " + std::to_string(muscle) + " is out of range for model '" +
+                model.name() + "'");
+  }
+  // The model's own mode on `data`, the other on the same model in that mode (engine both).
+  const WrapMode own = model.description().wrap_mode;
+  WrapReportEvaluation own_run = WrapReportEvaluate(model, data, q, muscle);
+  WrapReportEvaluation other_run = WrapReportEvaluate(other, other_data, q, muscle);
+  const WrapReportEvaluation& os = own == WrapMode::kOpenSim ? own_run : other_run;
+  const WrapReportEvaluation& ex = own == WrapMode::kOpenSim ? other_run : own_run;
   WrapModeDifference out;
   out.muscle = muscle;
-  WrappedPath path;
-  ComputeWrappedPath(in, WrapMode::kOpenSim, path);
-  out.length_opensim = path.length;
-  out.status_opensim = path.status;
-  for (const WrappedPath::Wrap& w : path.wraps) out.wraps_engaged += w.wrapped ? 1 : 0;
-  out.moment_arm_opensim = WrappedMomentArms(model, data, q, muscle, path);
-  ComputeWrappedPath(in, WrapMode::kExact, path);
-  out.length_exact = path.length;
-  out.status_exact = path.status;
-  out.moment_arm_exact = WrappedMomentArms(model, data, q, muscle, path);
-  const Eigen::Vector3d* previous = nullptr;
-  for (size_t i = 0; i < in.points.size(); ++i) {
-    if (!in.active[i]) continue;
-    if (previous) out.length_straight += (in.points[i] - *previous).norm();
-    previous = &in.points[i];
-  }
+  out.length_opensim = os.path.length;
+  out.status_opensim = os.path.status;
+  for (const WrappedPath::Wrap& w : os.path.wraps) out.wraps_engaged += w.wrapped ? 1 : 0;
+  out.moment_arm_opensim = os.moment_arm;
+  out.length_exact = ex.path.length;
+  out.status_exact = ex.path.status;
+  out.moment_arm_exact = ex.moment_arm;
+  const std::vector<Eigen::Vector3d> points = MusclePathPoints(model, data, q, muscle);
+  for (size_t i = 1; i < points.size(); ++i)
+    out.length_straight += (points[i] - points[i - 1]).norm();
   for (int c = 0; c < model.dof_count(); ++c) {
     const double diff = std::abs(out.moment_arm_opensim[c] - out.moment_arm_exact[c]);
     if (out.coordinate < 0 || diff > out.moment_arm_difference) {
@@ -174,6 +99,26 @@ WrapModeDifference CompareWrapModes(const Model& model, Data& data, const Eigen:
   return out;
 }
 
+}  // namespace
+
+WrapModeDifference CompareWrapModes(const Model& model, Data& data, const Eigen::VectorXd& q,
+                                    int muscle) {
+  const Model other = ModelInWrapMode(model, OtherWrapMode(model));
+  Data other_data(other);
+  return CompareWrapModesWith(model, data, other, other_data, q, muscle);
+}
+
+std::vector<WrapModeDifference> CompareWrapModes(const Model& model, Data& data,
+                                                 const Eigen::VectorXd& q) {
+  std::vector<WrapModeDifference> out;
+  const std::vector<int> wrapping = WrappingMuscles(model);
+  if (wrapping.empty()) return out;
+  const Model other = ModelInWrapMode(model, OtherWrapMode(model));
+  Data other_data(other);
+  for (int m : wrapping) out.push_back(CompareWrapModesWith(model, data, other, other_data, q, m));
+  return out;
+}
+
 WrapModeSweep SweepWrapModes(const Model& model, Data& data, const Eigen::VectorXd& q0, int muscle,
                              int steps) {
   if (steps < 2) {
@@ -181,8 +126,10 @@ WrapModeSweep SweepWrapModes(const Model& model, Data& data, const Eigen::Vector
                 std::to_string(steps));
   }
   WrapModeSweep out;
+  const Model other = ModelInWrapMode(model, OtherWrapMode(model));
+  Data other_data(other);
   auto add = [&](const Eigen::VectorXd& q) {
-    const WrapModeDifference d = CompareWrapModes(model, data, q, muscle);
+    const WrapModeDifference d = CompareWrapModesWith(model, data, other, other_data, q, muscle);
     if (out.postures++ == 0) {
       out.at_q0 = d;
       out.max_length_posture = q;

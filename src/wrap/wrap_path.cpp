@@ -6,6 +6,7 @@
 #include <cmath>
 #include <limits>
 #include <string>
+#include <vector>
 
 #include "isowrench/error.hpp"
 #include "wrap/wrap_impl.hpp"
@@ -121,6 +122,38 @@ void ComputeWrappedPath(const WrapPathInput& input, WrapMode mode, WrappedPath& 
       }
     }
   };
+  // OpenSim mode: the ground position of a wrap point is frozen the first time it is read in a
+  // state. Point::getLocationInGround (OpenSim/Simulation/Model/Point.cpp) caches it at
+  // Stage::Position, and PathWrapPoint::setLocation does not invalidate that cache; so once a
+  // length is summed (calcLengthAfterPathComputation at the end of a pass) or compared
+  // (calcPathLengthChange) with a wrap point, later passes move the point (its location, which
+  // WrapObject::wrapPathSegment reads afresh) but every length, and the path GeometryPath
+  // reports, keeps its first ground position, with the arc of the last pass. Only muscles with
+  // several wraps run more than one pass. (Reproduces opensim-core's recorded lengths of
+  // Rajagopal's med_gas_r to 2e-7 m where both of its cylinders engage: 5.6 mm off without.)
+  const bool freeze = mode == WrapMode::kOpenSim;
+  V3 frozen_small[32];
+  char frozen_set_small[32] = {};
+  std::vector<V3> frozen_large;
+  std::vector<char> frozen_set_large;
+  V3* frozen = frozen_small;
+  char* frozen_set = frozen_set_small;
+  if (n_wraps > 16) {
+    frozen_large.resize(static_cast<size_t>(2 * n_wraps));
+    frozen_set_large.assign(static_cast<size_t>(2 * n_wraps), 0);
+    frozen = frozen_large.data();
+    frozen_set = frozen_set_large.data();
+  }
+  // The ground position OpenSim reads for element e (a path point's is never stale).
+  auto ground = [&](const Element& e) -> const V3& {
+    if (!freeze || e.wrap < 0) return e.position;
+    const int slot = 2 * e.wrap + e.end;
+    if (!frozen_set[slot]) {
+      frozen_set[slot] = 1;
+      frozen[slot] = e.position;
+    }
+    return frozen[slot];
+  };
   // calcLengthAfterPathComputation: straight distances, plus each wrap's arc between its two
   // points (the length PathWrapPoint 2 carries; PathWrapPoint 1 carries 0).
   auto path_length = [&]() {
@@ -129,7 +162,7 @@ void ComputeWrappedPath(const WrapPathInput& input, WrapMode mode, WrappedPath& 
       if (same_object(path[j - 1], path[j])) {
         if (path[j].end == 1) length += out.wraps[path[j].wrap].arc_length;
       } else {
-        length += (path[j].position - path[j - 1].position).norm();
+        length += (ground(path[j]) - ground(path[j - 1])).norm();
       }
     }
     return length;
@@ -201,9 +234,12 @@ void ComputeWrappedPath(const WrapPathInput& input, WrapMode mode, WrappedPath& 
             break;
           }
           if (wr.code == 2) {  // wrapped: keep the segment lengthened least (NaN never wins)
-            const double straight = (path[pt2].position - path[pt1].position).norm();
-            const double change = (ws.X_W_S * wr.r1 - path[pt1].position).norm() + wr.length +
-                                  (path[pt2].position - ws.X_W_S * wr.r2).norm() - straight;
+            // (calcPathLengthChange reads the end points' ground positions: ground())
+            const V3& g1 = ground(path[pt1]);
+            const V3& g2 = ground(path[pt2]);
+            const double straight = (g2 - g1).norm();
+            const double change = (ws.X_W_S * wr.r1 - g1).norm() + wr.length +
+                                  (g2 - ws.X_W_S * wr.r2).norm() - straight;
             if (change < min_change) {
               best = wr;
               best_end = pt2;
@@ -245,6 +281,16 @@ void ComputeWrappedPath(const WrapPathInput& input, WrapMode mode, WrappedPath& 
     }
     if (!settled && !aborted) out.status |= kWrapNotConverged;
     if (aborted) out.status |= kWrapRangeEmpty;
+    // The path OpenSim reports (its length, its forces, its drawing): each wrap point where its
+    // ground position was frozen, with the last pass's arc.
+    for (Element& e : path) {
+      if (e.wrap < 0 || !freeze) continue;
+      e.position = ground(e);
+      WrappedPath::Wrap& w = out.wraps[e.wrap];
+      const Eigen::Isometry3d X_S_W = input.wraps[e.wrap].X_W_S.inverse();
+      (e.end == 0 ? w.r1 : w.r2) = e.position;
+      (e.end == 0 ? w.r1_S : w.r2_S) = X_S_W * e.position;
+    }
   }
   // Length, pulls, and the straight-line check of every wrap.
   out.length = path_length();

@@ -50,3 +50,14 @@ isowrench_cli_test(diagnose_wrap_line "muscle QUAD.*wrap \\(opensim\\): knee_cyl
   diagnose ${knee_wrap} --muscle QUAD --posture knee=-60 --no-large-deflection)
 isowrench_cli_test(releases_wrap_json "\"wrap\": \\{[^}]*\"mode\": \"exact\""
   releases ${knee_wrap} --muscle QUAD --posture knee=-60 --wrap exact --json)
+# sweep says where OpenSim's wrap algorithm misbehaves (issue 27): per posture in the CSV
+# (wraps_engaged, wrap_warning), counted with the first posture in the summary and the JSON.
+# sphere_far_side.urdf wraps the far side of a constrained sphere from knee -65 to +20 degrees.
+set(sphere_far_side ${PROJECT_SOURCE_DIR}/tests/wrap/data/sphere_far_side.urdf)
+isowrench_cli_test(sweep_wrap_warnings
+  "wrap \\(opensim\\): knee_ball wraps at 23 of 27 postures\n  wrap warnings at 18 of 27 postures \\(column wrap_warning of the CSV\\):\n[^\n]*below the straight line[^\n]*: 18 postures, first at knee=-65°\n    negative arc \\(OpenSim's far-side sphere wrap\\): 18 postures, first at knee=-65°"
+  sweep ${sphere_far_side} --grid knee=-90:40:5 -o ${CMAKE_CURRENT_BINARY_DIR}/sweep_wrap_warnings.csv)
+isowrench_cli_test(sweep_wrap_warnings_json
+  "\"wrap\": \\{\n    \"mode\": \"exact\",\n    \"unevaluated_postures\": 0,\n    \"warning_postures\": 0,\n    \"warnings\": \\[\\]"
+  sweep ${sphere_far_side} --grid knee=-90:40:5 --wrap exact --json
+  -o ${CMAKE_CURRENT_BINARY_DIR}/sweep_wrap_warnings_exact.csv)

@@ -9,11 +9,13 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <nlohmann/json.hpp>
 #include <sstream>
 #include <string>
 #include <vector>
 
 #include "isowrench/isowrench.hpp"
+#include "isowrench/wrap.hpp"
 
 namespace {
 
@@ -102,6 +104,95 @@ TEST(SweepCli, CsvRowsEqualEvaluateWrenchWithUnitsInHeader) {
       }
     }
   }
+}
+
+// A wrapping muscle: per posture, the CSV says how many wraps engage and OpenSim's warnings in
+// the words of wrench/diagnose/releases; the summary (text and JSON) counts them with the first
+// posture of each. Reference: the wrap library (ComputeWrappedPath) fed by the file's geometry
+// built by hand at each grid posture (not the engine's path stage): the femur's point fixed,
+// the tibia's turned about the knee at (40, 0, 0) mm, the sphere (10 mm, +y) centred there.
+// sphere_far_side.urdf wraps the far side of a constrained sphere (negative arc, below the
+// straight line) from knee about -65 to +20 degrees, and behaves elsewhere.
+TEST(SweepCli, WrapWarningsPerPostureInTheCsvAndCountedInTheSummary) {
+  const auto dir = TempDir("wrap");
+  const std::string urdf = std::string(ISOWRENCH_TEST_WRAP_DIR) + "/sphere_far_side.urdf";
+  const std::string csv = (dir / "out.csv").string();
+  const CliRun text =
+      RunCli("sweep " + urdf + " --grid knee=-90:40:5 --stiffness-ratio 1,0.5 -o " + csv, dir);
+  ASSERT_EQ(text.exit_code, 0) << text.output;
+  isowrench::WrapPathInput hand;
+  hand.active = {1, 1};
+  isowrench::WrapPathWrap ball;
+  ball.surface.shape = isowrench::WrapShape::kSphere;
+  ball.surface.radius = 0.01;
+  ball.surface.quadrant = isowrench::WrapQuadrant::Parse("+y");
+  ball.X_W_S.translation() = Eigen::Vector3d(0.04, 0, 0);
+  ball.first = 0;
+  ball.last = 1;
+  hand.wraps = {ball};
+  std::ifstream in(csv);
+  std::string header;
+  std::getline(in, header);
+  EXPECT_THAT(header, ::testing::EndsWith(",self_motion_dims (1),wraps_engaged (1),wrap_warning"));
+  int rows = 0, warned = 0, negative = 0, engaged = 0, clean_wrapped = 0;
+  double first_negative = 1e9;
+  for (std::string line; std::getline(in, line); ++rows) {
+    std::vector<std::string> cells = SplitCsv(line);
+    if (!line.empty() && line.back() == ',') cells.emplace_back();  // an empty last cell
+    ASSERT_EQ(cells.size(), 12u) << line;
+    const double knee = std::stod(cells[0]);
+    hand.points = {Eigen::Vector3d(0.046, -0.009, 0.0005),
+                   Eigen::Vector3d(0.04, 0, 0) +
+                       Eigen::AngleAxisd(knee * kPi / 180, Eigen::Vector3d::UnitZ()) *
+                           Eigen::Vector3d(-0.006, -0.009, 0)};
+    isowrench::WrappedPath path;
+    isowrench::ComputeWrappedPath(hand, isowrench::WrapMode::kOpenSim, path);
+    EXPECT_EQ(cells[10], path.wraps[0].wrapped ? "1" : "0") << knee;
+    EXPECT_EQ(cells[11], isowrench::WrapStatusText(path.status)) << knee;
+    if (rows % 2 == 1) continue;  // the same posture at the second ratio
+    engaged += path.wraps[0].wrapped ? 1 : 0;
+    warned += path.status != 0 ? 1 : 0;
+    if (path.status & isowrench::kWrapNegativeArc) {
+      ++negative;
+      first_negative = std::min(first_negative, knee);
+    }
+    clean_wrapped += path.wraps[0].wrapped && path.status == 0 ? 1 : 0;
+  }
+  ASSERT_EQ(rows, 54);
+  // Both kinds of posture are in the grid, so the counts below can fail.
+  ASSERT_GT(negative, 5);
+  ASSERT_GT(clean_wrapped, 2);
+  ASSERT_LT(warned, 27);
+  EXPECT_THAT(text.output, ::testing::HasSubstr("wrap (opensim): knee_ball wraps at " +
+                                                std::to_string(engaged) + " of 27 postures"));
+  EXPECT_THAT(text.output, ::testing::HasSubstr("wrap warnings at " + std::to_string(warned) +
+                                                " of 27 postures"));
+  std::ostringstream first;
+  first << "negative arc (OpenSim's far-side sphere wrap): " << negative
+        << " postures, first at knee=" << first_negative << "°";
+  EXPECT_THAT(text.output, ::testing::HasSubstr(first.str()));
+
+  const CliRun json = RunCli("sweep " + urdf + " --grid knee=-90:40:5 --json -o " + csv, dir);
+  ASSERT_EQ(json.exit_code, 0) << json.output;
+  const auto j = nlohmann::json::parse(json.output);
+  EXPECT_EQ(j["wrap"]["mode"], "opensim");
+  EXPECT_EQ(j["wrap"]["wraps"][0]["object"], "knee_ball");
+  EXPECT_EQ(j["wrap"]["wraps"][0]["wrapped_postures"], engaged);
+  EXPECT_EQ(j["wrap"]["warning_postures"], warned);
+  bool found = false;
+  for (const auto& w : j["wrap"]["warnings"]) {
+    if (w["warning"] != isowrench::WrapStatusText(isowrench::kWrapNegativeArc)) continue;
+    found = true;
+    EXPECT_EQ(w["postures"], negative);
+    EXPECT_EQ(w["first_posture"]["knee (deg)"], first_negative);
+  }
+  EXPECT_TRUE(found) << json.output;
+  // A muscle without wraps: no wrap columns, "wrap": null.
+  const CliRun plain = RunCli("sweep " + std::string(ISOWRENCH_TEST_URDF_DIR) +
+                                  "/planar_2r.urdf --grid elbow=0:90:45 --json -o " + csv,
+                              dir);
+  ASSERT_EQ(plain.exit_code, 0) << plain.output;
+  EXPECT_TRUE(nlohmann::json::parse(plain.output)["wrap"].is_null());
 }
 
 TEST(SweepCli, UnknownGridJointExitsOneNamingItAndWritesNothing) {

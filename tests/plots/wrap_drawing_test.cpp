@@ -17,6 +17,7 @@
 #include <tuple>
 #include <vector>
 
+#include "isowrench/error.hpp"
 #include "isowrench/io.hpp"
 #include "isowrench/model.hpp"
 #include "isowrench/opensim.hpp"
@@ -432,20 +433,35 @@ TEST(WrapModeComparison, SweepIsTheLargestOverItsPostures) {
   EXPECT_THROW(isowrench::SweepWrapModes(model, data, q0, 0, 1), isowrench::Error);
 }
 
-TEST(WrapModeComparison, PathInputMatchesTheDrawnPointsAndTheHandGeometry) {
+// The reports' paths are the engine's: at each posture and in each mode, MuscleWrappedPath of
+// the model in that mode (ModelInWrapMode) is ComputeWrappedPath of the hand-built input, and
+// WrapObjectPose is the hand-built cylinder frame.
+TEST(WrapModeComparison, EnginePathInEachModeMatchesTheHandGeometry) {
   const isowrench::Model model(WrapFixture());
   isowrench::Data data(model);
-  const Eigen::VectorXd q = model.nominal_posture();
-  const isowrench::WrapPathInput in =
-      isowrench::MuscleWrapPathInput(model, data, q, model.MuscleIndex("extensor"));
-  const isowrench::WrapPathInput hand = ExtensorByHand(q[0], q[1]);
-  ASSERT_EQ(in.points.size(), 2u);
-  for (int i = 0; i < 2; ++i) EXPECT_LT((in.points[i] - hand.points[i]).norm(), 1e-15);
-  ASSERT_EQ(in.wraps.size(), 1u);
-  EXPECT_TRUE(in.wraps[0].X_W_S.isApprox(hand.wraps[0].X_W_S, 1e-14));
-  EXPECT_EQ(in.wraps[0].first, 0);
-  EXPECT_EQ(in.wraps[0].last, 1);
-  EXPECT_TRUE(in.wraps[0].active);
+  const int extensor = model.MuscleIndex("extensor");
+  for (const WrapMode mode : {WrapMode::kOpenSim, WrapMode::kExact}) {
+    const isowrench::Model in_mode = isowrench::ModelInWrapMode(model, mode);
+    EXPECT_EQ(in_mode.description().wrap_mode, mode);
+    isowrench::Data ws(in_mode);
+    for (double elbow_deg : {20.0, 60.0, 75.0}) {
+      SCOPED_TRACE(elbow_deg);
+      Eigen::VectorXd q = model.nominal_posture();
+      q[1] = elbow_deg * M_PI / 180;
+      const isowrench::WrapPathInput hand = ExtensorByHand(q[0], q[1]);
+      isowrench::WrappedPath expected;
+      isowrench::ComputeWrappedPath(hand, mode, expected);
+      const isowrench::WrappedPath path = isowrench::MuscleWrappedPath(in_mode, ws, q, extensor);
+      EXPECT_NEAR(path.length, expected.length, 1e-12);
+      ASSERT_EQ(path.elements.size(), expected.elements.size());
+      for (size_t e = 0; e < path.elements.size(); ++e) {
+        EXPECT_LT((path.elements[e].position - expected.elements[e].position).norm(), 1e-12) << e;
+      }
+      const isowrench::WrapObjectSpec& cylinder = model.description().wrap_objects[0];
+      EXPECT_TRUE(
+          isowrench::WrapObjectPose(model, data, q, cylinder).isApprox(hand.wraps[0].X_W_S, 1e-14));
+    }
+  }
   EXPECT_EQ(isowrench::WrappingMuscles(model), (std::vector<int>{0, 1}));
   EXPECT_EQ(isowrench::FormatWrapMm(1e-15), "0");
   EXPECT_EQ(isowrench::FormatWrapMm(0.00125), "1.25");

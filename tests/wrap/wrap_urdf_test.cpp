@@ -5,7 +5,9 @@
 #include <gtest/gtest.h>
 
 #include "isowrench/error.hpp"
+#include "isowrench/kinematics.hpp"
 #include "isowrench/model.hpp"
+#include "isowrench/wrap.hpp"
 
 namespace isowrench {
 namespace {
@@ -134,6 +136,62 @@ TEST(WrapUrdfTest, BadWrapsNameTheFileLineMuscleAndObject) {
   ExpectUrdfError(
       R"(<isowrench:wrap name="c" link="femur" shape="sphere" radius="0.004" quadrant="+w"/>)", "",
       "quadrant '+w' is not one of all");
+}
+
+// The wrap mode is an attribute of <robot> (docs/urdf-extensions.md "Wrap mode"): written by
+// WriteUrdfString, read back, and the model read from the file computes its wraps in that mode.
+// The reference is the model built in code with the mode set. On sphere_far_side.urdf at a
+// straight knee OpenSim wraps the far side of the constrained sphere with a negative arc, the
+// exact path goes the long way round: the modes differ by centimetres, so a file that lost the
+// mode fails the length check.
+TEST(WrapUrdfTest, WrapModeRoundTripsAndSetsTheModelsMode) {
+  LimbDescription d = ReadUrdfFile(std::string(ISOWRENCH_TEST_WRAP_DIR) + "/sphere_far_side.urdf");
+  EXPECT_EQ(d.wrap_mode, WrapMode::kOpenSim);  // no attribute: opensim
+  EXPECT_THAT(WriteUrdfString(d), HasSubstr("isowrench:wrap_mode=\"opensim\""));
+  d.wrap_mode = WrapMode::kExact;
+  const std::string text = WriteUrdfString(d);
+  EXPECT_THAT(text, HasSubstr("isowrench:wrap_mode=\"exact\""));
+  const LimbDescription again = ReadUrdfString(text, "again.urdf");
+  EXPECT_EQ(again.wrap_mode, WrapMode::kExact);
+  LimbDescription opensim = d;
+  opensim.wrap_mode = WrapMode::kOpenSim;
+  const Model exact_in_code(d), exact_from_file(again), opensim_model(opensim);
+  Data a(exact_in_code), b(exact_from_file), c(opensim_model);
+  const Eigen::VectorXd q = Eigen::VectorXd::Zero(2);  // rad: hip and knee straight
+  const WrappedPath in_code = MuscleWrappedPath(exact_in_code, a, q, 0);
+  const WrappedPath from_file = MuscleWrappedPath(exact_from_file, b, q, 0);
+  const WrappedPath other = MuscleWrappedPath(opensim_model, c, q, 0);
+  ASSERT_TRUE(in_code.wraps.at(0).wrapped);
+  EXPECT_EQ(from_file.length, in_code.length);
+  EXPECT_GT(in_code.length - other.length, 0.01) << "the modes should differ here";
+  // A limb without wrap objects in the default mode is written as before (no attribute); in
+  // exact mode it carries it.
+  LimbDescription plain = d;
+  plain.wrap_objects.clear();
+  for (MuscleSpec& m : plain.muscles) m.wraps.clear();
+  plain.wrap_mode = WrapMode::kOpenSim;
+  EXPECT_THAT(WriteUrdfString(plain), ::testing::Not(HasSubstr("wrap_mode")));
+  plain.wrap_mode = WrapMode::kExact;
+  EXPECT_EQ(ReadUrdfString(WriteUrdfString(plain), "plain.urdf").wrap_mode, WrapMode::kExact);
+}
+
+TEST(WrapUrdfTest, BadWrapModeNamesTheFileLineAndValue) {
+  const auto read = [](const std::string& attribute) {
+    std::string text = WrapUrdf(kObjects, kList);
+    const std::string robot = "xmlns:isowrench=\"urn:isowrench:urdf:1\"";
+    text.replace(text.find(robot), robot.size(), robot + " " + attribute);
+    return ReadUrdfString(text, "leg.urdf");
+  };
+  EXPECT_EQ(read("isowrench:wrap_mode=\"exact\"").wrap_mode, WrapMode::kExact);
+  EXPECT_EQ(read("isowrench:wrap_mode=\"opensim\"").wrap_mode, WrapMode::kOpenSim);
+  EXPECT_THAT([&] { read("isowrench:wrap_mode=\"shortest\""); },
+              ::testing::ThrowsMessage<Error>(HasSubstr(
+                  "leg.urdf:2: <robot> isowrench:wrap_mode = 'shortest' is not one of opensim, "
+                  "exact")));
+  EXPECT_THAT([&] { read("isowrench:wrapmode=\"exact\""); },
+              ::testing::ThrowsMessage<Error>(HasSubstr(
+                  "leg.urdf:2: <robot> has no attribute 'isowrench:wrapmode' (did you mean "
+                  "'isowrench:wrap_mode'?)")));
 }
 
 }  // namespace
