@@ -450,7 +450,10 @@ ISOWRENCH_INLINE bool Kinematics(const FlatChain& d, W& ws, const double* q, int
   assert(ws.m == d.n);
   assert(muscle < static_cast<int>(d.muscles.size()) && (kFrames || muscle >= 0));
   const FastMuscle& mu = (kFrames && muscle < 0) ? kNoMuscle : d.muscles[muscle];
-  if (kDynamic) PreparePathPoints(mu, q, ws);
+  if (kDynamic) {
+    PreparePathPoints(mu, q, ws);
+    AddPathPointOffsets(mu, ws, muscle);  // SetPathPointOffsets: the moved path points
+  }
   if (kCoupled && d.coupled) {
     Couple(d, ws, q);
     q = ws.q_joint.data();
@@ -492,7 +495,7 @@ template <bool kFrames, class W>
 ISOWRENCH_NOINLINE bool DynamicKinematics(const FlatChain& d, W& ws, const double* q, int muscle,
                                           double activation, bool world_axes) {
   if constexpr (!W::kLarge) {  // (a large chain: the kDynamic kernel does both, at run time)
-    if (muscle >= 0 && !d.muscles[muscle].dynamic) {
+    if (muscle >= 0 && !d.muscles[muscle].dynamic && !PointOffsetsOn(ws, muscle)) {
       return ForceKinematics<kFrames>(d, ws, q, muscle, activation, world_axes);
     }
   }
@@ -518,12 +521,12 @@ template <bool kFrames, class W>
 ISOWRENCH_INLINE bool AnyKinematics(const FlatChain& d, W& ws, const double* q, int muscle,
                                     double activation, bool world_axes) {
   if constexpr (W::kLarge) {
-    if (kFrames || d.muscles[muscle].special) {
+    if (kFrames || d.muscles[muscle].special || PointOffsetsOn(ws, muscle)) {
       return DynamicKinematics<true>(d, ws, q, muscle, activation, kFrames && world_axes);
     }
     return CoupledKinematics(d, ws, q, muscle, activation);
   } else {
-    if ((!kFrames || muscle >= 0) && d.muscles[muscle].special) {
+    if ((!kFrames || muscle >= 0) && (d.muscles[muscle].special || PointOffsetsOn(ws, muscle))) {
       return DynamicKinematics<kFrames>(d, ws, q, muscle, activation, world_axes);
     }
     if constexpr (kFrames) {
@@ -616,6 +619,50 @@ bool ComputeKinematicsWithFrames(const FlatChain& chain, Data::Impl& workspace, 
   });
 }
 
+void SetPathPointOffsets(const Model& model, Data& data, int muscle,
+                         const Eigen::Ref<const Eigen::Matrix3Xd>& offsets) {
+  const FlatChain& d = model.impl().flat;
+  Data::Impl& ws = data.impl();
+  if (ws.chain_id != d.id) {
+    throw Error("SetPathPointOffsets: this Data was made for " +
+                (ws.model_name.empty() ? std::string("a raw-matrix solve")
+                                       : "model '" + ws.model_name + "'") +
+                ", not for model '" + d.name + "': make a Data(model)");
+  }
+  if (muscle < 0 || muscle >= static_cast<int>(d.muscles.size())) {
+    throw Error("SetPathPointOffsets: muscle index " + std::to_string(muscle) +
+                " is out of range for model '" + d.name + "' (" + std::to_string(d.muscles.size()) +
+                " muscles)");
+  }
+  const FastMuscle& mu = d.muscles[static_cast<std::size_t>(muscle)];
+  if (offsets.cols() != mu.path_points) {
+    throw Error("SetPathPointOffsets: muscle '" + model.muscle(muscle).name + "' has " +
+                std::to_string(mu.path_points) + " path points, got offsets for " +
+                std::to_string(offsets.cols()));
+  }
+  if (!offsets.allFinite()) {
+    throw Error("SetPathPointOffsets: muscle '" + model.muscle(muscle).name +
+                "': a path point offset is not finite");
+  }
+  // Offsets are in each point's link frame; the kernel places points in the frame of the
+  // movable joint before them, fixed joints folded in (FlatChain::links): turn them into it.
+  if (ws.rotations_muscle != muscle) {
+    const std::vector<PathPoint>& path = model.muscle(muscle).path;
+    ws.offset_rotations.resize(path.size());
+    for (std::size_t i = 0; i < path.size(); ++i)
+      ws.offset_rotations[i] = d.links.at(path[i].link).offset.linear();
+    ws.rotations_muscle = muscle;
+  }
+  ws.point_offsets.resize(static_cast<std::size_t>(mu.path_points));
+  for (int i = 0; i < mu.path_points; ++i) {
+    const std::size_t k = static_cast<std::size_t>(i);
+    ws.point_offsets[k] = ws.offset_rotations[k] * offsets.col(i);
+  }
+  ws.offset_muscle = muscle;
+}
+
+void ClearPathPointOffsets(Data& data) { data.impl().offset_muscle = -1; }
+
 const MuscleForceModel& ForceModelOf(const Model& model, int muscle) {
   const FlatChain& d = model.impl().flat;
   if (muscle < 0 || muscle >= static_cast<int>(d.muscles.size())) {
@@ -657,7 +704,7 @@ ISOWRENCH_INLINE void EvaluateWith(const FlatChain& d, W& ws, const double* q, i
   if constexpr (W::kLarge) {  // (the kinematics and the solve out of line, each compiled once)
     valid = AnyKinematics<false>(d, ws, q, muscle, activation, false);
   } else {
-    valid = d.muscles[muscle].special
+    valid = d.muscles[muscle].special || PointOffsetsOn(ws, muscle)
                 ? DynamicKinematics<false>(d, ws, q, muscle, activation, false)
                 : Kinematics<false, false, kCoupled>(d, ws, q, muscle, activation, false);
   }

@@ -218,6 +218,15 @@ struct Data::Impl {
   Buffer<int> active;
   int active_count = 0;
   Buffer<double> moving_slope;
+  /// SetPathPointOffsets (engine.hpp): the muscle whose path points are moved (-1: none) and
+  /// the offsets (m, in each point's frame), one per path point (FastMuscle::path_points);
+  /// PointOffsetsOn says when an evaluation adds them (to `local`, after PreparePathPoints).
+  int offset_muscle = -1;
+  std::vector<Eigen::Vector3d> point_offsets;  ///< turned into each point's kernel frame
+  /// The rotations link frame -> kernel frame (FlatChain::links' offsets: fixed joints folded)
+  /// of `rotations_muscle`'s path points, made by the first SetPathPointOffsets of a muscle.
+  int rotations_muscle = -1;
+  std::vector<Eigen::Matrix3d> offset_rotations;
   /// Muscles with wraps (FastMuscle::wraps): their path's buffers (made with the Data when its
   /// model has a wrap, else at the first wrapped muscle).
   std::unique_ptr<WrapWorkspace> wrap;
@@ -290,6 +299,21 @@ struct LargeWorkspace final : Data::Impl {
   Eigen::MatrixXd K_full;
   Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eigen;
 };
+
+/// True when muscle `muscle` (>= 0) of this evaluation has path point offsets on `ws`
+/// (SetPathPointOffsets): it leaves the plain kernel for the kDynamic one, as a muscle with
+/// moving points.
+inline bool PointOffsetsOn(const Data::Impl& ws, int muscle) {
+  return muscle >= 0 && ws.offset_muscle == muscle;
+}
+/// The offsets added to the points' positions in their frames (ws.local, after
+/// PreparePathPoints), when PointOffsetsOn.
+template <class W>
+inline void AddPathPointOffsets(const FastMuscle& mu, W& ws, int muscle) {
+  if (!PointOffsetsOn(ws, muscle)) return;
+  for (int i = 0; i < mu.path_points; ++i)
+    ws.local[i] += ws.point_offsets[static_cast<std::size_t>(i)];
+}
 
 /// Moving and conditional path points (src/fast/path_points.cpp), for a muscle with
 /// FastMuscle::dynamic. Before the kernel: each point's position in its frame (ws.local), the
