@@ -449,11 +449,9 @@ ISOWRENCH_INLINE bool Kinematics(const FlatChain& d, W& ws, const double* q, int
                                  double activation, bool world_axes) {
   assert(ws.m == d.n);
   assert(muscle < static_cast<int>(d.muscles.size()) && (kFrames || muscle >= 0));
-  const FastMuscle& mu = (kFrames && muscle < 0) ? kNoMuscle : d.muscles[muscle];
-  if (kDynamic) {
-    PreparePathPoints(mu, q, ws);
-    AddPathPointOffsets(mu, ws, muscle);  // SetPathPointOffsets: the moved path points
-  }
+  // (EvaluatedMuscle: this Data's copy when SetPathPointOffsets moved the muscle's points)
+  const FastMuscle& mu = (kFrames && muscle < 0) ? kNoMuscle : EvaluatedMuscle(d, ws, muscle);
+  if (kDynamic) PreparePathPoints(mu, q, ws);
   if (kCoupled && d.coupled) {
     Couple(d, ws, q);
     q = ws.q_joint.data();
@@ -495,7 +493,7 @@ template <bool kFrames, class W>
 ISOWRENCH_NOINLINE bool DynamicKinematics(const FlatChain& d, W& ws, const double* q, int muscle,
                                           double activation, bool world_axes) {
   if constexpr (!W::kLarge) {  // (a large chain: the kDynamic kernel does both, at run time)
-    if (muscle >= 0 && !d.muscles[muscle].dynamic && !PointOffsetsOn(ws, muscle)) {
+    if (muscle >= 0 && !d.muscles[muscle].dynamic) {
       return ForceKinematics<kFrames>(d, ws, q, muscle, activation, world_axes);
     }
   }
@@ -521,12 +519,12 @@ template <bool kFrames, class W>
 ISOWRENCH_INLINE bool AnyKinematics(const FlatChain& d, W& ws, const double* q, int muscle,
                                     double activation, bool world_axes) {
   if constexpr (W::kLarge) {
-    if (kFrames || d.muscles[muscle].special || PointOffsetsOn(ws, muscle)) {
+    if (kFrames || d.muscles[muscle].special) {
       return DynamicKinematics<true>(d, ws, q, muscle, activation, kFrames && world_axes);
     }
     return CoupledKinematics(d, ws, q, muscle, activation);
   } else {
-    if ((!kFrames || muscle >= 0) && (d.muscles[muscle].special || PointOffsetsOn(ws, muscle))) {
+    if ((!kFrames || muscle >= 0) && d.muscles[muscle].special) {
       return DynamicKinematics<kFrames>(d, ws, q, muscle, activation, world_axes);
     }
     if constexpr (kFrames) {
@@ -644,24 +642,33 @@ void SetPathPointOffsets(const Model& model, Data& data, int muscle,
     throw Error("SetPathPointOffsets: muscle '" + model.muscle(muscle).name +
                 "': a path point offset is not finite");
   }
-  // Offsets are in each point's link frame; the kernel places points in the frame of the
-  // movable joint before them, fixed joints folded in (FlatChain::links): turn them into it.
-  if (ws.rotations_muscle != muscle) {
+  // The Data's copy of the muscle (made by the first call for it), its path points at the
+  // model's positions plus the offsets. Offsets are in each point's link frame; the kernel
+  // places points in the frame of the movable joint before them, fixed joints folded in
+  // (FlatChain::links): turned into it.
+  if (!ws.moved_muscle || ws.moved_chain != d.id || ws.moved_index != muscle) {
+    ws.offset_muscle = -1;
+    if (ws.moved_muscle) {
+      *ws.moved_muscle = mu;
+    } else {
+      ws.moved_muscle = std::make_unique<FastMuscle>(mu);
+    }
     const std::vector<PathPoint>& path = model.muscle(muscle).path;
     ws.offset_rotations.resize(path.size());
     for (std::size_t i = 0; i < path.size(); ++i)
       ws.offset_rotations[i] = d.links.at(path[i].link).offset.linear();
-    ws.rotations_muscle = muscle;
+    ws.moved_chain = d.id;
+    ws.moved_index = muscle;
   }
-  ws.point_offsets.resize(static_cast<std::size_t>(mu.path_points));
   for (int i = 0; i < mu.path_points; ++i) {
     const std::size_t k = static_cast<std::size_t>(i);
-    ws.point_offsets[k] = ws.offset_rotations[k] * offsets.col(i);
+    ws.moved_muscle->points[k].position =
+        mu.points[k].position + ws.offset_rotations[k] * offsets.col(i);
   }
   ws.offset_muscle = muscle;
 }
 
-void ClearPathPointOffsets(Data& data) { data.impl().offset_muscle = -1; }
+void ClearPathPointOffsets(Data& data) { data.impl().offset_muscle = -1; }  // (the copy stays)
 
 const MuscleForceModel& ForceModelOf(const Model& model, int muscle) {
   const FlatChain& d = model.impl().flat;
@@ -704,7 +711,7 @@ ISOWRENCH_INLINE void EvaluateWith(const FlatChain& d, W& ws, const double* q, i
   if constexpr (W::kLarge) {  // (the kinematics and the solve out of line, each compiled once)
     valid = AnyKinematics<false>(d, ws, q, muscle, activation, false);
   } else {
-    valid = d.muscles[muscle].special || PointOffsetsOn(ws, muscle)
+    valid = d.muscles[muscle].special
                 ? DynamicKinematics<false>(d, ws, q, muscle, activation, false)
                 : Kinematics<false, false, kCoupled>(d, ws, q, muscle, activation, false);
   }

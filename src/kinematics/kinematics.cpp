@@ -101,18 +101,13 @@ std::vector<Eigen::Vector3d> MusclePathPoints(const Model& model, Data& ws,
                 model.name() + "'");
   }
   Data::Impl& b = RunKinematics(model, ws, q, -1, 1.0, true);
-  const FastMuscle& mu = model.impl().flat.muscles[muscle_index];
+  const FastMuscle& mu = EvaluatedMuscle(model.impl().flat, b, muscle_index);  // (moved points)
   const int n = mu.path_points;  // (not the wraps' tangent-point slots)
-  // (points moved by SetPathPointOffsets on this Data: placed as the engine places them)
-  const bool dynamic = mu.dynamic || PointOffsetsOn(b, muscle_index);
-  if (dynamic) {
-    PreparePathPoints(mu, q.data(), b);
-    AddPathPointOffsets(mu, b, muscle_index);
-  }
+  if (mu.dynamic) PreparePathPoints(mu, q.data(), b);
   std::vector<Eigen::Vector3d> out;
-  for (int k = 0; k < (dynamic ? b.active_count : n); ++k) {
-    const int i = dynamic ? b.active[k] : k;
-    const Eigen::Vector3d& local = dynamic ? b.local[i] : mu.points[i].position;
+  for (int k = 0; k < (mu.dynamic ? b.active_count : n); ++k) {
+    const int i = mu.dynamic ? b.active[k] : k;
+    const Eigen::Vector3d& local = mu.dynamic ? b.local[i] : mu.points[i].position;
     const int f = mu.points[i].frame;
     out.push_back(f < 0 ? local : Eigen::Vector3d(b.Frame(f) * local + ToEigen(b.origin[f])));
   }
