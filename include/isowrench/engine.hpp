@@ -108,14 +108,14 @@ WrenchResult Evaluate(const Model& model, Data& data, const Eigen::Ref<const Eig
 /// Moves the path points of muscle `muscle` in every later evaluation of that muscle through
 /// this Data, without rebuilding the Model (how uncertainty studies perturb attachments,
 /// docs/uncertainty.md "Muscle points"): point i of MuscleSpec::path is taken at its position
-/// plus offsets.col(i) (m, in the point's link frame; a moving point moves by the offset at
-/// every coordinate value; a conditional point when it is active). A wrapped muscle's wrap
+/// plus offsets.col(i) (m, in the point's link frame). A wrapped muscle's wrap
 /// surfaces stay where they are: only the path points move. One muscle at a time: a call
 /// replaces any offsets set before. ComputeKinematics, Evaluate and the kinematics functions
 /// (kinematics.hpp) that take this Data see the moved points; other muscles, other Datas and
-/// EvaluateBatch (which makes its own workspaces) do not. The muscle then runs the kernel of
-/// moving points (scalar kinematics, as a muscle with PathPoint::moving). Allocates on the
-/// first call only.
+/// EvaluateBatch (which makes its own workspaces) do not. The Data keeps a copy of the muscle
+/// with its points moved, which the same kernel runs (no other cost per evaluation); a moving
+/// point's offset adds to its position at every coordinate value, a conditional point's applies
+/// while it is active. Allocates on the first call for a muscle only.
 /// @throws Error for a Data made for another model, a muscle index out of range, offsets that
 ///         are not 3 x (the muscle's path points), or a non-finite offset.
 void SetPathPointOffsets(const Model& model, Data& data, int muscle,
