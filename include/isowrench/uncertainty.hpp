@@ -113,7 +113,8 @@ struct FitUncertainty {
 /// Read `isowrench fit --json` output: the chosen effects' parameters, standard errors and the
 /// joint correlation matrix. Supported effects: base_isotropic, base_per_axis,
 /// transducer_soft:<dof>, transducer_anisotropy, force_scale:<muscle>, gain:<axis>, crosstalk,
-/// misalignment, sensor_origin, sensor_offset, joint_offset:<coordinate>.
+/// misalignment, sensor_origin, sensor_offset, joint_offset:<coordinate>,
+/// attachment:<muscle>:<i> (path point offsets, as point:<muscle>:<i>).
 /// @throws Error naming the file for unreadable JSON, a fit of another model than `model`
 ///         ("... is a fit of model 'A', not of 'B'"), or an effect that cannot be sampled.
 FitUncertainty ReadFitUncertainty(const std::string& path, const Model& model);

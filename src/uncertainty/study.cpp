@@ -921,6 +921,32 @@ void ResolveFit(const FitUncertainty& fit, int group, const Model& model, int mu
     } else if (effect == "sensor_offset") {
       d.target = Target::kSensorOffset;
       d.index = std::max(0, AxisIndexOf(parameter));
+    } else if (effect.rfind("attachment:", 0) == 0) {
+      // attachment:<muscle>:<i>, dx dy dz (mm, the point's link frame): the identification
+      // moves MuscleSpec::path[i].position by them, as SetPathPointOffsets does.
+      const std::string rest = effect.substr(11);
+      const size_t colon = rest.rfind(':');
+      const std::string name = rest.substr(0, colon);
+      const std::string index = colon == std::string::npos ? "" : rest.substr(colon + 1);
+      const int axis = parameter == "dx" ? 0 : parameter == "dy" ? 1 : parameter == "dz" ? 2 : -1;
+      if (name != model.muscle(muscle).name) {
+        if (parameter == "dx")
+          notes.push_back(effect + " is of another muscle: it does not change this study's wrench");
+        d.target = Target::kNone;
+      } else {
+        const int n_points = static_cast<int>(model.muscle(muscle).path.size());
+        const bool number = !index.empty() && index.size() <= 6 &&
+                            index.find_first_not_of("0123456789") == std::string::npos;
+        const int point = number ? std::stoi(index) : -1;
+        if (point < 0 || point >= n_points || axis < 0) {
+          throw Error(what + ": muscle '" + name + "' has no path point '" + index +
+                      "' with a parameter '" + parameter + "' (" + std::to_string(n_points) +
+                      " path points; dx, dy, dz)");
+        }
+        d.target = Target::kPointOffset;
+        d.index = point * 3 + axis;
+        d.scale = 1e-3;
+      }
     } else if (effect.rfind("joint_offset:", 0) == 0) {
       d.target = Target::kAngle;
       d.index = model.JointIndex(effect.substr(13));

@@ -8,6 +8,8 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdio>
+#include <fstream>
 #include <string>
 #include <vector>
 
@@ -197,8 +199,10 @@ struct PointAxis {
 
 // Monte Carlo of path point perturbations against first-order propagation J_p Sigma J_p^T, J_p
 // by central differences of the engine on models rebuilt with the point moved (no hook).
+// x0: the axes' central offsets (m; empty: 0).
 void ExpectFirstOrder(const Model& model, const std::string& muscle,
-                      const std::vector<PointAxis>& axes, const UncertaintySpec& spec) {
+                      const std::vector<PointAxis>& axes, const UncertaintySpec& spec,
+                      Eigen::VectorXd x0 = Eigen::VectorXd()) {
   const int mu = model.MuscleIndex(muscle);
   const Eigen::VectorXd q0 = model.nominal_posture();
   UncertaintyOptions options;
@@ -208,9 +212,12 @@ void ExpectFirstOrder(const Model& model, const std::string& muscle,
   const PostureUncertainty& p = r.postures[0];
   ASSERT_EQ(p.valid, options.samples);
   const int k = static_cast<int>(axes.size());
+  if (x0.size() == 0) x0 = Eigen::VectorXd::Zero(k);
   const int n_points = static_cast<int>(model.muscle(mu).path.size());
   auto reading = [&](const Eigen::VectorXd& x) {
     Eigen::Matrix3Xd o = Eigen::Matrix3Xd::Zero(3, n_points);
+    for (int i = 0; i < k; ++i)
+      o(axes[static_cast<size_t>(i)].axis, axes[static_cast<size_t>(i)].point) += x0[i];
     for (int i = 0; i < k; ++i)
       o(axes[static_cast<size_t>(i)].axis, axes[static_cast<size_t>(i)].point) += x[i];
     const Model moved = Moved(model, mu, o);
@@ -250,6 +257,31 @@ void ExpectFirstOrder(const Model& model, const std::string& muscle,
     const QuantityStatistics& s = p.statistics[static_cast<size_t>(12 + part)];
     EXPECT_NEAR(s.sd, sd_ref, 5 * sd_ref / std::sqrt(2 * n) + 0.01 * sd_ref) << "|f|, |m| " << part;
   }
+}
+
+TEST(UncertaintyPoints, AFitsAttachmentIsSampledAsPointOffsets) {
+  // --from-fit: attachment:GP:0 (dx dy dz mm, the identification's MuscleSpec::path move) at
+  // its estimate (0.5, 0, -0.3) mm with its standard errors: the nominal is the model rebuilt
+  // with the point there, the sds the first-order propagation around it.
+  const Model model = PointsRat5();
+  const std::string path = ::testing::TempDir() + "/attachment_fit.json";
+  {
+    std::ofstream out(path);
+    out << R"({"model": "rat_hindlimb_5dof", "chosen": [
+      {"effect": "attachment:GP:0", "parameters": [
+        {"name": "dx", "value": 0.5, "standard_error": 0.1, "log10_standard_error": 0, "unit": "mm"},
+        {"name": "dy", "value": 0, "standard_error": 0.06, "log10_standard_error": 0, "unit": "mm"},
+        {"name": "dz", "value": -0.3, "standard_error": 0.08, "log10_standard_error": 0, "unit": "mm"}]}],
+      "correlations": {"parameters": ["attachment:GP:0.dx", "attachment:GP:0.dy", "attachment:GP:0.dz"],
+                       "matrix": [[1, 0, 0], [0, 1, 0], [0, 0, 1]]}})";
+  }
+  UncertaintySpec spec;
+  spec.has_fit = true;
+  spec.fit = ReadFitUncertainty(path, model);
+  std::remove(path.c_str());
+  Eigen::VectorXd x0(3);
+  x0 << 0.5e-3, 0.0, -0.3e-3;
+  ExpectFirstOrder(model, "GP", {{0, 0, 0.1}, {0, 1, 0.06}, {0, 2, 0.08}}, spec, x0);
 }
 
 TEST(UncertaintyPoints, SmallPerturbationsMatchFirstOrderPropagationThroughRebuiltModels) {
