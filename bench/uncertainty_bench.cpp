@@ -1,6 +1,6 @@
 // Uncertainty studies (issue 30; docs/performance.md "Uncertainty studies"): the stiffness-only
-// Monte Carlo against EvaluateBatch on the same stiffness sets, and angle perturbations on the
-// 5-dof rat, in evaluations and samples per second.
+// Monte Carlo against EvaluateBatch on the same stiffness sets, and angle and muscle point
+// perturbations on the 5-dof rat, in evaluations and samples per second.
 
 #include <benchmark/benchmark.h>
 
@@ -124,6 +124,52 @@ BENCHMARK(BM_UncertaintyAngles)
     ->Args({2, 0})
     ->Args({2, 1})
     ->Args({1, 1})
+    ->MeasureProcessCPUTime()
+    ->UseRealTime()
+    ->Unit(benchmark::kMillisecond);
+
+// Muscle path points of the 5-dof rat's GP (origin and insertion, normal, 1 mm on each axis):
+// every evaluation moves the points through SetPathPointOffsets (the moving-point kernel, no
+// Model rebuilt). state.range(1): with the five angles (2 deg) too. Samples per second is the
+// issue's measure.
+void BM_UncertaintyPoints(benchmark::State& state) {
+  const isowrench::Model& model = Rat5();
+  isowrench::UncertaintySpec spec;
+  for (const char* point : {"point:GP:0", "point:GP:1"}) {
+    isowrench::UncertainInput in;
+    in.name = point;
+    in.sd = {1.0};
+    spec.inputs.push_back(in);
+  }
+  if (state.range(1) != 0) {
+    for (const std::string& c : model.joint_names()) {
+      isowrench::UncertainInput in;
+      in.name = "angle:" + c;
+      in.sd = {2.0};
+      spec.inputs.push_back(in);
+    }
+  }
+  isowrench::UncertaintyOptions options;
+  options.samples = kSamples;
+  options.threads = static_cast<int>(state.range(0));
+  options.sobol = state.range(2) != 0;
+  long evaluations = 0;
+  for (auto _ : state) {
+    const isowrench::UncertaintyResult r =
+        isowrench::RunUncertainty(model, "GP", model.nominal_posture(), spec, options);
+    evaluations = r.evaluations;
+    benchmark::DoNotOptimize(r.postures.data());
+  }
+  state.SetItemsProcessed(state.iterations() * evaluations);
+  state.counters["samples_per_s"] = benchmark::Counter(
+      static_cast<double>(state.iterations() * kSamples), benchmark::Counter::kIsRate);
+}
+// Arguments: threads, angles too, Sobol indices.
+BENCHMARK(BM_UncertaintyPoints)
+    ->Args({2, 0, 0})
+    ->Args({2, 0, 1})
+    ->Args({1, 0, 1})
+    ->Args({2, 1, 1})
     ->MeasureProcessCPUTime()
     ->UseRealTime()
     ->Unit(benchmark::kMillisecond);

@@ -107,6 +107,25 @@ WrenchResult Evaluate(const Model& model, Data& data, const Eigen::Ref<const Eig
                       int muscle, const StiffnessSet& stiffness, double activation = 1.0,
                       const SolveOptions& options = {});
 
+/// Moves the path points of muscle `muscle` in every later evaluation of that muscle through
+/// this Data, without rebuilding the Model (how uncertainty studies perturb attachments,
+/// docs/uncertainty.md "Muscle points"): point i of MuscleSpec::path is taken at its position
+/// plus offsets.col(i) (m, in the point's link frame). A wrapped muscle's wrap
+/// surfaces stay where they are: only the path points move. One muscle at a time: a call
+/// replaces any offsets set before. ComputeKinematics, Evaluate and the kinematics functions
+/// (kinematics.hpp) that take this Data see the moved points; other muscles, other Datas and
+/// EvaluateBatch (which makes its own workspaces) do not. The Data keeps a copy of the muscle
+/// with its points moved, which the same kernel runs (no other cost per evaluation); a moving
+/// point's offset adds to its position at every coordinate value, a conditional point's applies
+/// while it is active. Allocates on the first call for a muscle only.
+/// @throws Error for a Data made for another model, a muscle index out of range, offsets that
+///         are not 3 x (the muscle's path points), or a non-finite offset.
+void SetPathPointOffsets(const Model& model, Data& data, int muscle,
+                         const Eigen::Ref<const Eigen::Matrix3Xd>& offsets);
+
+/// Removes the offsets of SetPathPointOffsets: later evaluations use the model's points.
+void ClearPathPointOffsets(Data& data);
+
 /// The statics on raw matrices (J: 6 x m rows [v; w] in transducer axes, s_t N/m and N·m/rad,
 /// s_p and tau with m entries), for lab tools with their own kinematics. m must equal the
 /// workspace's dof count; bad sizes or values give kInvalidInput. No allocation.

@@ -23,9 +23,11 @@
 /// V the variance over A and B. N (d + 2) evaluations for d groups; without Sobol indices, N.
 ///
 /// How inputs reach the engine: stiffness draws become StiffnessSets, angle draws postures,
-/// force and activation factors scale W (W is linear in tau), and misalignment, sensor origin,
-/// calibration and offset act on W afterwards (the reading). Only the public engine API is
-/// used, so force models and muscle paths of later stages apply unchanged.
+/// point draws path point offsets (SetPathPointOffsets), force factors scale W (W is linear in
+/// tau, and tau in max_force), the activation scales W for the constant force model and is
+/// evaluated by the engine for the others, and misalignment, sensor origin, calibration and
+/// offset act on W afterwards (the reading). Only the public engine API is used, so force models
+/// and muscle paths of later stages apply unchanged.
 
 #include <Eigen/Core>
 #include <array>
@@ -75,9 +77,17 @@ const char* DistributionName(InputDistribution distribution);
 ///  - crosstalk (all 30 terms) or crosstalk:<reading>_<source>: off-diagonal terms Ê of the
 ///    calibration, normal, mean 0 [1, normalised as the fit's: E = D Ê D^-1, D = diag(1, 1, 1,
 ///    L, L, L), L = Model::chain_length()]. Reading = (I + E) W (docs/identification.md).
-///  - point:<muscle>:<index> (0 = origin): muscle path point moved in its link's frame, each axis
-///    normal, mean 0; sd one value or three [mm]. Needs the engine's point offsets (not yet
-///    available: refused with an Error saying so).
+///  - point:<muscle>:<index> (0 = origin, MuscleSpec::path order) of the study's muscle: the
+///    path point moved in its link's frame, each axis normal (mean 0) or uniform offsets; sd
+///    one value or three (x y z) [mm]; one Sobol group. point:<muscle>:<index>:<axis> (x, y, z):
+///    one axis, its own group. Evaluated through SetPathPointOffsets (engine.hpp): the model is
+///    not rebuilt; a wrapped muscle's wraps stay, its path points move.
+///
+/// A muscle with a force model (thelen2003, millard2012): max_force factors scale W (the force
+/// is max_force times a function of the length and activation); the activation input is
+/// evaluated by the engine at each sample's activation (F is not proportional to it), and a
+/// sampled activation outside [0, 1] makes that sample invalid (a uniform beyond [0, 1] is
+/// refused).
 struct UncertainInput {
   std::string name;
   InputDistribution distribution = InputDistribution::kNormal;
@@ -103,7 +113,8 @@ struct FitUncertainty {
 /// Read `isowrench fit --json` output: the chosen effects' parameters, standard errors and the
 /// joint correlation matrix. Supported effects: base_isotropic, base_per_axis,
 /// transducer_soft:<dof>, transducer_anisotropy, force_scale:<muscle>, gain:<axis>, crosstalk,
-/// misalignment, sensor_origin, sensor_offset, joint_offset:<coordinate>.
+/// misalignment, sensor_origin, sensor_offset, joint_offset:<coordinate>,
+/// attachment:<muscle>:<i> (path point offsets, as point:<muscle>:<i>).
 /// @throws Error naming the file for unreadable JSON, a fit of another model than `model`
 ///         ("... is a fit of model 'A', not of 'B'"), or an effect that cannot be sampled.
 FitUncertainty ReadFitUncertainty(const std::string& path, const Model& model);
@@ -242,10 +253,12 @@ struct UncertaintyResult {
 /// threads.
 class UncertaintyStudy {
  public:
-  /// @throws Error for an unknown input name (with the closest name), a negative or non-finite
-  ///         sd, an empty support (lower >= upper, or <= 0 for loguniform), an input the model
-  ///         cannot take (a released dof with a lognormal, no base dofs, another muscle), a
-  ///         posture of the wrong size, samples <= 0.
+  /// @throws Error for an unknown input name, coordinate, muscle, path point or axis (with the
+  ///         closest name), a negative or non-finite sd, an empty support (lower >= upper, or
+  ///         <= 0 for loguniform), an input the model cannot take (a released dof with a
+  ///         lognormal, no base dofs, another muscle, two inputs moving the same point axis,
+  ///         an activation outside [0, 1] for a force model), a posture of the wrong size,
+  ///         samples <= 0.
   UncertaintyStudy(const Model& model, const std::string& muscle, const Eigen::MatrixXd& postures,
                    const UncertaintySpec& spec, const UncertaintyOptions& options);
   ~UncertaintyStudy();

@@ -111,3 +111,56 @@ def test_fit_sessions_pass_the_fit_options(rat, tmp_path):
     assert r["verdict"] == single["verdict"] == "explained"
     assert r["chosen"][0]["parameters"][0]["value"] == single["chosen"][0]["parameters"][0]["value"]
     assert len(r["rounds"]) == 1
+
+
+POINT_INPUTS = ["point:GP:0=normal:1", "point:GP:1:y=normal:0.5", "angle:knee_rz=normal:2"]
+
+
+def test_point_inputs_equal_the_cli_and_the_study_bit_for_bit(rat, cli):
+    # Muscle path points (mm, the point's link frame): the engine's point offsets, no model
+    # rebuilt per sample; the numbers of the CLI, and of isowrench.study on any split.
+    r = rat.uncertainty("GP", inputs=POINT_INPUTS, samples=3000, seed=5, threads=1)
+    args = ["uncertainty", URDF / "rat_hindlimb_5dof.urdf", "--samples", 3000, "--seed", 5,
+            "--json"]
+    for text in POINT_INPUTS:
+        args += ["--input", text]
+    assert without_seconds(cli(*args)) == without_seconds(r)
+    assert r["groups"] == ["point:GP:0", "point:GP:1:y", "angle:knee_rz"]
+    for threads, per_task in [(2, 1), (3, 2)]:
+        s = study.uncertainty(rat, "GP", inputs=POINT_INPUTS, samples=3000, seed=5,
+                              threads=threads, blocks_per_task=per_task)
+        assert without_seconds(s) == without_seconds(r), (threads, per_task)
+    # The origin's 1 mm moves the wrench more than the insertion's 0.5 mm along y.
+    first = r["postures"][0]["sobol"]["first"]
+    assert first["point:GP:0"]["fx"] > first["point:GP:1:y"]["fx"]
+    with pytest.raises(ValueError, match=r"unknown path point '2' \(did you mean '1'\?\)"):
+        rat.uncertainty("GP", inputs=["point:GP:2=normal:1"])
+    with pytest.raises(ValueError, match=r"unknown axis 'q'"):
+        rat.uncertainty("GP", inputs=[{"name": "point:GP:0:q", "sd": 1}])
+
+
+def test_a_force_model_muscle_is_studied_at_each_sampled_activation(cli):
+    # Millard2012 with a compliant tendon: W is not proportional to the activation, so each
+    # sample's activation goes through the engine. Model.uncertainty equals the CLI and
+    # isowrench.study (the model shipped as URDF text keeps its force model).
+    limb_path = URDF.parent / "tests" / "data" / "force_model_limb.urdf"
+    limb = isowrench.load(str(limb_path))
+    inputs = ["activation=uniform:0.3:0.7", "max_force=normal:0.1"]
+    r = limb.uncertainty("GP_compliant", inputs=inputs, samples=2500, activation=0.5)
+    args = ["uncertainty", limb_path, "--muscle", "GP_compliant", "--activation", 0.5,
+            "--samples", 2500, "--json"]
+    for text in inputs:
+        args += ["--input", text]
+    assert without_seconds(cli(*args)) == without_seconds(r)
+    s = study.uncertainty(limb, "GP_compliant", inputs=inputs, samples=2500, activation=0.5,
+                          threads=2)
+    assert without_seconds(s) == without_seconds(r)
+    p = r["postures"][0]
+    assert p["counts"]["valid"] == 5000
+    # The mean lies between the wrenches at activations 0.3 and 0.7 (monotone in a here).
+    q = limb.default_posture
+    w3 = limb.wrench("GP_compliant", q, activation=0.3).transducer[0]
+    w7 = limb.wrench("GP_compliant", q, activation=0.7).transducer[0]
+    assert min(w3, w7) < p["quantities"]["fx"]["mean"] < max(w3, w7)
+    with pytest.raises(ValueError, match=r"activation \[0.5, 1.2\] leaves \[0, 1\]"):
+        limb.uncertainty("GP_compliant", inputs=["activation=uniform:0.5:1.2"])

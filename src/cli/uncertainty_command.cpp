@@ -9,6 +9,7 @@
 #include "cli/command.hpp"
 #include "isowrench/error.hpp"
 #include "isowrench/io.hpp"
+#include "isowrench/muscle.hpp"
 #include "isowrench/posture.hpp"
 #include "isowrench/uncertainty.hpp"
 
@@ -40,6 +41,10 @@ std::string InputText(const UncertainInput& in, const Model& model) {
     unit = model.joint(model.JointIndex(c)).type == JointType::kPrismatic ? " mm" : " deg";
   } else if (kind == "misalignment") {
     unit = " deg";
+  } else if (kind == "point") {
+    unit = " mm";
+  } else if (kind == "activation") {
+    unit = "";
   } else if (kind == "transducer_stiffness" || kind == "base_stiffness" ||
              kind == "joint_stiffness") {
     bool rotational = false;
@@ -70,11 +75,15 @@ std::string Percent(double fraction) { return util::FormatNumber(100.0 * fractio
 void PrintText(const UncertaintyResult& r, const UncertaintySpec& spec, const Model& model,
                const UncertaintyCommandOptions& o) {
   const int w = 14;
+  const MuscleSpec& spec_muscle = model.muscle(model.MuscleIndex(r.muscle));
   std::cout << "isowrench uncertainty: " << model.name() << " (" << o.model.urdf << "), muscle "
             << r.muscle << " ("
-            << util::FormatNumber(
-                   o.model.activation * model.muscle(model.MuscleIndex(r.muscle)).max_force, 6)
-            << " N)\n";
+            << (spec_muscle.force.model == ForceModelType::kConstant
+                    ? util::FormatNumber(o.model.activation * spec_muscle.max_force, 6) + " N"
+                    : std::string(ForceModelName(spec_muscle.force.model)) + ", max_force " +
+                          util::FormatNumber(spec_muscle.max_force, 6) + " N, activation " +
+                          util::FormatNumber(o.model.activation, 6))
+            << ")\n";
   std::cout << "  inputs       ";
   for (size_t i = 0; i < spec.inputs.size(); ++i)
     std::cout << (i ? "\n               " : "") << InputText(spec.inputs[i], model);
@@ -192,7 +201,9 @@ const bool kUncertaintyRegistered = RegisterCommand({
                      "angle:hip_rz=normal:2 (deg), misalignment=normal:1,1,2 (deg), "
                      "transducer_stiffness:x=lognormal:0.35 (sd of ln), "
                      "base_stiffness=loguniform:1e4:1e7 (N/m), max_force=normal:0.2 (x), "
-                     "gain:fx=normal:0.01 (x), crosstalk=normal:0.005 (normalised)");
+                     "gain:fx=normal:0.01 (x), crosstalk=normal:0.005 (normalised), "
+                     "point:GP:0=normal:1 (mm, each axis of path point 0 of muscle GP; "
+                     "point:GP:0:x one axis)");
       app.add_option("--from-fit", o->from_fit,
                      "The parameters and covariance of `isowrench fit --json` output, sampled as "
                      "a multivariate normal (a fit of another model is refused)");

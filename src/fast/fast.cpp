@@ -458,7 +458,8 @@ ISOWRENCH_INLINE bool Kinematics(const FlatChain& d, W& ws, const double* q, int
                                  double activation, bool world_axes) {
   assert(ws.m == d.n);
   assert(muscle < static_cast<int>(d.muscles.size()) && (kFrames || muscle >= 0));
-  const FastMuscle& mu = (kFrames && muscle < 0) ? kNoMuscle : d.muscles[muscle];
+  // (EvaluatedMuscle: this Data's copy when SetPathPointOffsets moved the muscle's points)
+  const FastMuscle& mu = (kFrames && muscle < 0) ? kNoMuscle : EvaluatedMuscle(d, ws, muscle);
   if (kDynamic) PreparePathPoints(mu, q, ws);
   if (kCoupled && d.coupled) {
     Couple(d, ws, q);
@@ -641,6 +642,59 @@ bool ComputeKinematicsWithFrames(const FlatChain& chain, Data::Impl& workspace, 
     return AnyKinematics<true>(chain, ws, q, muscle, activation, world_axes);
   });
 }
+
+void SetPathPointOffsets(const Model& model, Data& data, int muscle,
+                         const Eigen::Ref<const Eigen::Matrix3Xd>& offsets) {
+  const FlatChain& d = model.impl().flat;
+  Data::Impl& ws = data.impl();
+  if (ws.chain_id != d.id) {
+    throw Error("SetPathPointOffsets: this Data was made for " +
+                (ws.model_name.empty() ? std::string("a raw-matrix solve")
+                                       : "model '" + ws.model_name + "'") +
+                ", not for model '" + d.name + "': make a Data(model)");
+  }
+  if (muscle < 0 || muscle >= static_cast<int>(d.muscles.size())) {
+    throw Error("SetPathPointOffsets: muscle index " + std::to_string(muscle) +
+                " is out of range for model '" + d.name + "' (" + std::to_string(d.muscles.size()) +
+                " muscles)");
+  }
+  const FastMuscle& mu = d.muscles[static_cast<std::size_t>(muscle)];
+  if (offsets.cols() != mu.path_points) {
+    throw Error("SetPathPointOffsets: muscle '" + model.muscle(muscle).name + "' has " +
+                std::to_string(mu.path_points) + " path points, got offsets for " +
+                std::to_string(offsets.cols()));
+  }
+  if (!offsets.allFinite()) {
+    throw Error("SetPathPointOffsets: muscle '" + model.muscle(muscle).name +
+                "': a path point offset is not finite");
+  }
+  // The Data's copy of the muscle (made by the first call for it), its path points at the
+  // model's positions plus the offsets. Offsets are in each point's link frame; the kernel
+  // places points in the frame of the movable joint before them, fixed joints folded in
+  // (FlatChain::links): turned into it.
+  if (!ws.moved_muscle || ws.moved_chain != d.id || ws.moved_index != muscle) {
+    ws.offset_muscle = -1;
+    if (ws.moved_muscle) {
+      *ws.moved_muscle = mu;
+    } else {
+      ws.moved_muscle = std::make_unique<FastMuscle>(mu);
+    }
+    const std::vector<PathPoint>& path = model.muscle(muscle).path;
+    ws.offset_rotations.resize(path.size());
+    for (std::size_t i = 0; i < path.size(); ++i)
+      ws.offset_rotations[i] = d.links.at(path[i].link).offset.linear();
+    ws.moved_chain = d.id;
+    ws.moved_index = muscle;
+  }
+  for (int i = 0; i < mu.path_points; ++i) {
+    const std::size_t k = static_cast<std::size_t>(i);
+    ws.moved_muscle->points[k].position =
+        mu.points[k].position + ws.offset_rotations[k] * offsets.col(i);
+  }
+  ws.offset_muscle = muscle;
+}
+
+void ClearPathPointOffsets(Data& data) { data.impl().offset_muscle = -1; }  // (the copy stays)
 
 const MuscleForceModel& ForceModelOf(const Model& model, int muscle) {
   const FlatChain& d = model.impl().flat;

@@ -228,6 +228,17 @@ struct Data::Impl {
   Buffer<int> active;
   int active_count = 0;
   Buffer<double> moving_slope;
+  /// SetPathPointOffsets (engine.hpp): the muscle whose path points are moved (-1: none) and
+  /// this Data's copy of it (muscle `moved_index` of chain `moved_chain`), its path points at
+  /// the model's positions plus the offsets (turned into each point's kernel frame by
+  /// `offset_rotations`, the link frame -> kernel frame rotations of FlatChain::links, fixed
+  /// joints folded in). EvaluatedMuscle picks it: the kernel, the moving points, the wraps and
+  /// the force stage then run on the copy as on the model's muscle.
+  int offset_muscle = -1;
+  std::uint64_t moved_chain = 0;
+  int moved_index = -1;
+  std::unique_ptr<FastMuscle> moved_muscle;
+  std::vector<Eigen::Matrix3d> offset_rotations;
   /// Muscles with wraps (FastMuscle::wraps): their path's buffers (made with the Data when its
   /// model has a wrap, else at the first wrapped muscle).
   std::unique_ptr<WrapWorkspace> wrap;
@@ -300,6 +311,16 @@ struct LargeWorkspace final : Data::Impl {
   Eigen::MatrixXd K_full;
   Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eigen;
 };
+
+/// The muscle an evaluation of muscle `muscle` (>= 0) of chain `d` runs: the model's, or the
+/// Data's copy with its path points moved (SetPathPointOffsets). One comparison when no
+/// offsets are set (offset_muscle -1); a Data holding offsets for another model's muscle
+/// (CheckWorkspace lets a Data run a chain it can hold) uses the model's.
+inline const FastMuscle& EvaluatedMuscle(const FlatChain& d, const Data::Impl& ws, int muscle) {
+  if (__builtin_expect(ws.offset_muscle == muscle, 0) && ws.moved_chain == d.id)
+    return *ws.moved_muscle;
+  return d.muscles[static_cast<std::size_t>(muscle)];
+}
 
 /// Moving and conditional path points (src/fast/path_points.cpp), for a muscle with
 /// FastMuscle::dynamic. Before the kernel: each point's position in its frame (ws.local), the

@@ -101,7 +101,7 @@ std::vector<Eigen::Vector3d> MusclePathPoints(const Model& model, Data& ws,
                 model.name() + "'");
   }
   Data::Impl& b = RunKinematics(model, ws, q, -1, 1.0, true);
-  const FastMuscle& mu = model.impl().flat.muscles[muscle_index];
+  const FastMuscle& mu = EvaluatedMuscle(model.impl().flat, b, muscle_index);  // (moved points)
   const int n = mu.path_points;  // (not the wraps' tangent-point slots)
   if (mu.dynamic) PreparePathPoints(mu, q.data(), b);
   std::vector<Eigen::Vector3d> out;

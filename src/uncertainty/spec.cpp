@@ -210,7 +210,7 @@ bool SupportedFitEffect(const std::string& id) {
   static const char* kPrefixes[] = {
       "base_isotropic", "base_per_axis", "transducer_soft:", "transducer_anisotropy",
       "force_scale:",   "gain:",         "crosstalk",        "misalignment",
-      "sensor_origin",  "sensor_offset", "joint_offset:"};
+      "sensor_origin",  "sensor_offset", "joint_offset:",    "attachment:"};
   for (const char* p : kPrefixes) {
     if (id.rfind(p, 0) == 0) return true;
   }
@@ -240,10 +240,11 @@ FitUncertainty ReadFitUncertainty(const std::string& path, const Model& model) {
   for (const nlohmann::json& effect : j["chosen"]) {
     const std::string id = effect.value("effect", std::string());
     if (!SupportedFitEffect(id)) {
-      throw Error(path + ": effect '" + id +
-                  "' cannot be sampled by `uncertainty` yet (supported: base_isotropic, "
-                  "base_per_axis, transducer_soft, transducer_anisotropy, force_scale, gain, "
-                  "crosstalk, misalignment, sensor_origin, sensor_offset, joint_offset)");
+      throw Error(
+          path + ": effect '" + id +
+          "' cannot be sampled by `uncertainty` yet (supported: base_isotropic, "
+          "base_per_axis, transducer_soft, transducer_anisotropy, force_scale, gain, "
+          "crosstalk, misalignment, sensor_origin, sensor_offset, joint_offset, attachment)");
     }
     for (const nlohmann::json& p : effect.at("parameters")) {
       const std::string name = id + "." + p.at("name").get<std::string>();

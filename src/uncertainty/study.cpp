@@ -63,6 +63,7 @@ enum class Target {
   kSensorOrigin,              // index: axis
   kSensorOffset,              // index: axis
   kTransducerRotationFactor,  // krx kry krz times the value
+  kPointOffset,               // index: point * 3 + axis (the study's muscle, m)
   kNone,                      // sampled, changes nothing here (a fit parameter of another muscle)
 };
 
@@ -112,6 +113,9 @@ struct RowInputs {
   Matrix6d crosstalk = Matrix6d::Zero();  // normalised Ê
   Eigen::Vector3d origin = Eigen::Vector3d::Zero();
   Vector6d offset = Vector6d::Zero();
+  // Path point offsets of the study's muscle (m, each point's link frame; 3 x path points),
+  // handed to the engine by SetPathPointOffsets (point inputs only).
+  Eigen::Matrix3Xd points;
 };
 
 std::uint64_t Fnv(std::uint64_t h, const void* data, size_t size) {
@@ -317,8 +321,17 @@ struct UncertaintyStudy::Impl {
   Eigen::MatrixXd fit_cholesky;  // over the fit's parameters
   Eigen::VectorXd fit_mean;
   std::vector<int> fit_dims;  // dims of the fit, in parameter order
-  bool kinematic = false;     // some dimension changes the posture
-  bool has_post = false;      // some dimension acts on the reading
+  // Rows are evaluated one by one (ComputeKinematics + SolveStatics), not as stiffness sets of
+  // the batch: some dimension changes the posture or the muscle's path points, or the
+  // activation of a muscle with a force model (whose F(L_MT, a) is not proportional to a).
+  bool kinematic = false;
+  bool has_points = false;  // some dimension moves a path point (RowInputs::points)
+  int path_points = 0;      // the study's muscle's path points
+  // The muscle has a force model (thelen2003, millard2012): the engine evaluates F(L_MT, a) at
+  // each row's activation (EngineActivation) and W is scaled by the force factors only
+  // (WScale); with the constant model W is computed at activation 1 and scaled by both.
+  bool force_model = false;
+  bool has_post = false;  // some dimension acts on the reading
   double nominal_activation = 1.0;
   Vector6d reach_scale = Vector6d::Ones();  // D = diag(1, 1, 1, L, L, L)
   long samples = 0;
@@ -344,6 +357,10 @@ struct UncertaintyStudy::Impl {
   double leg_length = 0.0;
 
   int G() const { return static_cast<int>(groups.size()); }
+  // The activation the engine is called with for a row of activation a (see force_model), and
+  // the factor on its W.
+  double EngineActivation(double a) const { return force_model ? a : 1.0; }
+  double WScale(double factor, double a) const { return force_model ? factor : factor * a; }
   int Rows() const { return options.sobol ? G() + 2 : 1; }
   int RecordSize() const { return kCounts + kQ * kPerQuantity + 2 * G() * kQ; }
 
@@ -410,6 +427,7 @@ void UncertaintyStudy::Impl::Apply(const Dimension& d, double v, RowInputs& row)
       break;
     case Target::kSensorOrigin: row.origin[d.index] = v; break;
     case Target::kSensorOffset: row.offset[d.index] = v; break;
+    case Target::kPointOffset: row.points(d.index % 3, d.index / 3) += v; break;
     case Target::kNone: break;
   }
 }
@@ -419,6 +437,7 @@ void UncertaintyStudy::Impl::Nominal(RowInputs& row) const {
   if (kinematic || row.dq.size() == 0) row.dq.setZero(model.dof_count());
   row.factor = 1.0;
   row.activation = nominal_activation;
+  if (has_points) row.points.setZero(3, path_points);
   if (!has_post) return;  // the reading terms are never read
   row.rotation.setZero();
   row.gain.setOnes();
@@ -433,6 +452,7 @@ void UncertaintyStudy::Impl::CopyRow(const RowInputs& from, RowInputs& to) const
   if (kinematic) to.dq = from.dq;
   to.factor = from.factor;
   to.activation = from.activation;
+  if (has_points) to.points = from.points;
   if (!has_post) return;
   to.rotation = from.rotation;
   to.gain = from.gain;
@@ -480,7 +500,7 @@ void UncertaintyStudy::Impl::Assemble(const double* values_a, const double* valu
 
 int UncertaintyStudy::Impl::Quantities(const PostureData& pd, const Vector6d& W1,
                                        const RowInputs& row, double* y, bool world) const {
-  Vector6d W = (row.factor * row.activation) * W1;
+  Vector6d W = WScale(row.factor, row.activation) * W1;
   if (has_post) {
     // Misalignment: readings in axes turned by R = exp([r]x): R^T W.
     const double angle = row.rotation.norm();
@@ -759,16 +779,69 @@ void ResolveInput(const UncertainInput& in, int group, const Model& model, int m
       offsets(Target::kCrosstalk, i * 6 + k, 1, 1.0);
     }
   } else if (kind == "point") {
-    throw Error(what +
-                ": muscle point perturbations need the engine's per-evaluation point "
-                "offsets, which are not available yet (docs/uncertainty.md \"Muscle "
-                "points\")");
+    // point:<muscle>:<index> (three axes, one group) or point:<muscle>:<index>:<axis>.
+    std::vector<std::string> parts;
+    for (size_t start = 0;;) {
+      const size_t next = arg.find(':', start);
+      parts.push_back(arg.substr(start, next == std::string::npos ? next : next - start));
+      if (next == std::string::npos) break;
+      start = next + 1;
+    }
+    if (arg.empty() || parts.size() < 2 || parts.size() > 3) {
+      throw Error(what + ": name a path point as point:<muscle>:<index> (all three axes) or " +
+                  "point:<muscle>:<index>:<axis> (x, y or z), e.g. point:" +
+                  model.muscle(muscle).name + ":0 (the origin)");
+    }
+    const std::string& muscle_name = parts[0];
+    std::vector<std::string> muscles;
+    for (int i = 0; i < model.muscle_count(); ++i) muscles.push_back(model.muscle(i).name);
+    if (std::find(muscles.begin(), muscles.end(), muscle_name) == muscles.end()) {
+      throw Error(what + ": unknown muscle '" + muscle_name + "'" +
+                  DidYouMean(muscle_name, muscles) + " in model '" + model.name() + "'");
+    }
+    if (muscle_name != model.muscle(muscle).name) {
+      throw Error(what + ": the study is of muscle '" + model.muscle(muscle).name +
+                  "'; a path point of '" + muscle_name + "' does not change its wrench");
+    }
+    const int n_points = static_cast<int>(model.muscle(muscle).path.size());
+    const std::string& index_text = parts[1];
+    int point = -1;
+    const bool number = !index_text.empty() && index_text.size() <= 6 &&
+                        index_text.find_first_not_of("0123456789") == std::string::npos;
+    if (number) point = std::stoi(index_text);
+    if (point < 0 || point >= n_points) {
+      std::vector<std::string> indices;
+      for (int i = 0; i < n_points; ++i) indices.push_back(std::to_string(i));
+      // The nearest index for a number, else the closest spelling.
+      const std::string hint = point >= n_points
+                                   ? " (did you mean '" + std::to_string(n_points - 1) + "'?)"
+                                   : DidYouMean(index_text, indices);
+      throw Error(what + ": unknown path point '" + index_text + "'" + hint + ": muscle '" +
+                  muscle_name + "' has " + std::to_string(n_points) +
+                  " path points, 0 (origin) to " + std::to_string(n_points - 1) + " (insertion)");
+    }
+    int axis = -1;
+    if (parts.size() == 3) {
+      const std::vector<std::string> axes = {"x", "y", "z"};
+      for (int k = 0; k < 3; ++k)
+        if (parts[2] == axes[static_cast<size_t>(k)]) axis = k;
+      if (axis < 0) {
+        throw Error(what + ": unknown axis '" + parts[2] + "'" + DidYouMean(parts[2], axes) +
+                    " (x y z of the point's link frame)");
+      }
+    }
+    // Normal (or uniform) offsets in mm, mean 0, in the point's link frame.
+    if (axis >= 0) {
+      offsets(Target::kPointOffset, point * 3 + axis, 1, 1e-3);
+    } else {
+      offsets(Target::kPointOffset, point * 3, 3, 1e-3);
+    }
   } else {
     throw Error(
         "unknown uncertain input '" + name + "'" + DidYouMean(kind, kinds) +
         " (inputs: transducer_stiffness:<dof>, base_stiffness, joint_stiffness:<coordinate>, "
         "angle:<coordinate>, max_force, activation, misalignment, gain:<axis>, crosstalk, "
-        "point:<muscle>:<index>)");
+        "point:<muscle>:<index>[:<axis>])");
   }
 }
 
@@ -848,6 +921,32 @@ void ResolveFit(const FitUncertainty& fit, int group, const Model& model, int mu
     } else if (effect == "sensor_offset") {
       d.target = Target::kSensorOffset;
       d.index = std::max(0, AxisIndexOf(parameter));
+    } else if (effect.rfind("attachment:", 0) == 0) {
+      // attachment:<muscle>:<i>, dx dy dz (mm, the point's link frame): the identification
+      // moves MuscleSpec::path[i].position by them, as SetPathPointOffsets does.
+      const std::string rest = effect.substr(11);
+      const size_t colon = rest.rfind(':');
+      const std::string name = rest.substr(0, colon);
+      const std::string index = colon == std::string::npos ? "" : rest.substr(colon + 1);
+      const int axis = parameter == "dx" ? 0 : parameter == "dy" ? 1 : parameter == "dz" ? 2 : -1;
+      if (name != model.muscle(muscle).name) {
+        if (parameter == "dx")
+          notes.push_back(effect + " is of another muscle: it does not change this study's wrench");
+        d.target = Target::kNone;
+      } else {
+        const int n_points = static_cast<int>(model.muscle(muscle).path.size());
+        const bool number = !index.empty() && index.size() <= 6 &&
+                            index.find_first_not_of("0123456789") == std::string::npos;
+        const int point = number ? std::stoi(index) : -1;
+        if (point < 0 || point >= n_points || axis < 0) {
+          throw Error(what + ": muscle '" + name + "' has no path point '" + index +
+                      "' with a parameter '" + parameter + "' (" + std::to_string(n_points) +
+                      " path points; dx, dy, dz)");
+        }
+        d.target = Target::kPointOffset;
+        d.index = point * 3 + axis;
+        d.scale = 1e-3;
+      }
     } else if (effect.rfind("joint_offset:", 0) == 0) {
       d.target = Target::kAngle;
       d.index = model.JointIndex(effect.substr(13));
@@ -876,16 +975,18 @@ UncertaintyStudy::UncertaintyStudy(const Model& model, const std::string& muscle
   if (options.threads < 1)
     throw Error("uncertainty: threads " + std::to_string(options.threads) + " must be >= 1");
   if (!std::isfinite(options.activation)) throw Error("uncertainty: activation must be finite");
-  // The study scales W linearly with the activation and the force factors (W1 at activation
-  // 1): true for the constant force model only. A force model's F(L_MT, a) is not linear in a
-  // (passive force, activation floor) and depends on the sampled posture's length.
-  if (model.muscle(s.muscle).force.model != ForceModelType::kConstant) {
-    throw Error("uncertainty: muscle '" + muscle + "' uses the force model " +
-                ForceModelName(model.muscle(s.muscle).force.model) +
-                ", whose force is not linear in activation and max_force as the study assumes; "
-                "run the study with the constant model (--force-model constant; Python "
-                "force_model=\"constant\")");
+  // The constant model's W is linear in activation and max_force: W1 at activation 1 times
+  // both. A force model's F(L_MT, a) = max_force f(L_MT, a) is linear in max_force (every term
+  // of the fiber-tendon equilibrium scales with it: the force factors still multiply W), but
+  // not in a (passive force, minimum activation, the compliant tendon's equilibrium): the
+  // engine evaluates it at each row's activation (docs/uncertainty.md "Force models").
+  s.force_model = model.muscle(s.muscle).force.model != ForceModelType::kConstant;
+  if (s.force_model && !(options.activation >= 0.0 && options.activation <= 1.0)) {
+    throw Error("uncertainty: activation " + util::FormatNumber(options.activation) +
+                " of muscle '" + muscle + "' (force model " +
+                ForceModelName(model.muscle(s.muscle).force.model) + ") is outside [0, 1]");
   }
+  s.path_points = static_cast<int>(model.muscle(s.muscle).path.size());
   if (postures.rows() != model.dof_count() || postures.cols() < 1) {
     throw Error("uncertainty: postures must be " + std::to_string(model.dof_count()) +
                 " x P (P >= 1), got " + std::to_string(postures.rows()) + " x " +
@@ -932,11 +1033,34 @@ UncertaintyStudy::UncertaintyStudy(const Model& model, const std::string& muscle
     throw Error("uncertainty: no uncertain input given (a spec file, options or --from-fit)");
   s.group_sets_only.assign(s.groups.size(), 1);
   for (const Dimension& d : s.dims) {
-    if (d.target == Target::kAngle || d.target == Target::kForceFactor)
+    if (d.target == Target::kAngle || d.target == Target::kForceFactor ||
+        d.target == Target::kPointOffset)
       s.group_sets_only[static_cast<size_t>(d.group)] = 0;
   }
+  std::vector<int> point_axis_group(static_cast<size_t>(3 * s.path_points), -1);
   for (const Dimension& d : s.dims) {
     if (d.target == Target::kAngle) s.kinematic = true;
+    if (d.target == Target::kActivation && s.force_model) {
+      s.kinematic = true;
+      if (d.distribution == InputDistribution::kUniform && !(d.a >= 0.0 && d.b <= 1.0)) {
+        throw Error("uncertain input '" + s.groups[static_cast<size_t>(d.group)] +
+                    "': activation [" + util::FormatNumber(d.a) + ", " + util::FormatNumber(d.b) +
+                    "] leaves [0, 1], the range of muscle '" + muscle + "''s force model " +
+                    ForceModelName(model.muscle(s.muscle).force.model));
+      }
+    }
+    if (d.target == Target::kPointOffset) {
+      s.kinematic = true;
+      s.has_points = true;
+      int& owner = point_axis_group[static_cast<size_t>(d.index)];
+      if (owner >= 0 && owner != d.group) {
+        throw Error("uncertain inputs '" + s.groups[static_cast<size_t>(owner)] + "' and '" +
+                    s.groups[static_cast<size_t>(d.group)] + "' both move path point " +
+                    std::to_string(d.index / 3) + " of '" + muscle + "' along " +
+                    std::string(1, static_cast<char>('x' + d.index % 3)) + ": give it once");
+      }
+      owner = d.group;
+    }
     if (d.target == Target::kMisalignment || d.target == Target::kGain ||
         d.target == Target::kCrosstalk || d.target == Target::kCrosstalkSymmetric ||
         d.target == Target::kSensorOrigin || d.target == Target::kSensorOffset)
@@ -984,7 +1108,7 @@ UncertaintyStudy::UncertaintyStudy(const Model& model, const std::string& muscle
   for (Eigen::Index p = 0; p < postures.cols(); ++p) {
     Impl::PostureData pd;
     const Eigen::VectorXd q = postures.col(p);
-    ComputeKinematics(model, data, q, s.muscle, 1.0);
+    ComputeKinematics(model, data, q, s.muscle, s.EngineActivation(s.nominal_activation));
     pd.R_W_T = data.transducer_rotation();
     pd.J = data.jacobian();
     pd.tau = data.tau();
@@ -1020,11 +1144,15 @@ UncertaintyStudy::UncertaintyStudy(const Model& model, const std::string& muscle
       pd.dtheta_from = pinv;
     }
     // Nominal evaluation.
-    ComputeKinematics(model, data, q + nominal.dq, s.muscle, 1.0);
+    if (s.has_points) SetPathPointOffsets(model, data, s.muscle, nominal.points);
+    const bool path_ok = ComputeKinematics(model, data, q + nominal.dq, s.muscle,
+                                           s.EngineActivation(nominal.activation));
+    ClearPathPointOffsets(data);
     SolveOptions solve;
     solve.rank_tolerance = options.statics.rank_tolerance;
     solve.excitation_tolerance = options.statics.excitation_tolerance;
-    const WrenchResult w = SolveStatics(model, data, nominal.set, solve);
+    // (no path or no muscle equilibrium at the central values: no nominal wrench)
+    const WrenchResult w = path_ok ? SolveStatics(model, data, nominal.set, solve) : WrenchResult{};
     pd.nominal_status = w.status;
     pd.force_direction.setZero();
     if (w.status == StaticsStatus::kOk || w.status == StaticsStatus::kSelfMotionHeld) {
@@ -1280,10 +1408,10 @@ class BlockRunner {
       }
       double factor_a, activation_a, factor, activation;
       SetRow(valuesA_.data(), valuesA_.data(), -1, set[0], factor_a, activation_a);
-      scale[0] = factor_a * activation_a;
+      scale[0] = s_.WScale(factor_a, activation_a);
       if (!s_.options.sobol) continue;
       SetRow(valuesB_.data(), valuesB_.data(), -1, set[1], factor, activation);
-      scale[1] = factor * activation;
+      scale[1] = s_.WScale(factor, activation);
       for (int g = 0; g < s_.G(); ++g) {
         StiffnessSet& to = set[2 + g];
         if (s_.group_sets_only[static_cast<size_t>(g)]) {
@@ -1300,7 +1428,7 @@ class BlockRunner {
         } else {
           SetRow(valuesA_.data(), valuesB_.data(), g, to, factor, activation);
         }
-        scale[2 + g] = factor * activation;
+        scale[2 + g] = s_.WScale(factor, activation);
       }
     }
   }
@@ -1394,7 +1522,7 @@ class BlockRunner {
       for (int k : force_dims_) factor *= value(k);
       const double activation =
           activation_dim_ < 0 ? s_.nominal_activation : value(activation_dim_);
-      scale[v] = factor * activation;
+      scale[v] = s_.WScale(factor, activation);
     }
   }
 
@@ -1458,7 +1586,9 @@ class BlockRunner {
       BatchOptions batch;
       batch.threads = 1;
       batch.solve = solve_;
-      EvaluateBatch(s_.model, q, s_.muscle, sets_, results_, 1.0, batch);
+      // (a force model: activation inputs take the scalar path, so every row has the nominal one)
+      EvaluateBatch(s_.model, q, s_.muscle, sets_, results_,
+                    s_.EngineActivation(s_.nominal_activation), batch);
       const int m = s_.model.dof_count();
       Eigen::VectorXd& b = b_;
       Eigen::VectorXd& dtheta = dtheta_;
@@ -1471,8 +1601,8 @@ class BlockRunner {
           const WrenchResult& w = results_[static_cast<size_t>(r)];
           const StiffnessSet& set = sets_[static_cast<size_t>(r)];
           const double scale = sets_only_ ? scale_[static_cast<size_t>(r)]
-                                          : inputs_[static_cast<size_t>(r)].factor *
-                                                inputs_[static_cast<size_t>(r)].activation;
+                                          : s_.WScale(inputs_[static_cast<size_t>(r)].factor,
+                                                      inputs_[static_cast<size_t>(r)].activation);
           double* y = Row(v, jj);
           int status = Classify(w);
           // A_B^i rows serve the Sobol sums only: no small-motion check, no world axes.
@@ -1502,17 +1632,27 @@ class BlockRunner {
       }
       return;
     }
-    // Scalar path: rows whose posture differs from the previous row's recompute kinematics.
+    // Scalar path: rows whose posture, path points or (force model) activation differ from the
+    // previous row's recompute kinematics.
     bool have_kinematics = false;
     long r = 0;
     for (long jj = 0; jj < count_; ++jj) {
       for (int v = 0; v < rows; ++v, ++r) {
         const RowInputs& row = inputs_[static_cast<size_t>(r)];
         qr_ = q + row.dq;
-        if (!have_kinematics || qr_ != last_q_) {
-          kinematics_ok_ = ComputeKinematics(s_.model, data_, qr_, s_.muscle, 1.0);
+        const double activation = s_.EngineActivation(row.activation);
+        if (!have_kinematics || qr_ != last_q_ || activation != last_activation_ ||
+            (s_.has_points && row.points != last_points_)) {
+          if (s_.has_points) {
+            SetPathPointOffsets(s_.model, data_, s_.muscle, row.points);
+            last_points_ = row.points;
+          }
+          // A force model's activation outside [0, 1] (a normal's tail): no force, invalid.
+          kinematics_ok_ = activation >= 0.0 && activation <= 1.0 &&
+                           ComputeKinematics(s_.model, data_, qr_, s_.muscle, activation);
           J_ = data_.jacobian();
           last_q_ = qr_;
+          last_activation_ = activation;
           have_kinematics = true;
         }
         const WrenchResult w = kinematics_ok_ ? SolveStatics(s_.model, data_, row.set, solve_)
@@ -1524,7 +1664,7 @@ class BlockRunner {
               static_cast<unsigned char>(s_.Quantities(pd, w.wrench, row, y, false));
         } else if (status == 0) {
           dtheta_ = data_.dtheta();
-          dtheta_ *= row.factor * row.activation;
+          dtheta_ *= s_.WScale(row.factor, row.activation);
           if (s_.SmallMotionFails(J_, dtheta_)) status |= 4;
           flags_[Status(v, jj)] = static_cast<unsigned char>(s_.Quantities(pd, w.wrench, row, y));
         }
@@ -1701,6 +1841,8 @@ class BlockRunner {
   std::vector<int> force_dims_;
   int activation_dim_ = -1;
   Eigen::VectorXd b_, JtW_, dtheta_, qr_, last_q_;
+  double last_activation_ = 1.0;
+  Eigen::Matrix3Xd last_points_;
   std::vector<RowInputs> inputs_;
   std::vector<StiffnessSet> sets_;
   std::vector<double> scale_;

@@ -31,6 +31,9 @@ isowrench_cli_error(force_activation_out_of_range 2 "--activation: Value 1.5 not
   wrench ${rat5} --activation 1.5)
 isowrench_cli_error(force_model_unknown 2 "--force-model: hill not in \\{model,constant,rigid\\}"
   wrench ${rat5} --force-model hill)
-isowrench_cli_error(force_uncertainty_refuses_a_force_model 1
-  "isowrench: error: [^\n]*GP_compliant[^\n]*--force-model constant"
-  uncertainty ${force_limb} --muscle GP_compliant --input max_force=normal:0.1 --samples 10)
+isowrench_cli_test(force_uncertainty_of_a_force_model "muscle GP_compliant.*activation uniform \\[0.3, 0.7\\].*valid 128"
+  uncertainty ${force_limb} --muscle GP_compliant --activation 0.5 --input max_force=normal:0.1
+  --input activation=uniform:0.3:0.7 --samples 64)
+isowrench_cli_error(force_uncertainty_activation_beyond_one 1
+  "isowrench: error: [^\n]*activation \\[0.5, 1.2\\] leaves \\[0, 1\\][^\n]*GP_compliant"
+  uncertainty ${force_limb} --muscle GP_compliant --input activation=uniform:0.5:1.2 --samples 10)

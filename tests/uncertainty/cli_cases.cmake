@@ -31,3 +31,11 @@ uncertainty_cli_exit(bad_syntax 1 "isowrench: error: --input 'angle:hip_rz' is n
   uncertainty ${_unc_rat5} --input angle:hip_rz)
 uncertainty_cli_exit(fit_of_another_model 1 "isowrench: error: [^\n]*planar_fit.json is a fit of model 'planar_2r', not of 'rat_hindlimb_5dof'"
   uncertainty ${_unc_rat5} --from-fit ${PROJECT_SOURCE_DIR}/tests/uncertainty/data/planar_fit.json)
+uncertainty_cli_exit(points 0 "point:GP:0 normal sd 1 mm.*point:GP:1:y normal sd 0.5 mm.*valid 512.*Sobol indices.*point:GP:0 .*point:GP:1:y "
+  uncertainty ${_unc_rat5} --samples 256 --input point:GP:0=normal:1 --input point:GP:1:y=normal:0.5)
+uncertainty_cli_exit(unknown_point 1 "isowrench: error: uncertain input 'point:GP:5': unknown path point '5' \\(did you mean '1'\\?\\): muscle 'GP' has 2 path points"
+  uncertainty ${_unc_rat5} --input point:GP:5=normal:1)
+uncertainty_cli_exit(unknown_point_muscle 1 "isowrench: error: uncertain input 'point:GQ:0': unknown muscle 'GQ' \\(did you mean 'GP'\\?\\)"
+  uncertainty ${_unc_rat5} --input point:GQ:0=normal:1)
+uncertainty_cli_exit(negative_point_sd 1 "isowrench: error: uncertain input 'point:GP:0:z': sd -1 must be finite and >= 0"
+  uncertainty ${_unc_rat5} --input point:GP:0:z=normal:-1)

@@ -431,8 +431,8 @@ TEST(UncertaintyStudy, BadInputIsAnErrorNamingIt) {
               ThrowsMessage<Error>(HasSubstr("the model's value is 0")));
   EXPECT_THAT([&] { run(Input("base_stiffness", InputDistribution::kLogNormal, {1})); },
               ThrowsMessage<Error>(HasSubstr("has no base dofs")));
-  EXPECT_THAT([&] { run(Input("point:GP:1", InputDistribution::kNormal, {1})); },
-              ThrowsMessage<Error>(HasSubstr("point offsets")));
+  EXPECT_THAT([&] { run(Input("point:GQ:1", InputDistribution::kNormal, {1})); },
+              ThrowsMessage<Error>(HasSubstr("unknown muscle 'GQ' (did you mean 'GP'?)")));
   EXPECT_THAT(
       [&] { ParseUncertaintySpec(R"({"inputs": [{"name": "gain:fx", "sdd": 1}]})", "s.json"); },
       ThrowsMessage<Error>(HasSubstr("s.json: inputs[0].sdd: unknown field (did you mean 'sd'?)")));
