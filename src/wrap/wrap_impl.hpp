@@ -36,6 +36,11 @@ struct OsSegment {
 
 OsSegment OpenSimCylinder(double radius, double length, const WrapQuadrant& quadrant, const V3& p1,
                           const V3& p2, bool single_wrap);
+/// OpenSimCylinder for a muscle with one wrap (single_wrap true), WrapCylinder::wrapLine with
+/// the axis written out (opensim_wrap.cpp): the same answer to rounding, in a fraction of the
+/// instructions. The engine's one-cylinder path stage calls it.
+OsSegment OpenSimCylinderSingle(double radius, double length, const WrapQuadrant& quadrant,
+                                const V3& p1, const V3& p2);
 OsSegment OpenSimSphere(double radius, const WrapQuadrant& quadrant, const V3& p1, const V3& p2);
 OsSegment OpenSimEllipsoid(const V3& radii, const WrapQuadrant& quadrant, WrapMethod method,
                            const V3& p1, const V3& p2);
@@ -45,6 +50,11 @@ OsSegment OpenSimTorus(double inner_radius, double outer_radius, const WrapQuadr
 /// The exact stationary path for the same segment, starting from OpenSim's answer `os` (whose
 /// code and tangent-point side it keeps). Fills r1, r2, length; may add status bits.
 OsSegment ExactSegment(const WrapSurface& surface, const V3& p1, const V3& p2, const OsSegment& os);
+
+/// OpenSim's answer `os` for the segment p1 -> p2 over `s` as ComputeWrappedPath uses it: no
+/// wrap (kWrapDegenerate) when it reached a NaN, and in kExact the exact path (ExactSegment).
+OsSegment SegmentInMode(OsSegment os, const WrapSurface& s, const V3& p1, const V3& p2,
+                        WrapMode mode);
 
 namespace lmdif_port {
 /// OpenSim's lmdif_C (OpenSim/Common/Lmdif.cpp), see wrap_lmdif.cpp.
