@@ -512,17 +512,13 @@ ISOWRENCH_CLONES ISOWRENCH_NOINLINE bool OneCylinderKinematics(const FlatChain& 
 }
 
 // The muscles off the plain evaluation path (FastMuscle::special): moving or conditional points
-// (the kDynamic kernel), one cylinder over fixed points (OneCylinderKinematics, evaluation
-// only), or a force model on a fixed path (ForceKinematics).
+// (the kDynamic kernel), or a force model on a fixed path (ForceKinematics). (One cylinder over
+// fixed points: OneCylinderKinematics, called by AnyKinematics and EvaluateWith; the general
+// path here gives the same numbers.)
 template <bool kFrames, class W>
 ISOWRENCH_NOINLINE bool DynamicKinematics(const FlatChain& d, W& ws, const double* q, int muscle,
                                           double activation, bool world_axes) {
   if constexpr (!W::kLarge) {  // (a large chain: the kDynamic kernel does both, at run time)
-    if constexpr (!kFrames) {
-      if (d.muscles[muscle].one_cylinder) {
-        return OneCylinderKinematics(d, ws, q, muscle, activation);
-      }
-    }
     if (muscle >= 0 && !d.muscles[muscle].dynamic) {
       return ForceKinematics<kFrames>(d, ws, q, muscle, activation, world_axes);
     }
@@ -531,11 +527,13 @@ ISOWRENCH_NOINLINE bool DynamicKinematics(const FlatChain& d, W& ws, const doubl
 }
 
 // The evaluation of a muscle off the plain path (FastMuscle::special): a force model on a fixed
-// path straight to ForceKinematics (DynamicKinematics' large frame costs ~40 instructions),
-// moving or conditional points to DynamicKinematics.
+// path straight to ForceKinematics (DynamicKinematics' large frame costs ~40 instructions), one
+// cylinder over fixed points to OneCylinderKinematics, moving or conditional points and other
+// wraps to DynamicKinematics.
 template <class W>
 ISOWRENCH_NOINLINE bool SpecialKinematics(const FlatChain& d, W& ws, const double* q, int muscle,
                                           double activation) {
+  if (d.muscles[muscle].one_cylinder) return OneCylinderKinematics(d, ws, q, muscle, activation);
   if (!d.muscles[muscle].dynamic) {
     return ForceKinematics<false>(d, ws, q, muscle, activation, false);
   }
@@ -567,6 +565,11 @@ ISOWRENCH_INLINE bool AnyKinematics(const FlatChain& d, W& ws, const double* q, 
     return CoupledKinematics(d, ws, q, muscle, activation);
   } else {
     if ((!kFrames || muscle >= 0) && d.muscles[muscle].special) {
+      if constexpr (!kFrames) {  // (one call less than through DynamicKinematics)
+        if (d.muscles[muscle].one_cylinder) {
+          return OneCylinderKinematics(d, ws, q, muscle, activation);
+        }
+      }
       // (a force model on a fixed path straight to its kernel: DynamicKinematics' frame
       // costs ~40 instructions)
       if (!d.muscles[muscle].dynamic) {

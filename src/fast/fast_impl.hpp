@@ -315,14 +315,6 @@ bool ActivePathPulls(Data::Impl& ws, double* length);
 /// consecutive active points coincide.
 bool WrappedPathPulls(const FlatChain& chain, const FastMuscle& muscle, Data::Impl& ws,
                       double* length);
-/// The path stage of a muscle over one cylinder with fixed points (FastMuscle::one_cylinder; the
-/// kernel's kWrap step): WrappedPathPulls's result without its general path (GeometryPath::
-/// applyWrapObjects for one wrap: the segments of its range in order, the first mandatory wrap
-/// or the one lengthened least; OpenSimCylinderSingle, and the exact path in kExact), the
-/// pulls of the points and of the two tangent points written directly, nothing allocated. On
-/// entry the first slot holds the origin of the cylinder's frame S and ws.point_rotation there
-/// the rotation of its link's frame. Returns false when two consecutive points coincide.
-bool OneCylinderPathPulls(const FastMuscle& muscle, Data::Impl& ws, double* length);
 /// ActivePathPulls, or WrappedPathPulls for a muscle with wraps (the kernel's kDynamic step).
 inline bool DynamicPathPulls(const FlatChain& chain, const FastMuscle& muscle, Data::Impl& ws,
                              double* length) {

@@ -46,6 +46,7 @@
 #include <utility>
 
 #include "fast/fast_impl.hpp"
+#include "fast/one_cylinder.hpp"
 #include "fast/simd.hpp"
 #include "fast/vec3.hpp"
 #include "model/model_impl.hpp"

@@ -9,12 +9,9 @@
 
 #include <algorithm>
 #include <cmath>
-#include <limits>
 #include <memory>
 
 #include "fast/fast_impl.hpp"
-#include "fast/simd.hpp"
-#include "wrap/wrap_impl.hpp"
 
 namespace isowrench {
 
@@ -109,107 +106,6 @@ bool WrappedPathPulls(const FlatChain& chain, const FastMuscle& muscle, Data::Im
     ws.pulls[slot + 1] = r.wrapped ? FromEigen(r.pull_r2) : Zero3<double>();
   }
   *length = out.length;
-  return true;
-}
-
-bool OneCylinderPathPulls(const FastMuscle& muscle, Data::Impl& ws, double* length) {
-  using V = Vec3<double>;
-  const FastWrap& f = muscle.wraps[0];
-  const WrapPathWrap& wrap = f.wrap;
-  const int n = muscle.path_points;
-  const int slot = f.slot;
-  V* const p = ws.points.data();
-  V* const g = ws.pulls.data();
-  // X_W_S: R (its columns) = R_W_frame * FastWrap::rotation, o = the first slot's position.
-  V R[3];
-  ISOWRENCH_UNROLL
-  for (int c = 0; c < 3; ++c)
-    R[c] = Transform(ws.point_rotation[slot].data(), f.rotation.data() + 3 * c);
-  const V o = p[slot];
-  auto to_S = [&](const V& x) {  // R^T (x - o)
-    const V r = x - o;
-    double c[3];
-    ISOWRENCH_UNROLL
-    for (int k = 0; k < 3; ++k) Dot(R[k], r, c[k]);
-    return Eigen::Vector3d(c[0], c[1], c[2]);
-  };
-  auto to_W = [&](const Eigen::Vector3d& x) { return Transform(R, x.data()) + o; };
-  auto norm = [](const V& x) {
-    double s;
-    Dot(x, x, s);
-    return std::sqrt(s);
-  };
-  // GeometryPath::applyWrapObjects for one wrap over points that are all active (as
-  // ComputeWrappedPath): the segments of the range in order; the first mandatory wrap ends the
-  // search, else the wrap that lengthens its segment least (a NaN change never wins).
-  bool wrapped = false;
-  int wrapped_end = 0;  // the wrap sits between points wrapped_end - 1 and wrapped_end
-  V r1 = Zero3<double>(), r2 = Zero3<double>();
-  double arc = 0.0;
-  if (wrap.first < wrap.last) {
-    double min_change = std::numeric_limits<double>::infinity();
-    const bool several = wrap.last - wrap.first > 1;
-    Eigen::Vector3d b = to_S(p[wrap.first]);
-    for (int pt2 = wrap.first + 1; pt2 <= wrap.last; ++pt2) {
-      const Eigen::Vector3d a = b;
-      b = to_S(p[pt2]);
-      const WrapSurface& s = wrap.surface;
-      const wrap_impl::OsSegment wr = wrap_impl::SegmentInMode(
-          wrap_impl::OpenSimCylinderSingle(s.radius, s.length, s.quadrant, a, b), s, a, b,
-          muscle.wrap_mode);
-      if (wr.code != 3 && wr.code != 2) continue;
-      const bool usable = wr.has_path && wr.r1.allFinite() && wr.r2.allFinite();
-      const V w1 = to_W(wr.r1), w2 = to_W(wr.r2);
-      if (wr.code == 2 && several) {  // (one segment: the change is finite, r1 r2 and L are)
-        const double change =
-            norm(w1 - p[pt2 - 1]) + wr.length + norm(p[pt2] - w2) - norm(p[pt2] - p[pt2 - 1]);
-        if (!(change < min_change)) continue;
-        min_change = change;
-      }
-      wrapped = usable;
-      wrapped_end = pt2;
-      r1 = w1;
-      r2 = w2;
-      arc = wr.length;
-      if (wr.code == 3) break;
-    }
-  }
-  // The length (calcLengthAfterPathComputation) and the pulls: each straight segment a -> b
-  // of length l >= kFastMinSegmentLength adds -u at a and +u at b (u = (b - a) / l); the arc
-  // pulls nothing. Two consecutive path points that coincide: no path (as WrappedPathPulls).
-  for (int i = 0; i < n; ++i) g[i] = Zero3<double>();
-  g[slot] = g[slot + 1] = Zero3<double>();
-  double total = 0.0;
-  auto segment = [&](const V& a, const V& b, V& ga, V& gb) {
-    const V d = b - a;
-    const double l = norm(d);
-    total += l;
-    if (!(l >= kFastMinSegmentLength)) return;
-    const V u = d * (1.0 / l);
-    ga -= u;
-    gb += u;
-  };
-  for (int i = 1; i < n; ++i) {
-    const V d = p[i] - p[i - 1];
-    const double l = norm(d);
-    if (!(l >= kFastMinSegmentLength)) {
-      *length = 0.0;
-      return false;
-    }
-    if (wrapped && i == wrapped_end) {
-      segment(p[i - 1], r1, g[i - 1], g[slot]);
-      total += arc;
-      segment(r2, p[i], g[slot + 1], g[i]);
-      continue;
-    }
-    const V u = d * (1.0 / l);
-    total += l;
-    g[i - 1] -= u;
-    g[i] += u;
-  }
-  p[slot] = r1;
-  p[slot + 1] = r2;
-  *length = total;
   return true;
 }
 

@@ -36,11 +36,8 @@ struct OsSegment {
 
 OsSegment OpenSimCylinder(double radius, double length, const WrapQuadrant& quadrant, const V3& p1,
                           const V3& p2, bool single_wrap);
-/// OpenSimCylinder for a muscle with one wrap (single_wrap true), WrapCylinder::wrapLine with
-/// the axis written out (opensim_wrap.cpp): the same answer to rounding, in a fraction of the
-/// instructions. The engine's one-cylinder path stage calls it.
-OsSegment OpenSimCylinderSingle(double radius, double length, const WrapQuadrant& quadrant,
-                                const V3& p1, const V3& p2);
+// OpenSimCylinderSingle (the cylinder of a muscle with one wrap, for the engine): in
+// wrap/cylinder_single.hpp.
 OsSegment OpenSimSphere(double radius, const WrapQuadrant& quadrant, const V3& p1, const V3& p2);
 OsSegment OpenSimEllipsoid(const V3& radii, const WrapQuadrant& quadrant, WrapMethod method,
                            const V3& p1, const V3& p2);
