@@ -1,7 +1,7 @@
 # cmake -DVALGRIND=... -DDRIVER=... -DWORK_DIR=... -P instructions.cmake
 # Runs the kernel driver under callgrind, collecting only inside isowrench_measured_loop, and
 # prints instructions (Ir) per evaluation for each kernel.
-foreach(kernel_count IN ITEMS "fast:20000" "fast-stiffness:2000" "fast-coupled:20000" "fast-wrap:20000" "fast-wrap-exact:20000" "fast-rigid:20000" "fast-compliant:5000" "batch:20" "batch-stiffness:2" "batch-coupled:20" "batch-rigid:20" "batch-compliant:5" "kdl:2000" "reference:500" "fast-chain-33c:2000" "batch-chain-33c:2")
+foreach(kernel_count IN ITEMS "fast:20000" "fast-stiffness:2000" "fast-coupled:20000" "fast-wrap:20000" "fast-wrap-exact:20000" "fast-rigid:20000" "fast-compliant:5000" "batch:20" "batch-stiffness:2" "batch-coupled:20" "batch-wrap:5" "batch-rigid:20" "batch-compliant:5" "kdl:2000" "reference:500" "fast-chain-33c:2000" "batch-chain-33c:2")
   string(REPLACE ":" ";" kc "${kernel_count}")
   list(GET kc 0 kernel)
   list(GET kc 1 count)

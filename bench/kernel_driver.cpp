@@ -98,6 +98,18 @@ extern "C" __attribute__((noinline)) long isowrench_measured_loop(Setup& s, Chai
     }
     return n;
   }
+  // The same in the batch (EvaluateBatch, one thread): a wrapping muscle's kinematics posture by
+  // posture on the scalar path, its statics in the lanes.
+  if (std::strcmp(kernel, "batch-wrap") == 0) {
+    const std::vector<isowrench::StiffnessSet> one = {st};
+    isowrench::BatchOptions options;
+    options.threads = 1;
+    for (long i = 0; i < n; ++i) {
+      isowrench::EvaluateBatch(s.wrapped, s.postures, 0, one, s.out, 1.0, options);
+      g_sink += s.out[0].wrench[0];
+    }
+    return n * s.postures.cols();
+  }
   if (std::strcmp(kernel, "batch-coupled") == 0) {
     const std::vector<isowrench::StiffnessSet> one = {st};
     isowrench::BatchOptions options;
@@ -166,7 +178,7 @@ extern "C" __attribute__((noinline)) long isowrench_measured_loop(Setup& s, Chai
   std::fprintf(
       stderr,
       "unknown kernel '%s' (fast, fast-stiffness, fast-coupled, fast-wrap, fast-wrap-exact, "
-      "fast-rigid, fast-compliant, batch, batch-stiffness, batch-coupled, batch-rigid, "
+      "fast-rigid, fast-compliant, batch, batch-stiffness, batch-coupled, batch-wrap, batch-rigid, "
       "batch-compliant, kdl, reference, fast-chain-N[c], batch-chain-N[c])\n",
       kernel);
   std::exit(2);
@@ -177,7 +189,8 @@ int main(int argc, char** argv) {
     std::fprintf(stderr,
                  "usage: %s "
                  "fast|fast-stiffness|fast-coupled|fast-wrap|fast-wrap-exact|fast-rigid|"
-                 "fast-compliant|batch|batch-stiffness|batch-coupled|batch-rigid|batch-compliant|"
+                 "fast-compliant|batch|batch-stiffness|batch-coupled|batch-wrap|batch-rigid|"
+                 "batch-compliant|"
                  "kdl|"
                  "reference|fast-chain-N[c]|batch-chain-N[c] <count>\n",
                  argv[0]);

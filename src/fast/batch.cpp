@@ -152,6 +152,18 @@ class UnitEvaluator {
       for (long s = s0; s < s1; ++s) Result(p, s) = WrenchResult{};
       return;
     }
+    // One stiffness set (a sweep, a fit's predictions): the scalar solve, as Evaluate; the lanes
+    // would solve four copies of it (docs/performance.md "Wrapping muscles").
+    long valid_sets = 0;
+    for (long s = s0; s < s1 && valid_sets < 2; ++s) valid_sets += valid_[static_cast<size_t>(s)];
+    if (valid_sets < 2) {
+      for (long s = s0; s < s1; ++s) {
+        Result(p, s) = valid_[static_cast<size_t>(s)]
+                           ? SolveStatics(model_, ws, stiffness_[static_cast<size_t>(s)], options_)
+                           : WrenchResult{};
+      }
+      return;
+    }
     LaneBroadcast(ws, lanes_);
     long group[kLanes];
     int filled = 0;

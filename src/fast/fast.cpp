@@ -453,7 +453,10 @@ ISOWRENCH_INLINE void Couple(const FlatChain& d, W& ws, const double* q) {
 // points test it at run time, the evaluation of a fixed path is told at compile time, so that
 // a constant-force muscle runs the code it always ran). W: the workspace's shape
 // (SmallWorkspace, LargeWorkspace).
-template <bool kFrames, bool kDynamic, bool kCoupled, bool kForce = false, class W>
+// kWrap: a muscle over one cylinder with fixed points (FastMuscle::one_cylinder), the kernel's
+// kWrap instantiation (its force model tested at run time, as kDynamic's).
+template <bool kFrames, bool kDynamic, bool kCoupled, bool kForce = false, bool kWrap = false,
+          class W>
 ISOWRENCH_INLINE bool Kinematics(const FlatChain& d, W& ws, const double* q, int muscle,
                                  double activation, bool world_axes) {
   assert(ws.m == d.n);
@@ -468,11 +471,12 @@ ISOWRENCH_INLINE bool Kinematics(const FlatChain& d, W& ws, const double* q, int
   // The force stage: a constant-force muscle's F = a * max_force goes into the kernel; a muscle
   // with a force model runs the kernel with a unit force, then ApplyForceStage scales tau by
   // F(L_MT, a) (bit for bit the same tau as the kernel with -F: -1 * x is exact).
-  const bool force_curve = kForce || ((kFrames || kDynamic) && mu.force_curve);
+  const bool force_curve = kForce || ((kFrames || kDynamic || kWrap) && mu.force_curve);
   const double minus_force = force_curve ? -1.0 : -(activation * mu.max_force);
   const bool rotate = !d.transducer_identity && !(kFrames && world_axes);
   bool coincident;
-  kernel::Kinematics<kFrames, kDynamic, kCoupled>(d, ws, q, mu, minus_force, rotate, coincident);
+  kernel::Kinematics<kFrames, kDynamic, kCoupled, kWrap>(d, ws, q, mu, minus_force, rotate,
+                                                         coincident);
   if (coincident) {
     ws.dL.setZero();
     ws.tau.setZero();
@@ -496,8 +500,22 @@ ISOWRENCH_CLONES ISOWRENCH_NOINLINE bool ForceKinematics(const FlatChain& d, W& 
   return Kinematics<kFrames, false, true, true>(d, ws, q, muscle, activation, world_axes);
 }
 
+// A muscle over one cylinder with fixed points (FastMuscle::one_cylinder) on a small chain: the
+// kernel with the cylinder's path stage instead of the general one of moving points and wraps
+// (docs/performance.md "Wrapping muscles"); cloned per target as the plain evaluation.
+template <class W>
+ISOWRENCH_CLONES ISOWRENCH_NOINLINE bool OneCylinderKinematics(const FlatChain& d, W& ws,
+                                                               const double* q, int muscle,
+                                                               double activation) {
+  if (!d.coupled)
+    return Kinematics<false, false, false, false, true>(d, ws, q, muscle, activation, false);
+  return Kinematics<false, false, true, false, true>(d, ws, q, muscle, activation, false);
+}
+
 // The muscles off the plain evaluation path (FastMuscle::special): moving or conditional points
-// (the kDynamic kernel), or a force model on a fixed path (ForceKinematics).
+// (the kDynamic kernel), or a force model on a fixed path (ForceKinematics). (One cylinder over
+// fixed points: OneCylinderKinematics, called by AnyKinematics and EvaluateWith; the general
+// path here gives the same numbers.)
 template <bool kFrames, class W>
 ISOWRENCH_NOINLINE bool DynamicKinematics(const FlatChain& d, W& ws, const double* q, int muscle,
                                           double activation, bool world_axes) {
@@ -510,11 +528,13 @@ ISOWRENCH_NOINLINE bool DynamicKinematics(const FlatChain& d, W& ws, const doubl
 }
 
 // The evaluation of a muscle off the plain path (FastMuscle::special): a force model on a fixed
-// path straight to ForceKinematics (DynamicKinematics' large frame costs ~40 instructions),
-// moving or conditional points to DynamicKinematics.
+// path straight to ForceKinematics (DynamicKinematics' large frame costs ~40 instructions), one
+// cylinder over fixed points to OneCylinderKinematics, moving or conditional points and other
+// wraps to DynamicKinematics.
 template <class W>
 ISOWRENCH_NOINLINE bool SpecialKinematics(const FlatChain& d, W& ws, const double* q, int muscle,
                                           double activation) {
+  if (d.muscles[muscle].one_cylinder) return OneCylinderKinematics(d, ws, q, muscle, activation);
   if (!d.muscles[muscle].dynamic) {
     return ForceKinematics<false>(d, ws, q, muscle, activation, false);
   }
@@ -546,6 +566,11 @@ ISOWRENCH_INLINE bool AnyKinematics(const FlatChain& d, W& ws, const double* q, 
     return CoupledKinematics(d, ws, q, muscle, activation);
   } else {
     if ((!kFrames || muscle >= 0) && d.muscles[muscle].special) {
+      if constexpr (!kFrames) {  // (one call less than through DynamicKinematics)
+        if (d.muscles[muscle].one_cylinder) {
+          return OneCylinderKinematics(d, ws, q, muscle, activation);
+        }
+      }
       // (a force model on a fixed path straight to its kernel: DynamicKinematics' frame
       // costs ~40 instructions)
       if (!d.muscles[muscle].dynamic) {

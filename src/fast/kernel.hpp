@@ -46,6 +46,7 @@
 #include <utility>
 
 #include "fast/fast_impl.hpp"
+#include "fast/one_cylinder.hpp"
 #include "fast/simd.hpp"
 #include "fast/vec3.hpp"
 #include "model/model_impl.hpp"
@@ -286,10 +287,16 @@ ISOWRENCH_INLINE void FinishColumns(W& ws, int n, const V4* Rt, bool rotate, dou
 /// kCoupled: any chain, with or without couplings (each joint writes its slot, then the folds;
 /// ws.dq_joint is read); false: only a chain without couplings (!d.coupled: joint k writes
 /// column k), compiled apart so that such chains run none of the coupled steps.
-template <bool kFrames, bool kDynamic, bool kCoupled, class W, class T = typename W::Scalar>
+/// kWrap (scalar only, not with kDynamic): a muscle over one cylinder with fixed points
+/// (FastMuscle::one_cylinder): the points placed as fixed ones, the rotation of the cylinder's
+/// frame stored at its first slot (ws.point_rotation), and the path stage OneCylinderPathPulls.
+template <bool kFrames, bool kDynamic, bool kCoupled, bool kWrap = false, class W,
+          class T = typename W::Scalar>
 ISOWRENCH_INLINE void Kinematics(const FlatChain& d, W& ws, const T* q, const FastMuscle& mu,
                                  double minus_force, bool rotate, Mask<T>& coincident) {
-  static_assert(kScalar<T> || (!kFrames && !kDynamic), "frames and moving points: scalar only");
+  static_assert(kScalar<T> || (!kFrames && !kDynamic && !kWrap),
+                "frames, moving points and wraps: scalar only");
+  static_assert(!(kDynamic && kWrap), "kWrap is the fixed points' wrap");
   assert(kCoupled || !d.coupled);
   using V3 = Vec3<T>;
   const int m = d.m;
@@ -329,6 +336,15 @@ ISOWRENCH_INLINE void Kinematics(const FlatChain& d, W& ws, const T* q, const Fa
   if constexpr (kScalar<T>) JointSinCos(d, q, sin_q, sin_q + cos_offset);
   V3 M[3] = {Unit3<T>(0), Unit3<T>(1), Unit3<T>(2)};
   V3 o = Zero3<T>();
+  [[maybe_unused]] int wrap_frame = -1, wrap_slot = 0;
+  if constexpr (kWrap) {
+    wrap_frame = mu.wrap_frame;
+    wrap_slot = mu.wraps[0].slot;
+    if (wrap_frame < 0) {
+      ISOWRENCH_UNROLL
+      for (int c = 0; c < 3; ++c) ws.point_rotation[wrap_slot][c] = M[c];
+    }
+  }
   for (int k = 0; k < m; ++k) {
     const FastJoint& j = joints[k];
     V3& z = ws.axis[k];
@@ -406,6 +422,12 @@ ISOWRENCH_INLINE void Kinematics(const FlatChain& d, W& ws, const T* q, const Fa
       ISOWRENCH_UNROLL
       for (int c = 0; c < 3; ++c) ws.frames[k][c] = M[c];
     }
+    if constexpr (kWrap) {
+      if (k == wrap_frame) {
+        ISOWRENCH_UNROLL
+        for (int c = 0; c < 3; ++c) ws.point_rotation[wrap_slot][c] = M[c];
+      }
+    }
     if (k != forward[0]) continue;  // frame k has no points
     const int* group_end = forward + 2 + forward[1];
     for (const int* point = forward + 2; point < group_end; ++point) {  // x = M a + o
@@ -446,6 +468,10 @@ ISOWRENCH_INLINE void Kinematics(const FlatChain& d, W& ws, const T* q, const Fa
   if constexpr (kDynamic) {
     double length = 0.0;
     coincident = !DynamicPathPulls(d, mu, ws, &length);
+    total_length = length;
+  } else if constexpr (kWrap) {
+    double length = 0.0;
+    coincident = !OneCylinderPathPulls(mu, ws, &length);
     total_length = length;
   } else {
     V3 before = Zero3<T>();  // u_{i-1}; zero before the origin

@@ -437,6 +437,12 @@ FlatChain Compile(const LimbDescription& d) {
       muscle.wraps.push_back(fw);
       muscle.dynamic = true;
     }
+    muscle.one_cylinder = muscle.wraps.size() == 1 && muscle.moving.empty() &&
+                          muscle.wraps[0].wrap.active &&
+                          muscle.wraps[0].wrap.surface.shape == WrapShape::kCylinder &&
+                          std::all_of(muscle.points.begin(), muscle.points.end(),
+                                      [](const FastPathPoint& p) { return p.active_column < 0; });
+    if (!muscle.wraps.empty()) muscle.wrap_frame = muscle.points[muscle.wraps[0].slot].frame;
     muscle.special = muscle.dynamic || muscle.force_curve;
     // Point groups {frame, count, indices} for the kernel's joint loops (FastMuscle).
     std::vector<std::vector<int>> by_frame(static_cast<size_t>(flat.m));

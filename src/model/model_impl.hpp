@@ -110,6 +110,12 @@ struct FastMuscle {
   /// evaluation first runs PreparePathPoints (src/fast/path_points.cpp).
   std::vector<FastMovingComponent> moving;
   bool dynamic = false;
+  /// One active cylinder and fixed points (one wrap, a WrapCylinder, no moving or conditional
+  /// point): a small chain's evaluation runs the kernel's kWrap instantiation and its path stage
+  /// OneCylinderPathPulls (src/fast/path_points.cpp) instead of the kDynamic ones. `wrap_frame`:
+  /// the movable-joint frame of the cylinder's link (-1: world).
+  bool one_cylinder = false;
+  int wrap_frame = -1;
 };
 
 /// A link's frame: the frame after movable joint `frame` (-1 = world) times `offset` (the

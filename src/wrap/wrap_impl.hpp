@@ -36,6 +36,8 @@ struct OsSegment {
 
 OsSegment OpenSimCylinder(double radius, double length, const WrapQuadrant& quadrant, const V3& p1,
                           const V3& p2, bool single_wrap);
+// OpenSimCylinderSingle (the cylinder of a muscle with one wrap, for the engine): in
+// wrap/cylinder_single.hpp.
 OsSegment OpenSimSphere(double radius, const WrapQuadrant& quadrant, const V3& p1, const V3& p2);
 OsSegment OpenSimEllipsoid(const V3& radii, const WrapQuadrant& quadrant, WrapMethod method,
                            const V3& p1, const V3& p2);
@@ -45,6 +47,11 @@ OsSegment OpenSimTorus(double inner_radius, double outer_radius, const WrapQuadr
 /// The exact stationary path for the same segment, starting from OpenSim's answer `os` (whose
 /// code and tangent-point side it keeps). Fills r1, r2, length; may add status bits.
 OsSegment ExactSegment(const WrapSurface& surface, const V3& p1, const V3& p2, const OsSegment& os);
+
+/// OpenSim's answer `os` for the segment p1 -> p2 over `s` as ComputeWrappedPath uses it: no
+/// wrap (kWrapDegenerate) when it reached a NaN, and in kExact the exact path (ExactSegment).
+OsSegment SegmentInMode(OsSegment os, const WrapSurface& s, const V3& p1, const V3& p2,
+                        WrapMode mode);
 
 namespace lmdif_port {
 /// OpenSim's lmdif_C (OpenSim/Common/Lmdif.cpp), see wrap_lmdif.cpp.

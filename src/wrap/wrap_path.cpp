@@ -46,7 +46,13 @@ OsSegment OpenSimSegment(const WrapSurface& s, const V3& p1, const V3& p2, WrapM
 
 OsSegment AnySegment(const WrapSurface& s, const V3& p1, const V3& p2, WrapMode mode,
                      WrapMethod method, bool single_wrap) {
-  OsSegment os = OpenSimSegment(s, p1, p2, method, single_wrap);
+  return wrap_impl::SegmentInMode(OpenSimSegment(s, p1, p2, method, single_wrap), s, p1, p2, mode);
+}
+
+}  // namespace
+
+OsSegment wrap_impl::SegmentInMode(OsSegment os, const WrapSurface& s, const V3& p1, const V3& p2,
+                                   WrapMode mode) {
   if (os.has_path && (!os.r1.allFinite() || !os.r2.allFinite() || !std::isfinite(os.length))) {
     // Whatever NaN OpenSim's arithmetic reached (an end point on an ellipsoid, a plane through
     // a degenerate c1, ...): the segment does not wrap, and says why.
@@ -57,8 +63,6 @@ OsSegment AnySegment(const WrapSurface& s, const V3& p1, const V3& p2, WrapMode 
   if (mode == WrapMode::kOpenSim) return os;
   return wrap_impl::ExactSegment(s, p1, p2, os);
 }
-
-}  // namespace
 
 WrapSegmentResult WrapSegment(const WrapSurface& surface, const Eigen::Vector3d& p1,
                               const Eigen::Vector3d& p2, WrapMode mode, WrapMethod method,

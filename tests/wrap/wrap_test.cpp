@@ -6,10 +6,16 @@
 #include <gtest/gtest.h>
 
 #include <Eigen/Dense>
+#include <algorithm>
 #include <cmath>
+#include <limits>
 #include <random>
+#include <utility>
+#include <vector>
 
 #include "isowrench/error.hpp"
+#include "wrap/cylinder_single.hpp"
+#include "wrap/wrap_impl.hpp"
 
 namespace isowrench {
 namespace {
@@ -414,6 +420,95 @@ TEST(WrapSegmentTest, ConstrainedCylinderWrapsAroundItsSideOrNotAtAll) {
   EXPECT_EQ(WrapQuadrant::Parse("-Z").ToString(), "-z");
   EXPECT_EQ(WrapQuadrant::Parse("All").ToString(), "all");
   EXPECT_THROW(WrapQuadrant::Parse("+w"), Error);
+}
+
+// The engine's cylinder for a muscle with one wrap (OpenSimCylinderSingle, the axis written
+// out) against the line-by-line port of WrapCylinder::wrapLine it replaces there
+// (OpenSimCylinder, single_wrap): the same code, side and tangent points on random segments
+// around random cylinders of every quadrant, and on the degenerate ones (parallel to the axis,
+// zero length, an end point on the surface, close to the axis, beyond the cylinder's ends).
+TEST(WrapSegmentTest, OneWrapCylinderEqualsThePortedWrapLine) {
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  const char* quadrants[] = {"all", "+x", "-x", "+y", "-y", "+z", "-z"};
+  int codes[4] = {0, 0, 0, 0}, far = 0, compared = 0;
+  for (int trial = 0; trial < 20000; ++trial) {
+    const double R = 0.002 + 0.018 * (0.5 + 0.5 * u(rng));
+    const double L = 0.005 + 0.095 * (0.5 + 0.5 * u(rng));
+    const WrapQuadrant quadrant = WrapQuadrant::Parse(quadrants[trial % 7]);
+    V3 P(3 * R * u(rng), 3 * R * u(rng), L * u(rng)), N(3 * R * u(rng), 3 * R * u(rng), L * u(rng));
+    switch (trial % 50) {
+      case 0: N.head<2>() = P.head<2>(); break;                   // parallel to the axis
+      case 1: N = P; break;                                       // zero length
+      case 2: P.head<2>() = R * P.head<2>().normalized(); break;  // on the surface
+      case 3:  // close to the axis (exactly through it, t = 1/2, the apex is rounding noise)
+        N.head<2>() = -0.7 * (Eigen::Rotation2Dd(0.05) * P.head<2>());
+        break;
+      case 4:  // beyond an end
+        P.z() = 2 * L;
+        N.z() = 3 * L;
+        break;
+      default: break;
+    }
+    const wrap_impl::OsSegment port = wrap_impl::OpenSimCylinder(R, L, quadrant, P, N, true);
+    const wrap_impl::OsSegment lean = wrap_impl::OpenSimCylinderSingle(R, L, quadrant, P, N);
+    const std::string where = "trial " + std::to_string(trial) + " quadrant " + quadrant.ToString();
+    ASSERT_EQ(lean.code, port.code) << where;
+    ASSERT_EQ(lean.has_path, port.has_path) << where;
+    ASSERT_EQ(lean.flag, port.flag) << where;
+    ++codes[port.code];
+    if (!port.has_path) continue;
+    ASSERT_EQ(lean.far_side, port.far_side) << where;
+    ASSERT_EQ(lean.sense, port.sense) << where;
+    // (the tangent points slide along the axis onto a plane that can be steep: their z carries
+    // the port's rounding, ~1e-16 m, amplified up to ~1e-13 m here and ~1e-11 m in one of a
+    // million random segments close to the axis)
+    for (int k = 0; k < 3; ++k) {
+      ASSERT_NEAR(lean.r1[k], port.r1[k], 1e-11) << where;
+      ASSERT_NEAR(lean.r2[k], port.r2[k], 1e-11) << where;
+    }
+    ASSERT_NEAR(lean.length, port.length, 1e-12) << where;
+    far += port.far_side ? 1 : 0;
+    ++compared;
+  }
+  // Every outcome is met many times: no wrap, an end point inside, wrapped, mandatory, the long
+  // way round.
+  for (int c = 0; c < 4; ++c) EXPECT_GT(codes[c], 500) << "code " << c;
+  EXPECT_GT(far, 500);
+  EXPECT_GT(compared, 5000);
+}
+
+// The cylinder's atan2 (wrap/cylinder_single.hpp) against libm's: random angles over every
+// octant and small and large ratios, and the signed zeros, the axes and NaN.
+TEST(WrapSegmentTest, CylinderAtan2IsLibmsWithinAnUlpOfPi) {
+  std::mt19937_64 rng(3);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  double worst = 0.0;
+  for (int i = 0; i < 200000; ++i) {
+    double y = u(rng), x = u(rng);
+    if (i % 3 == 0) y *= 1e-7;
+    if (i % 5 == 0) x *= 1e-9;
+    worst = std::max(worst, std::fabs(wrap_impl::cylinder_single::Atan2(y, x) - std::atan2(y, x)));
+  }
+  EXPECT_LE(worst, 4.5e-16);
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  for (const auto& [y, x] : std::vector<std::pair<double, double>>{{0.0, 0.0},
+                                                                   {-0.0, 0.0},
+                                                                   {0.0, -0.0},
+                                                                   {-0.0, -0.0},
+                                                                   {0.0, -1.0},
+                                                                   {-0.0, -1.0},
+                                                                   {1.0, 0.0},
+                                                                   {-1.0, 0.0},
+                                                                   {1.0, 1.0},
+                                                                   {1.0, -1.0},
+                                                                   {-2.0, -2.0}}) {
+    const double mine = wrap_impl::cylinder_single::Atan2(y, x);
+    EXPECT_NEAR(mine, std::atan2(y, x), 4.5e-16) << y << " " << x;
+    EXPECT_EQ(std::signbit(mine), std::signbit(std::atan2(y, x))) << y << " " << x;
+  }
+  EXPECT_TRUE(std::isnan(wrap_impl::cylinder_single::Atan2(nan, 1.0)));
+  EXPECT_TRUE(std::isnan(wrap_impl::cylinder_single::Atan2(1.0, nan)));
 }
 
 TEST(WrapSegmentTest, ConstrainedSphereFarSideArcIsNegativeInOpenSimAndPositiveWhenExact) {
