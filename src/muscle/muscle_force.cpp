@@ -14,7 +14,11 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <limits>
+#if defined(__SSE2__)
+#include <emmintrin.h>
+#endif
 
 #include "isowrench/error.hpp"
 #include "isowrench/muscle.hpp"
@@ -41,6 +45,35 @@ constexpr double kEquilibriumRelativeTolerance = 1e-13;
 constexpr double kMinNonzeroDamping = 0.001;
 
 std::string MuscleNumber(double v) { return util::FormatNumber(v, 6); }
+
+// The batch force stage's lanes (MuscleForceModel::Tension4). Tension4 is compiled for AVX2 (4
+// doubles per instruction) and for the baseline, picked at load time, and never with FMA: the
+// lanes must round every product and sum as the scalar code (compiled for the baseline) does,
+// and with FMA available GCC would contract a * b + c into one fused, differently rounded,
+// operation (C++ allows it by default, -ffp-contract=fast). Other compilers/targets: baseline.
+#if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__) && defined(__linux__) && \
+    !defined(ISOWRENCH_NO_CLONES)
+#define ISOWRENCH_MUSCLE_LANES __attribute__((target_clones("avx2", "default")))
+#else
+#define ISOWRENCH_MUSCLE_LANES
+#endif
+using LaneV = muscle::LaneDoubles;
+using LaneI = muscle::LaneMasks;
+#define ISOWRENCH_MUSCLE_SPLAT(x) (LaneV{(x), (x), (x), (x)})
+
+// Per-lane square roots (std::sqrt's correctly rounded result, without its errno branch).
+ISOWRENCH_MUSCLE_INLINE void LaneSqrt(const LaneV& x, LaneV& out) {
+#if defined(__SSE2__)
+  typedef double Half __attribute__((vector_size(16)));
+  const Half lo = (Half)_mm_sqrt_pd((__m128d)__builtin_shufflevector(x, x, 0, 1));
+  const Half hi = (Half)_mm_sqrt_pd((__m128d)__builtin_shufflevector(x, x, 2, 3));
+  out = __builtin_shufflevector(lo, hi, 0, 1, 2, 3);
+#else
+  for (int l = 0; l < 4; ++l) out[l] = std::sqrt(x[l]);
+#endif
+}
+
+using muscle::LaneBits;
 
 }  // namespace
 
@@ -290,6 +323,50 @@ struct MuscleForceModel::Impl {
     r->active_force = max_force * a * ActiveValue(r->norm) * r->cos_phi;
     r->passive_force = max_force * PassiveValue(r->norm) * r->cos_phi;
     return true;
+  }
+
+  // The normalized curves' values (and, kSlope, the iteration slopes of At) on four lanes, the
+  // same bits as ActiveValue / PassiveValue (SolveEvaluate for a Millard2012 curve, Active /
+  // Passive / Tendon for Thelen2003, lane by lane: its exponentials are scalar).
+  template <bool kSlope, int kCurve>
+  ISOWRENCH_MUSCLE_INLINE void CurveLanes(const LaneV& x, LaneV& value, LaneV& slope) const {
+    if (type == ForceModelType::kMillard2012) {
+      const muscle::SmoothCurve& c = kCurve == 0 ? active : kCurve == 1 ? passive : tendon;
+      c.Lanes<kSlope>(x, value, slope);
+      return;
+    }
+    for (int l = 0; l < 4; ++l) {
+      const CurvePoint p = kCurve == 0 ? Active(x[l]) : kCurve == 1 ? Passive(x[l]) : Tendon(x[l]);
+      value[l] = p.value;
+      if (kSlope) slope[l] = p.slope;
+    }
+  }
+
+  // Tension (rigid tendon) of four lengths, each > 0: RigidForce's operations on the lanes. Returns
+  // the lanes Tension must decide (a force beyond 1e150 N, or not a number).
+  ISOWRENCH_MUSCLE_INLINE unsigned RigidLanes(const LaneV& length, double a, LaneV& force,
+                                              unsigned& slack_bits) const {
+    const LaneV along = length - ISOWRENCH_MUSCLE_SPLAT(tendon_slack_length);
+    LaneI slack = ~(LaneI)(along >= ISOWRENCH_MUSCLE_SPLAT(pennation_min_fiber_along_tendon));
+    LaneV l;
+    LaneSqrt(ISOWRENCH_MUSCLE_SPLAT(height * height) + along * along, l);
+    slack |= ~(LaneI)(l > ISOWRENCH_MUSCLE_SPLAT(min_fiber));
+    LaneV cos_phi = ISOWRENCH_MUSCLE_SPLAT(1.0);
+    if (pennated) {
+      const LaneI within = (ISOWRENCH_MUSCLE_SPLAT(height) / l) < ISOWRENCH_MUSCLE_SPLAT(max_sin);
+      cos_phi = within ? along / l : ISOWRENCH_MUSCLE_SPLAT(max_cos);
+    }
+    // (slack lanes: any length inside the curves' range, not evaluated)
+    const LaneV norm =
+        slack ? ISOWRENCH_MUSCLE_SPLAT(1.0) : l * ISOWRENCH_MUSCLE_SPLAT(inv_optimal_fiber_length);
+    LaneV fal, fpe, unused;
+    CurveLanes<false, 0>(norm, fal, unused);
+    CurveLanes<false, 1>(norm, fpe, unused);
+    const LaneV f = ISOWRENCH_MUSCLE_SPLAT(max_force * a) * fal * cos_phi +
+                    ISOWRENCH_MUSCLE_SPLAT(max_force) * fpe * cos_phi;
+    force = slack ? ISOWRENCH_MUSCLE_SPLAT(0.0) : f;
+    slack_bits = LaneBits(slack);
+    return LaneBits(~(slack | (LaneI)(f <= ISOWRENCH_MUSCLE_SPLAT(1e150))));
   }
 
   MuscleForce Rigid(double length, double a) const {
@@ -711,6 +788,39 @@ double MuscleForceModel::Tension(double length, double activation,
   const MuscleForce f = Evaluate(length, activation);
   *status = f.status;
   return f.force;
+}
+
+namespace {
+
+// MuscleForceModel::Tension4 (the clones: a free function).
+ISOWRENCH_MUSCLE_LANES void TensionLanes(const MuscleForceModel& model,
+                                         const MuscleForceModel::Impl& m, const double* length,
+                                         double activation, double* force,
+                                         MuscleForceStatus* status) {
+  unsigned scalar = 0xf;
+  if (m.fast_tension && m.type != ForceModelType::kConstant && activation >= 0.0 &&
+      activation <= 1.0 && m.rigid) {
+    const double a = std::max(activation, m.min_activation);
+    LaneV L;
+    std::memcpy(&L, length, sizeof L);
+    LaneV f;
+    unsigned slack = 0;
+    scalar = m.RigidLanes(L, a, f, slack) | LaneBits(~(LaneI)(L > ISOWRENCH_MUSCLE_SPLAT(0.0)));
+    std::memcpy(force, &f, sizeof f);
+    for (int l = 0; l < 4; ++l) {
+      status[l] = (slack >> l) & 1 ? MuscleForceStatus::kSlack : MuscleForceStatus::kEquilibrium;
+    }
+  }
+  for (int l = 0; scalar != 0 && l < 4; ++l) {
+    if (scalar & (1u << l)) force[l] = model.Tension(length[l], activation, &status[l]);
+  }
+}
+
+}  // namespace
+
+void MuscleForceModel::Tension4(const double length[4], double activation, double force[4],
+                                MuscleForceStatus status[4]) const {
+  TensionLanes(*this, *impl_, length, activation, force, status);
 }
 
 CurvePoint MuscleForceModel::ActiveForceLength(double x) const { return impl_->Active(x); }
