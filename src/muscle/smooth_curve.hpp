@@ -226,14 +226,18 @@ ISOWRENCH_CURVE_INLINE void SmoothCurve::Lanes(const LaneDoubles& x, LaneDoubles
   // Outside [x0, x1]: the lines (x - x0 of a NaN x is NaN, as Value's).
   const V low = ISOWRENCH_CURVE_SPLAT(y0_) + ISOWRENCH_CURVE_SPLAT(slope0_) * (x - x0);
   const V high = ISOWRENCH_CURVE_SPLAT(y1_) + ISOWRENCH_CURVE_SPLAT(slope1_) * (x - x1);
-  if (LaneBits(inside) == 0) {  // (e.g. the passive curve below its slack length)
+  const unsigned inside_bits = LaneBits(inside);
+  if (inside_bits == 0) {  // (e.g. the passive curve below its slack length)
     value = below ? low : high;
     if constexpr (kSlope) {
       slope = below ? ISOWRENCH_CURVE_SPLAT(slope0_) : ISOWRENCH_CURVE_SPLAT(slope1_);
     }
     return;
   }
-  const V xs = inside ? x : x0;  // (the lookups of the other lanes stay in the table)
+  // The other lanes look up the first inside lane's x (they stay in the table and do not
+  // split the lanes' segments).
+  const double fill = x[__builtin_ctz(inside_bits)];
+  const V xs = inside ? x : ISOWRENCH_CURVE_SPLAT(fill);
   // Find, per lane: the inner segment ends at or before x.
   VI seg = (VI)(xs >= ISOWRENCH_CURVE_SPLAT(ends_[0]));
   if (count_ > 2) {
