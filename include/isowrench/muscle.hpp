@@ -233,6 +233,14 @@ class MuscleForceModel {
   /// @throws Error naming the muscle and the value if activation is not in [0, 1].
   double Tension(double length, double activation, MuscleForceStatus* status) const;
 
+  /// Four lengths at once: force[l] = Tension(length[l], activation, &status[l]) for l = 0..3,
+  /// bit for bit (the batch engine's force stage: the fiber, pennation, curves and equilibrium
+  /// of the four lengths computed together on the lanes of one SIMD register where they take
+  /// the common path, lane by lane by Tension where not).
+  /// @throws Error naming the muscle and the value if activation is not in [0, 1].
+  void Tension4(const double length[4], double activation, double force[4],
+                MuscleForceStatus status[4]) const;
+
   /// Active force-length multiplier f_L at normalized fiber length l/l_o (kConstant: 1, 0).
   CurvePoint ActiveForceLength(double norm_fiber_length) const;
   /// Passive fiber force-length multiplier f_PE at l/l_o (kConstant: 0, 0).

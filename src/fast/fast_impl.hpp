@@ -47,6 +47,14 @@ inline double MuscleTensionOf(const FastMuscle& mu, double length, double activa
   return mu.force_model.Tension(length, activation, status);
 }
 
+/// MuscleTensionOf of four lengths (MuscleForceModel::Tension4, the same bits): the batch
+/// lanes' force stage.
+/// @throws Error for an activation outside [0, 1].
+inline void MuscleTensionsOf(const FastMuscle& mu, const double length[4], double activation,
+                             double force[4], MuscleForceStatus status[4]) {
+  mu.force_model.Tension4(length, activation, force, status);
+}
+
 /// A path segment shorter than this (m) has no direction (same rule as ComputeMuscleTorque).
 inline constexpr double kFastMinSegmentLength = 1e-9;
 

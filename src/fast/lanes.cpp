@@ -201,24 +201,27 @@ LaneWorkspace::~LaneWorkspace() = default;
 
 namespace {
 
-// The force stage of the lanes: F(L_MT, a) of each lane's length by the scalar force model
-// (MuscleTensionOf: MuscleForceOf's force, the one definition; the equilibrium solve is not
-// vectorised), tau scaled by it. Lanes already going to the scalar path (`skip`) are not evaluated;
-// a lane whose force model has no equilibrium goes there too (returned bit), which reports it.
+// The force stage of the lanes: F(L_MT, a) of the four lanes' lengths by the force model's
+// four-lane evaluation (MuscleTensionsOf: MuscleTensionOf's force and status per lane, bit for
+// bit; vectorised where the lanes take the common path), tau scaled by it. Lanes already going
+// to the scalar path (`skip`) get F = 0; a lane whose force model has no equilibrium goes there
+// too (returned bit), which reports it.
 template <class W>
-ISOWRENCH_NOINLINE unsigned LaneForceStage(const FastMuscle& mu, W& ws, double activation,
-                                           unsigned skip) {
+ISOWRENCH_INLINE unsigned LaneForceStage(const FastMuscle& mu, W& ws, double activation,
+                                         unsigned skip) {
+  double length[kLanes], force[kLanes];
+  MuscleForceStatus status[kLanes];
+  std::memcpy(length, &ws.length, sizeof length);
+  MuscleTensionsOf(mu, length, activation, force, status);
   unsigned scalar = 0;
-  V f = ISOWRENCH_V4_SPLAT(0.0);
+  V f;
   for (int l = 0; l < kLanes; ++l) {
-    if (skip & (1u << l)) continue;
-    MuscleForceStatus status;
-    f[l] = MuscleTensionOf(mu, ws.length[l], activation, &status);
-    if (status == MuscleForceStatus::kNoEquilibrium) scalar |= 1u << l;
+    f[l] = (skip & (1u << l)) ? 0.0 : force[l];
+    if (status[l] == MuscleForceStatus::kNoEquilibrium) scalar |= 1u << l;
   }
   V* tau = ws.TauData();
   for (int c = 0; c < ws.m; ++c) tau[c] *= f;
-  return scalar;
+  return scalar & ~skip;
 }
 
 template <class W>

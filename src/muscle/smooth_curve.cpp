@@ -154,6 +154,20 @@ SmoothCurve::SmoothCurve(const ControlPoints* segments, int count, double y0, do
     end[0] = u[kGuessIntervals];
     end[1] = m[kGuessIntervals];
     end[2] = 0.5 * c2[kGuessIntervals];
+    g.packed[kLaneBegin] = g.x_begin;
+    g.packed[kLaneInvStep] = g.inv_step;
+    for (int k = 0; k < 6; ++k) {
+      g.packed[static_cast<std::size_t>(kLaneX + k)] = g.x[k];
+      g.packed[static_cast<std::size_t>(kLaneY + k)] = g.y[k];
+    }
+    for (int k = 0; k < 5; ++k) {
+      g.packed[static_cast<std::size_t>(kLaneDx + k)] = g.dx[k];
+      g.packed[static_cast<std::size_t>(kLaneDy + k)] = g.dy[k];
+    }
+    for (std::size_t k = 0; k < g.packed.size(); ++k) {
+      const double v = g.packed[k];
+      g.splat[k] = LaneDoubles{v, v, v, v};
+    }
   }
   x0_ = segments[0].x[0];
   x1_ = segments[count - 1].x[5];
@@ -161,6 +175,11 @@ SmoothCurve::SmoothCurve(const ControlPoints* segments, int count, double y0, do
     ends_[static_cast<std::size_t>(s)] =
         s + 1 < count ? segments[s].x[5] : std::numeric_limits<double>::infinity();
   }
+}
+
+CurvePoint SmoothCurve::ScalarLane(double x, bool slope) const {
+  if (slope) return SolveEvaluate(x);
+  return {Value(x), 0.0};
 }
 
 double SmoothCurve::Converge(const Segment& g, double x, double u, double* dxdu) const {

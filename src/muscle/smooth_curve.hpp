@@ -21,12 +21,40 @@
 #include <array>
 #include <cmath>
 #include <cstddef>
+#include <cstring>
 #include <string>
 #include <vector>
 
 #include "isowrench/muscle.hpp"
 
+#if defined(__SSE2__)
+#include <emmintrin.h>
+#endif
+
 namespace isowrench::muscle {
+
+#if defined(__GNUC__)
+#define ISOWRENCH_CURVE_INLINE inline __attribute__((always_inline))
+#else
+#define ISOWRENCH_CURVE_INLINE inline
+#endif
+
+/// Four doubles / four 64-bit lane masks (GCC/Clang vector extensions): the batch force stage's
+/// lanes (MuscleForceModel::Tension4).
+typedef double LaneDoubles __attribute__((vector_size(32)));
+typedef long long LaneMasks __attribute__((vector_size(32)));
+
+/// Bit l set where lane l of `mask` is set (all bits), l = 0..3.
+ISOWRENCH_CURVE_INLINE unsigned LaneBits(const LaneMasks& mask) {
+#if defined(__SSE2__)
+  const LaneDoubles m = (LaneDoubles)mask;
+  const int lo = _mm_movemask_pd((__m128d)__builtin_shufflevector(m, m, 0, 1));
+  const int hi = _mm_movemask_pd((__m128d)__builtin_shufflevector(m, m, 2, 3));
+  return static_cast<unsigned>(lo | (hi << 2));
+#else
+  return static_cast<unsigned>((mask[0] & 1) | (mask[1] & 2) | (mask[2] & 4) | (mask[3] & 8));
+#endif
+}
 
 /// Control points of one quintic Bezier segment (Bernstein basis).
 struct ControlPoints {
@@ -62,7 +90,7 @@ class SmoothCurve {
     return {Poly(g.y, u), dxdu > 0.0 ? Slope(g.dy, u) / dxdu : 0.0};
   }
   /// Evaluate(x).value, without the slope.
-  double Value(double x) const {
+  ISOWRENCH_CURVE_INLINE double Value(double x) const {
     if (!(x >= x0_)) return y0_ + slope0_ * (x - x0_);
     if (x > x1_) return y1_ + slope1_ * (x - x1_);
     const Segment& g = Find(x);
@@ -81,6 +109,17 @@ class SmoothCurve {
     return {Poly(g.y, u), dxdu > 0.0 ? Slope(g.dy, u) / dxdu : 0.0};
   }
 
+  /// Four arguments at once: value[l] = Value(x[l]) and, with kSlope, slope[l] =
+  /// SolveEvaluate(x[l]).slope, bit for bit: per lane the same operations in the same order
+  /// (the caller compiles them without contracting a * b + c into a fused multiply-add:
+  /// muscle_force.cpp). The segment and the guess interval are looked up per lane; a lane whose
+  /// guess needs more than one Newton step (Converge) runs the scalar evaluation.
+  template <bool kSlope>
+  void Lanes(const LaneDoubles& x, LaneDoubles& value, LaneDoubles& slope) const;
+
+  /// SolveEvaluate(x) (`slope` false: Value(x) and slope 0), out of line: the lanes' fallback.
+  CurvePoint ScalarLane(double x, bool slope) const;
+
   int segment_count() const { return count_; }
   const ControlPoints& control_points(int i) const { return control_[i]; }
   double x0() const { return x0_; }
@@ -97,7 +136,14 @@ class SmoothCurve {
     // guess[6k + i] r^i; interval kGuessIntervals (t rounded to it at x = x_end) is u's
     // Taylor polynomial there.
     std::array<double, 6 * (kGuessIntervals + 1)> guess{};
+    // For the lanes: x_begin, inv_step, x, dx, y, dy (kLane* below) packed (a 4 x 4 transpose
+    // per 4 entries gathers them for four lanes in different segments) and splatted (four lanes
+    // in this segment read them as whole vectors).
+    alignas(32) std::array<double, 24> packed{};
+    std::array<LaneDoubles, 24> splat{};
   };
+  static constexpr int kLaneBegin = 0, kLaneInvStep = 1, kLaneX = 2, kLaneDx = 8, kLaneY = 13,
+                       kLaneDy = 19;
 
   static double Poly(const std::array<double, 6>& a, double u) {
     return ((((a[5] * u + a[4]) * u + a[3]) * u + a[2]) * u + a[1]) * u + a[0];
@@ -141,6 +187,129 @@ class SmoothCurve {
   int count_ = 0;
   double x0_ = 0.0, x1_ = 0.0, y0_ = 0.0, y1_ = 0.0, slope0_ = 0.0, slope1_ = 0.0;
 };
+
+#if defined(__GNUC__) && !defined(__clang__)
+#define ISOWRENCH_CURVE_UNROLL _Pragma("GCC unroll 8")
+#else
+#define ISOWRENCH_CURVE_UNROLL
+#endif
+
+// out[i][l] = p_l[i], i < 4: four doubles from each of four addresses, transposed.
+ISOWRENCH_CURVE_INLINE void LaneTranspose(const double* p0, const double* p1, const double* p2,
+                                          const double* p3, LaneDoubles* out) {
+  using V = LaneDoubles;
+  V a0, a1, a2, a3;
+  std::memcpy(&a0, p0, sizeof a0);
+  std::memcpy(&a1, p1, sizeof a1);
+  std::memcpy(&a2, p2, sizeof a2);
+  std::memcpy(&a3, p3, sizeof a3);
+  const V t0 = __builtin_shufflevector(a0, a1, 0, 4, 2, 6);
+  const V t1 = __builtin_shufflevector(a0, a1, 1, 5, 3, 7);
+  const V t2 = __builtin_shufflevector(a2, a3, 0, 4, 2, 6);
+  const V t3 = __builtin_shufflevector(a2, a3, 1, 5, 3, 7);
+  out[0] = __builtin_shufflevector(t0, t2, 0, 1, 4, 5);
+  out[1] = __builtin_shufflevector(t1, t3, 0, 1, 4, 5);
+  out[2] = __builtin_shufflevector(t0, t2, 2, 3, 6, 7);
+  out[3] = __builtin_shufflevector(t1, t3, 2, 3, 6, 7);
+}
+
+template <bool kSlope>
+ISOWRENCH_CURVE_INLINE void SmoothCurve::Lanes(const LaneDoubles& x, LaneDoubles& value,
+                                               LaneDoubles& slope) const {
+  using V = LaneDoubles;
+  using VI = LaneMasks;
+#define ISOWRENCH_CURVE_SPLAT(v) (V{(v), (v), (v), (v)})
+  const V x0 = ISOWRENCH_CURVE_SPLAT(x0_), x1 = ISOWRENCH_CURVE_SPLAT(x1_);
+  const VI below = ~(VI)(x >= x0);  // (NaN too, as Value's !(x >= x0_))
+  const VI above = (VI)(x > x1) & ~below;
+  const VI inside = ~(below | above);
+  // Outside [x0, x1]: the lines (x - x0 of a NaN x is NaN, as Value's).
+  const V low = ISOWRENCH_CURVE_SPLAT(y0_) + ISOWRENCH_CURVE_SPLAT(slope0_) * (x - x0);
+  const V high = ISOWRENCH_CURVE_SPLAT(y1_) + ISOWRENCH_CURVE_SPLAT(slope1_) * (x - x1);
+  const unsigned inside_bits = LaneBits(inside);
+  if (inside_bits == 0) {  // (e.g. the passive curve below its slack length)
+    value = below ? low : high;
+    if constexpr (kSlope) {
+      slope = below ? ISOWRENCH_CURVE_SPLAT(slope0_) : ISOWRENCH_CURVE_SPLAT(slope1_);
+    }
+    return;
+  }
+  // The other lanes look up the first inside lane's x (they stay in the table and do not
+  // split the lanes' segments).
+  const double fill = x[__builtin_ctz(inside_bits)];
+  const V xs = inside ? x : ISOWRENCH_CURVE_SPLAT(fill);
+  // Find, per lane: the inner segment ends at or before x.
+  VI seg = (VI)(xs >= ISOWRENCH_CURVE_SPLAT(ends_[0]));
+  if (count_ > 2) {
+    seg += (VI)(xs >= ISOWRENCH_CURVE_SPLAT(ends_[1])) +
+           (VI)(xs >= ISOWRENCH_CURVE_SPLAT(ends_[2])) +
+           (VI)(xs >= ISOWRENCH_CURVE_SPLAT(ends_[3]));
+  }
+  const Segment* g[4];
+  ISOWRENCH_CURVE_UNROLL
+  for (int l = 0; l < 4; ++l) g[l] = &segments_[static_cast<std::size_t>(-seg[l])];
+  // The segments' coefficients as vectors: one segment's splatted ones, or four gathered.
+  V gathered[24];
+  const V* c = g[0]->splat.data();
+  if (!(g[1] == g[0] && g[2] == g[0] && g[3] == g[0])) {
+    ISOWRENCH_CURVE_UNROLL
+    for (int q = 0; q < 24; q += 4) {
+      LaneTranspose(g[0]->packed.data() + q, g[1]->packed.data() + q, g[2]->packed.data() + q,
+                    g[3]->packed.data() + q, gathered + q);
+    }
+    c = gathered;
+  }
+  // U: the guess interval k = (int) t and r = t - k per lane, the guess's six coefficients.
+  const V t = (xs - c[kLaneBegin]) * c[kLaneInvStep];
+  const double* guess[4];
+  V r = ISOWRENCH_CURVE_SPLAT(0.0);
+  ISOWRENCH_CURVE_UNROLL
+  for (int l = 0; l < 4; ++l) {
+    const int k = static_cast<int>(t[l]);
+    r[l] = t[l] - k;
+    guess[l] = &g[l]->guess[6 * static_cast<std::size_t>(k)];
+  }
+  V cg[4];
+  LaneTranspose(guess[0], guess[1], guess[2], guess[3], cg);
+  const V c4 = V{guess[0][4], guess[1][4], guess[2][4], guess[3][4]};
+  const V c5 = V{guess[0][5], guess[1][5], guess[2][5], guess[3][5]};
+  const V u = ((((c5 * r + c4) * r + cg[3]) * r + cg[2]) * r + cg[1]) * r + cg[0];
+  const V* cx = c + kLaneX;
+  const V* cdx = c + kLaneDx;
+  const V* cy = c + kLaneY;
+  const V d = (((cdx[4] * u + cdx[3]) * u + cdx[2]) * u + cdx[1]) * u + cdx[0];
+  const V du = (((((cx[5] * u + cx[4]) * u + cx[3]) * u + cx[2]) * u + cx[1]) * u + cx[0] - xs) / d;
+  const V v = u - du;
+  const V one = ISOWRENCH_CURVE_SPLAT(1.0);
+  const V un = (one < v) ? one : v;  // std::min(u - du, 1.0)
+  V y = ((((cy[5] * un + cy[4]) * un + cy[3]) * un + cy[2]) * un + cy[1]) * un + cy[0];
+  V s = ISOWRENCH_CURVE_SPLAT(0.0);
+  if constexpr (kSlope) {
+    const V* cdy = c + kLaneDy;
+    const V dy = (((cdy[4] * un + cdy[3]) * un + cdy[2]) * un + cdy[1]) * un + cdy[0];
+    s = (d > ISOWRENCH_CURVE_SPLAT(0.0)) ? dy / d : ISOWRENCH_CURVE_SPLAT(0.0);
+  }
+  y = below ? low : y;
+  y = above ? high : y;
+  if constexpr (kSlope) {
+    s = below ? ISOWRENCH_CURVE_SPLAT(slope0_) : s;
+    s = above ? ISOWRENCH_CURVE_SPLAT(slope1_) : s;
+  }
+  // Lanes inside whose Newton step exceeds 1e-8 (or is not a number): the scalar evaluation.
+  const VI far =
+      inside & ~(VI)(((V)((VI)du & 0x7fffffffffffffffLL)) <= ISOWRENCH_CURVE_SPLAT(1e-8));
+  if (const unsigned far_bits = LaneBits(far); far_bits != 0) {
+    for (int l = 0; l < 4; ++l) {
+      if (!(far_bits & (1u << l))) continue;
+      const CurvePoint p = ScalarLane(x[l], kSlope);
+      y[l] = p.value;
+      if constexpr (kSlope) s[l] = p.slope;
+    }
+  }
+  value = y;
+  if constexpr (kSlope) slope = s;
+#undef ISOWRENCH_CURVE_SPLAT
+}
 
 // Factories (SmoothSegmentedFunctionFactory). Each checks OpenSim's conditions and throws
 // isowrench::Error "muscle 'NAME': <what> ..." naming the property and value.

@@ -7,6 +7,11 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdint>
+#include <cstring>
+#include <limits>
+#include <random>
+#include <vector>
 
 #include "isowrench/error.hpp"
 #include "isowrench/muscle.hpp"
@@ -144,6 +149,62 @@ TEST(MuscleCurves, BezierCurvesEqualDeCasteljauOfTheirControlPoints) {
     }
   }
   EXPECT_LT(worst, 1e-13);
+}
+
+// SmoothCurve::Lanes (the batch force stage's four-lane curves) is Value and SolveEvaluate lane
+// by lane to the last bit: groups of four arguments spread over the whole curve (lanes in
+// different segments), packed into one segment, on the guess table's knots, at the segment
+// ends, outside [x0, x1] and NaN, on every curve kind (the active curve's far end needs more
+// than one Newton step: the scalar fallback).
+TEST(MuscleCurves, LanesAreValueAndSolveEvaluateBitForBit) {
+  const muscle::SmoothCurve curves[] = {
+      muscle::ActiveForceLengthCurve(ActiveForceLengthCurveSpec{}, 0.0, "M"),
+      muscle::ActiveForceLengthCurve(ActiveForceLengthCurveSpec{}, 0.1, "M"),
+      muscle::FiberForceLengthCurve(FiberForceLengthCurveSpec{}, "M"),
+      muscle::TendonForceLengthCurve(TendonForceLengthCurveSpec{}, "M")};
+  auto bits = [](double v) {
+    std::uint64_t b;
+    std::memcpy(&b, &v, sizeof b);
+    return b;
+  };
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<double> unit(0.0, 1.0);
+  int groups = 0;
+  for (const muscle::SmoothCurve& c : curves) {
+    const double x0 = c.x0(), x1 = c.x1(), w = x1 - x0;
+    std::vector<double> special = {x0,
+                                   x1,
+                                   std::numeric_limits<double>::quiet_NaN(),
+                                   x0 - w,
+                                   x1 + w,
+                                   std::nextafter(x1, 0.0),
+                                   std::nextafter(x0, 2.0)};
+    for (int s = 0; s < c.segment_count(); ++s) {
+      const muscle::ControlPoints& p = c.control_points(s);
+      for (int j = 0; j <= 64; ++j) special.push_back(p.x[0] + (p.x[5] - p.x[0]) * j / 64.0);
+    }
+    for (int group = 0; group < 4000; ++group) {
+      muscle::LaneDoubles x;
+      const double centre = x0 - 0.2 * w + 1.4 * w * unit(rng);
+      for (int l = 0; l < 4; ++l) {
+        const double pick = unit(rng);
+        x[l] = pick < 0.5    ? x0 - 0.2 * w + 1.4 * w * unit(rng)
+               : pick < 0.85 ? centre + 1e-3 * w * unit(rng)
+                             : special[static_cast<std::size_t>(unit(rng) * special.size())];
+      }
+      muscle::LaneDoubles value, slope, value_only, unused;
+      c.Lanes<true>(x, value, slope);
+      c.Lanes<false>(x, value_only, unused);
+      for (int l = 0; l < 4; ++l) {
+        const CurvePoint p = c.SolveEvaluate(x[l]);
+        ASSERT_EQ(bits(value[l]), bits(p.value)) << "x " << x[l] << " lane " << l;
+        ASSERT_EQ(bits(slope[l]), bits(p.slope)) << "x " << x[l] << " lane " << l;
+        ASSERT_EQ(bits(value_only[l]), bits(c.Value(x[l]))) << "x " << x[l] << " lane " << l;
+      }
+      ++groups;
+    }
+  }
+  EXPECT_EQ(groups, 16000);
 }
 
 TEST(MuscleCurves, SlopesEqualCentralDifferences) {

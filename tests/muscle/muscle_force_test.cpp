@@ -7,8 +7,11 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdint>
+#include <cstring>
 #include <limits>
 #include <map>
+#include <random>
 #include <vector>
 
 #include "isowrench/error.hpp"
@@ -180,6 +183,73 @@ TEST(MuscleForce, TensionIsEvaluatesForceBitForBit) {
   EXPECT_GT(seen[MuscleForceStatus::kNoEquilibrium], 0);
   MuscleForceStatus status;
   EXPECT_THROW(MuscleForceModel("R", 10.0, RatLikeSpecs()[0]).Tension(0.03, 1.5, &status), Error);
+}
+
+// Tension4 (the batch lanes' force stage, vectorised) is Tension lane by lane to the last bit:
+// groups of four random lengths mixing taut, slack, minimum-length, huge, zero, negative and
+// NaN lengths and lengths where the model has no number, for every model kind (rigid and
+// compliant Millard2012, classic and damped, Thelen2003, a zero tendon slack length, a Thelen
+// muscle whose passive curve overflows) at activations at, below and above the floor.
+TEST(MuscleForce, Tension4IsTensionPerLaneBitForBit) {
+  std::vector<MuscleForceSpec> specs = RatLikeSpecs();
+  for (MuscleForceSpec spec : RatLikeSpecs()) {
+    spec.ignore_tendon_compliance = true;
+    specs.push_back(spec);
+  }
+  MuscleForceSpec classic = MillardSpec(0.0293, 0.00639, 0.0524);
+  classic.fiber_damping = 0.0;
+  specs.push_back(classic);
+  specs.push_back(MillardSpec(0.018, 0.004, 0.0));
+  specs.push_back(ThelenSpec(1e-4, 0.004, 0.1));  // l/l_o in the hundreds: exp overflows
+  std::mt19937 rng(28);
+  std::uniform_real_distribution<double> unit(0.0, 1.0);
+  std::map<MuscleForceStatus, int> seen;
+  int mixed = 0;
+  for (const MuscleForceSpec& spec : specs) {
+    const MuscleForceModel m("R", 10.0, spec);
+    const double span = spec.optimal_fiber_length + spec.tendon_slack_length;
+    for (int group = 0; group < 1500; ++group) {
+      double length[4];
+      for (double& L : length) {
+        const double pick = unit(rng);
+        L = pick < 0.9    ? span * (0.3 + 2.2 * unit(rng))  // mostly taut, some slack
+            : pick < 0.93 ? span * (0.9 + 0.2 * unit(rng)) * (1 + 1e-9 * unit(rng))
+            : pick < 0.95 ? std::numeric_limits<double>::quiet_NaN()
+            : pick < 0.96 ? -span * unit(rng)
+            : pick < 0.97 ? 0.0
+            : pick < 0.98 ? 1e300
+                          : span * 50 * unit(rng);
+      }
+      const double a = group % 7 == 0 ? 0.0 : group % 11 == 0 ? 1.0 : unit(rng);
+      double force[4];
+      MuscleForceStatus status[4];
+      m.Tension4(length, a, force, status);
+      std::map<MuscleForceStatus, int> group_statuses;
+      for (int l = 0; l < 4; ++l) {
+        MuscleForceStatus one = MuscleForceStatus::kEquilibrium;
+        const double f = m.Tension(length[l], a, &one);
+        ASSERT_EQ(status[l], one) << ForceModelName(spec.model) << " L " << length[l] << " a " << a
+                                  << " lane " << l;
+        std::uint64_t bits_four, bits_one;
+        std::memcpy(&bits_four, &force[l], sizeof f);
+        std::memcpy(&bits_one, &f, sizeof f);
+        ASSERT_EQ(bits_four, bits_one)
+            << ForceModelName(spec.model) << " rigid " << m.rigid_tendon() << " L " << length[l]
+            << " a " << a << " lane " << l << ": " << force[l] << " vs " << f;
+        ++seen[one];
+        ++group_statuses[one];
+      }
+      mixed += group_statuses.size() > 1;
+    }
+  }
+  EXPECT_GT(seen[MuscleForceStatus::kEquilibrium], 40000);
+  EXPECT_GT(seen[MuscleForceStatus::kSlack], 5000);
+  EXPECT_GT(seen[MuscleForceStatus::kNoEquilibrium], 1000);
+  EXPECT_GT(mixed, 10000);
+  double length[4] = {0.03, 0.03, 0.03, 0.03}, force[4];
+  MuscleForceStatus status[4];
+  EXPECT_THROW(MuscleForceModel("R", 10.0, RatLikeSpecs()[0]).Tension4(length, 1.5, force, status),
+               Error);
 }
 
 TEST(MuscleForce, EquilibriumResidualBelow1e10NewtonAtEverySolution) {

@@ -1,0 +1,311 @@
+// MuscleForceModel::Tension4: the batch force stage on four lanes (4-double vectors), the same
+// operations in the same order as the scalar Tension (muscle_force.cpp), so the same bits per
+// lane. Its own translation unit: the scalar force model's inlining (the one-posture path's
+// speed) does not change with it.
+
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+#include <limits>
+#if defined(__SSE2__)
+#include <emmintrin.h>
+#endif
+
+#include "muscle/force_model_impl.hpp"
+
+namespace isowrench {
+namespace {
+
+// The batch force stage's lanes (MuscleForceModel::Tension4). Tension4 is compiled for AVX2 (4
+// doubles per instruction) and for the baseline, picked at load time, and never with FMA: the
+// lanes must round every product and sum as the scalar code (compiled for the baseline) does,
+// and with FMA available GCC would contract a * b + c into one fused, differently rounded,
+// operation (C++ allows it by default, -ffp-contract=fast). Other compilers/targets: baseline.
+#if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__) && defined(__linux__) && \
+    !defined(ISOWRENCH_NO_CLONES)
+#define ISOWRENCH_MUSCLE_LANES __attribute__((target_clones("avx2", "default")))
+#else
+#define ISOWRENCH_MUSCLE_LANES
+#endif
+using LaneV = muscle::LaneDoubles;
+using LaneI = muscle::LaneMasks;
+#define ISOWRENCH_MUSCLE_SPLAT(x) (LaneV{(x), (x), (x), (x)})
+
+// Per-lane square roots (std::sqrt's correctly rounded result, without its errno branch).
+ISOWRENCH_MUSCLE_INLINE void LaneSqrt(const LaneV& x, LaneV& out) {
+#if defined(__SSE2__)
+  typedef double Half __attribute__((vector_size(16)));
+  const Half lo = (Half)_mm_sqrt_pd((__m128d)__builtin_shufflevector(x, x, 0, 1));
+  const Half hi = (Half)_mm_sqrt_pd((__m128d)__builtin_shufflevector(x, x, 2, 3));
+  out = __builtin_shufflevector(lo, hi, 0, 1, 2, 3);
+#else
+  for (int l = 0; l < 4; ++l) out[l] = std::sqrt(x[l]);
+#endif
+}
+
+using muscle::LaneBits;
+
+}  // namespace
+
+// The normalized curves' values (and, kSlope, the iteration slopes of At) on four lanes, the
+// same bits as ActiveValue / PassiveValue (SolveEvaluate for a Millard2012 curve, Active /
+// Passive / Tendon for Thelen2003, lane by lane: its exponentials are scalar).
+template <bool kSlope, int kCurve>
+ISOWRENCH_MUSCLE_INLINE void MuscleForceModel::Impl::CurveLanes(const LaneV& x, LaneV& value,
+                                                                LaneV& slope) const {
+  if (type == ForceModelType::kMillard2012) {
+    const muscle::SmoothCurve& c = kCurve == 0 ? active : kCurve == 1 ? passive : tendon;
+    c.Lanes<kSlope>(x, value, slope);
+    return;
+  }
+  for (int l = 0; l < 4; ++l) {
+    const CurvePoint p = kCurve == 0 ? Active(x[l]) : kCurve == 1 ? Passive(x[l]) : Tendon(x[l]);
+    value[l] = p.value;
+    if (kSlope) slope[l] = p.slope;
+  }
+}
+
+// Tension (rigid tendon) of four lengths, each > 0: RigidForce's operations on the lanes. Returns
+// the lanes Tension must decide (a force beyond 1e150 N, or not a number).
+ISOWRENCH_MUSCLE_INLINE unsigned MuscleForceModel::Impl::RigidLanes(const LaneV& length, double a,
+                                                                    LaneV& force,
+                                                                    unsigned& slack_bits) const {
+  const LaneV along = length - ISOWRENCH_MUSCLE_SPLAT(tendon_slack_length);
+  LaneI slack = ~(LaneI)(along >= ISOWRENCH_MUSCLE_SPLAT(pennation_min_fiber_along_tendon));
+  LaneV l;
+  LaneSqrt(ISOWRENCH_MUSCLE_SPLAT(height * height) + along * along, l);
+  slack |= ~(LaneI)(l > ISOWRENCH_MUSCLE_SPLAT(min_fiber));
+  LaneV cos_phi = ISOWRENCH_MUSCLE_SPLAT(1.0);
+  if (pennated) {
+    const LaneI within = (ISOWRENCH_MUSCLE_SPLAT(height) / l) < ISOWRENCH_MUSCLE_SPLAT(max_sin);
+    cos_phi = within ? along / l : ISOWRENCH_MUSCLE_SPLAT(max_cos);
+  }
+  // (slack lanes: any length inside the curves' range, not evaluated)
+  const LaneV norm =
+      slack ? ISOWRENCH_MUSCLE_SPLAT(1.0) : l * ISOWRENCH_MUSCLE_SPLAT(inv_optimal_fiber_length);
+  LaneV fal, fpe, unused;
+  CurveLanes<false, 0>(norm, fal, unused);
+  CurveLanes<false, 1>(norm, fpe, unused);
+  const LaneV f = ISOWRENCH_MUSCLE_SPLAT(max_force * a) * fal * cos_phi +
+                  ISOWRENCH_MUSCLE_SPLAT(max_force) * fpe * cos_phi;
+  force = slack ? ISOWRENCH_MUSCLE_SPLAT(0.0) : f;
+  slack_bits = LaneBits(slack);
+  return LaneBits(~(slack | (LaneI)(f <= ISOWRENCH_MUSCLE_SPLAT(1e150))));
+}
+
+// At<false>(l, length, a)'s residual, slope, tendon force and fiber force along the tendon
+// (Iterate) on four lanes, the same operations in the same order.
+ISOWRENCH_MUSCLE_INLINE void MuscleForceModel::Impl::IterateLanes(const LaneV& l,
+                                                                  const LaneV& length, double a,
+                                                                  LaneV& residual, LaneV& slope,
+                                                                  LaneV& tendon_force,
+                                                                  LaneV& fiber_along) const {
+#define S ISOWRENCH_MUSCLE_SPLAT
+  LaneV sin_phi = S(0.0), cos_phi = S(1.0);
+  if (pennated) {  // Pennation
+    const LaneV s = (LaneI)(l > S(pennation_min_fiber)) ? S(height) / l : S(max_sin);
+    const LaneI within = s < S(max_sin);
+    LaneV root;
+    LaneSqrt((LaneV)((LaneI)(S(1.0) - s * s) & 0x7fffffffffffffffLL), root);
+    sin_phi = within ? s : S(max_sin);
+    cos_phi = within ? root : S(max_cos);
+  }
+  const LaneV norm = l * S(inv_optimal_fiber_length);
+  const LaneV tendon_length = length - l * cos_phi;
+  const LaneV norm_tendon = tendon_length * S(inv_tendon_slack_length);
+  LaneV fal, dfal, fpe, dfpe, fse, dfse;
+  CurveLanes<true, 0>(norm, fal, dfal);
+  CurveLanes<true, 1>(norm, fpe, dfpe);
+  CurveLanes<true, 2>(norm_tendon, fse, dfse);
+  const LaneV active_force = S(max_force * a) * fal;
+  const LaneV passive_force = S(max_force) * fpe;
+  const LaneV fiber = active_force + passive_force;
+  const LaneV dfiber = (S(a) * dfal + dfpe) * S(force_per_optimal_length);
+  const LaneV dcos = sin_phi * sin_phi / (l * cos_phi);
+  fiber_along = fiber * cos_phi;
+  const LaneV dfiber_along = dfiber * cos_phi + fiber * dcos;
+  tendon_force = S(max_force) * fse;
+  const LaneV tendon_stiffness = dfse * S(force_per_tendon_slack_length);
+  const LaneV r = fiber_along - tendon_force;
+  residual = (LaneI)((l - l) == S(0.0)) ? r : S(std::numeric_limits<double>::quiet_NaN());
+  slope = dfiber_along + tendon_stiffness / cos_phi;
+#undef S
+}
+
+// Tension (compliant tendon) of four lengths, each > 0 and finite: Solve's common path on the
+// lanes, each lane taking OpenSim's iteration's steps (masked until every lane has finished)
+// and then the polish's Newton steps. Returns the lanes Tension must decide: OpenSim's
+// iteration not converging, its result outside the bracket, a bisection or minimum-length
+// step of the polish, a fiber at its minimum length, a number beyond 1e150, not a number.
+ISOWRENCH_MUSCLE_INLINE unsigned MuscleForceModel::Impl::CompliantLanes(
+    const LaneV& length, double a, LaneV& force, unsigned& slack_bits) const {
+#define S ISOWRENCH_MUSCLE_SPLAT
+  const LaneV slack_along = length - S(tendon_slack_length);
+  const LaneI slack = (LaneI)(slack_along <= S(min_fiber_along_tendon));
+  slack_bits = LaneBits(slack);
+  LaneV hi;
+  LaneSqrt(S(height * height) + slack_along * slack_along, hi);
+  // OpenSimIteration's start.
+  const LaneV along = length - S(1.01 * tendon_slack_length);
+  LaneV root;
+  LaneSqrt(S(height * height) + along * along, root);
+  LaneV lce = (LaneI)(along >= S(pennation_min_fiber_along_tendon)) ? root : S(pennation_min_fiber);
+  if (clamp_initial_guess) lce = (LaneI)(lce < S(min_fiber)) ? S(min_fiber) : lce;
+  lce = slack ? S(min_fiber) : lce;  // (slack lanes: a harmless fiber, not used)
+  const auto magnitude = [](const LaneV& v) ISOWRENCH_MUSCLE_LAMBDA_INLINE {
+    return (LaneV)((LaneI)v & 0x7fffffffffffffffLL);
+  };
+  const LaneV opensim_tolerance_v = S(opensim_tolerance);
+  const LaneV max_iterations = S(static_cast<double>(opensim_max_iterations));
+  const LaneI none = LaneI{0, 0, 0, 0};
+  // The lanes' state: OpenSim's iteration (lce, lce_prev, ferr, ferr_prev, slope, h, iter),
+  // the last sample (ferr, last_slope, tendon_force, fiber_along), the polish (x, lo, hi,
+  // lo_negative, step_before, step). Masks: `first` (OpenSim's first sample pending),
+  // `opensim` (a sample at lce pending), `entering` (OpenSim's iteration just ended),
+  // `polish` (a sample at x pending, then the polish's loop head), `done`, `scalar`.
+  LaneV ferr = S(0.0), slope = ferr, tendon_force = ferr, fiber_along = ferr, last_slope = ferr;
+  LaneV ferr_prev = ferr, lce_prev = lce, h = S(1.0), iter = S(0.0);
+  LaneV x = lce, lo = S(min_fiber), step_before = hi - lo, step = step_before;
+  LaneI first = ~slack, opensim = none, entering = none, polish = none, lo_negative = none;
+  LaneI scalar = none, done = slack;
+  for (int round = 0; round < 64; ++round) {
+    // Lanes leaving OpenSim's iteration: converged and inside the bracket, or the scalar path.
+    if (LaneBits(entering) != 0) {
+      const LaneI converged = (LaneI)(magnitude(ferr) < opensim_tolerance_v);
+      const LaneV clamped = (LaneI)(lce < lo) ? lo : (LaneI)(hi < lce) ? hi : lce;
+      const LaneI inside = converged & (LaneI)(clamped == lce);
+      scalar |= entering & ~inside;
+      x = entering ? lce : x;
+      // (the polish's checks below run on OpenSim's last sample)
+      polish |= entering & inside;
+    }
+    // The polish's loop head on the lanes with a new sample (entering or sampled).
+    LaneI check = (entering & polish) | (polish & ~entering & ~done & ~scalar);
+    entering = LaneI{0, 0, 0, 0};
+    if (LaneBits(check) != 0) {
+      const LaneI within = (LaneI)(magnitude(ferr) <= S(tolerance));
+      done |= check & within;
+      LaneI go = check & ~within;
+      const LaneI negative = (LaneI)(ferr < S(0.0));
+      lo = (go & negative) ? x : lo;
+      lo_negative |= go & negative;
+      hi = (go & ~negative) ? x : hi;
+      const LaneI rounding = (LaneI)(hi - lo <= S(2 * kSimTKEps) * hi);
+      done |= go & rounding;
+      go &= ~rounding;
+      const LaneV next = x - ferr / last_slope;
+      const LaneI slow = (LaneI)(magnitude(next - x) > S(0.5) * magnitude(step_before));
+      step_before = go ? step : step_before;
+      const LaneI newton = (LaneI)(next > lo) & (LaneI)(next < hi) & ~slow;
+      scalar |= go & ~newton;  // bisection or the minimum-length check
+      go &= newton;
+      step = go ? next - x : step;
+      x = go ? next : x;
+      polish = (polish & ~check) | go;  // (the lanes that need a sample at x)
+    }
+    if (LaneBits(first | opensim | polish) == 0) break;
+    // One sample per lane that needs one: OpenSim's at lce (its inner loop's step from
+    // lce_prev), the polish's at x.
+    if (LaneBits(opensim) != 0) {
+      const LaneV delta = -h * ferr_prev / slope;
+      const LaneI big = (LaneI)(magnitude(delta) > S(kSignificantReal));
+      const LaneV sign = (LaneV)((LaneI)(delta > S(0.0)) & (LaneI)S(1.0)) -
+                         (LaneV)((LaneI)(delta < S(0.0)) & (LaneI)S(1.0));
+      LaneV next = big ? lce_prev + delta : lce_prev - sign * S(kSqrtEps);
+      next = (LaneI)(next < S(min_fiber)) ? S(min_fiber) : next;
+      lce = opensim ? next : lce;
+      h = (opensim & ~big) ? S(0.0) : h;
+    }
+    const LaneV point = (first | opensim) ? lce : x;
+    LaneV r, sl, tf, fa;
+    IterateLanes(point, length, a, r, sl, tf, fa);
+    const LaneI sampled = first | opensim | polish;
+    ferr = sampled ? r : ferr;
+    last_slope = sampled ? sl : last_slope;
+    tendon_force = sampled ? tf : tendon_force;
+    fiber_along = sampled ? fa : fiber_along;
+    // OpenSim's inner loop after its sample: break when h <= sqrt(eps), else halve h and
+    // repeat while |ferr| >= |ferr_prev|; then its outer loop's tail and head.
+    if (LaneBits(opensim) != 0) {
+      const LaneI brk = (LaneI)(h <= S(kSqrtEps));
+      h = (opensim & ~brk) ? S(0.5) * h : h;
+      const LaneI inner = opensim & ~brk & (LaneI)(magnitude(ferr) >= magnitude(ferr_prev));
+      LaneI tail = opensim & ~inner;
+      const LaneI same = (LaneI)(lce == lce_prev) & (LaneI)(ferr == ferr_prev);
+      LaneI leave = tail & same;
+      tail &= ~same;
+      ferr_prev = tail ? ferr : ferr_prev;
+      lce_prev = tail ? lce : lce_prev;
+      slope = tail ? last_slope : slope;
+      iter = tail ? iter + S(1.0) : iter;
+      const LaneI again = tail & (LaneI)(magnitude(ferr) > opensim_tolerance_v) &
+                          (LaneI)(iter < max_iterations) &
+                          (LaneI)(magnitude(ferr) >= magnitude(ferr_prev));
+      h = again ? S(1.0) : h;
+      leave |= tail & ~again;
+      opensim = inner | again;
+      entering = leave;
+    }
+    // OpenSim's first sample: its while conditions (|ferr| >= |ferr_prev|: not a number).
+    if (LaneBits(first) != 0) {
+      ferr_prev = first ? ferr : ferr_prev;
+      slope = first ? last_slope : slope;
+      const LaneI start = first & (LaneI)(magnitude(ferr) > opensim_tolerance_v) &
+                          (LaneI)(iter < max_iterations) &
+                          (LaneI)(magnitude(ferr) >= magnitude(ferr_prev));
+      opensim |= start;
+      entering |= first & ~start;
+      first = none;
+    }
+  }
+  scalar |= ~done & ~scalar;  // (still iterating after 64 samples)
+  const LaneI valid = (LaneI)(magnitude(tendon_force) <= S(1e150)) &
+                      (LaneI)(magnitude(fiber_along) <= S(1e150)) & (LaneI)(x <= S(1e150));
+  const LaneI minimum = ~lo_negative & (LaneI)(x <= S(min_fiber)) & (LaneI)(ferr > S(tolerance));
+  scalar |= ~slack & (~valid | minimum);
+  force = slack ? S(0.0) : tendon_force;
+  return LaneBits(scalar & ~slack);
+#undef S
+}
+
+namespace {
+
+// MuscleForceModel::Tension4 (the clones: a free function).
+ISOWRENCH_MUSCLE_LANES void TensionLanes(const MuscleForceModel& model,
+                                         const MuscleForceModel::Impl& m, const double* length,
+                                         double activation, double* force,
+                                         MuscleForceStatus* status) {
+  unsigned scalar = 0xf;
+  if (m.fast_tension && m.type != ForceModelType::kConstant && activation >= 0.0 &&
+      activation <= 1.0) {
+    const double a = std::max(activation, m.min_activation);
+    LaneV L;
+    std::memcpy(&L, length, sizeof L);
+    // (lengths not > 0, and for a compliant tendon not finite, go to Tension)
+    const LaneI usable =
+        m.rigid ? (LaneI)(L > ISOWRENCH_MUSCLE_SPLAT(0.0))
+                : (LaneI)(L > ISOWRENCH_MUSCLE_SPLAT(0.0)) &
+                      (LaneI)(L <= ISOWRENCH_MUSCLE_SPLAT(std::numeric_limits<double>::max()));
+    const LaneV safe = usable ? L : ISOWRENCH_MUSCLE_SPLAT(m.tendon_slack_length);
+    LaneV f;
+    unsigned slack = 0;
+    scalar = (m.rigid ? m.RigidLanes(safe, a, f, slack) : m.CompliantLanes(safe, a, f, slack)) |
+             LaneBits(~usable);
+    std::memcpy(force, &f, sizeof f);
+    for (int l = 0; l < 4; ++l) {
+      status[l] = (slack >> l) & 1 ? MuscleForceStatus::kSlack : MuscleForceStatus::kEquilibrium;
+    }
+  }
+  for (int l = 0; scalar != 0 && l < 4; ++l) {
+    if (scalar & (1u << l)) force[l] = model.Tension(length[l], activation, &status[l]);
+  }
+}
+
+}  // namespace
+
+void MuscleForceModel::Tension4(const double length[4], double activation, double force[4],
+                                MuscleForceStatus status[4]) const {
+  TensionLanes(*this, *impl_, length, activation, force, status);
+}
+
+}  // namespace isowrench
