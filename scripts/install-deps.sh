@@ -4,7 +4,7 @@
 set -euo pipefail
 
 PACKAGES=(
-  build-essential cmake ccache pkg-config clang clang-format libclang-rt-14-dev libfuzzer-14-dev
+  build-essential cmake ninja-build ccache pkg-config clang clang-format libclang-rt-14-dev libfuzzer-14-dev
   liborocos-kdl-dev liburdfdom-dev libeigen3-dev libtinyxml2-dev
   libcli11-dev nlohmann-json3-dev libceres-dev
   libgtest-dev libgmock-dev libbenchmark-dev

@@ -17,13 +17,17 @@
 #define ISOWRENCH_CLONES
 #endif
 
-#if defined(__GNUC__)
+// ISOWRENCH_NO_FORCE_INLINE (the sanitizer build, CMakeLists.txt): inlining left to the compiler.
+#if defined(__GNUC__) && !defined(ISOWRENCH_NO_FORCE_INLINE)
 #define ISOWRENCH_INLINE inline __attribute__((always_inline))
 #define ISOWRENCH_LAMBDA_INLINE __attribute__((always_inline))
-#define ISOWRENCH_NOINLINE __attribute__((noinline))
 #else
 #define ISOWRENCH_INLINE inline
 #define ISOWRENCH_LAMBDA_INLINE
+#endif
+#if defined(__GNUC__)
+#define ISOWRENCH_NOINLINE __attribute__((noinline))
+#else
 #define ISOWRENCH_NOINLINE
 #endif
 
