@@ -42,12 +42,9 @@ ISOWRENCH_INLINE bool OneCylinderPathPulls(const FastMuscle& muscle, W& ws, doub
   }
   Transpose(R, Rt);
   const V o = p[slot];
-  auto to_S = [&](const V& x) ISOWRENCH_LAMBDA_INLINE {  // R^T (x - o)
-    const V r = Rotate(Rt, x - o);
-    return Eigen::Vector3d(r[0], r[1], r[2]);
-  };
-  auto to_W = [&](const Eigen::Vector3d& x)
-                  ISOWRENCH_LAMBDA_INLINE { return Transform(R, x.data()) + o; };
+  auto to_S = [&](const V& x) ISOWRENCH_LAMBDA_INLINE { return Rotate(Rt, x - o); };  // R^T (x - o)
+  auto to_W = [&](double x, double y, double z)
+                  ISOWRENCH_LAMBDA_INLINE { return Rotate(R, V{x, y, z, 0.0}) + o; };
   auto norm = [](const V& x) ISOWRENCH_LAMBDA_INLINE {
     double s;
     Dot(x, x, s);
@@ -61,33 +58,46 @@ ISOWRENCH_INLINE bool OneCylinderPathPulls(const FastMuscle& muscle, W& ws, doub
     const WrapSurface& s = wrap.surface;
     const bool several = wrap.last - wrap.first > 1;
     double min_change = std::numeric_limits<double>::infinity();
-    Eigen::Vector3d b = to_S(p[wrap.first]);
+    V b = to_S(p[wrap.first]);
     for (int pt2 = wrap.first + 1; pt2 <= wrap.last; ++pt2) {
-      const Eigen::Vector3d a = b;
+      const V a = b;
       b = to_S(p[pt2]);
-      wrap_impl::OsSegment wr =
-          wrap_impl::OpenSimCylinderSingle(s.radius, s.length, s.quadrant, a, b);
+      wrap_impl::CylinderSingleResult c = wrap_impl::CylinderSingle(
+          s.radius, s.length, s.quadrant.axis, s.quadrant.sign, a[0], a[1], a[2], b[0], b[1], b[2]);
+      bool has_path = c.wraps;  // (and r1, r2 finite)
       // ComputeWrappedPath's NaN check and exact path (SegmentInMode), called only when it has
       // something to do: in kExact, or when a number is not finite (tested through their sum;
       // SegmentInMode tests them one by one).
       if (muscle.wrap_mode != WrapMode::kOpenSim ||
-          (wr.has_path && !std::isfinite(wr.r1.sum() + wr.r2.sum() + wr.length))) {
-        wr = wrap_impl::SegmentInMode(wr, s, a, b, muscle.wrap_mode);
+          (c.wraps &&
+           !std::isfinite(c.r1x + c.r1y + c.r1z + c.r2x + c.r2y + c.r2z + c.length))) {
+        const wrap_impl::OsSegment wr =
+            wrap_impl::SegmentInMode(wrap_impl::ToOsSegment(c), s, Eigen::Vector3d(a[0], a[1], a[2]),
+                                     Eigen::Vector3d(b[0], b[1], b[2]), muscle.wrap_mode);
+        c.code = wr.code;
+        c.r1x = wr.r1.x();
+        c.r1y = wr.r1.y();
+        c.r1z = wr.r1.z();
+        c.r2x = wr.r2.x();
+        c.r2y = wr.r2.y();
+        c.r2z = wr.r2.z();
+        c.length = wr.length;
+        has_path = wr.has_path && wr.r1.allFinite() && wr.r2.allFinite();
       }
-      if (wr.code != 3 && wr.code != 2) continue;
-      const V w1 = to_W(wr.r1), w2 = to_W(wr.r2);
-      if (wr.code == 2 && several) {  // (one segment: the change is finite as r1, r2 and L are)
+      if (c.code != 3 && c.code != 2) continue;
+      const V w1 = to_W(c.r1x, c.r1y, c.r1z), w2 = to_W(c.r2x, c.r2y, c.r2z);
+      if (c.code == 2 && several) {  // (one segment: the change is finite as r1, r2 and L are)
         const double change =
-            norm(w1 - p[pt2 - 1]) + wr.length + norm(p[pt2] - w2) - norm(p[pt2] - p[pt2 - 1]);
+            norm(w1 - p[pt2 - 1]) + c.length + norm(p[pt2] - w2) - norm(p[pt2] - p[pt2 - 1]);
         if (!(change < min_change)) continue;
         min_change = change;
       }
-      wrapped = wr.has_path && wr.r1.allFinite() && wr.r2.allFinite();
+      wrapped = has_path;
       wrapped_end = pt2;
       r1 = w1;
       r2 = w2;
-      arc = wr.length;
-      if (wr.code == 3) break;
+      arc = c.length;
+      if (c.code == 3) break;
     }
   }
   // The length (calcLengthAfterPathComputation) and the pulls: each straight segment a -> b of
