@@ -90,9 +90,12 @@ inline __attribute__((always_inline)) CylinderSingleResult CylinderSingle(
   CylinderSingleResult w;
   const double r_squared = R * R;
   const bool constrained = sign != 0;
-  // Dsign(v[axis]) == sign for v = (x, y, z): the quadrant's side.
-  auto on_side = [axis, sign](double x, double y, double z) {
-    return Dsign(axis == 0 ? x : (axis == 1 ? y : z)) == sign;
+  // Dsign(v[axis]) == sign for v = (x, y, z): the quadrant's side. v[axis] is picked as
+  // x c_x + y c_y + z c_z with c = the unit vector of the axis (exactly v[axis] for a finite v,
+  // up to the sign of a zero, which Dsign does not tell apart), without a branch or a store.
+  const double c_x = axis == 0 ? 1.0 : 0.0, c_y = axis == 1 ? 1.0 : 0.0, c_z = axis == 2 ? 1.0 : 0.0;
+  auto on_side = [=](double x, double y, double z) {
+    return Dsign(x * c_x + y * c_y + z * c_z) == sign;
   };
   const double d1_squared = x1 * x1 + y1 * y1;  // DistanceSquaredPointToLine(aPoint1, p0, dn)
   const double d2_squared = x2 * x2 + y2 * y2;
@@ -164,14 +167,26 @@ inline __attribute__((always_inline)) CylinderSingleResult CylinderSingle(
       }
     }
     // alpha > beta (the angles r1a-r2b and r1b-r2a about the axis) as cos alpha < cos beta; a
-    // NaN acos (a cosine outside [-1, 1]) compares false.
-    auto cosine = [](double ax, double ay, double bx, double by) {
-      return (ax * bx + ay * by) / (std::sqrt(ax * ax + ay * ay) * std::sqrt(bx * bx + by * by));
-    };
-    const double cos_alpha = cosine(r1ax, r1ay, r2bx, r2by);
-    const double cos_beta = cosine(r1bx, r1by, r2ax, r2ay);
-    const bool alpha_gt_beta = cos_alpha >= -1.0 && cos_alpha <= 1.0 && cos_beta >= -1.0 &&
-                               cos_beta <= 1.0 && cos_alpha < cos_beta;
+    // NaN acos (a cosine outside [-1, 1]) compares false. Every tangent point lies at R from the
+    // axis (to a few ulp), so the cosines are the dot products over R^2 to ~1e-15: the dot
+    // products decide alone when they differ by more than 1e-12 R^2 and both lie within
+    // (1 - 1e-12) R^2 of 0 (a NaN fails the tests); otherwise (a near tie, an angle near 0 or pi,
+    // a degenerate tangent point) the normalised cosines decide, as WrapLine's acos do.
+    const double dot_alpha = r1ax * r2bx + r1ay * r2by, dot_beta = r1bx * r2ax + r1by * r2ay;
+    const double margin = 1e-12 * r_squared, inside = r_squared - margin;
+    bool alpha_gt_beta;
+    if (std::fabs(dot_alpha - dot_beta) > margin && std::fabs(dot_alpha) < inside &&
+        std::fabs(dot_beta) < inside) {
+      alpha_gt_beta = dot_alpha < dot_beta;
+    } else {
+      auto cosine = [](double dot, double ax, double ay, double bx, double by) {
+        return dot / (std::sqrt(ax * ax + ay * ay) * std::sqrt(bx * bx + by * by));
+      };
+      const double cos_alpha = cosine(dot_alpha, r1ax, r1ay, r2bx, r2by);
+      const double cos_beta = cosine(dot_beta, r1bx, r1by, r2ax, r2ay);
+      alpha_gt_beta = cos_alpha >= -1.0 && cos_alpha <= 1.0 && cos_beta >= -1.0 &&
+                      cos_beta <= 1.0 && cos_alpha < cos_beta;
+    }
     // WrapLine's cases: r1 = r1a, r2 = r2b (far side when alpha > beta) or r1 = r1b, r2 = r2a
     // (far side when alpha <= beta); neither end's pair on the side: the larger angle, the far
     // side.
