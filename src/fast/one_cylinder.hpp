@@ -19,7 +19,7 @@ namespace isowrench {
 /// general path: GeometryPath::applyWrapObjects for one wrap over points that are all active
 /// (as ComputeWrappedPath: the segments of the range in order, the first mandatory wrap, else
 /// the one that lengthens its segment least, a NaN change never winning), each segment through
-/// OpenSimCylinderSingle (and the exact path in kExact, SegmentInMode); the length and the
+/// CylinderSingle (and the exact path in kExact, SegmentInMode); the length and the
 /// pulls of the points and of the two tangent points written directly; nothing allocated. On
 /// entry the first slot holds the origin of the cylinder's frame S and ws.point_rotation there
 /// the rotation of its link's frame; on return the two slots hold r1 and r2 (0 when it does not
@@ -105,14 +105,11 @@ ISOWRENCH_INLINE bool OneCylinderPathPulls(const FastMuscle& muscle, W& ws, doub
   // nothing. Two consecutive path points that coincide: no path (as WrappedPathPulls).
   double total = 0.0;
   V before = Zero3<double>();  // u of the segment arriving at point i - 1
-  auto tangent = [&](const V& a, const V& b, V& ga, V& gb) ISOWRENCH_LAMBDA_INLINE {
+  auto tangent = [&](const V& a, const V& b) ISOWRENCH_LAMBDA_INLINE {  // u (0 when too short)
     const V d = b - a;
     const double l = norm(d);
     total += l;
-    if (!(l >= kFastMinSegmentLength)) return;
-    const V u = d * (1.0 / l);
-    ga -= u;
-    gb += u;
+    return l >= kFastMinSegmentLength ? d * (1.0 / l) : Zero3<double>();
   };
   g[slot] = g[slot + 1] = Zero3<double>();
   for (int i = 1; i < n; ++i) {
@@ -122,13 +119,14 @@ ISOWRENCH_INLINE bool OneCylinderPathPulls(const FastMuscle& muscle, W& ws, doub
       *length = 0.0;
       return false;
     }
-    if (wrapped && i == wrapped_end) {  // p[i - 1] -> r1, the arc, r2 -> p[i]
-      g[i - 1] = before;
-      g[i] = Zero3<double>();
-      tangent(p[i - 1], r1, g[i - 1], g[slot]);
+    if (wrapped && i == wrapped_end) {  // p[i - 1] -> r1 (u1), the arc, r2 -> p[i] (u2)
+      const V u1 = tangent(p[i - 1], r1);
       total += arc;
-      tangent(r2, p[i], g[slot + 1], g[i]);
-      before = g[i];
+      const V u2 = tangent(r2, p[i]);
+      g[i - 1] = before - u1;
+      g[slot] = u1;
+      g[slot + 1] = -u2;
+      before = u2;
       continue;
     }
     const V u = d * (1.0 / l);

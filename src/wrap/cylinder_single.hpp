@@ -280,24 +280,27 @@ inline __attribute__((always_inline)) CylinderSingleResult CylinderSingle(
   const double u2x = x2 - apex_x, u2y = y2 - apex_y, u2z = z2 - mpt_z;
   const double cross_x = u1y * u2z - u1z * u2y, cross_y = u1z * u2x - u1x * u2z,
                cross_z = u1x * u2y - u1y * u2x;
-  const double cross_norm =
-      std::sqrt(cross_x * cross_x + cross_y * cross_y + cross_z * cross_z);
-  // (SimTK::UnitVec3: NaN for 0)
-  const double n_x = cross_x / cross_norm, n_y = cross_y / cross_norm, n_z = cross_z / cross_norm;
-  const double plane_d = -(x1 * n_x + y1 * n_y + z1 * n_z);
-  const double dotprod = 20.0 * n_z;
-  const double inverse_nz = 1.0 / n_z;
-  auto slide = [&](double rx, double ry, double& rz, double z_far) {
-    if (std::fabs(dotprod) < kLineEpsilon) return;
-    const double z_shift = (-plane_d - n_x * rx - n_y * ry - n_z * rz) * inverse_nz;
-    const double tt = (z_shift + 10.0) / 20.0;
-    if (tt < -kLineEpsilon || tt > 1.0 + kLineEpsilon) return;
-    // (IntersectLineSegPlane's NaN t passes its range test, and the distance test below fails)
-    const double z = rz + z_shift;
-    if ((z - z_far) * (z - z_far) < (z1 - z2) * (z1 - z2)) rz = z;
-  };
-  slide(r1x, r1y, r1z, z2);  // kept when nearer p22 than p11 is (along the axis)
-  slide(r2x, r2y, r2z, z1);  // and r2 when nearer p11 than p22 is
+  // The plane's unit normal n = cross / |cross| (SimTK::UnitVec3: NaN for 0) enters only as
+  // n_z against LINE_EPSILON / 20 (IntersectLineSegPlane's parallel test, here on the squares)
+  // and as the ratio (n . (aPoint1 - r)) / n_z, which is cross's own.
+  const double cross_squared = cross_x * cross_x + cross_y * cross_y + cross_z * cross_z;
+  constexpr double kParallel = (kLineEpsilon / 20.0) * (kLineEpsilon / 20.0);
+  if (!(cross_z * cross_z < kParallel * cross_squared)) {  // (NaN: it slides to NaN: kept)
+    const double inverse_z = 1.0 / cross_z;
+    const double reach = (z1 - z2) * (z1 - z2);
+    auto slide = [&](double rx, double ry, double& rz, double z_far) {
+      const double z_shift =
+          (cross_x * (x1 - rx) + cross_y * (y1 - ry) + cross_z * (z1 - rz)) * inverse_z;
+      const double tt = (z_shift + 10.0) / 20.0;
+      if (tt < -kLineEpsilon || tt > 1.0 + kLineEpsilon) return;
+      // (IntersectLineSegPlane's NaN t passes its range test, and the distance test below
+      // fails)
+      const double z = rz + z_shift;
+      if ((z - z_far) * (z - z_far) < reach) rz = z;
+    };
+    slide(r1x, r1y, r1z, z2);  // kept when nearer p22 than p11 is (along the axis)
+    slide(r2x, r2y, r2z, z1);  // and r2 when nearer p11 than p22 is
+  }
   const double halfL = length / 2.0;
   if ((r1z < -halfL || r1z > halfL) && (r2z < -halfL || r2z > halfL)) {
     w.code = 0;
