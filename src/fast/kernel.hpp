@@ -97,7 +97,7 @@ ISOWRENCH_INLINE void SinCos(double x, double& sin_x, double& cos_x) {
 // the scalar path.
 template <bool kOpaque = true>
 ISOWRENCH_INLINE void SinCos(const V4& x, V4& sin_x, V4& cos_x,
-                            const V4* table = sincos::kLaneConstants) {
+                             const V4* table = sincos::kLaneConstants) {
   const V4 shifted = x * sincos::kTwoOverPi + sincos::kRound;
   const V4i n = (V4i)shifted;  // GCC vector casts keep the bits
   const V4 k = shifted - sincos::kRound;
@@ -430,7 +430,7 @@ ISOWRENCH_INLINE void Kinematics(const FlatChain& d, W& ws, const T* q, const Fa
       for (int c = 0; c < 3; ++c) ws.frames[k][c] = M[c];
     }
     if (k != forward[0]) continue;  // frame k has no points
-    if constexpr (kWrap) {  // (the cylinder's frame has points: its slots)
+    if constexpr (kWrap) {          // (the cylinder's frame has points: its slots)
       if (k == wrap_frame) {
         ISOWRENCH_UNROLL
         for (int c = 0; c < 3; ++c) ws.point_rotation[wrap_slot][c] = M[c];

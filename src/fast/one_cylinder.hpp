@@ -43,8 +43,9 @@ ISOWRENCH_INLINE bool OneCylinderPathPulls(const FastMuscle& muscle, W& ws, doub
   Transpose(R, Rt);
   const V o = p[slot];
   auto to_S = [&](const V& x) ISOWRENCH_LAMBDA_INLINE { return Rotate(Rt, x - o); };  // R^T (x - o)
-  auto to_W = [&](double x, double y, double z)
-                  ISOWRENCH_LAMBDA_INLINE { return Rotate(R, V{x, y, z, 0.0}) + o; };
+  auto to_W = [&](double x, double y, double z) ISOWRENCH_LAMBDA_INLINE {
+    return Rotate(R, V{x, y, z, 0.0}) + o;
+  };
   auto norm = [](const V& x) ISOWRENCH_LAMBDA_INLINE {
     double s;
     Dot(x, x, s);
@@ -69,11 +70,10 @@ ISOWRENCH_INLINE bool OneCylinderPathPulls(const FastMuscle& muscle, W& ws, doub
       // something to do: in kExact, or when a number is not finite (tested through their sum;
       // SegmentInMode tests them one by one).
       if (muscle.wrap_mode != WrapMode::kOpenSim ||
-          (c.wraps &&
-           !std::isfinite(c.r1x + c.r1y + c.r1z + c.r2x + c.r2y + c.r2z + c.length))) {
-        const wrap_impl::OsSegment wr =
-            wrap_impl::SegmentInMode(wrap_impl::ToOsSegment(c), s, Eigen::Vector3d(a[0], a[1], a[2]),
-                                     Eigen::Vector3d(b[0], b[1], b[2]), muscle.wrap_mode);
+          (c.wraps && !std::isfinite(c.r1x + c.r1y + c.r1z + c.r2x + c.r2y + c.r2z + c.length))) {
+        const wrap_impl::OsSegment wr = wrap_impl::SegmentInMode(
+            wrap_impl::ToOsSegment(c), s, Eigen::Vector3d(a[0], a[1], a[2]),
+            Eigen::Vector3d(b[0], b[1], b[2]), muscle.wrap_mode);
         c.code = wr.code;
         c.r1x = wr.r1.x();
         c.r1y = wr.r1.y();

@@ -163,21 +163,25 @@ ISOWRENCH_INLINE void Kernel(const T& x, const T& k, T& sin_r, T& cos_r,
   const T r = ((x - k * Get<T, kOpaque>(kReduce1, table)) - k * Get<T, kOpaque>(kReduce2, table)) -
               k * Get<T, kOpaque>(kReduce3, table);
   const T z = r * r;
-  sin_r = r + r * z *
-                  (Get<T, kOpaque>(kS1, table) +
-                   z * (Get<T, kOpaque>(kS2, table) +
-                        z * (Get<T, kOpaque>(kS3, table) +
-                             z * (Get<T, kOpaque>(kS4, table) +
-                                  z * (Get<T, kOpaque>(kS5, table) + z * Get<T, kOpaque>(kS6, table))))));
+  sin_r =
+      r +
+      r * z *
+          (Get<T, kOpaque>(kS1, table) +
+           z * (Get<T, kOpaque>(kS2, table) +
+                z * (Get<T, kOpaque>(kS3, table) +
+                     z * (Get<T, kOpaque>(kS4, table) +
+                          z * (Get<T, kOpaque>(kS5, table) + z * Get<T, kOpaque>(kS6, table))))));
   const T hz = Get<T, kOpaque>(kHalf, table) * z;
   const T w = Get<T, kOpaque>(kOne, table) - hz;
-  cos_r = w + (((Get<T, kOpaque>(kOne, table) - w) - hz) +
-               z * z *
-                   (Get<T, kOpaque>(kC1, table) +
-                    z * (Get<T, kOpaque>(kC2, table) +
-                         z * (Get<T, kOpaque>(kC3, table) +
-                              z * (Get<T, kOpaque>(kC4, table) +
-                                   z * (Get<T, kOpaque>(kC5, table) + z * Get<T, kOpaque>(kC6, table)))))));
+  cos_r =
+      w +
+      (((Get<T, kOpaque>(kOne, table) - w) - hz) +
+       z * z *
+           (Get<T, kOpaque>(kC1, table) +
+            z * (Get<T, kOpaque>(kC2, table) +
+                 z * (Get<T, kOpaque>(kC3, table) +
+                      z * (Get<T, kOpaque>(kC4, table) +
+                           z * (Get<T, kOpaque>(kC5, table) + z * Get<T, kOpaque>(kC6, table)))))));
 }
 }  // namespace sincos
 

@@ -83,9 +83,11 @@ struct CylinderSingleResult {
 // (x1, y1, z1) and (x2, y2, z2) are in the cylinder's frame, `axis` and `sign` its quadrant
 // (WrapQuadrant). tests/wrap/wrap_test.cpp compares it (through OpenSimCylinderSingle) with
 // WrapLine.
-inline __attribute__((always_inline)) CylinderSingleResult CylinderSingle(
-    double R, double length, int axis, int sign, double x1, double y1, double z1, double x2,
-    double y2, double z2) {
+inline __attribute__((always_inline)) CylinderSingleResult CylinderSingle(double R, double length,
+                                                                          int axis, int sign,
+                                                                          double x1, double y1,
+                                                                          double z1, double x2,
+                                                                          double y2, double z2) {
   using namespace cylinder_single;
   CylinderSingleResult w;
   const double r_squared = R * R;
@@ -93,7 +95,8 @@ inline __attribute__((always_inline)) CylinderSingleResult CylinderSingle(
   // Dsign(v[axis]) == sign for v = (x, y, z): the quadrant's side. v[axis] is picked as
   // x c_x + y c_y + z c_z with c = the unit vector of the axis (exactly v[axis] for a finite v,
   // up to the sign of a zero, which Dsign does not tell apart), without a branch or a store.
-  const double c_x = axis == 0 ? 1.0 : 0.0, c_y = axis == 1 ? 1.0 : 0.0, c_z = axis == 2 ? 1.0 : 0.0;
+  const double c_x = axis == 0 ? 1.0 : 0.0, c_y = axis == 1 ? 1.0 : 0.0,
+               c_z = axis == 2 ? 1.0 : 0.0;
   auto on_side = [=](double x, double y, double z) {
     return Dsign(x * c_x + y * c_y + z * c_z) == sign;
   };
@@ -260,8 +263,7 @@ inline __attribute__((always_inline)) CylinderSingleResult CylinderSingle(
                normal_z = x1 * y2 - y1 * x2;
   double vx = -normal_y, vy = normal_x;
   const double v_norm = std::sqrt(vx * vx + vy * vy);
-  const double n_norm =
-      std::sqrt(normal_x * normal_x + normal_y * normal_y + normal_z * normal_z);
+  const double n_norm = std::sqrt(normal_x * normal_x + normal_y * normal_y + normal_z * normal_z);
   if (n_norm > 0.0 && v_norm >= kSimTKEps * n_norm) {  // (NaN: vert1 = 0)
     vx /= v_norm;
     vy /= v_norm;
