@@ -19,20 +19,45 @@ inline int Dsign(double a) { return a >= 0.0 ? 1 : -1; }   // SimmMacros.h
 
 /// std::atan2(y, x) in about a third of libm's instructions, within 4.5e-16 rad of it (tested
 /// in tests/wrap/wrap_test.cpp), with its signs of zero and its quadrants: atan(t) of
-/// t = min(|x|, |y|) / max(|x|, |y|) as atan(c) + atan(v), c = k / 8 the nearest eighth
-/// (atan(c) tabulated: std::atan(k / 8.0) printed to 17 digits) and v = (t - c) / (1 + t c),
-/// |v| <= 1/16, by its Taylor series to v^13 (the next term is below 1e-18 of v). A NaN and
+/// t = min(|x|, |y|) / max(|x|, |y|) as atan(c) + atan(v), c = k / 32 the nearest 32nd
+/// (atan(c) tabulated: std::atan(k / 32.0) printed to 17 digits) and v = (t - c) / (1 + t c),
+/// |v| <= 1/64, by its Taylor series to v^7 (the next term is below 7e-18 rad). A NaN and
 /// inf / inf go to std::atan2.
 inline double Atan2(double y, double x) {
-  static constexpr double kAtanEighths[9] = {0.0,
-                                             0.12435499454676144,
-                                             0.24497866312686414,
-                                             0.35877067027057225,
-                                             0.46364760900080609,
-                                             0.55859931534356244,
-                                             0.64350110879328437,
-                                             0.71882999962162453,
-                                             0.78539816339744828};
+  // atan(k / 32), k = 0..32
+  static constexpr double kAtan32nds[33] = {0.0,
+                                            0.031239833430268277,
+                                            0.06241880999595735,
+                                            0.09347678115858947,
+                                            0.12435499454676144,
+                                            0.15499674192394097,
+                                            0.18534794999569476,
+                                            0.21535769969773805,
+                                            0.24497866312686414,
+                                            0.27416745111965879,
+                                            0.30288486837497142,
+                                            0.3310960767041321,
+                                            0.35877067027057225,
+                                            0.38588266939807375,
+                                            0.41241044159738732,
+                                            0.43833655985795783,
+                                            0.46364760900080609,
+                                            0.48833395105640554,
+                                            0.51238946031073773,
+                                            0.5358112379604637,
+                                            0.55859931534356244,
+                                            0.58075635356767041,
+                                            0.60228734613496415,
+                                            0.6231993299340659,
+                                            0.64350110879328437,
+                                            0.66320299270609329,
+                                            0.68231655487474807,
+                                            0.70085440788445019,
+                                            0.71882999962162453,
+                                            0.7362574289814281,
+                                            0.75315128096219441,
+                                            0.7695264804056583,
+                                            0.78539816339744828};
   constexpr double kHalfPi = 1.57079632679489661923;
   const double ax = std::fabs(x), ay = std::fabs(y);
   const bool steep = ay > ax;
@@ -41,14 +66,12 @@ inline double Atan2(double y, double x) {
   if (den > 0.0) {
     const double t = num / den;
     if (!(t <= 1.0)) return std::atan2(y, x);  // a NaN, or inf / inf
-    const int k = static_cast<int>(t * 8.0 + 0.5);
-    const double c = k * 0.125;
+    const int k = static_cast<int>(t * 32.0 + 0.5);
+    const double c = k * 0.03125;
     const double v = (t - c) / (1.0 + t * c);
     const double z = v * v;
-    const double p =
-        -1.0 / 3.0 +
-        z * (1.0 / 5.0 + z * (-1.0 / 7.0 + z * (1.0 / 9.0 + z * (-1.0 / 11.0 + z * (1.0 / 13.0)))));
-    a = kAtanEighths[k] + (v + v * z * p);
+    const double p = -1.0 / 3.0 + z * (1.0 / 5.0 + z * (-1.0 / 7.0));
+    a = kAtan32nds[k] + (v + v * z * p);
   } else if (std::isnan(x) || std::isnan(y)) {
     return x + y;
   }
