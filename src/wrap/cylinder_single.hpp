@@ -337,7 +337,7 @@ inline __attribute__((always_inline)) CylinderSingleResult CylinderSingle(double
   if (long_wrap) theta = 2.0 * kPi - theta;
   const double x = R * theta;
   w.length = std::sqrt(x * x + axial_dist * axial_dist);
-  w.sense = ((long_wrap ? -1.0 : 1.0) * theta >= 0.0) ? 1 : -1;
+  w.sense = (long_wrap ? theta <= 0.0 : theta >= 0.0) ? 1 : -1;  // (-1 or 1) * theta >= 0
   w.r1x = r1x;
   w.r1y = r1y;
   w.r1z = r1z;
