@@ -762,9 +762,10 @@ ISOWRENCH_INLINE void EvaluateWith(const FlatChain& d, W& ws, const double* q, i
   if constexpr (W::kLarge) {  // (the kinematics and the solve out of line, each compiled once)
     valid = AnyKinematics<false>(d, ws, q, muscle, activation, false);
   } else {
-    valid = d.muscles[muscle].special
-                ? SpecialKinematics(d, ws, q, muscle, activation)
-                : Kinematics<false, false, kCoupled>(d, ws, q, muscle, activation, false);
+    const FastMuscle& mu = d.muscles[muscle];
+    valid = !mu.special ? Kinematics<false, false, kCoupled>(d, ws, q, muscle, activation, false)
+            : mu.one_cylinder ? OneCylinderKinematics(d, ws, q, muscle, activation)
+                              : SpecialKinematics(d, ws, q, muscle, activation);
   }
   if (!valid || stiffness.s_p.size() != d.n) {
     Invalid(ws);

@@ -96,12 +96,13 @@ ISOWRENCH_INLINE void SinCos(double x, double& sin_x, double& cos_x) {
 // flips. Valid for |x| < sincos::kMaxReduced: LaneKinematics hands lanes with larger angles to
 // the scalar path.
 template <bool kOpaque = true>
-ISOWRENCH_INLINE void SinCos(const V4& x, V4& sin_x, V4& cos_x) {
+ISOWRENCH_INLINE void SinCos(const V4& x, V4& sin_x, V4& cos_x,
+                             const V4* table = sincos::kLaneConstants) {
   const V4 shifted = x * sincos::kTwoOverPi + sincos::kRound;
   const V4i n = (V4i)shifted;  // GCC vector casts keep the bits
   const V4 k = shifted - sincos::kRound;
   V4 sin_r, cos_r;
-  sincos::Kernel<kOpaque>(x, k, sin_r, cos_r);
+  sincos::Kernel<kOpaque>(x, k, sin_r, cos_r, table);
   const V4i swap = (n & 1) != 0;
   const V4 s = swap ? cos_r : sin_r;
   const V4 c = swap ? sin_r : cos_r;
@@ -155,7 +156,11 @@ ISOWRENCH_INLINE void GeneralTurn(Vec3<T>* M, const Eigen::Vector3d& a, const T&
 // One posture: sin and cos of the joint positions q[k] of the joints FlatChain::trig_begin ..
 // trig_end - 1 (every revolute joint; for the others the numbers are not used) ahead of the
 // joint loop, four joints per vector SinCos (joints with |q| >= sincos::kMaxReduced one by
-// one). The lanes call their vector SinCos inside the joint loop.
+// one). The lanes call their vector SinCos inside the joint loop. kOpaque: the constants read
+// in the loop from the lanes' table through an address GCC cannot follow, instead of known
+// values, which GCC lifts out of the loop into registers and, in the one-cylinder kernel
+// (kWrap), spills (37 instructions more than the loop's own).
+template <bool kOpaque = false>
 ISOWRENCH_INLINE void JointSinCos(const FlatChain& d, const double* q, double* sin_q,
                                   double* cos_q) {
   const int end = d.trig_end;
@@ -169,7 +174,9 @@ ISOWRENCH_INLINE void JointSinCos(const FlatChain& d, const double* q, double* s
     }
     const V4 magnitude = (V4)((V4i)x & 0x7fffffffffffffff);
     const V4i reduced = magnitude < sincos::kMaxReduced;
-    SinCos<false>(x, s, c);
+    const V4* table = sincos::kLaneConstants;
+    if constexpr (kOpaque) asm volatile("" : "+r"(table));
+    SinCos<kOpaque>(x, s, c, table);
     std::memcpy(sin_q + k0, &s, sizeof s);
     std::memcpy(cos_q + k0, &c, sizeof c);
     // A lane beyond the reduction's range (the four lanes' masks and-ed in the vector): those
@@ -333,7 +340,7 @@ ISOWRENCH_INLINE void Kinematics(const FlatChain& d, W& ws, const T* q, const Fa
     sin_q = ws.trig.data();
     cos_offset = ws.cos_offset;
   }
-  if constexpr (kScalar<T>) JointSinCos(d, q, sin_q, sin_q + cos_offset);
+  if constexpr (kScalar<T>) JointSinCos<kWrap>(d, q, sin_q, sin_q + cos_offset);
   V3 M[3] = {Unit3<T>(0), Unit3<T>(1), Unit3<T>(2)};
   V3 o = Zero3<T>();
   [[maybe_unused]] int wrap_frame = -1, wrap_slot = 0;
@@ -422,13 +429,13 @@ ISOWRENCH_INLINE void Kinematics(const FlatChain& d, W& ws, const T* q, const Fa
       ISOWRENCH_UNROLL
       for (int c = 0; c < 3; ++c) ws.frames[k][c] = M[c];
     }
-    if constexpr (kWrap) {
+    if (k != forward[0]) continue;  // frame k has no points
+    if constexpr (kWrap) {          // (the cylinder's frame has points: its slots)
       if (k == wrap_frame) {
         ISOWRENCH_UNROLL
         for (int c = 0; c < 3; ++c) ws.point_rotation[wrap_slot][c] = M[c];
       }
     }
-    if (k != forward[0]) continue;  // frame k has no points
     const int* group_end = forward + 2 + forward[1];
     for (const int* point = forward + 2; point < group_end; ++point) {  // x = M a + o
       const int i = *point;

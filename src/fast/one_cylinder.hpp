@@ -19,7 +19,7 @@ namespace isowrench {
 /// general path: GeometryPath::applyWrapObjects for one wrap over points that are all active
 /// (as ComputeWrappedPath: the segments of the range in order, the first mandatory wrap, else
 /// the one that lengthens its segment least, a NaN change never winning), each segment through
-/// OpenSimCylinderSingle (and the exact path in kExact, SegmentInMode); the length and the
+/// CylinderSingle (and the exact path in kExact, SegmentInMode); the length and the
 /// pulls of the points and of the two tangent points written directly; nothing allocated. On
 /// entry the first slot holds the origin of the cylinder's frame S and ws.point_rotation there
 /// the rotation of its link's frame; on return the two slots hold r1 and r2 (0 when it does not
@@ -42,12 +42,10 @@ ISOWRENCH_INLINE bool OneCylinderPathPulls(const FastMuscle& muscle, W& ws, doub
   }
   Transpose(R, Rt);
   const V o = p[slot];
-  auto to_S = [&](const V& x) ISOWRENCH_LAMBDA_INLINE {  // R^T (x - o)
-    const V r = Rotate(Rt, x - o);
-    return Eigen::Vector3d(r[0], r[1], r[2]);
+  auto to_S = [&](const V& x) ISOWRENCH_LAMBDA_INLINE { return Rotate(Rt, x - o); };  // R^T (x - o)
+  auto to_W = [&](double x, double y, double z) ISOWRENCH_LAMBDA_INLINE {
+    return Rotate(R, V{x, y, z, 0.0}) + o;
   };
-  auto to_W = [&](const Eigen::Vector3d& x)
-                  ISOWRENCH_LAMBDA_INLINE { return Transform(R, x.data()) + o; };
   auto norm = [](const V& x) ISOWRENCH_LAMBDA_INLINE {
     double s;
     Dot(x, x, s);
@@ -61,33 +59,45 @@ ISOWRENCH_INLINE bool OneCylinderPathPulls(const FastMuscle& muscle, W& ws, doub
     const WrapSurface& s = wrap.surface;
     const bool several = wrap.last - wrap.first > 1;
     double min_change = std::numeric_limits<double>::infinity();
-    Eigen::Vector3d b = to_S(p[wrap.first]);
+    V b = to_S(p[wrap.first]);
     for (int pt2 = wrap.first + 1; pt2 <= wrap.last; ++pt2) {
-      const Eigen::Vector3d a = b;
+      const V a = b;
       b = to_S(p[pt2]);
-      wrap_impl::OsSegment wr =
-          wrap_impl::OpenSimCylinderSingle(s.radius, s.length, s.quadrant, a, b);
+      wrap_impl::CylinderSingleResult c = wrap_impl::CylinderSingle(
+          s.radius, s.length, s.quadrant.axis, s.quadrant.sign, a[0], a[1], a[2], b[0], b[1], b[2]);
+      bool has_path = c.wraps;  // (and r1, r2 finite)
       // ComputeWrappedPath's NaN check and exact path (SegmentInMode), called only when it has
       // something to do: in kExact, or when a number is not finite (tested through their sum;
       // SegmentInMode tests them one by one).
       if (muscle.wrap_mode != WrapMode::kOpenSim ||
-          (wr.has_path && !std::isfinite(wr.r1.sum() + wr.r2.sum() + wr.length))) {
-        wr = wrap_impl::SegmentInMode(wr, s, a, b, muscle.wrap_mode);
+          (c.wraps && !std::isfinite(c.r1x + c.r1y + c.r1z + c.r2x + c.r2y + c.r2z + c.length))) {
+        const wrap_impl::OsSegment wr = wrap_impl::SegmentInMode(
+            wrap_impl::ToOsSegment(c), s, Eigen::Vector3d(a[0], a[1], a[2]),
+            Eigen::Vector3d(b[0], b[1], b[2]), muscle.wrap_mode);
+        c.code = wr.code;
+        c.r1x = wr.r1.x();
+        c.r1y = wr.r1.y();
+        c.r1z = wr.r1.z();
+        c.r2x = wr.r2.x();
+        c.r2y = wr.r2.y();
+        c.r2z = wr.r2.z();
+        c.length = wr.length;
+        has_path = wr.has_path && wr.r1.allFinite() && wr.r2.allFinite();
       }
-      if (wr.code != 3 && wr.code != 2) continue;
-      const V w1 = to_W(wr.r1), w2 = to_W(wr.r2);
-      if (wr.code == 2 && several) {  // (one segment: the change is finite as r1, r2 and L are)
+      if (c.code != 3 && c.code != 2) continue;
+      const V w1 = to_W(c.r1x, c.r1y, c.r1z), w2 = to_W(c.r2x, c.r2y, c.r2z);
+      if (c.code == 2 && several) {  // (one segment: the change is finite as r1, r2 and L are)
         const double change =
-            norm(w1 - p[pt2 - 1]) + wr.length + norm(p[pt2] - w2) - norm(p[pt2] - p[pt2 - 1]);
+            norm(w1 - p[pt2 - 1]) + c.length + norm(p[pt2] - w2) - norm(p[pt2] - p[pt2 - 1]);
         if (!(change < min_change)) continue;
         min_change = change;
       }
-      wrapped = wr.has_path && wr.r1.allFinite() && wr.r2.allFinite();
+      wrapped = has_path;
       wrapped_end = pt2;
       r1 = w1;
       r2 = w2;
-      arc = wr.length;
-      if (wr.code == 3) break;
+      arc = c.length;
+      if (c.code == 3) break;
     }
   }
   // The length (calcLengthAfterPathComputation) and the pulls: each straight segment a -> b of
@@ -95,14 +105,11 @@ ISOWRENCH_INLINE bool OneCylinderPathPulls(const FastMuscle& muscle, W& ws, doub
   // nothing. Two consecutive path points that coincide: no path (as WrappedPathPulls).
   double total = 0.0;
   V before = Zero3<double>();  // u of the segment arriving at point i - 1
-  auto tangent = [&](const V& a, const V& b, V& ga, V& gb) ISOWRENCH_LAMBDA_INLINE {
+  auto tangent = [&](const V& a, const V& b) ISOWRENCH_LAMBDA_INLINE {  // u (0 when too short)
     const V d = b - a;
     const double l = norm(d);
     total += l;
-    if (!(l >= kFastMinSegmentLength)) return;
-    const V u = d * (1.0 / l);
-    ga -= u;
-    gb += u;
+    return l >= kFastMinSegmentLength ? d * (1.0 / l) : Zero3<double>();
   };
   g[slot] = g[slot + 1] = Zero3<double>();
   for (int i = 1; i < n; ++i) {
@@ -112,13 +119,14 @@ ISOWRENCH_INLINE bool OneCylinderPathPulls(const FastMuscle& muscle, W& ws, doub
       *length = 0.0;
       return false;
     }
-    if (wrapped && i == wrapped_end) {  // p[i - 1] -> r1, the arc, r2 -> p[i]
-      g[i - 1] = before;
-      g[i] = Zero3<double>();
-      tangent(p[i - 1], r1, g[i - 1], g[slot]);
+    if (wrapped && i == wrapped_end) {  // p[i - 1] -> r1 (u1), the arc, r2 -> p[i] (u2)
+      const V u1 = tangent(p[i - 1], r1);
       total += arc;
-      tangent(r2, p[i], g[slot + 1], g[i]);
-      before = g[i];
+      const V u2 = tangent(r2, p[i]);
+      g[i - 1] = before - u1;
+      g[slot] = u1;
+      g[slot + 1] = -u2;
+      before = u2;
       continue;
     }
     const V u = d * (1.0 / l);

@@ -145,15 +145,16 @@ inline constexpr V4 kKnownLaneConstants[kConstantCount] = {
     ISOWRENCH_SPLAT_CONSTANT(kOne)};
 #undef ISOWRENCH_SPLAT_CONSTANT
 
-/// Constant i as a T: the lanes (kOpaque) read the vector table of batch.cpp; one posture, whose
-/// vector sin/cos of four joints at once keeps the constants in registers across its two or
-/// three calls, uses the known values.
+/// Constant i as a T: the lanes (kOpaque) read the vector table of batch.cpp (`table`, which is
+/// kLaneConstants or a copy of its address that GCC cannot follow); one posture, whose vector
+/// sin/cos of four joints at once keeps the constants in registers across its two or three
+/// calls, uses the known values.
 template <class T, bool kOpaque>
-ISOWRENCH_INLINE const T& Get(Constant i) {
+ISOWRENCH_INLINE const T& Get(Constant i, [[maybe_unused]] const V4* table) {
   if constexpr (std::is_same_v<T, double>) {
     return kScalarConstants[i];
   } else if constexpr (kOpaque) {
-    return kLaneConstants[i];
+    return table[i];
   } else {
     return kKnownLaneConstants[i];
   }
@@ -161,25 +162,30 @@ ISOWRENCH_INLINE const T& Get(Constant i) {
 
 /// sin and cos of r = x - k pi/2 (|r| <= pi/4).
 template <bool kOpaque = false, class T>
-ISOWRENCH_INLINE void Kernel(const T& x, const T& k, T& sin_r, T& cos_r) {
-  const T r = ((x - k * Get<T, kOpaque>(kReduce1)) - k * Get<T, kOpaque>(kReduce2)) -
-              k * Get<T, kOpaque>(kReduce3);
+ISOWRENCH_INLINE void Kernel(const T& x, const T& k, T& sin_r, T& cos_r,
+                             const V4* table = kLaneConstants) {
+  const T r = ((x - k * Get<T, kOpaque>(kReduce1, table)) - k * Get<T, kOpaque>(kReduce2, table)) -
+              k * Get<T, kOpaque>(kReduce3, table);
   const T z = r * r;
-  sin_r = r + r * z *
-                  (Get<T, kOpaque>(kS1) +
-                   z * (Get<T, kOpaque>(kS2) +
-                        z * (Get<T, kOpaque>(kS3) +
-                             z * (Get<T, kOpaque>(kS4) +
-                                  z * (Get<T, kOpaque>(kS5) + z * Get<T, kOpaque>(kS6))))));
-  const T hz = Get<T, kOpaque>(kHalf) * z;
-  const T w = Get<T, kOpaque>(kOne) - hz;
-  cos_r = w + (((Get<T, kOpaque>(kOne) - w) - hz) +
-               z * z *
-                   (Get<T, kOpaque>(kC1) +
-                    z * (Get<T, kOpaque>(kC2) +
-                         z * (Get<T, kOpaque>(kC3) +
-                              z * (Get<T, kOpaque>(kC4) +
-                                   z * (Get<T, kOpaque>(kC5) + z * Get<T, kOpaque>(kC6)))))));
+  sin_r =
+      r +
+      r * z *
+          (Get<T, kOpaque>(kS1, table) +
+           z * (Get<T, kOpaque>(kS2, table) +
+                z * (Get<T, kOpaque>(kS3, table) +
+                     z * (Get<T, kOpaque>(kS4, table) +
+                          z * (Get<T, kOpaque>(kS5, table) + z * Get<T, kOpaque>(kS6, table))))));
+  const T hz = Get<T, kOpaque>(kHalf, table) * z;
+  const T w = Get<T, kOpaque>(kOne, table) - hz;
+  cos_r =
+      w +
+      (((Get<T, kOpaque>(kOne, table) - w) - hz) +
+       z * z *
+           (Get<T, kOpaque>(kC1, table) +
+            z * (Get<T, kOpaque>(kC2, table) +
+                 z * (Get<T, kOpaque>(kC3, table) +
+                      z * (Get<T, kOpaque>(kC4, table) +
+                           z * (Get<T, kOpaque>(kC5, table) + z * Get<T, kOpaque>(kC6, table)))))));
 }
 }  // namespace sincos
 

@@ -450,15 +450,22 @@ FlatChain Compile(const LimbDescription& d) {
       const int f = muscle.points[k].frame;
       if (f >= 0) by_frame[static_cast<size_t>(f)].push_back(static_cast<int>(k));
     }
-    auto add_group = [&](std::vector<int>& list, int f) {
-      const std::vector<int>& group = by_frame[static_cast<size_t>(f)];
+    // A wrap's second tangent-point slot is only written by the path stage (the first one's
+    // frame gives X_W_S): the forward groups leave it out, the backward ones keep it (its pull).
+    std::vector<char> placed(muscle.points.size(), 1);
+    for (const FastWrap& w : muscle.wraps) placed[static_cast<size_t>(w.slot + 1)] = 0;
+    auto add_group = [&](std::vector<int>& list, int f, bool forward) {
+      std::vector<int> group;
+      for (const int k : by_frame[static_cast<size_t>(f)]) {
+        if (!forward || placed[static_cast<size_t>(k)]) group.push_back(k);
+      }
       if (group.empty()) return;
       list.push_back(f);
       list.push_back(static_cast<int>(group.size()));
       list.insert(list.end(), group.begin(), group.end());
     };
-    for (int f = 0; f < flat.m; ++f) add_group(muscle.forward_points, f);
-    for (int f = flat.m - 1; f >= 0; --f) add_group(muscle.backward_points, f);
+    for (int f = 0; f < flat.m; ++f) add_group(muscle.forward_points, f, true);
+    for (int f = flat.m - 1; f >= 0; --f) add_group(muscle.backward_points, f, false);
     muscle.forward_points.push_back(flat.m);  // the sentinels
     muscle.backward_points.push_back(-1);
     flat.max_points = std::max(flat.max_points, static_cast<int>(muscle.points.size()));
