@@ -314,6 +314,7 @@ ISOWRENCH_INLINE void Kinematics(const FlatChain& d, W& ws, const T* q, const Fa
   // public kinematics functions' "no muscle" has none.
   const int* forward = mu.forward_points.empty() ? kNoForwardPoints : mu.forward_points.data();
   const int* backward = mu.backward_points.empty() ? kNoBackwardPoints : mu.backward_points.data();
+  if constexpr (kWrap) backward = mu.one_cylinder_backward_points.data();  // (no slots)
   const T zero = T{};
 
   // Path points on ground are fixed in world; the others are placed as soon as their frame is
@@ -472,13 +473,15 @@ ISOWRENCH_INLINE void Kinematics(const FlatChain& d, W& ws, const T* q, const Fa
   // moving or conditional points).
   coincident = Mask<T>{};
   T total_length = zero;
+  // kWrap: the tangent-point slots' summed pull and moment, added at the cylinder's frame.
+  [[maybe_unused]] V3 slot_pull, slot_moment;
   if constexpr (kDynamic) {
     double length = 0.0;
     coincident = !DynamicPathPulls(d, mu, ws, &length);
     total_length = length;
   } else if constexpr (kWrap) {
     double length = 0.0;
-    coincident = !OneCylinderPathPulls(mu, ws, &length);
+    coincident = !OneCylinderPathPulls(mu, ws, &length, slot_pull, slot_moment);
     total_length = length;
   } else {
     V3 before = Zero3<T>();  // u_{i-1}; zero before the origin
@@ -529,6 +532,12 @@ ISOWRENCH_INLINE void Kinematics(const FlatChain& d, W& ws, const T* q, const Fa
           const V3& g = ws.pulls[*point];
           ps += g;
           ms += Cross(ws.points[*point], g);
+        }
+        if constexpr (kWrap) {
+          if (k == wrap_frame) {
+            ps += slot_pull;
+            ms += slot_moment;
+          }
         }
         backward = group_end;
       }

@@ -20,13 +20,16 @@ namespace isowrench {
 /// (as ComputeWrappedPath: the segments of the range in order, the first mandatory wrap, else
 /// the one that lengthens its segment least, a NaN change never winning), each segment through
 /// CylinderSingle (and the exact path in kExact, SegmentInMode); the length and the
-/// pulls of the points and of the two tangent points written directly; nothing allocated. On
+/// pulls of the points and of the two tangent points written directly (and their sum and the
+/// sum of their moments about the world origin in slot_pull, slot_moment, which the kernel's
+/// sweep adds at the cylinder's frame instead of visiting the slots); nothing allocated. On
 /// entry the first slot holds the origin of the cylinder's frame S and ws.point_rotation there
 /// the rotation of its link's frame; on return the two slots hold r1 and r2 (0 when it does not
 /// wrap, with zero pulls). Returns false when two consecutive points coincide (as
 /// WrappedPathPulls). W: a workspace (SmallWorkspace, LargeWorkspace, Data::Impl).
 template <class W>
-ISOWRENCH_INLINE bool OneCylinderPathPulls(const FastMuscle& muscle, W& ws, double* length) {
+ISOWRENCH_INLINE bool OneCylinderPathPulls(const FastMuscle& muscle, W& ws, double* length,
+                                           Vec3<double>& slot_pull, Vec3<double>& slot_moment) {
   using V = Vec3<double>;
   const FastWrap& f = muscle.wraps[0];
   const WrapPathWrap& wrap = f.wrap;
@@ -112,6 +115,7 @@ ISOWRENCH_INLINE bool OneCylinderPathPulls(const FastMuscle& muscle, W& ws, doub
     return l >= kFastMinSegmentLength ? d * (1.0 / l) : Zero3<double>();
   };
   g[slot] = g[slot + 1] = Zero3<double>();
+  slot_pull = slot_moment = Zero3<double>();
   for (int i = 1; i < n; ++i) {
     const V d = p[i] - p[i - 1];
     const double l = norm(d);
@@ -126,6 +130,8 @@ ISOWRENCH_INLINE bool OneCylinderPathPulls(const FastMuscle& muscle, W& ws, doub
       g[i - 1] = before - u1;
       g[slot] = u1;
       g[slot + 1] = -u2;
+      slot_pull = u1 - u2;
+      slot_moment = Cross(r1, u1) - Cross(r2, u2);
       before = u2;
       continue;
     }

@@ -454,12 +454,14 @@ FlatChain Compile(const LimbDescription& d) {
     // frame gives X_W_S): the forward groups leave it out, the backward ones keep it (its pull).
     std::vector<char> placed(muscle.points.size(), 1);
     for (const FastWrap& w : muscle.wraps) placed[static_cast<size_t>(w.slot + 1)] = 0;
-    auto add_group = [&](std::vector<int>& list, int f, bool forward) {
+    // (one_cylinder: the backward groups without the slots, the cylinder's frame kept)
+    auto add_group = [&](std::vector<int>& list, int f, bool forward, bool no_slots = false) {
       std::vector<int> group;
       for (const int k : by_frame[static_cast<size_t>(f)]) {
+        if (no_slots && k >= muscle.path_points) continue;
         if (!forward || placed[static_cast<size_t>(k)]) group.push_back(k);
       }
-      if (group.empty()) return;
+      if (group.empty() && !(no_slots && f == muscle.wrap_frame)) return;
       list.push_back(f);
       list.push_back(static_cast<int>(group.size()));
       list.insert(list.end(), group.begin(), group.end());
@@ -468,6 +470,12 @@ FlatChain Compile(const LimbDescription& d) {
     for (int f = flat.m - 1; f >= 0; --f) add_group(muscle.backward_points, f, false);
     muscle.forward_points.push_back(flat.m);  // the sentinels
     muscle.backward_points.push_back(-1);
+    if (muscle.one_cylinder) {
+      for (int f = flat.m - 1; f >= 0; --f) {
+        add_group(muscle.one_cylinder_backward_points, f, false, true);
+      }
+      muscle.one_cylinder_backward_points.push_back(-1);
+    }
     flat.max_points = std::max(flat.max_points, static_cast<int>(muscle.points.size()));
     flat.max_moving = std::max(flat.max_moving, static_cast<int>(muscle.moving.size()));
     flat.muscles.push_back(std::move(muscle));

@@ -106,6 +106,11 @@ struct FastMuscle {
   /// group's frame, one pointer for all the muscle's points.
   std::vector<int> forward_points;
   std::vector<int> backward_points;
+  /// backward_points for the kernel's kWrap instantiation (one_cylinder): the wrap's two
+  /// tangent-point slots left out, the cylinder's frame kept (a group of count 0 when it has no
+  /// other point); the path stage gives the slots' summed pull and moment, which the sweep adds
+  /// at that frame's group.
+  std::vector<int> one_cylinder_backward_points;
   /// Moving components of its points; `dynamic`: some point moves or is conditional, and each
   /// evaluation first runs PreparePathPoints (src/fast/path_points.cpp).
   std::vector<FastMovingComponent> moving;
