@@ -50,6 +50,19 @@ struct Chain {
 
 double g_sink = 0.0;
 
+// n passes of EvaluateBatch (one thread) over `postures` with `sets`; returns the evaluations.
+long BatchPasses(const isowrench::Model& model, const Eigen::MatrixXd& postures,
+                 const std::vector<isowrench::StiffnessSet>& sets,
+                 std::vector<isowrench::WrenchResult>& out, long n) {
+  isowrench::BatchOptions options;
+  options.threads = 1;
+  for (long i = 0; i < n; ++i) {
+    isowrench::EvaluateBatch(model, postures, 0, sets, out, 1.0, options);
+    g_sink += out[0].wrench[0];
+  }
+  return n * postures.cols() * static_cast<long>(sets.size());
+}
+
 }  // namespace
 
 // Returns the number of evaluations done.
@@ -65,14 +78,8 @@ extern "C" __attribute__((noinline)) long isowrench_measured_loop(Setup& s, Chai
     return n;
   }
   if (chain != nullptr) {  // batch-chain-N: 1024 postures per call, one thread
-    const std::vector<isowrench::StiffnessSet> one = {chain->model.model_stiffness()};
-    isowrench::BatchOptions options;
-    options.threads = 1;
-    for (long i = 0; i < n; ++i) {
-      isowrench::EvaluateBatch(chain->model, chain->postures, 0, one, chain->out, 1.0, options);
-      g_sink += chain->out[0].wrench[0];
-    }
-    return n * chain->postures.cols();
+    return BatchPasses(chain->model, chain->postures, {chain->model.model_stiffness()}, chain->out,
+                       n);
   }
   if (std::strcmp(kernel, "fast") == 0) {
     for (long i = 0; i < n; ++i) {
@@ -101,24 +108,10 @@ extern "C" __attribute__((noinline)) long isowrench_measured_loop(Setup& s, Chai
   // The same in the batch (EvaluateBatch, one thread): a wrapping muscle's kinematics posture by
   // posture on the scalar path, its statics in the lanes.
   if (std::strcmp(kernel, "batch-wrap") == 0) {
-    const std::vector<isowrench::StiffnessSet> one = {st};
-    isowrench::BatchOptions options;
-    options.threads = 1;
-    for (long i = 0; i < n; ++i) {
-      isowrench::EvaluateBatch(s.wrapped, s.postures, 0, one, s.out, 1.0, options);
-      g_sink += s.out[0].wrench[0];
-    }
-    return n * s.postures.cols();
+    return BatchPasses(s.wrapped, s.postures, {st}, s.out, n);
   }
   if (std::strcmp(kernel, "batch-coupled") == 0) {
-    const std::vector<isowrench::StiffnessSet> one = {st};
-    isowrench::BatchOptions options;
-    options.threads = 1;
-    for (long i = 0; i < n; ++i) {
-      isowrench::EvaluateBatch(s.coupled, s.postures, 0, one, s.out, 1.0, options);
-      g_sink += s.out[0].wrench[0];
-    }
-    return n * s.postures.cols();
+    return BatchPasses(s.coupled, s.postures, {st}, s.out, n);
   }
   // Kernel K with GP's force model (ForceKernelModel): the force stage after the path stage.
   if (std::strcmp(kernel, "fast-rigid") == 0 || std::strcmp(kernel, "fast-compliant") == 0) {
@@ -131,14 +124,7 @@ extern "C" __attribute__((noinline)) long isowrench_measured_loop(Setup& s, Chai
   }
   if (std::strcmp(kernel, "batch-rigid") == 0 || std::strcmp(kernel, "batch-compliant") == 0) {
     const isowrench::Model& m = kernel[6] == 'r' ? s.rigid : s.compliant;
-    const std::vector<isowrench::StiffnessSet> one = {st};
-    isowrench::BatchOptions options;
-    options.threads = 1;
-    for (long i = 0; i < n; ++i) {
-      isowrench::EvaluateBatch(m, s.postures, 0, one, s.out, 1.0, options);
-      g_sink += s.out[0].wrench[0];
-    }
-    return n * s.postures.cols();
+    return BatchPasses(m, s.postures, {st}, s.out, n);
   }
   if (std::strcmp(kernel, "fast-stiffness") == 0) {  // kinematics once, 20 stiffness sets
     for (long i = 0; i < n; ++i) {
@@ -150,15 +136,8 @@ extern "C" __attribute__((noinline)) long isowrench_measured_loop(Setup& s, Chai
   }
   if (std::strcmp(kernel, "batch") == 0 || std::strcmp(kernel, "batch-stiffness") == 0) {
     // The lane kernel on one thread: n passes over the 1024 postures, with one or 20 sets.
-    const bool many = kernel[5] == '-';
-    const std::vector<isowrench::StiffnessSet> one = {st};
-    isowrench::BatchOptions options;
-    options.threads = 1;
-    for (long i = 0; i < n; ++i) {
-      isowrench::EvaluateBatch(s.compiled, s.postures, 0, many ? s.sets : one, s.out, 1.0, options);
-      g_sink += s.out[0].wrench[0];
-    }
-    return n * s.postures.cols() * static_cast<long>(many ? s.sets.size() : 1);
+    if (kernel[5] == '-') return BatchPasses(s.compiled, s.postures, s.sets, s.out, n);
+    return BatchPasses(s.compiled, s.postures, {st}, s.out, n);
   }
   if (std::strcmp(kernel, "kdl") == 0) {
     const Eigen::VectorXd s_p = st.s_p;
