@@ -14,6 +14,7 @@
 #include <vector>
 
 #include "../fast/large_chain.hpp"
+#include "input_fixture.hpp"
 #include "isowrench/engine.hpp"
 #include "isowrench/error.hpp"
 #include "isowrench/io.hpp"
@@ -180,17 +181,6 @@ TEST(PathPointOffsets, BadOffsetsAreErrors) {
               ThrowsMessage<Error>(HasSubstr("this Data was made for model 'rat_hindlimb_5dof'")));
 }
 
-UncertainInput PointsInput(const std::string& name, InputDistribution d, std::vector<double> sd,
-                           double lower = 0, double upper = 0) {
-  UncertainInput in;
-  in.name = name;
-  in.distribution = d;
-  in.sd = std::move(sd);
-  in.lower = lower;
-  in.upper = upper;
-  return in;
-}
-
 // One point axis of a study: the point, the axis, sd (mm).
 struct PointAxis {
   int point, axis;
@@ -288,16 +278,16 @@ TEST(UncertaintyPoints, SmallPerturbationsMatchFirstOrderPropagationThroughRebui
   {
     SCOPED_TRACE("rat5 GP: origin on three axes, insertion along y");
     UncertaintySpec spec;
-    spec.inputs.push_back(PointsInput("point:GP:0", InputDistribution::kNormal, {0.1, 0.06, 0.08}));
-    spec.inputs.push_back(PointsInput("point:GP:1:y", InputDistribution::kNormal, {0.05}));
+    spec.inputs.push_back(Input("point:GP:0", InputDistribution::kNormal, {0.1, 0.06, 0.08}));
+    spec.inputs.push_back(Input("point:GP:1:y", InputDistribution::kNormal, {0.05}));
     ExpectFirstOrder(PointsRat5(), "GP", {{0, 0, 0.1}, {0, 1, 0.06}, {0, 2, 0.08}, {1, 1, 0.05}},
                      spec);
   }
   {
     SCOPED_TRACE("a wrapped muscle: the attachments move, the cylinder stays");
     UncertaintySpec spec;
-    spec.inputs.push_back(PointsInput("point:extensor:0", InputDistribution::kNormal, {0.2}));
-    spec.inputs.push_back(PointsInput("point:extensor:1:x", InputDistribution::kNormal, {0.3}));
+    spec.inputs.push_back(Input("point:extensor:0", InputDistribution::kNormal, {0.2}));
+    spec.inputs.push_back(Input("point:extensor:1:x", InputDistribution::kNormal, {0.3}));
     ExpectFirstOrder(TestModel("planar_2r_wrap.urdf"), "extensor",
                      {{0, 0, 0.2}, {0, 1, 0.2}, {0, 2, 0.2}, {1, 0, 0.3}}, spec);
   }
@@ -312,11 +302,10 @@ std::string Bits(const UncertaintyResult& r, const Model& model) {
 TEST(UncertaintyPoints, SameBitsOnOneTwoAndFourThreadsAndAnyPartition) {
   const Model model = PointsRat5();
   UncertaintySpec spec;
-  spec.inputs.push_back(PointsInput("point:GP:0", InputDistribution::kNormal, {1.0}));
-  spec.inputs.push_back(PointsInput("point:GP:1:z", InputDistribution::kUniform, {}, -1, 1.5));
-  spec.inputs.push_back(PointsInput("angle:knee_rz", InputDistribution::kNormal, {2.0}));
-  spec.inputs.push_back(
-      PointsInput("transducer_stiffness:x", InputDistribution::kLogNormal, {0.3}));
+  spec.inputs.push_back(Input("point:GP:0", InputDistribution::kNormal, {1.0}));
+  spec.inputs.push_back(Input("point:GP:1:z", InputDistribution::kUniform, {}, -1, 1.5));
+  spec.inputs.push_back(Input("angle:knee_rz", InputDistribution::kNormal, {2.0}));
+  spec.inputs.push_back(Input("transducer_stiffness:x", InputDistribution::kLogNormal, {0.3}));
   UncertaintyOptions options;
   options.samples = 2 * kUncertaintyBlockSamples + 77;
   options.threads = 1;
@@ -348,7 +337,7 @@ TEST(UncertaintyPoints, BadPointInputsAreErrorsNamingThem) {
     UncertaintyStudy study(model, "GP_rigid", model.nominal_posture(), spec, UncertaintyOptions{});
   };
   auto one = [&](const std::string& name, std::vector<double> sd = {1}) {
-    run({PointsInput(name, InputDistribution::kNormal, std::move(sd))});
+    run({Input(name, InputDistribution::kNormal, std::move(sd))});
   };
   EXPECT_THAT([&] { one("point:GP_rigd:0"); },
               ThrowsMessage<Error>(HasSubstr(
@@ -378,13 +367,13 @@ TEST(UncertaintyPoints, BadPointInputsAreErrorsNamingThem) {
       ThrowsMessage<Error>(HasSubstr("sd has 2 values; give 1 or 3")));
   EXPECT_THAT(
       [&] {
-        run({PointsInput("point:GP_rigid:0", InputDistribution::kNormal, {1}),
-             PointsInput("point:GP_rigid:0:y", InputDistribution::kNormal, {1})});
+        run({Input("point:GP_rigid:0", InputDistribution::kNormal, {1}),
+             Input("point:GP_rigid:0:y", InputDistribution::kNormal, {1})});
       },
       ThrowsMessage<Error>(HasSubstr("'point:GP_rigid:0' and 'point:GP_rigid:0:y' both move path "
                                      "point 0 of 'GP_rigid' along y")));
   EXPECT_THAT([&] { one("point:GP_rigid:0", {}); }, ThrowsMessage<Error>(HasSubstr("needs sd")));
-  EXPECT_THAT([&] { run({PointsInput("point:GP_rigid:0", InputDistribution::kLogNormal, {0.1})}); },
+  EXPECT_THAT([&] { run({Input("point:GP_rigid:0", InputDistribution::kLogNormal, {0.1})}); },
               ThrowsMessage<Error>(HasSubstr("distribution lognormal is not available for it")));
   // The command-line syntax reads the name up to '='.
   const UncertainInput parsed = ParseUncertainInput("point:GP_rigid:1:z=normal:0.5");
@@ -414,7 +403,7 @@ TEST(UncertaintyForceModels, MaxForceScalesTheWrenchOfEveryForceModel) {
     EXPECT_LE((w13 - 1.3 * w).norm(), 1e-9 * w.norm());
 
     UncertaintySpec spec;
-    spec.inputs.push_back(PointsInput("max_force", InputDistribution::kNormal, {0.1}));
+    spec.inputs.push_back(Input("max_force", InputDistribution::kNormal, {0.1}));
     UncertaintyOptions options;
     options.samples = 4000;
     options.activation = 0.6;
@@ -456,9 +445,8 @@ TEST(UncertaintyForceModels, ActivationOfARigidTendonGivesTheAffineClosedForm) {
   ASSERT_GT((w5 - 0.5 * W(1.0)).norm(), 0.1 * w5.norm()) << "the shortcut would be wrong here";
 
   UncertaintySpec spec;
-  spec.inputs.push_back(PointsInput("activation", InputDistribution::kUniform, {}, 0.2, 0.8));
-  spec.inputs.push_back(
-      PointsInput("transducer_stiffness:y", InputDistribution::kLogNormal, {0.01}));
+  spec.inputs.push_back(Input("activation", InputDistribution::kUniform, {}, 0.2, 0.8));
+  spec.inputs.push_back(Input("transducer_stiffness:y", InputDistribution::kLogNormal, {0.01}));
   UncertaintyOptions options;
   options.samples = 8000;
   options.activation = 0.5;
@@ -504,7 +492,7 @@ TEST(UncertaintyForceModels, CompliantTendonActivationMatchesFirstOrderAndCounts
     const double a0 = 0.5, sd_a = 0.01;
     const Vector6d slope = (W(a0 + 1e-4) - W(a0 - 1e-4)) / 2e-4;
     UncertaintySpec spec;
-    spec.inputs.push_back(PointsInput("activation", InputDistribution::kNormal, {sd_a}));
+    spec.inputs.push_back(Input("activation", InputDistribution::kNormal, {sd_a}));
     UncertaintyOptions options;
     options.samples = 6000;
     options.sobol = false;
@@ -532,7 +520,7 @@ TEST(UncertaintyForceModels, CompliantTendonActivationMatchesFirstOrderAndCounts
     // A normal activation near 1: the samples beyond 1 (P(z > 1) = 15.87 %) have no force model
     // value; they are counted invalid and leave every statistic.
     UncertaintySpec spec;
-    spec.inputs.push_back(PointsInput("activation", InputDistribution::kNormal, {0.05}));
+    spec.inputs.push_back(Input("activation", InputDistribution::kNormal, {0.05}));
     UncertaintyOptions options;
     options.samples = 6000;
     options.sobol = false;
@@ -550,10 +538,10 @@ TEST(UncertaintyForceModels, CompliantTendonActivationMatchesFirstOrderAndCounts
   }
   // A uniform beyond [0, 1], or a nominal activation outside it: errors.
   UncertaintySpec spec;
-  spec.inputs.push_back(PointsInput("activation", InputDistribution::kUniform, {}, 0.5, 1.2));
+  spec.inputs.push_back(Input("activation", InputDistribution::kUniform, {}, 0.5, 1.2));
   EXPECT_THAT([&] { UncertaintyStudy(model, "GP_compliant", q, spec, UncertaintyOptions{}); },
               ThrowsMessage<Error>(HasSubstr("activation [0.5, 1.2] leaves [0, 1]")));
-  spec.inputs[0] = PointsInput("max_force", InputDistribution::kNormal, {0.1});
+  spec.inputs[0] = Input("max_force", InputDistribution::kNormal, {0.1});
   UncertaintyOptions options;
   options.activation = 1.5;
   EXPECT_THAT([&] { UncertaintyStudy(model, "GP_compliant", q, spec, options); },

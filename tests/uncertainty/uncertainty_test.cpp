@@ -14,6 +14,7 @@
 #include <fstream>
 #include <string>
 
+#include "input_fixture.hpp"
 #include "isowrench/engine.hpp"
 #include "isowrench/error.hpp"
 
@@ -28,17 +29,6 @@ constexpr double kDeg = 3.14159265358979323846 / 180.0;
 
 Model Rat5() {
   return Model::FromUrdfFile(std::string(ISOWRENCH_TEST_URDF_DIR) + "/rat_hindlimb_5dof.urdf");
-}
-
-UncertainInput Input(const std::string& name, InputDistribution d, std::vector<double> sd,
-                     double lower = 0, double upper = 0) {
-  UncertainInput in;
-  in.name = name;
-  in.distribution = d;
-  in.sd = std::move(sd);
-  in.lower = lower;
-  in.upper = upper;
-  return in;
 }
 
 Eigen::MatrixXd Nominal(const Model& model) {
