@@ -74,7 +74,8 @@ struct Context {
   bool cached = false;                 ///< no free posture effect either: raw wrenches once
   RawWrenches raw;
   std::vector<std::string> others;  ///< coactivated muscles (base and free)
-  std::string setup_message;        ///< why the base model cannot be evaluated, if so
+  bool passive = false;  ///< per-trial factors (base or free): raw wrenches with the passive part
+  std::string setup_message;  ///< why the base model cannot be evaluated, if so
 
   int FreeCount(int e) const {
     return free[e].per_trial ? 0 : static_cast<int>(free[e].parameters.size());

@@ -101,22 +101,34 @@ struct RawWrenches {
   std::vector<bool> ok;
   std::string message;            ///< first failure
   std::vector<double> max_force;  ///< max force per muscle of the model evaluated (N)
+  /// With EvaluateRaw's `passive`: each subset trial's own-muscle wrench at activation 0 (the
+  /// pre-stimulus, passive wrench; zero for a constant-force muscle). Empty otherwise.
+  std::vector<Vector6d> passive;
   bool all_ok() const;
 };
+/// The wrench of each subset trial's muscle at its posture and activation (and of each of
+/// `others` at activation 1); with `passive` also the own muscle's wrench at activation 0 (for
+/// per-trial factors, which scale only the stimulated part).
 RawWrenches EvaluateRaw(const Model& model, const std::map<std::string, double>& posture_offset,
                         const std::vector<std::string>& others, const std::vector<Trial>& trials,
-                        const std::vector<int>& subset);
+                        const std::vector<int>& subset, bool passive = false);
 
 /// Readings from raw wrenches and the rest of the chain of `model` (AugmentedModel's comment):
 /// muscle forces rescaled by model.description's max_force / raw.max_force, coactivation,
 /// sensor origin, calibration, per-trial factors (closed form, weights 1/sd), sensor offset.
-/// `factors` (optional) receives the per-trial factors (1 without trial_force), `unit`
-/// (optional) each trial's reading at factor 1 without the sensor offset. Trials whose raw
-/// wrench failed keep a zero reading.
+/// A per-trial factor scales the stimulated part of the trial's own wrench only: the reading
+/// is factor x (W(a) - W(0)) + W(0) + offset with W(0) the passive wrench (raw.passive; zero
+/// for a constant-force muscle or when raw has none), as a stimulus that varies leaves the
+/// pre-stimulus force unchanged. `factors` (optional) receives the per-trial factors (1 without
+/// trial_force), `unit` (optional) each trial's stimulated part W(a) - W(0) (the reading at
+/// factor 1 less the passive part and the sensor offset), `passive_readings` (optional) each
+/// trial's passive part as read (zero without raw.passive). Trials whose raw wrench failed keep
+/// a zero reading.
 void ComposeReadings(const AugmentedModel& model, const std::vector<Trial>& trials,
                      const std::vector<int>& subset, const RawWrenches& raw,
                      const FitOptions& options, std::vector<Vector6d>* readings,
-                     std::vector<double>* factors, std::vector<Vector6d>* unit = nullptr);
+                     std::vector<double>* factors, std::vector<Vector6d>* unit = nullptr,
+                     std::vector<Vector6d>* passive_readings = nullptr);
 
 /// Coactivated muscles of an augmented model (keys of `coactivation`).
 std::vector<std::string> CoactivatedMuscles(const AugmentedModel& model);

@@ -59,6 +59,13 @@ void EvaluateEach(const Model& model, const std::map<std::string, double>& postu
       for (const auto& o : offsets) q[o.first] += o.second;
       std::string failure = evaluate(q, muscle_index, trial.activation, &w);
       if (failure.empty()) raw->own[k] = w;
+      // The pre-stimulus (activation 0) wrench, where a force model makes one.
+      if (failure.empty() && !raw->passive.empty() && muscle_index >= 0 &&
+          model.muscle(muscle_index).force.model != ForceModelType::kConstant) {
+        failure = evaluate(q, muscle_index, 0.0, &w);
+        if (!failure.empty()) failure = "at activation 0 (the passive wrench): " + failure;
+        raw->passive[k] = w;
+      }
       for (size_t i = 0; i < other_index.size() && failure.empty(); ++i) {
         if (other_index[i] == muscle_index) continue;
         failure = evaluate(q, other_index[i], 1.0, &w);
@@ -109,7 +116,7 @@ bool RawWrenches::all_ok() const { return std::find(ok.begin(), ok.end(), false)
 
 RawWrenches EvaluateRaw(const Model& model, const std::map<std::string, double>& posture_offset,
                         const std::vector<std::string>& others, const std::vector<Trial>& trials,
-                        const std::vector<int>& subset) {
+                        const std::vector<int>& subset, bool passive) {
   RawWrenches raw;
   raw.others = others;
   for (const std::string& m : others) raw.other_index.push_back(model.MuscleIndex(m));
@@ -117,6 +124,7 @@ RawWrenches EvaluateRaw(const Model& model, const std::map<std::string, double>&
   raw.own.assign(subset.size(), Vector6d::Zero());
   raw.other.assign(others.size(), std::vector<Vector6d>(subset.size(), Vector6d::Zero()));
   raw.ok.assign(subset.size(), false);
+  if (passive) raw.passive.assign(subset.size(), Vector6d::Zero());
   for (int i = 0; i < model.muscle_count(); ++i) raw.max_force.push_back(model.muscle(i).max_force);
   Data ws(model);
   const StiffnessSet stiffness = model.model_stiffness();
@@ -145,7 +153,8 @@ std::vector<std::string> CoactivatedMuscles(const AugmentedModel& model) {
 void ComposeReadings(const AugmentedModel& model, const std::vector<Trial>& trials,
                      const std::vector<int>& subset, const RawWrenches& raw,
                      const FitOptions& options, std::vector<Vector6d>* readings,
-                     std::vector<double>* factors, std::vector<Vector6d>* unit) {
+                     std::vector<double>* factors, std::vector<Vector6d>* unit,
+                     std::vector<Vector6d>* passive_readings) {
   const std::vector<MuscleSpec>& muscles = model.description.muscles;
   // Force ratio per muscle index: the description's max force over the one evaluated (the
   // evaluated model was built from a description with the same muscles in the same order).
@@ -166,6 +175,7 @@ void ComposeReadings(const AugmentedModel& model, const std::vector<Trial>& tria
   }
   readings->assign(subset.size(), Vector6d::Zero());
   if (factors) factors->assign(subset.size(), 1.0);
+  if (passive_readings) passive_readings->assign(subset.size(), Vector6d::Zero());
   const Eigen::Vector3d d = model.sensor_origin;
   const bool calibrated = !model.calibration.isIdentity(0.0);
   // Without per-trial factors the readings are written directly (the fit predicts every
@@ -174,29 +184,45 @@ void ComposeReadings(const AugmentedModel& model, const std::vector<Trial>& tria
   std::vector<double> factor_of(per_trial ? subset.size() : 0, 1.0);
   std::vector<Vector6d> own_force;
   std::vector<Vector6d>& force = per_trial ? own_force : *readings;
-  if (per_trial) own_force.assign(subset.size(), Vector6d::Zero());
+  // Per trial: the part of the reading its factor does not scale (the passive wrench).
+  std::vector<Vector6d> unscaled;
+  if (per_trial) {
+    own_force.assign(subset.size(), Vector6d::Zero());
+    unscaled.assign(subset.size(), Vector6d::Zero());
+  }
+  // A wrench at the transducer's origin in its axes -> the reading (sensor origin,
+  // calibration).
+  auto to_reading = [&](Vector6d w) {
+    if (d.squaredNorm() > 0) w.tail<3>() -= d.cross(Eigen::Vector3d(w.head<3>()));
+    if (calibrated) w = model.calibration * w;
+    return w;
+  };
   for (size_t k = 0; k < subset.size(); ++k) {
     if (!raw.ok[k]) continue;
     const Trial& trial = trials[subset[k]];
     const int muscle = raw.muscle[k];
-    Vector6d w =
-        raw.own[k] * (muscle >= 0 && muscle < static_cast<int>(ratio.size()) ? ratio[muscle] : 1.0);
+    const double own_ratio =
+        muscle >= 0 && muscle < static_cast<int>(ratio.size()) ? ratio[muscle] : 1.0;
+    Vector6d w = raw.own[k] * own_ratio;
     for (const auto& c : coactivation) {
       if (std::get<1>(c) != muscle) w += std::get<2>(c) * raw.other[std::get<0>(c)][k];
     }
-    if (d.squaredNorm() > 0) w.tail<3>() -= d.cross(Eigen::Vector3d(w.head<3>()));
-    if (calibrated) w = model.calibration * w;
-    double factor = 1.0;
-    if (model.trial_force) {
-      // Closed form: the factor minimising sum_c (weight_c (measured_c - offset_c - factor w_c))^2.
+    w = to_reading(w);
+    const Vector6d passive =
+        raw.passive.empty() ? Vector6d::Zero() : to_reading(raw.passive[k] * own_ratio);
+    if (passive_readings) (*passive_readings)[k] = passive;
+    if (per_trial) {
+      unscaled[k] = passive;
+      w -= passive;
+      // Closed form: the factor minimising
+      // sum_c (weight_c (measured_c - offset_c - passive_c - factor w_c))^2.
       double num = 0, den = 0;
       for (int c = 0; c < 6; ++c) {
         const double weight2 = std::pow(Weight(trial, c, options), 2);
-        num += weight2 * w[c] * (trial.wrench[c] - model.sensor_offset[c]);
+        num += weight2 * w[c] * (trial.wrench[c] - model.sensor_offset[c] - unscaled[k][c]);
         den += weight2 * w[c] * w[c];
       }
-      if (den > 0 && std::isfinite(num / den)) factor = num / den;
-      factor_of[k] = factor;
+      if (den > 0 && std::isfinite(num / den)) factor_of[k] = num / den;
     }
     force[k] = w;
   }
@@ -224,8 +250,8 @@ void ComposeReadings(const AugmentedModel& model, const std::vector<Trial>& tria
         const Trial& trial = trials[subset[k]];
         double s = 0;
         for (int c = 0; c < 6; ++c) {
-          s += std::pow(Weight(trial, c, options) *
-                            (trial.wrench[c] - model.sensor_offset[c] - factor_of[k] * force[k][c]),
+          s += std::pow(Weight(trial, c, options) * (trial.wrench[c] - model.sensor_offset[c] -
+                                                     unscaled[k][c] - factor_of[k] * force[k][c]),
                         2);
         }
         if (std::sqrt(s / 6.0) > options.outlier_threshold) factor_of[k] = median;
@@ -236,7 +262,7 @@ void ComposeReadings(const AugmentedModel& model, const std::vector<Trial>& tria
   for (size_t k = 0; k < subset.size(); ++k) {
     if (!raw.ok[k]) continue;
     if (factors) (*factors)[k] = factor_of[k];
-    (*readings)[k] = factor_of[k] * force[k] + model.sensor_offset;
+    (*readings)[k] = factor_of[k] * force[k] + unscaled[k] + model.sensor_offset;
   }
 }
 
@@ -337,8 +363,9 @@ Prediction PredictTrials(const AugmentedModel& model, const std::vector<Trial>& 
   std::vector<int> all(trials.size());
   for (size_t i = 0; i < trials.size(); ++i) all[i] = static_cast<int>(i);
   Model built(model.description);
-  ident::RawWrenches raw = ident::EvaluateRaw(built, model.posture_offset,
-                                              ident::CoactivatedMuscles(model), trials, all);
+  ident::RawWrenches raw =
+      ident::EvaluateRaw(built, model.posture_offset, ident::CoactivatedMuscles(model), trials, all,
+                         model.trial_force);
   Prediction p;
   ident::ComposeReadings(model, trials, all, raw, FitOptions(), &p.wrench, factors);
   p.ok = raw.ok;
@@ -435,6 +462,9 @@ void ForEachSimulatedTrial(const Model& nominal, const AugmentedModel& truth,
   AugmentedModel force_part = truth;
   force_part.trial_force = false;
   force_part.sensor_offset.setZero();
+  const Model built(force_part.description);
+  const std::vector<std::string> coactivated = ident::CoactivatedMuscles(force_part);
+  const bool per_trial_factors = truth.trial_force_spread > 0;
   chunk = std::max(1, chunk);
   std::vector<Trial> trials;
   for (int first = 0; first < o.postures; first += chunk) {
@@ -457,9 +487,17 @@ void ForEachSimulatedTrial(const Model& nominal, const AugmentedModel& truth,
       if (at && std::isfinite(at->activation)) t.activation = at->activation;
       t.line = first + i + 3;  // comment line + header line come first in the written file
     }
-    Prediction p = PredictTrials(force_part, trials);
-    if (p.failed)
-      throw Error("simulate: the model with the effects cannot be evaluated: " + p.message);
+    // Each trial's reading at factor 1 and, with per-trial factors, its passive part (which a
+    // varying stimulus leaves unchanged: the factor scales the rest).
+    std::vector<int> all(trials.size());
+    for (size_t i = 0; i < trials.size(); ++i) all[i] = static_cast<int>(i);
+    const ident::RawWrenches raw = ident::EvaluateRaw(built, force_part.posture_offset, coactivated,
+                                                      trials, all, per_trial_factors);
+    if (!raw.all_ok())
+      throw Error("simulate: the model with the effects cannot be evaluated: " + raw.message);
+    std::vector<Vector6d> reading, passive;
+    ident::ComposeReadings(force_part, trials, all, raw, FitOptions(), &reading, nullptr, nullptr,
+                           &passive);
     for (int i = 0; i < count; ++i) {
       Trial& t = trials[i];
       t.has_sd = true;
@@ -468,7 +506,8 @@ void ForEachSimulatedTrial(const Model& nominal, const AugmentedModel& truth,
       draw(noise_rng, &factor, &z);
       for (int c = 0; c < 6; ++c) {
         double sd = c < 3 ? o.noise_force : o.noise_moment;
-        t.wrench[c] = factor * p.wrench[i][c] + truth.sensor_offset[c] + sd * z[c];
+        t.wrench[c] = factor * (reading[i][c] - passive[i][c]) + passive[i][c] +
+                      truth.sensor_offset[c] + sd * z[c];
         t.sd[c] = sd > 0 ? sd : o.sd_floor;
       }
       if (next_outlier < outliers && outlier_index(next_outlier) == first + i) {

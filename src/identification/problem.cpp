@@ -158,9 +158,9 @@ bool Context::Predict(const double* x, Readings* result, std::string* message) c
       slot.valid = false;
       if (rebuild) {
         Model built(m.description);
-        slot.raw = EvaluateRaw(built, m.posture_offset, others, *trials, subset);
+        slot.raw = EvaluateRaw(built, m.posture_offset, others, *trials, subset, passive);
       } else {
-        slot.raw = EvaluateRaw(*model, m.posture_offset, others, *trials, subset);
+        slot.raw = EvaluateRaw(*model, m.posture_offset, others, *trials, subset, passive);
       }
       slot.key = key;
       slot.valid = true;
@@ -224,6 +224,7 @@ Context MakeContext(const AugmentedModel& base, const std::vector<Effect>& free,
     for (int j = 0; j < 6; ++j) c.weights[6 * k + j] = Weight(trials[subset[k]], j, options);
   }
   c.others = CoactivatedMuscles(base);
+  c.passive = base.trial_force;
   bool posture = false;
   c.rebuild = false;
   for (const Effect& e : free) {
@@ -233,12 +234,13 @@ Context MakeContext(const AugmentedModel& base, const std::vector<Effect>& free,
     }
     posture |= e.stage == EffectStage::kPosture;
     c.rebuild |= e.stage == EffectStage::kModel;
+    c.passive |= e.kind == "trial_force";
   }
   if (!c.rebuild) {
     try {
       c.model = std::make_shared<const Model>(base.description);
       if (!posture) {
-        c.raw = EvaluateRaw(*c.model, base.posture_offset, c.others, trials, subset);
+        c.raw = EvaluateRaw(*c.model, base.posture_offset, c.others, trials, subset, c.passive);
         c.cached = true;
       }
     } catch (const Error& e) {

@@ -283,5 +283,90 @@ TEST(ForceLengthFit, TendonFactorHeldWhenTheTrialsCannotSeparateIt) {
   EXPECT_TRUE(noted) << r.BriefReport();
 }
 
+// ---- per-trial factors on a muscle with a force model -----------------------------------------
+
+/// The engine's wrench of `muscle` at the trial's posture and activation `a` (N, N·m).
+Vector6d EngineWrench(const Model& model, Data& data, const Trial& t, double a) {
+  const WrenchResult r =
+      Evaluate(model, data, t.q, model.MuscleIndex(t.muscle), model.model_stiffness(), a);
+  EXPECT_EQ(r.status, StaticsStatus::kOk);
+  return r.wrench;
+}
+
+TEST(TrialForceWithAForceModel, FactorsScaleTheStimulatedPartOnly) {
+  // A stimulus that varies from trial to trial changes W(a) - W(0), not the pre-stimulus passive
+  // wrench W(0): readings g_t (W(a) - W(0)) + W(0) built from the engine give back g_t exactly.
+  const Model model = Model::FromUrdfFile(kForceLengthLimb);
+  Data data(model);
+  const double truth[6] = {0.9, 1.1, 1.0, 0.8, 1.25, 1.05};
+  for (const std::string muscle : {"GP_compliant", "GP_rigid"}) {
+    SimulationOptions o;
+    o.postures = 6;
+    o.seed = 5;
+    o.muscles = {muscle};
+    std::vector<Trial> trials = SimulateTrials(model, ApplyEffects(model.description(), {}), o);
+    double largest_share = 0.0;
+    for (size_t k = 0; k < trials.size(); ++k) {
+      const Vector6d active = EngineWrench(model, data, trials[k], trials[k].activation);
+      const Vector6d passive = EngineWrench(model, data, trials[k], 0.0);
+      largest_share = std::max(largest_share, passive.norm() / active.norm());
+      trials[k].wrench = truth[k] * (active - passive) + passive;
+    }
+    // (The passive part is large enough to matter: scaling the whole wrench would be off.)
+    EXPECT_GT(largest_share, 0.05) << muscle;
+    std::vector<AppliedEffect> applied = {ParseEffectAssignment(model, "trial_force=0.1")};
+    std::vector<double> factors;
+    const Prediction p =
+        PredictTrials(ApplyEffects(model.description(), applied), trials, &factors);
+    ASSERT_EQ(factors.size(), trials.size());
+    for (size_t k = 0; k < trials.size(); ++k) {
+      EXPECT_NEAR(factors[k], truth[k], 1e-9) << muscle << " trial " << k;
+      EXPECT_LE((p.wrench[k] - trials[k].wrench).norm(), 1e-9 * trials[k].wrench.norm())
+          << muscle << " trial " << k;
+    }
+  }
+}
+
+TEST(TrialForceWithAForceModel, SimulatedFactorsScaleTheStimulatedPartOnly) {
+  // simulate with a trial_force spread of 0.2 at a low activation (a large passive share): the
+  // factors the fit reads back, (reading - W(0)) / (W(a) - W(0)) with the engine's W(a) and W(0)
+  // (the wrenches at one posture are parallel: both are F times the same unit wrench), have
+  // ln-sd 0.2 and mean 0. Had simulate scaled the whole wrench, their ln-sd would be
+  // 0.2 / (1 - passive share).
+  const Model model = Model::FromUrdfFile(kForceLengthLimb);
+  Data data(model);
+  std::vector<AppliedEffect> applied = {ParseEffectAssignment(model, "trial_force=0.2")};
+  const AugmentedModel truth = ApplyEffects(model.description(), applied);
+  SimulationOptions o;
+  o.postures = 200;
+  o.seed = 11;
+  o.muscles = {"GP_compliant"};
+  o.activation_min = o.activation_max = 0.1;
+  o.noise_force = 0;
+  o.noise_moment = 0;
+  const std::vector<Trial> trials = SimulateTrials(model, truth, o);
+  double sum = 0.0, sum2 = 0.0, share = 0.0;
+  for (const Trial& t : trials) {
+    const Vector6d active = EngineWrench(model, data, t, t.activation);
+    const Vector6d passive = EngineWrench(model, data, t, 0.0);
+    const Vector6d stimulated = active - passive;
+    const double g = (t.wrench - passive).dot(stimulated) / stimulated.squaredNorm();
+    sum += std::log(g);
+    sum2 += std::log(g) * std::log(g);
+    share += passive.norm() / active.norm() / trials.size();
+  }
+  EXPECT_GT(share, 0.25);  // (so that the two readings of the factor differ by far)
+  const double n = static_cast<double>(trials.size());
+  const double mean = sum / n, sd = std::sqrt((sum2 - n * mean * mean) / (n - 1));
+  // 4 standard errors: of the mean 0.2 / sqrt(n), of the sd 0.2 / sqrt(2 (n - 1)).
+  EXPECT_LE(std::abs(mean), 4 * 0.2 / std::sqrt(n));
+  EXPECT_LE(std::abs(sd - 0.2), 4 * 0.2 / std::sqrt(2 * (n - 1))) << "passive share " << share;
+  // The fit's model is simulate's: at its own factors every reading is predicted exactly.
+  const Prediction p = PredictTrials(truth, trials);
+  for (size_t k = 0; k < trials.size(); ++k) {
+    EXPECT_LE((p.wrench[k] - trials[k].wrench).norm(), 1e-9 * trials[k].wrench.norm());
+  }
+}
+
 }  // namespace
 }  // namespace isowrench
