@@ -285,14 +285,18 @@ struct MuscleForceModel::Impl {
   }
 
   // The batch force stage's lanes (src/muscle/muscle_lanes.cpp, MuscleForceModel::Tension4).
-  template <bool kSlope, int kCurve>
+  // kAvx2: compiled for AVX2 (the curves' gathers, one-instruction lane masks).
+  template <bool kSlope, int kCurve, bool kAvx2>
   void CurveLanes(const muscle::LaneDoubles& x, muscle::LaneDoubles& value,
                   muscle::LaneDoubles& slope) const;
+  template <bool kAvx2>
   unsigned RigidLanes(const muscle::LaneDoubles& length, double a, muscle::LaneDoubles& force,
                       unsigned& slack_bits) const;
+  template <bool kAvx2>
   void IterateLanes(const muscle::LaneDoubles& l, const muscle::LaneDoubles& length, double a,
                     muscle::LaneDoubles& residual, muscle::LaneDoubles& slope,
                     muscle::LaneDoubles& tendon_force, muscle::LaneDoubles& fiber_along) const;
+  template <bool kAvx2>
   unsigned CompliantLanes(const muscle::LaneDoubles& length, double a, muscle::LaneDoubles& force,
                           unsigned& slack_bits) const;
 

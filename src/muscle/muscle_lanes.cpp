@@ -17,22 +17,27 @@ namespace isowrench {
 namespace {
 
 // The batch force stage's lanes (MuscleForceModel::Tension4). Tension4 is compiled for AVX2 (4
-// doubles per instruction) and for the baseline, picked at load time, and never with FMA: the
-// lanes must round every product and sum as the scalar code (compiled for the baseline) does,
+// doubles per instruction, the curves' coefficients by gathers) and for the baseline (GCC
+// function versions: target("avx2") / target("default"), picked at load time), and never with FMA:
+// the lanes must round every product and sum as the scalar code (compiled for the baseline) does,
 // and with FMA available GCC would contract a * b + c into one fused, differently rounded,
 // operation (C++ allows it by default, -ffp-contract=fast). Other compilers/targets: baseline.
-#if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__) && defined(__linux__) && \
-    !defined(ISOWRENCH_NO_CLONES)
-#define ISOWRENCH_MUSCLE_LANES __attribute__((target_clones("avx2", "default")))
-#else
-#define ISOWRENCH_MUSCLE_LANES
+#if defined(ISOWRENCH_CURVE_AVX2) && defined(__linux__) && !defined(ISOWRENCH_NO_CLONES)
+#define ISOWRENCH_MUSCLE_AVX2 1
 #endif
 using LaneV = muscle::LaneDoubles;
 using LaneI = muscle::LaneMasks;
 #define ISOWRENCH_MUSCLE_SPLAT(x) (LaneV{(x), (x), (x), (x)})
 
 // Per-lane square roots (std::sqrt's correctly rounded result, without its errno branch).
+template <bool kAvx2>
 ISOWRENCH_MUSCLE_INLINE void LaneSqrt(const LaneV& x, LaneV& out) {
+#if defined(ISOWRENCH_MUSCLE_AVX2)
+  if constexpr (kAvx2) {
+    out = __builtin_ia32_sqrtpd256(x);
+    return;
+  }
+#endif
 #if defined(__SSE2__)
   typedef double Half __attribute__((vector_size(16)));
   const Half lo = (Half)_mm_sqrt_pd((__m128d)__builtin_shufflevector(x, x, 0, 1));
@@ -50,12 +55,12 @@ using muscle::LaneBits;
 // The normalized curves' values (and, kSlope, the iteration slopes of At) on four lanes, the
 // same bits as ActiveValue / PassiveValue (SolveEvaluate for a Millard2012 curve, Active /
 // Passive / Tendon for Thelen2003, lane by lane: its exponentials are scalar).
-template <bool kSlope, int kCurve>
+template <bool kSlope, int kCurve, bool kAvx2>
 ISOWRENCH_MUSCLE_INLINE void MuscleForceModel::Impl::CurveLanes(const LaneV& x, LaneV& value,
                                                                 LaneV& slope) const {
   if (type == ForceModelType::kMillard2012) {
     const muscle::SmoothCurve& c = kCurve == 0 ? active : kCurve == 1 ? passive : tendon;
-    c.Lanes<kSlope>(x, value, slope);
+    c.Lanes<kSlope, kAvx2>(x, value, slope);
     return;
   }
   for (int l = 0; l < 4; ++l) {
@@ -67,13 +72,14 @@ ISOWRENCH_MUSCLE_INLINE void MuscleForceModel::Impl::CurveLanes(const LaneV& x, 
 
 // Tension (rigid tendon) of four lengths, each > 0: RigidForce's operations on the lanes. Returns
 // the lanes Tension must decide (a force beyond 1e150 N, or not a number).
+template <bool kAvx2>
 ISOWRENCH_MUSCLE_INLINE unsigned MuscleForceModel::Impl::RigidLanes(const LaneV& length, double a,
                                                                     LaneV& force,
                                                                     unsigned& slack_bits) const {
   const LaneV along = length - ISOWRENCH_MUSCLE_SPLAT(tendon_slack_length);
   LaneI slack = ~(LaneI)(along >= ISOWRENCH_MUSCLE_SPLAT(pennation_min_fiber_along_tendon));
   LaneV l;
-  LaneSqrt(ISOWRENCH_MUSCLE_SPLAT(height * height) + along * along, l);
+  LaneSqrt<kAvx2>(ISOWRENCH_MUSCLE_SPLAT(height * height) + along * along, l);
   slack |= ~(LaneI)(l > ISOWRENCH_MUSCLE_SPLAT(min_fiber));
   LaneV cos_phi = ISOWRENCH_MUSCLE_SPLAT(1.0);
   if (pennated) {
@@ -84,17 +90,18 @@ ISOWRENCH_MUSCLE_INLINE unsigned MuscleForceModel::Impl::RigidLanes(const LaneV&
   const LaneV norm =
       slack ? ISOWRENCH_MUSCLE_SPLAT(1.0) : l * ISOWRENCH_MUSCLE_SPLAT(inv_optimal_fiber_length);
   LaneV fal, fpe, unused;
-  CurveLanes<false, 0>(norm, fal, unused);
-  CurveLanes<false, 1>(norm, fpe, unused);
+  CurveLanes<false, 0, kAvx2>(norm, fal, unused);
+  CurveLanes<false, 1, kAvx2>(norm, fpe, unused);
   const LaneV f = ISOWRENCH_MUSCLE_SPLAT(max_force * a) * fal * cos_phi +
                   ISOWRENCH_MUSCLE_SPLAT(max_force) * fpe * cos_phi;
   force = slack ? ISOWRENCH_MUSCLE_SPLAT(0.0) : f;
-  slack_bits = LaneBits(slack);
-  return LaneBits(~(slack | (LaneI)(f <= ISOWRENCH_MUSCLE_SPLAT(1e150))));
+  slack_bits = LaneBits<kAvx2>(slack);
+  return LaneBits<kAvx2>(~(slack | (LaneI)(f <= ISOWRENCH_MUSCLE_SPLAT(1e150))));
 }
 
 // At<false>(l, length, a)'s residual, slope, tendon force and fiber force along the tendon
 // (Iterate) on four lanes, the same operations in the same order.
+template <bool kAvx2>
 ISOWRENCH_MUSCLE_INLINE void MuscleForceModel::Impl::IterateLanes(const LaneV& l,
                                                                   const LaneV& length, double a,
                                                                   LaneV& residual, LaneV& slope,
@@ -106,7 +113,7 @@ ISOWRENCH_MUSCLE_INLINE void MuscleForceModel::Impl::IterateLanes(const LaneV& l
     const LaneV s = (LaneI)(l > S(pennation_min_fiber)) ? S(height) / l : S(max_sin);
     const LaneI within = s < S(max_sin);
     LaneV root;
-    LaneSqrt((LaneV)((LaneI)(S(1.0) - s * s) & 0x7fffffffffffffffLL), root);
+    LaneSqrt<kAvx2>((LaneV)((LaneI)(S(1.0) - s * s) & 0x7fffffffffffffffLL), root);
     sin_phi = within ? s : S(max_sin);
     cos_phi = within ? root : S(max_cos);
   }
@@ -114,9 +121,9 @@ ISOWRENCH_MUSCLE_INLINE void MuscleForceModel::Impl::IterateLanes(const LaneV& l
   const LaneV tendon_length = length - l * cos_phi;
   const LaneV norm_tendon = tendon_length * S(inv_tendon_slack_length);
   LaneV fal, dfal, fpe, dfpe, fse, dfse;
-  CurveLanes<true, 0>(norm, fal, dfal);
-  CurveLanes<true, 1>(norm, fpe, dfpe);
-  CurveLanes<true, 2>(norm_tendon, fse, dfse);
+  CurveLanes<true, 0, kAvx2>(norm, fal, dfal);
+  CurveLanes<true, 1, kAvx2>(norm, fpe, dfpe);
+  CurveLanes<true, 2, kAvx2>(norm_tendon, fse, dfse);
   const LaneV active_force = S(max_force * a) * fal;
   const LaneV passive_force = S(max_force) * fpe;
   const LaneV fiber = active_force + passive_force;
@@ -137,18 +144,19 @@ ISOWRENCH_MUSCLE_INLINE void MuscleForceModel::Impl::IterateLanes(const LaneV& l
 // and then the polish's Newton steps. Returns the lanes Tension must decide: OpenSim's
 // iteration not converging, its result outside the bracket, a bisection or minimum-length
 // step of the polish, a fiber at its minimum length, a number beyond 1e150, not a number.
+template <bool kAvx2>
 ISOWRENCH_MUSCLE_INLINE unsigned MuscleForceModel::Impl::CompliantLanes(
     const LaneV& length, double a, LaneV& force, unsigned& slack_bits) const {
 #define S ISOWRENCH_MUSCLE_SPLAT
   const LaneV slack_along = length - S(tendon_slack_length);
   const LaneI slack = (LaneI)(slack_along <= S(min_fiber_along_tendon));
-  slack_bits = LaneBits(slack);
+  slack_bits = LaneBits<kAvx2>(slack);
   LaneV hi;
-  LaneSqrt(S(height * height) + slack_along * slack_along, hi);
+  LaneSqrt<kAvx2>(S(height * height) + slack_along * slack_along, hi);
   // OpenSimIteration's start.
   const LaneV along = length - S(1.01 * tendon_slack_length);
   LaneV root;
-  LaneSqrt(S(height * height) + along * along, root);
+  LaneSqrt<kAvx2>(S(height * height) + along * along, root);
   LaneV lce = (LaneI)(along >= S(pennation_min_fiber_along_tendon)) ? root : S(pennation_min_fiber);
   if (clamp_initial_guess) lce = (LaneI)(lce < S(min_fiber)) ? S(min_fiber) : lce;
   lce = slack ? S(min_fiber) : lce;  // (slack lanes: a harmless fiber, not used)
@@ -170,7 +178,7 @@ ISOWRENCH_MUSCLE_INLINE unsigned MuscleForceModel::Impl::CompliantLanes(
   LaneI scalar = none, done = slack;
   for (int round = 0; round < 64; ++round) {
     // Lanes leaving OpenSim's iteration: converged and inside the bracket, or the scalar path.
-    if (LaneBits(entering) != 0) {
+    if (LaneBits<kAvx2>(entering) != 0) {
       const LaneI converged = (LaneI)(magnitude(ferr) < opensim_tolerance_v);
       const LaneV clamped = (LaneI)(lce < lo) ? lo : (LaneI)(hi < lce) ? hi : lce;
       const LaneI inside = converged & (LaneI)(clamped == lce);
@@ -182,7 +190,7 @@ ISOWRENCH_MUSCLE_INLINE unsigned MuscleForceModel::Impl::CompliantLanes(
     // The polish's loop head on the lanes with a new sample (entering or sampled).
     LaneI check = (entering & polish) | (polish & ~entering & ~done & ~scalar);
     entering = LaneI{0, 0, 0, 0};
-    if (LaneBits(check) != 0) {
+    if (LaneBits<kAvx2>(check) != 0) {
       const LaneI within = (LaneI)(magnitude(ferr) <= S(tolerance));
       done |= check & within;
       LaneI go = check & ~within;
@@ -203,10 +211,10 @@ ISOWRENCH_MUSCLE_INLINE unsigned MuscleForceModel::Impl::CompliantLanes(
       x = go ? next : x;
       polish = (polish & ~check) | go;  // (the lanes that need a sample at x)
     }
-    if (LaneBits(first | opensim | polish) == 0) break;
+    if (LaneBits<kAvx2>(first | opensim | polish) == 0) break;
     // One sample per lane that needs one: OpenSim's at lce (its inner loop's step from
     // lce_prev), the polish's at x.
-    if (LaneBits(opensim) != 0) {
+    if (LaneBits<kAvx2>(opensim) != 0) {
       const LaneV delta = -h * ferr_prev / slope;
       const LaneI big = (LaneI)(magnitude(delta) > S(kSignificantReal));
       const LaneV sign = (LaneV)((LaneI)(delta > S(0.0)) & (LaneI)S(1.0)) -
@@ -218,7 +226,7 @@ ISOWRENCH_MUSCLE_INLINE unsigned MuscleForceModel::Impl::CompliantLanes(
     }
     const LaneV point = (first | opensim) ? lce : x;
     LaneV r, sl, tf, fa;
-    IterateLanes(point, length, a, r, sl, tf, fa);
+    IterateLanes<kAvx2>(point, length, a, r, sl, tf, fa);
     const LaneI sampled = first | opensim | polish;
     ferr = sampled ? r : ferr;
     last_slope = sampled ? sl : last_slope;
@@ -226,7 +234,7 @@ ISOWRENCH_MUSCLE_INLINE unsigned MuscleForceModel::Impl::CompliantLanes(
     fiber_along = sampled ? fa : fiber_along;
     // OpenSim's inner loop after its sample: break when h <= sqrt(eps), else halve h and
     // repeat while |ferr| >= |ferr_prev|; then its outer loop's tail and head.
-    if (LaneBits(opensim) != 0) {
+    if (LaneBits<kAvx2>(opensim) != 0) {
       const LaneI brk = (LaneI)(h <= S(kSqrtEps));
       h = (opensim & ~brk) ? S(0.5) * h : h;
       const LaneI inner = opensim & ~brk & (LaneI)(magnitude(ferr) >= magnitude(ferr_prev));
@@ -247,7 +255,7 @@ ISOWRENCH_MUSCLE_INLINE unsigned MuscleForceModel::Impl::CompliantLanes(
       entering = leave;
     }
     // OpenSim's first sample: its while conditions (|ferr| >= |ferr_prev|: not a number).
-    if (LaneBits(first) != 0) {
+    if (LaneBits<kAvx2>(first) != 0) {
       ferr_prev = first ? ferr : ferr_prev;
       slope = first ? last_slope : slope;
       const LaneI start = first & (LaneI)(magnitude(ferr) > opensim_tolerance_v) &
@@ -264,17 +272,18 @@ ISOWRENCH_MUSCLE_INLINE unsigned MuscleForceModel::Impl::CompliantLanes(
   const LaneI minimum = ~lo_negative & (LaneI)(x <= S(min_fiber)) & (LaneI)(ferr > S(tolerance));
   scalar |= ~slack & (~valid | minimum);
   force = slack ? S(0.0) : tendon_force;
-  return LaneBits(scalar & ~slack);
+  return LaneBits<kAvx2>(scalar & ~slack);
 #undef S
 }
 
 namespace {
 
-// MuscleForceModel::Tension4 (the clones: a free function).
-ISOWRENCH_MUSCLE_LANES void TensionLanes(const MuscleForceModel& model,
-                                         const MuscleForceModel::Impl& m, const double* length,
-                                         double activation, double* force,
-                                         MuscleForceStatus* status) {
+// MuscleForceModel::Tension4 (the versions below: a free function).
+template <bool kAvx2>
+ISOWRENCH_MUSCLE_INLINE void TensionLanesOf(const MuscleForceModel& model,
+                                            const MuscleForceModel::Impl& m, const double* length,
+                                            double activation, double* force,
+                                            MuscleForceStatus* status) {
   unsigned scalar = 0xf;
   if (m.fast_tension && m.type != ForceModelType::kConstant && activation >= 0.0 &&
       activation <= 1.0) {
@@ -289,8 +298,9 @@ ISOWRENCH_MUSCLE_LANES void TensionLanes(const MuscleForceModel& model,
     const LaneV safe = usable ? L : ISOWRENCH_MUSCLE_SPLAT(m.tendon_slack_length);
     LaneV f;
     unsigned slack = 0;
-    scalar = (m.rigid ? m.RigidLanes(safe, a, f, slack) : m.CompliantLanes(safe, a, f, slack)) |
-             LaneBits(~usable);
+    scalar = (m.rigid ? m.RigidLanes<kAvx2>(safe, a, f, slack)
+                      : m.CompliantLanes<kAvx2>(safe, a, f, slack)) |
+             LaneBits<kAvx2>(~usable);
     std::memcpy(force, &f, sizeof f);
     for (int l = 0; l < 4; ++l) {
       status[l] = (slack >> l) & 1 ? MuscleForceStatus::kSlack : MuscleForceStatus::kEquilibrium;
@@ -299,6 +309,21 @@ ISOWRENCH_MUSCLE_LANES void TensionLanes(const MuscleForceModel& model,
   for (int l = 0; scalar != 0 && l < 4; ++l) {
     if (scalar & (1u << l)) force[l] = model.Tension(length[l], activation, &status[l]);
   }
+}
+
+#if defined(ISOWRENCH_MUSCLE_AVX2)
+__attribute__((target("avx2"))) void TensionLanes(const MuscleForceModel& model,
+                                                  const MuscleForceModel::Impl& m,
+                                                  const double* length, double activation,
+                                                  double* force, MuscleForceStatus* status) {
+  TensionLanesOf<true>(model, m, length, activation, force, status);
+}
+__attribute__((target("default")))
+#endif
+void TensionLanes(const MuscleForceModel& model, const MuscleForceModel::Impl& m,
+                  const double* length, double activation, double* force,
+                  MuscleForceStatus* status) {
+  TensionLanesOf<false>(model, m, length, activation, force, status);
 }
 
 }  // namespace

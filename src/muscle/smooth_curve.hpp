@@ -38,14 +38,31 @@ namespace isowrench::muscle {
 #else
 #define ISOWRENCH_CURVE_INLINE inline
 #endif
+#if defined(__GNUC__)
+#define ISOWRENCH_CURVE_LAMBDA_INLINE __attribute__((always_inline))
+#else
+#define ISOWRENCH_CURVE_LAMBDA_INLINE
+#endif
 
 /// Four doubles / four 64-bit lane masks (GCC/Clang vector extensions): the batch force stage's
 /// lanes (MuscleForceModel::Tension4).
 typedef double LaneDoubles __attribute__((vector_size(32)));
 typedef long long LaneMasks __attribute__((vector_size(32)));
 
-/// Bit l set where lane l of `mask` is set (all bits), l = 0..3.
+// The AVX2 forms of the lanes (kAvx2 below: GCC builtins, expanded in the caller's target
+// after inlining; MuscleForceModel::Tension4's avx2 version instantiates them, the baseline
+// version the portable forms).
+#if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__)
+#define ISOWRENCH_CURVE_AVX2 1
+#include <immintrin.h>  // (declares the AVX2 builtins)
+#endif
+
+/// Bit l set where lane l of `mask` is set (all bits), l = 0..3 (kAvx2: one vmovmskpd).
+template <bool kAvx2 = false>
 ISOWRENCH_CURVE_INLINE unsigned LaneBits(const LaneMasks& mask) {
+#if defined(ISOWRENCH_CURVE_AVX2)
+  if constexpr (kAvx2) return static_cast<unsigned>(__builtin_ia32_movmskpd256((LaneDoubles)mask));
+#endif
 #if defined(__SSE2__)
   const LaneDoubles m = (LaneDoubles)mask;
   const int lo = _mm_movemask_pd((__m128d)__builtin_shufflevector(m, m, 0, 1));
@@ -55,6 +72,15 @@ ISOWRENCH_CURVE_INLINE unsigned LaneBits(const LaneMasks& mask) {
   return static_cast<unsigned>((mask[0] & 1) | (mask[1] & 2) | (mask[2] & 4) | (mask[3] & 8));
 #endif
 }
+
+#if defined(ISOWRENCH_CURVE_AVX2)
+/// AVX2 only (vgatherqpd): out[l] = base[index[l]].
+ISOWRENCH_CURVE_INLINE void LaneGather(const double* base, const LaneMasks& index,
+                                       LaneDoubles& out) {
+  out = __builtin_ia32_gatherdiv4df(LaneDoubles{0.0, 0.0, 0.0, 0.0}, base, index,
+                                    (LaneDoubles)(LaneMasks{-1, -1, -1, -1}), 8);
+}
+#endif
 
 /// Control points of one quintic Bezier segment (Bernstein basis).
 struct ControlPoints {
@@ -113,8 +139,11 @@ class SmoothCurve {
   /// SolveEvaluate(x[l]).slope, bit for bit: per lane the same operations in the same order
   /// (the caller compiles them without contracting a * b + c into a fused multiply-add:
   /// muscle_force.cpp). The segment and the guess interval are looked up per lane; a lane whose
-  /// guess needs more than one Newton step (Converge) runs the scalar evaluation.
-  template <bool kSlope>
+  /// guess needs more than one Newton step (Converge) runs the scalar evaluation. kAvx2 (only
+  /// where ISOWRENCH_CURVE_AVX2 is defined, in a function compiled for AVX2): the lanes'
+  /// segments, guess intervals and coefficients by vector indices and AVX2 gathers from the
+  /// segment table (the same numbers, so the same bits).
+  template <bool kSlope, bool kAvx2 = false>
   void Lanes(const LaneDoubles& x, LaneDoubles& value, LaneDoubles& slope) const;
 
   /// SolveEvaluate(x) (`slope` false: Value(x) and slope 0), out of line: the lanes' fallback.
@@ -144,6 +173,10 @@ class SmoothCurve {
   };
   static constexpr int kLaneBegin = 0, kLaneInvStep = 1, kLaneX = 2, kLaneDx = 8, kLaneY = 13,
                        kLaneDy = 19;
+
+  // Lanes<kSlope, true>.
+  template <bool kSlope>
+  void GatherLanes(const LaneDoubles& x, LaneDoubles& value, LaneDoubles& slope) const;
 
   static double Poly(const std::array<double, 6>& a, double u) {
     return ((((a[5] * u + a[4]) * u + a[3]) * u + a[2]) * u + a[1]) * u + a[0];
@@ -213,12 +246,18 @@ ISOWRENCH_CURVE_INLINE void LaneTranspose(const double* p0, const double* p1, co
   out[3] = __builtin_shufflevector(t1, t3, 2, 3, 6, 7);
 }
 
-template <bool kSlope>
+template <bool kSlope, bool kAvx2>
 ISOWRENCH_CURVE_INLINE void SmoothCurve::Lanes(const LaneDoubles& x, LaneDoubles& value,
                                                LaneDoubles& slope) const {
   using V = LaneDoubles;
   using VI = LaneMasks;
 #define ISOWRENCH_CURVE_SPLAT(v) (V{(v), (v), (v), (v)})
+#if defined(ISOWRENCH_CURVE_AVX2)
+  if constexpr (kAvx2) {
+    GatherLanes<kSlope>(x, value, slope);
+    return;
+  }
+#endif
   const V x0 = ISOWRENCH_CURVE_SPLAT(x0_), x1 = ISOWRENCH_CURVE_SPLAT(x1_);
   const VI below = ~(VI)(x >= x0);  // (NaN too, as Value's !(x >= x0_))
   const VI above = (VI)(x > x1) & ~below;
@@ -310,6 +349,116 @@ ISOWRENCH_CURVE_INLINE void SmoothCurve::Lanes(const LaneDoubles& x, LaneDoubles
   if constexpr (kSlope) slope = s;
 #undef ISOWRENCH_CURVE_SPLAT
 }
+
+#if defined(ISOWRENCH_CURVE_AVX2)
+template <bool kSlope>
+ISOWRENCH_CURVE_INLINE void SmoothCurve::GatherLanes(const LaneDoubles& x, LaneDoubles& value,
+                                                     LaneDoubles& slope) const {
+  using V = LaneDoubles;
+  using VI = LaneMasks;
+#define ISOWRENCH_CURVE_SPLAT(v) (V{(v), (v), (v), (v)})
+  const V x0 = ISOWRENCH_CURVE_SPLAT(x0_), x1 = ISOWRENCH_CURVE_SPLAT(x1_);
+  const VI below = ~(VI)(x >= x0);  // (NaN too, as Value's !(x >= x0_))
+  const VI above = (VI)(x > x1) & ~below;
+  const unsigned outside_bits = LaneBits<true>(below | above);
+  if (outside_bits == 0xf) {  // (e.g. the passive curve below its slack length)
+    // Outside [x0, x1]: the lines (x - x0 of a NaN x is NaN, as Value's).
+    value = below ? ISOWRENCH_CURVE_SPLAT(y0_) + ISOWRENCH_CURVE_SPLAT(slope0_) * (x - x0)
+                  : ISOWRENCH_CURVE_SPLAT(y1_) + ISOWRENCH_CURVE_SPLAT(slope1_) * (x - x1);
+    if constexpr (kSlope) {
+      slope = below ? ISOWRENCH_CURVE_SPLAT(slope0_) : ISOWRENCH_CURVE_SPLAT(slope1_);
+    }
+    return;
+  }
+  // The lanes outside look up x clamped to [x0, x1] (NaN: x0), a valid segment and interval.
+  V xs = (x > x0) ? x : x0;
+  xs = (xs < x1) ? xs : x1;
+  // Find, per lane: minus the number of inner segment ends at or before x; times minus the
+  // segment stride (vpmuldq: the low 32 bits), the segment's offset in doubles.
+  VI minus_segment = (VI)(xs >= ISOWRENCH_CURVE_SPLAT(ends_[0]));
+  if (count_ > 2) {
+    minus_segment += (VI)(xs >= ISOWRENCH_CURVE_SPLAT(ends_[1])) +
+                     (VI)(xs >= ISOWRENCH_CURVE_SPLAT(ends_[2])) +
+                     (VI)(xs >= ISOWRENCH_CURVE_SPLAT(ends_[3]));
+  }
+  constexpr long long kStride = static_cast<long long>(sizeof(Segment) / sizeof(double));
+  static_assert(sizeof(Segment) % sizeof(double) == 0, "segments in whole doubles");
+  typedef int Ints8 __attribute__((vector_size(32)));
+  typedef int Ints4 __attribute__((vector_size(16)));
+  const VI offset = __builtin_ia32_pmuldq256((Ints8)minus_segment,
+                                             (Ints8)(VI{-kStride, -kStride, -kStride, -kStride}));
+  const Segment& s0 = segments_[0];
+  auto coefficient = [&](int i, V& out) ISOWRENCH_CURVE_LAMBDA_INLINE {
+    LaneGather(s0.packed.data() + i, offset, out);
+  };
+  // U: the guess interval k = (int) t and r = t - k per lane, the guess's six coefficients.
+  V begin, inv_step;
+  coefficient(kLaneBegin, begin);
+  coefficient(kLaneInvStep, inv_step);
+  const V t = (xs - begin) * inv_step;
+  const Ints4 k = __builtin_convertvector(t, Ints4);  // (vcvttpd2dq: truncation, as (int) t)
+  const V r = t - __builtin_convertvector(k, V);
+  const VI guess_offset =
+      offset +
+      (VI)__builtin_ia32_pmuldq256((Ints8) __builtin_convertvector(k, VI), (Ints8)(VI{6, 6, 6, 6}));
+  V c[6];
+  ISOWRENCH_CURVE_UNROLL
+  for (int i = 0; i < 6; ++i) LaneGather(s0.guess.data() + i, guess_offset, c[i]);
+  const V u = ((((c[5] * r + c[4]) * r + c[3]) * r + c[2]) * r + c[1]) * r + c[0];
+  V cx[6];
+  ISOWRENCH_CURVE_UNROLL
+  for (int i = 0; i < 6; ++i) coefficient(kLaneX + i, cx[i]);
+  // dx/du's coefficients (k + 1) x_(k+1), as the table's (the same products).
+  const V d = ((((ISOWRENCH_CURVE_SPLAT(5.0) * cx[5] * u + ISOWRENCH_CURVE_SPLAT(4.0) * cx[4]) * u +
+                 ISOWRENCH_CURVE_SPLAT(3.0) * cx[3]) *
+                    u +
+                ISOWRENCH_CURVE_SPLAT(2.0) * cx[2]) *
+                   u +
+               cx[1]);
+  const V du = (((((cx[5] * u + cx[4]) * u + cx[3]) * u + cx[2]) * u + cx[1]) * u + cx[0] - xs) / d;
+  const V v = u - du;
+  const V one = ISOWRENCH_CURVE_SPLAT(1.0);
+  const V un = (one < v) ? one : v;  // std::min(u - du, 1.0)
+  V cy[6];
+  ISOWRENCH_CURVE_UNROLL
+  for (int i = 0; i < 6; ++i) coefficient(kLaneY + i, cy[i]);
+  V y = ((((cy[5] * un + cy[4]) * un + cy[3]) * un + cy[2]) * un + cy[1]) * un + cy[0];
+  V s = ISOWRENCH_CURVE_SPLAT(0.0);
+  if constexpr (kSlope) {
+    const V dy =
+        ((((ISOWRENCH_CURVE_SPLAT(5.0) * cy[5] * un + ISOWRENCH_CURVE_SPLAT(4.0) * cy[4]) * un +
+           ISOWRENCH_CURVE_SPLAT(3.0) * cy[3]) *
+              un +
+          ISOWRENCH_CURVE_SPLAT(2.0) * cy[2]) *
+             un +
+         cy[1]);
+    s = (d > ISOWRENCH_CURVE_SPLAT(0.0)) ? dy / d : ISOWRENCH_CURVE_SPLAT(0.0);
+  }
+  if (outside_bits != 0) {
+    y = below ? ISOWRENCH_CURVE_SPLAT(y0_) + ISOWRENCH_CURVE_SPLAT(slope0_) * (x - x0) : y;
+    y = above ? ISOWRENCH_CURVE_SPLAT(y1_) + ISOWRENCH_CURVE_SPLAT(slope1_) * (x - x1) : y;
+    if constexpr (kSlope) {
+      s = below ? ISOWRENCH_CURVE_SPLAT(slope0_) : s;
+      s = above ? ISOWRENCH_CURVE_SPLAT(slope1_) : s;
+    }
+  }
+  // Lanes inside whose Newton step exceeds 1e-8 (or is not a number): the scalar evaluation.
+  const unsigned far_bits =
+      ~outside_bits &
+      LaneBits<true>(~(VI)(((V)((VI)du & 0x7fffffffffffffffLL)) <= ISOWRENCH_CURVE_SPLAT(1e-8)));
+  if (far_bits != 0) {
+    for (int l = 0; l < 4; ++l) {
+      if (!(far_bits & (1u << l))) continue;
+      const CurvePoint p = ScalarLane(x[l], kSlope);
+      y[l] = p.value;
+      if constexpr (kSlope) s[l] = p.slope;
+    }
+  }
+  value = y;
+  if constexpr (kSlope) slope = s;
+#undef ISOWRENCH_CURVE_SPLAT
+}
+#endif
 
 // Factories (SmoothSegmentedFunctionFactory). Each checks OpenSim's conditions and throws
 // isowrench::Error "muscle 'NAME': <what> ..." naming the property and value.
