@@ -213,14 +213,29 @@ ISOWRENCH_INLINE unsigned LaneForceStage(const FastMuscle& mu, W& ws, double act
   MuscleForceStatus status[kLanes];
   std::memcpy(length, &ws.length, sizeof length);
   MuscleTensionsOf(mu, length, activation, force, status);
-  unsigned scalar = 0;
   V f;
+  std::memcpy(&f, force, sizeof f);
+  f = (V)((VI)f & (VI)((VI{1, 2, 4, 8} & static_cast<std::int64_t>(skip)) == 0));
+  unsigned scalar = 0;
+#if defined(__SSE2__)
+  typedef int Ints4 __attribute__((vector_size(16)));
+  typedef float Floats4 __attribute__((vector_size(16)));
+  static_assert(sizeof status == sizeof(Ints4), "MuscleForceStatus is an int");
+  Ints4 s;
+  std::memcpy(&s, status, sizeof s);
+  scalar = static_cast<unsigned>(
+      __builtin_ia32_movmskps((Floats4)(s == static_cast<int>(MuscleForceStatus::kNoEquilibrium))));
+#else
   for (int l = 0; l < kLanes; ++l) {
-    f[l] = (skip & (1u << l)) ? 0.0 : force[l];
-    if (status[l] == MuscleForceStatus::kNoEquilibrium) scalar |= 1u << l;
+    scalar |= static_cast<unsigned>(status[l] == MuscleForceStatus::kNoEquilibrium) << l;
   }
+#endif
   V* tau = ws.TauData();
-  for (int c = 0; c < ws.m; ++c) tau[c] *= f;
+  const int m = ws.m;
+#if defined(__GNUC__) && !defined(__clang__)
+#pragma GCC unroll 4
+#endif
+  for (int c = 0; c < m; ++c) tau[c] *= f;
   return scalar & ~skip;
 }
 

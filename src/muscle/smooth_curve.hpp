@@ -397,10 +397,11 @@ ISOWRENCH_CURVE_INLINE void SmoothCurve::GatherLanes(const LaneDoubles& x, LaneD
   coefficient(kLaneInvStep, inv_step);
   const V t = (xs - begin) * inv_step;
   const Ints4 k = __builtin_convertvector(t, Ints4);  // (vcvttpd2dq: truncation, as (int) t)
-  const V r = t - __builtin_convertvector(k, V);
+  // (vcvtdq2pd, vpmovsxdq: __builtin_convertvector takes two halves for each)
+  const V r = t - __builtin_ia32_cvtdq2pd256(k);
   const VI guess_offset =
       offset +
-      (VI)__builtin_ia32_pmuldq256((Ints8) __builtin_convertvector(k, VI), (Ints8)(VI{6, 6, 6, 6}));
+      (VI)__builtin_ia32_pmuldq256((Ints8)__builtin_ia32_pmovsxdq256(k), (Ints8)(VI{6, 6, 6, 6}));
   V c[6];
   ISOWRENCH_CURVE_UNROLL
   for (int i = 0; i < 6; ++i) LaneGather(s0.guess.data() + i, guess_offset, c[i]);
