@@ -23,6 +23,7 @@
 #include <cstddef>
 #include <cstring>
 #include <string>
+#include <type_traits>
 #include <vector>
 
 #include "isowrench/muscle.hpp"
@@ -387,66 +388,91 @@ ISOWRENCH_CURVE_INLINE void SmoothCurve::GatherLanes(const LaneDoubles& x, LaneD
   typedef int Ints4 __attribute__((vector_size(16)));
   const VI offset = __builtin_ia32_pmuldq256((Ints8)minus_segment,
                                              (Ints8)(VI{-kStride, -kStride, -kStride, -kStride}));
-  const Segment& s0 = segments_[0];
-  auto coefficient = [&](int i, V& out) ISOWRENCH_CURVE_LAMBDA_INLINE {
-    LaneGather(s0.packed.data() + i, offset, out);
+  // The curve's polynomials on the lanes: the coefficients gathered per lane, or (kShared,
+  // a two-segment curve whose lanes are all in segment `shared`) read once for all lanes.
+  V y, s = ISOWRENCH_CURVE_SPLAT(0.0), du;
+  auto evaluate = [&](auto shared_tag, int shared) ISOWRENCH_CURVE_LAMBDA_INLINE {
+    constexpr bool kShared = decltype(shared_tag)::value;
+    const Segment& s0 = segments_[static_cast<std::size_t>(shared)];
+    auto coefficient = [&](int i, V& out) ISOWRENCH_CURVE_LAMBDA_INLINE {
+      if constexpr (kShared) {
+        out = s0.splat[static_cast<std::size_t>(i)];  // (whole vectors: memory operands)
+      } else {
+        LaneGather(s0.packed.data() + i, offset, out);
+      }
+    };
+    // U: the guess interval k = (int) t and r = t - k per lane, the guess's six coefficients.
+    // (kShared: the lanes outside the curve look up the segment's start)
+    const V xq = kShared ? (V)((below | above) ? ISOWRENCH_CURVE_SPLAT(s0.x_begin) : xs) : xs;
+    V begin, inv_step;
+    coefficient(kLaneBegin, begin);
+    coefficient(kLaneInvStep, inv_step);
+    const V t = (xq - begin) * inv_step;
+    const Ints4 k = __builtin_convertvector(t, Ints4);  // (vcvttpd2dq: truncation, as (int) t)
+    // (vcvtdq2pd, vpmovsxdq: __builtin_convertvector takes two halves for each)
+    const V r = t - __builtin_ia32_cvtdq2pd256(k);
+    const VI k6 =
+        (VI)__builtin_ia32_pmuldq256((Ints8)__builtin_ia32_pmovsxdq256(k), (Ints8)(VI{6, 6, 6, 6}));
+    const VI guess_offset = kShared ? k6 : offset + k6;
+    V c[6];
+    ISOWRENCH_CURVE_UNROLL
+    for (int i = 0; i < 6; ++i) LaneGather(s0.guess.data() + i, guess_offset, c[i]);
+    const V u = ((((c[5] * r + c[4]) * r + c[3]) * r + c[2]) * r + c[1]) * r + c[0];
+    V cx[6];
+    ISOWRENCH_CURVE_UNROLL
+    for (int i = 0; i < 6; ++i) coefficient(kLaneX + i, cx[i]);
+    // dx/du's coefficients (k + 1) x_(k+1), as the table's (the same products).
+    const V d =
+        ((((ISOWRENCH_CURVE_SPLAT(5.0) * cx[5] * u + ISOWRENCH_CURVE_SPLAT(4.0) * cx[4]) * u +
+           ISOWRENCH_CURVE_SPLAT(3.0) * cx[3]) *
+              u +
+          ISOWRENCH_CURVE_SPLAT(2.0) * cx[2]) *
+             u +
+         cx[1]);
+    du = (((((cx[5] * u + cx[4]) * u + cx[3]) * u + cx[2]) * u + cx[1]) * u + cx[0] - xq) / d;
+    const V v = u - du;
+    const V one = ISOWRENCH_CURVE_SPLAT(1.0);
+    const V un = (one < v) ? one : v;  // std::min(u - du, 1.0)
+    V cy[6];
+    ISOWRENCH_CURVE_UNROLL
+    for (int i = 0; i < 6; ++i) coefficient(kLaneY + i, cy[i]);
+    y = ((((cy[5] * un + cy[4]) * un + cy[3]) * un + cy[2]) * un + cy[1]) * un + cy[0];
+    if constexpr (kSlope) {
+      const V dy =
+          ((((ISOWRENCH_CURVE_SPLAT(5.0) * cy[5] * un + ISOWRENCH_CURVE_SPLAT(4.0) * cy[4]) * un +
+             ISOWRENCH_CURVE_SPLAT(3.0) * cy[3]) *
+                un +
+            ISOWRENCH_CURVE_SPLAT(2.0) * cy[2]) *
+               un +
+           cy[1]);
+      s = (d > ISOWRENCH_CURVE_SPLAT(0.0)) ? dy / d : ISOWRENCH_CURVE_SPLAT(0.0);
+    }
   };
-  // U: the guess interval k = (int) t and r = t - k per lane, the guess's six coefficients.
-  V begin, inv_step;
-  coefficient(kLaneBegin, begin);
-  coefficient(kLaneInvStep, inv_step);
-  const V t = (xs - begin) * inv_step;
-  const Ints4 k = __builtin_convertvector(t, Ints4);  // (vcvttpd2dq: truncation, as (int) t)
-  // (vcvtdq2pd, vpmovsxdq: __builtin_convertvector takes two halves for each)
-  const V r = t - __builtin_ia32_cvtdq2pd256(k);
-  const VI guess_offset =
-      offset +
-      (VI)__builtin_ia32_pmuldq256((Ints8)__builtin_ia32_pmovsxdq256(k), (Ints8)(VI{6, 6, 6, 6}));
-  V c[6];
-  ISOWRENCH_CURVE_UNROLL
-  for (int i = 0; i < 6; ++i) LaneGather(s0.guess.data() + i, guess_offset, c[i]);
-  const V u = ((((c[5] * r + c[4]) * r + c[3]) * r + c[2]) * r + c[1]) * r + c[0];
-  V cx[6];
-  ISOWRENCH_CURVE_UNROLL
-  for (int i = 0; i < 6; ++i) coefficient(kLaneX + i, cx[i]);
-  // dx/du's coefficients (k + 1) x_(k+1), as the table's (the same products).
-  const V d = ((((ISOWRENCH_CURVE_SPLAT(5.0) * cx[5] * u + ISOWRENCH_CURVE_SPLAT(4.0) * cx[4]) * u +
-                 ISOWRENCH_CURVE_SPLAT(3.0) * cx[3]) *
-                    u +
-                ISOWRENCH_CURVE_SPLAT(2.0) * cx[2]) *
-                   u +
-               cx[1]);
-  const V du = (((((cx[5] * u + cx[4]) * u + cx[3]) * u + cx[2]) * u + cx[1]) * u + cx[0] - xs) / d;
-  const V v = u - du;
-  const V one = ISOWRENCH_CURVE_SPLAT(1.0);
-  const V un = (one < v) ? one : v;  // std::min(u - du, 1.0)
-  V cy[6];
-  ISOWRENCH_CURVE_UNROLL
-  for (int i = 0; i < 6; ++i) coefficient(kLaneY + i, cy[i]);
-  V y = ((((cy[5] * un + cy[4]) * un + cy[3]) * un + cy[2]) * un + cy[1]) * un + cy[0];
-  V s = ISOWRENCH_CURVE_SPLAT(0.0);
-  if constexpr (kSlope) {
-    const V dy =
-        ((((ISOWRENCH_CURVE_SPLAT(5.0) * cy[5] * un + ISOWRENCH_CURVE_SPLAT(4.0) * cy[4]) * un +
-           ISOWRENCH_CURVE_SPLAT(3.0) * cy[3]) *
-              un +
-          ISOWRENCH_CURVE_SPLAT(2.0) * cy[2]) *
-             un +
-         cy[1]);
-    s = (d > ISOWRENCH_CURVE_SPLAT(0.0)) ? dy / d : ISOWRENCH_CURVE_SPLAT(0.0);
+  // (a two-segment curve: the inside lanes in one segment)
+  const unsigned inside_bits = ~outside_bits & 0xf;
+  const unsigned segment_bits = count_ > 2 ? 1 : LaneBits<true>(minus_segment) & inside_bits;
+  if (segment_bits == 0) {
+    evaluate(std::true_type{}, 0);
+  } else if (count_ <= 2 && segment_bits == inside_bits) {
+    evaluate(std::true_type{}, 1);
+  } else {
+    evaluate(std::false_type{}, 0);
   }
   if (outside_bits != 0) {
-    y = below ? ISOWRENCH_CURVE_SPLAT(y0_) + ISOWRENCH_CURVE_SPLAT(slope0_) * (x - x0) : y;
-    y = above ? ISOWRENCH_CURVE_SPLAT(y1_) + ISOWRENCH_CURVE_SPLAT(slope1_) * (x - x1) : y;
-    if constexpr (kSlope) {
-      s = below ? ISOWRENCH_CURVE_SPLAT(slope0_) : s;
-      s = above ? ISOWRENCH_CURVE_SPLAT(slope1_) : s;
+    if (LaneBits<true>(below) != 0) {
+      y = below ? ISOWRENCH_CURVE_SPLAT(y0_) + ISOWRENCH_CURVE_SPLAT(slope0_) * (x - x0) : y;
+      if constexpr (kSlope) s = below ? ISOWRENCH_CURVE_SPLAT(slope0_) : s;
+    }
+    if (LaneBits<true>(above) != 0) {
+      y = above ? ISOWRENCH_CURVE_SPLAT(y1_) + ISOWRENCH_CURVE_SPLAT(slope1_) * (x - x1) : y;
+      if constexpr (kSlope) s = above ? ISOWRENCH_CURVE_SPLAT(slope1_) : s;
     }
   }
   // Lanes inside whose Newton step exceeds 1e-8 (or is not a number): the scalar evaluation.
+  // (vcmpnlepd: !(|du| <= 1e-8) in one compare)
   const unsigned far_bits =
-      ~outside_bits &
-      LaneBits<true>(~(VI)(((V)((VI)du & 0x7fffffffffffffffLL)) <= ISOWRENCH_CURVE_SPLAT(1e-8)));
+      ~outside_bits & LaneBits<true>((VI)__builtin_ia32_cmppd256(
+                          (V)((VI)du & 0x7fffffffffffffffLL), ISOWRENCH_CURVE_SPLAT(1e-8), 0x16));
   if (far_bits != 0) {
     for (int l = 0; l < 4; ++l) {
       if (!(far_bits & (1u << l))) continue;
