@@ -178,6 +178,12 @@ class SmoothCurve {
   // Lanes<kSlope, true>.
   template <bool kSlope>
   void GatherLanes(const LaneDoubles& x, LaneDoubles& value, LaneDoubles& slope) const;
+  // out[k] = (k + 1) a[k + 1], k < 5: the derivative's coefficients, as the table's products
+  // (the factors from multiples_: memory operands, not constants loaded per use).
+  ISOWRENCH_CURVE_INLINE void Multiples(const LaneDoubles* a, LaneDoubles* out) const {
+    out[0] = a[1];
+    for (int k = 1; k < 5; ++k) out[k] = a[k + 1] * multiples_[static_cast<std::size_t>(k - 1)];
+  }
 
   static double Poly(const std::array<double, 6>& a, double u) {
     return ((((a[5] * u + a[4]) * u + a[3]) * u + a[2]) * u + a[1]) * u + a[0];
@@ -215,6 +221,11 @@ class SmoothCurve {
   double Converge(const Segment& g, double x, double u, double* dxdu) const;
 
   std::vector<Segment> segments_;  // (sized once: an evaluation allocates nothing)
+  // 2, 3, 4, 5 in every lane (Multiples).
+  std::array<LaneDoubles, 4> multiples_ = {LaneDoubles{2.0, 2.0, 2.0, 2.0},
+                                           LaneDoubles{3.0, 3.0, 3.0, 3.0},
+                                           LaneDoubles{4.0, 4.0, 4.0, 4.0},
+                                           LaneDoubles{5.0, 5.0, 5.0, 5.0}};
   // x_end of segments 0 .. count - 2, then +inf.
   std::array<double, kMaxSegments - 1> ends_{};
   std::array<ControlPoints, kMaxSegments> control_{};
@@ -421,14 +432,10 @@ ISOWRENCH_CURVE_INLINE void SmoothCurve::GatherLanes(const LaneDoubles& x, LaneD
     V cx[6];
     ISOWRENCH_CURVE_UNROLL
     for (int i = 0; i < 6; ++i) coefficient(kLaneX + i, cx[i]);
-    // dx/du's coefficients (k + 1) x_(k+1), as the table's (the same products).
-    const V d =
-        ((((ISOWRENCH_CURVE_SPLAT(5.0) * cx[5] * u + ISOWRENCH_CURVE_SPLAT(4.0) * cx[4]) * u +
-           ISOWRENCH_CURVE_SPLAT(3.0) * cx[3]) *
-              u +
-          ISOWRENCH_CURVE_SPLAT(2.0) * cx[2]) *
-             u +
-         cx[1]);
+    // dx/du's coefficients (k + 1) x_(k+1), the table's products.
+    V dx[5];
+    Multiples(cx, dx);
+    const V d = (((dx[4] * u + dx[3]) * u + dx[2]) * u + dx[1]) * u + dx[0];
     du = (((((cx[5] * u + cx[4]) * u + cx[3]) * u + cx[2]) * u + cx[1]) * u + cx[0] - xq) / d;
     const V v = u - du;
     const V one = ISOWRENCH_CURVE_SPLAT(1.0);
@@ -438,13 +445,9 @@ ISOWRENCH_CURVE_INLINE void SmoothCurve::GatherLanes(const LaneDoubles& x, LaneD
     for (int i = 0; i < 6; ++i) coefficient(kLaneY + i, cy[i]);
     y = ((((cy[5] * un + cy[4]) * un + cy[3]) * un + cy[2]) * un + cy[1]) * un + cy[0];
     if constexpr (kSlope) {
-      const V dy =
-          ((((ISOWRENCH_CURVE_SPLAT(5.0) * cy[5] * un + ISOWRENCH_CURVE_SPLAT(4.0) * cy[4]) * un +
-             ISOWRENCH_CURVE_SPLAT(3.0) * cy[3]) *
-                un +
-            ISOWRENCH_CURVE_SPLAT(2.0) * cy[2]) *
-               un +
-           cy[1]);
+      V b[5];
+      Multiples(cy, b);
+      const V dy = (((b[4] * un + b[3]) * un + b[2]) * un + b[1]) * un + b[0];
       s = (d > ISOWRENCH_CURVE_SPLAT(0.0)) ? dy / d : ISOWRENCH_CURVE_SPLAT(0.0);
     }
   };
