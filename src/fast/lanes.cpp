@@ -209,10 +209,10 @@ namespace {
 template <class W>
 ISOWRENCH_INLINE unsigned LaneForceStage(const FastMuscle& mu, W& ws, double activation,
                                          unsigned skip) {
-  double length[kLanes], force[kLanes];
+  double force[kLanes];
   MuscleForceStatus status[kLanes];
-  std::memcpy(length, &ws.length, sizeof length);
-  MuscleTensionsOf(mu, length, activation, force, status);
+  // (the lengths in place: Tension4, out of line, reads them with memcpy)
+  MuscleTensionsOf(mu, reinterpret_cast<const double*>(&ws.length), activation, force, status);
   V f;
   std::memcpy(&f, force, sizeof f);
   f = (V)((VI)f & (VI)((VI{1, 2, 4, 8} & static_cast<std::int64_t>(skip)) == 0));

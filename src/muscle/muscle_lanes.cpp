@@ -278,12 +278,30 @@ ISOWRENCH_MUSCLE_INLINE unsigned MuscleForceModel::Impl::CompliantLanes(
 
 namespace {
 
-// MuscleForceModel::Tension4 (the versions below: a free function).
+// The four lanes' statuses for each set of slack lanes (bit l: lane l kSlack, else
+// kEquilibrium): one copy instead of four selects.
+struct SlackStatuses {
+  MuscleForceStatus status[16][4];
+};
+constexpr SlackStatuses MakeSlackStatuses() {
+  SlackStatuses s{};
+  for (unsigned bits = 0; bits < 16; ++bits) {
+    for (unsigned l = 0; l < 4; ++l) {
+      s.status[bits][l] =
+          (bits >> l) & 1 ? MuscleForceStatus::kSlack : MuscleForceStatus::kEquilibrium;
+    }
+  }
+  return s;
+}
+constexpr SlackStatuses kSlackStatuses = MakeSlackStatuses();
+
+// MuscleForceModel::Tension4 (the versions below: a free function; its arguments in
+// Tension4's order, the model's Impl last).
 template <bool kAvx2>
-ISOWRENCH_MUSCLE_INLINE void TensionLanesOf(const MuscleForceModel& model,
-                                            const MuscleForceModel::Impl& m, const double* length,
+ISOWRENCH_MUSCLE_INLINE void TensionLanesOf(const MuscleForceModel& model, const double* length,
                                             double activation, double* force,
-                                            MuscleForceStatus* status) {
+                                            MuscleForceStatus* status,
+                                            const MuscleForceModel::Impl& m) {
   unsigned scalar = 0xf;
   if (m.fast_tension && m.type != ForceModelType::kConstant && activation >= 0.0 &&
       activation <= 1.0) {
@@ -302,9 +320,7 @@ ISOWRENCH_MUSCLE_INLINE void TensionLanesOf(const MuscleForceModel& model,
                       : m.CompliantLanes<kAvx2>(safe, a, f, slack)) |
              LaneBits<kAvx2>(~usable);
     std::memcpy(force, &f, sizeof f);
-    for (int l = 0; l < 4; ++l) {
-      status[l] = (slack >> l) & 1 ? MuscleForceStatus::kSlack : MuscleForceStatus::kEquilibrium;
-    }
+    std::memcpy(status, kSlackStatuses.status[slack & 0xf], sizeof kSlackStatuses.status[0]);
   }
   for (int l = 0; scalar != 0 && l < 4; ++l) {
     if (scalar & (1u << l)) force[l] = model.Tension(length[l], activation, &status[l]);
@@ -313,24 +329,24 @@ ISOWRENCH_MUSCLE_INLINE void TensionLanesOf(const MuscleForceModel& model,
 
 #if defined(ISOWRENCH_MUSCLE_AVX2)
 __attribute__((target("avx2"))) void TensionLanes(const MuscleForceModel& model,
-                                                  const MuscleForceModel::Impl& m,
                                                   const double* length, double activation,
-                                                  double* force, MuscleForceStatus* status) {
-  TensionLanesOf<true>(model, m, length, activation, force, status);
+                                                  double* force, MuscleForceStatus* status,
+                                                  const MuscleForceModel::Impl& m) {
+  TensionLanesOf<true>(model, length, activation, force, status, m);
 }
 __attribute__((target("default")))
 #endif
-void TensionLanes(const MuscleForceModel& model, const MuscleForceModel::Impl& m,
-                  const double* length, double activation, double* force,
-                  MuscleForceStatus* status) {
-  TensionLanesOf<false>(model, m, length, activation, force, status);
+void TensionLanes(const MuscleForceModel& model, const double* length, double activation,
+                  double* force, MuscleForceStatus* status, const MuscleForceModel::Impl& m) {
+  TensionLanesOf<false>(model, length, activation, force, status, m);
 }
 
 }  // namespace
 
 void MuscleForceModel::Tension4(const double length[4], double activation, double force[4],
                                 MuscleForceStatus status[4]) const {
-  TensionLanes(*this, *impl_, length, activation, force, status);
+  // (Tension4's arguments in place: the call is a jump)
+  TensionLanes(*this, length, activation, force, status, *impl_);
 }
 
 }  // namespace isowrench

@@ -222,10 +222,9 @@ class SmoothCurve {
 
   std::vector<Segment> segments_;  // (sized once: an evaluation allocates nothing)
   // 2, 3, 4, 5 in every lane (Multiples).
-  std::array<LaneDoubles, 4> multiples_ = {LaneDoubles{2.0, 2.0, 2.0, 2.0},
-                                           LaneDoubles{3.0, 3.0, 3.0, 3.0},
-                                           LaneDoubles{4.0, 4.0, 4.0, 4.0},
-                                           LaneDoubles{5.0, 5.0, 5.0, 5.0}};
+  std::array<LaneDoubles, 4> multiples_ = {
+      LaneDoubles{2.0, 2.0, 2.0, 2.0}, LaneDoubles{3.0, 3.0, 3.0, 3.0},
+      LaneDoubles{4.0, 4.0, 4.0, 4.0}, LaneDoubles{5.0, 5.0, 5.0, 5.0}};
   // x_end of segments 0 .. count - 2, then +inf.
   std::array<double, kMaxSegments - 1> ends_{};
   std::array<ControlPoints, kMaxSegments> control_{};
