@@ -215,7 +215,7 @@ ISOWRENCH_INLINE unsigned LaneForceStage(const FastMuscle& mu, W& ws, double act
   MuscleTensionsOf(mu, reinterpret_cast<const double*>(&ws.length), activation, force, status);
   V f;
   std::memcpy(&f, force, sizeof f);
-  f = (V)((VI)f & (VI)((VI{1, 2, 4, 8} & static_cast<std::int64_t>(skip)) == 0));
+  if (skip != 0) f = (V)((VI)f & (VI)((VI{1, 2, 4, 8} & static_cast<std::int64_t>(skip)) == 0));
   unsigned scalar = 0;
 #if defined(__SSE2__)
   typedef int Ints4 __attribute__((vector_size(16)));

@@ -77,10 +77,13 @@ ISOWRENCH_MUSCLE_INLINE unsigned MuscleForceModel::Impl::RigidLanes(const LaneV&
                                                                     LaneV& force,
                                                                     unsigned& slack_bits) const {
   const LaneV along = length - ISOWRENCH_MUSCLE_SPLAT(tendon_slack_length);
-  LaneI slack = ~(LaneI)(along >= ISOWRENCH_MUSCLE_SPLAT(pennation_min_fiber_along_tendon));
+  LaneI slack, short_fiber;
+  muscle::LaneNotGreaterEqual<kAvx2>(
+      along, ISOWRENCH_MUSCLE_SPLAT(pennation_min_fiber_along_tendon), slack);
   LaneV l;
   LaneSqrt<kAvx2>(ISOWRENCH_MUSCLE_SPLAT(height * height) + along * along, l);
-  slack |= ~(LaneI)(l > ISOWRENCH_MUSCLE_SPLAT(min_fiber));
+  muscle::LaneNotGreater<kAvx2>(l, ISOWRENCH_MUSCLE_SPLAT(min_fiber), short_fiber);
+  slack |= short_fiber;
   LaneV cos_phi = ISOWRENCH_MUSCLE_SPLAT(1.0);
   if (pennated) {
     const LaneI within = (ISOWRENCH_MUSCLE_SPLAT(height) / l) < ISOWRENCH_MUSCLE_SPLAT(max_sin);
@@ -96,7 +99,9 @@ ISOWRENCH_MUSCLE_INLINE unsigned MuscleForceModel::Impl::RigidLanes(const LaneV&
                   ISOWRENCH_MUSCLE_SPLAT(max_force) * fpe * cos_phi;
   force = slack ? ISOWRENCH_MUSCLE_SPLAT(0.0) : f;
   slack_bits = LaneBits<kAvx2>(slack);
-  return LaneBits<kAvx2>(~(slack | (LaneI)(f <= ISOWRENCH_MUSCLE_SPLAT(1e150))));
+  LaneI large;
+  muscle::LaneNotLessEqual<kAvx2>(f, ISOWRENCH_MUSCLE_SPLAT(1e150), large);
+  return LaneBits<kAvx2>(large) & ~slack_bits;
 }
 
 // At<false>(l, length, a)'s residual, slope, tendon force and fiber force along the tendon
@@ -318,7 +323,7 @@ ISOWRENCH_MUSCLE_INLINE void TensionLanesOf(const MuscleForceModel& model, const
     unsigned slack = 0;
     scalar = (m.rigid ? m.RigidLanes<kAvx2>(safe, a, f, slack)
                       : m.CompliantLanes<kAvx2>(safe, a, f, slack)) |
-             LaneBits<kAvx2>(~usable);
+             (LaneBits<kAvx2>(usable) ^ 0xf);
     std::memcpy(force, &f, sizeof f);
     std::memcpy(status, kSlackStatuses.status[slack & 0xf], sizeof kSlackStatuses.status[0]);
   }

@@ -74,6 +74,41 @@ ISOWRENCH_CURVE_INLINE unsigned LaneBits(const LaneMasks& mask) {
 #endif
 }
 
+/// out = ~(a <= b), ~(a >= b), ~(a > b) lane by lane (all true for NaN); kAvx2: one vcmppd.
+template <bool kAvx2>
+ISOWRENCH_CURVE_INLINE void LaneNotLessEqual(const LaneDoubles& a, const LaneDoubles& b,
+                                             LaneMasks& out) {
+#if defined(ISOWRENCH_CURVE_AVX2)
+  if constexpr (kAvx2) {
+    out = (LaneMasks)__builtin_ia32_cmppd256(a, b, 0x16);  // (_CMP_NLE_UQ)
+    return;
+  }
+#endif
+  out = ~(LaneMasks)(a <= b);
+}
+template <bool kAvx2>
+ISOWRENCH_CURVE_INLINE void LaneNotGreaterEqual(const LaneDoubles& a, const LaneDoubles& b,
+                                                LaneMasks& out) {
+#if defined(ISOWRENCH_CURVE_AVX2)
+  if constexpr (kAvx2) {
+    out = (LaneMasks)__builtin_ia32_cmppd256(a, b, 0x19);  // (_CMP_NGE_UQ)
+    return;
+  }
+#endif
+  out = ~(LaneMasks)(a >= b);
+}
+template <bool kAvx2>
+ISOWRENCH_CURVE_INLINE void LaneNotGreater(const LaneDoubles& a, const LaneDoubles& b,
+                                           LaneMasks& out) {
+#if defined(ISOWRENCH_CURVE_AVX2)
+  if constexpr (kAvx2) {
+    out = (LaneMasks)__builtin_ia32_cmppd256(a, b, 0x1a);  // (_CMP_NGT_UQ)
+    return;
+  }
+#endif
+  out = ~(LaneMasks)(a > b);
+}
+
 #if defined(ISOWRENCH_CURVE_AVX2)
 /// AVX2 only (vgatherqpd): out[l] = base[index[l]].
 ISOWRENCH_CURVE_INLINE void LaneGather(const double* base, const LaneMasks& index,
@@ -369,9 +404,11 @@ ISOWRENCH_CURVE_INLINE void SmoothCurve::GatherLanes(const LaneDoubles& x, LaneD
   using VI = LaneMasks;
 #define ISOWRENCH_CURVE_SPLAT(v) (V{(v), (v), (v), (v)})
   const V x0 = ISOWRENCH_CURVE_SPLAT(x0_), x1 = ISOWRENCH_CURVE_SPLAT(x1_);
-  const VI below = ~(VI)(x >= x0);  // (NaN too, as Value's !(x >= x0_))
-  const VI above = (VI)(x > x1) & ~below;
-  const unsigned outside_bits = LaneBits<true>(below | above);
+  VI below;
+  LaneNotGreaterEqual<true>(x, x0, below);  // (NaN too, as Value's !(x >= x0_))
+  const VI above = (VI)(x > x1);            // (x1 > x0: not below)
+  const unsigned below_bits = LaneBits<true>(below), above_bits = LaneBits<true>(above);
+  const unsigned outside_bits = below_bits | above_bits;
   if (outside_bits == 0xf) {  // (e.g. the passive curve below its slack length)
     // Outside [x0, x1]: the lines (x - x0 of a NaN x is NaN, as Value's).
     value = below ? ISOWRENCH_CURVE_SPLAT(y0_) + ISOWRENCH_CURVE_SPLAT(slope0_) * (x - x0)
@@ -461,11 +498,11 @@ ISOWRENCH_CURVE_INLINE void SmoothCurve::GatherLanes(const LaneDoubles& x, LaneD
     evaluate(std::false_type{}, 0);
   }
   if (outside_bits != 0) {
-    if (LaneBits<true>(below) != 0) {
+    if (below_bits != 0) {
       y = below ? ISOWRENCH_CURVE_SPLAT(y0_) + ISOWRENCH_CURVE_SPLAT(slope0_) * (x - x0) : y;
       if constexpr (kSlope) s = below ? ISOWRENCH_CURVE_SPLAT(slope0_) : s;
     }
-    if (LaneBits<true>(above) != 0) {
+    if (above_bits != 0) {
       y = above ? ISOWRENCH_CURVE_SPLAT(y1_) + ISOWRENCH_CURVE_SPLAT(slope1_) * (x - x1) : y;
       if constexpr (kSlope) s = above ? ISOWRENCH_CURVE_SPLAT(slope1_) : s;
     }
