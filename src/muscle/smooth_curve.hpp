@@ -56,6 +56,10 @@ typedef long long LaneMasks __attribute__((vector_size(32)));
 #if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__)
 #define ISOWRENCH_CURVE_AVX2 1
 #include <immintrin.h>  // (declares the AVX2 builtins)
+// (-Wpsabi: the builtins' 32-byte results, in code only ever inlined into AVX2 functions;
+// popped at the end of this header)
+#pragma GCC diagnostic push
+#pragma GCC diagnostic ignored "-Wpsabi"
 #endif
 
 /// Bit l set where lane l of `mask` is set (all bits), l = 0..3 (kAvx2: one vmovmskpd).
@@ -541,3 +545,7 @@ SmoothCurve TendonForceLengthCurve(const TendonForceLengthCurveSpec& spec,
                                    const std::string& muscle);
 
 }  // namespace isowrench::muscle
+
+#if defined(ISOWRENCH_CURVE_AVX2)
+#pragma GCC diagnostic pop
+#endif

@@ -151,11 +151,31 @@ TEST(MuscleCurves, BezierCurvesEqualDeCasteljauOfTheirControlPoints) {
   EXPECT_LT(worst, 1e-13);
 }
 
+#if defined(ISOWRENCH_CURVE_AVX2) && defined(__linux__)
+// SmoothCurve::Lanes' AVX2 form (gathers), as MuscleForceModel::Tension4's avx2 version runs it.
+__attribute__((target("avx2"))) void GatherLanes(const muscle::SmoothCurve& c,
+                                                 const muscle::LaneDoubles& x,
+                                                 muscle::LaneDoubles& value,
+                                                 muscle::LaneDoubles& slope,
+                                                 muscle::LaneDoubles& value_only) {
+  muscle::LaneDoubles unused;
+  c.Lanes<true, true>(x, value, slope);
+  c.Lanes<false, true>(x, value_only, unused);
+}
+bool HasAvx2() { return __builtin_cpu_supports("avx2"); }
+#else
+void GatherLanes(const muscle::SmoothCurve&, const muscle::LaneDoubles&, muscle::LaneDoubles&,
+                 muscle::LaneDoubles&, muscle::LaneDoubles&) {}
+bool HasAvx2() { return false; }
+#endif
+
 // SmoothCurve::Lanes (the batch force stage's four-lane curves) is Value and SolveEvaluate lane
 // by lane to the last bit: groups of four arguments spread over the whole curve (lanes in
 // different segments), packed into one segment, on the guess table's knots, at the segment
 // ends, outside [x0, x1] and NaN, on every curve kind (the active curve's far end needs more
-// than one Newton step: the scalar fallback).
+// than one Newton step: the scalar fallback). Both forms: the portable one and, where the CPU
+// has AVX2, the gathers (two-segment curves with the lanes in one segment read the segment's
+// splatted coefficients).
 TEST(MuscleCurves, LanesAreValueAndSolveEvaluateBitForBit) {
   const muscle::SmoothCurve curves[] = {
       muscle::ActiveForceLengthCurve(ActiveForceLengthCurveSpec{}, 0.0, "M"),
@@ -170,6 +190,7 @@ TEST(MuscleCurves, LanesAreValueAndSolveEvaluateBitForBit) {
   std::mt19937 rng(5);
   std::uniform_real_distribution<double> unit(0.0, 1.0);
   int groups = 0;
+  const bool avx2 = HasAvx2();
   for (const muscle::SmoothCurve& c : curves) {
     const double x0 = c.x0(), x1 = c.x1(), w = x1 - x0;
     std::vector<double> special = {x0,
@@ -195,11 +216,17 @@ TEST(MuscleCurves, LanesAreValueAndSolveEvaluateBitForBit) {
       muscle::LaneDoubles value, slope, value_only, unused;
       c.Lanes<true>(x, value, slope);
       c.Lanes<false>(x, value_only, unused);
+      muscle::LaneDoubles g_value = value, g_slope = slope, g_value_only = value_only;
+      if (avx2) GatherLanes(c, x, g_value, g_slope, g_value_only);
       for (int l = 0; l < 4; ++l) {
         const CurvePoint p = c.SolveEvaluate(x[l]);
         ASSERT_EQ(bits(value[l]), bits(p.value)) << "x " << x[l] << " lane " << l;
         ASSERT_EQ(bits(slope[l]), bits(p.slope)) << "x " << x[l] << " lane " << l;
         ASSERT_EQ(bits(value_only[l]), bits(c.Value(x[l]))) << "x " << x[l] << " lane " << l;
+        ASSERT_EQ(bits(g_value[l]), bits(p.value)) << "gathers: x " << x[l] << " lane " << l;
+        ASSERT_EQ(bits(g_slope[l]), bits(p.slope)) << "gathers: x " << x[l] << " lane " << l;
+        ASSERT_EQ(bits(g_value_only[l]), bits(c.Value(x[l])))
+            << "gathers: x " << x[l] << " lane " << l;
       }
       ++groups;
     }
