@@ -47,8 +47,9 @@ struct MuscleForceModel::Impl {
   double force_per_optimal_length = 0.0;       // N/m, max_force / l_o
   double force_per_tendon_slack_length = 0.0;  // N/m, max_force / l_Ts (0 if l_Ts is 0)
   // MuscleFixedWidthPennationModel
-  bool pennated = false;  // pennation_angle_at_optimal > Eps
-  double height = 0.0;    // parallelogram height l_o sin(phi_o)
+  bool pennated = false;        // pennation_angle_at_optimal > Eps
+  double height = 0.0;          // parallelogram height l_o sin(phi_o)
+  double height_squared = 0.0;  // height * height (the same product, computed once)
   double max_pennation = 0.0, max_sin = 0.0, max_cos = 1.0;
   double pennation_min_fiber = 0.0, pennation_min_fiber_along_tendon = 0.0;
   // The muscle's clamp
@@ -109,7 +110,7 @@ struct MuscleForceModel::Impl {
   // MuscleFixedWidthPennationModel::calcFiberLength(muscleLength, tendonLength).
   double FiberLength(double length, double tendon_length) const {
     const double along = length - tendon_length;
-    return along >= pennation_min_fiber_along_tendon ? std::sqrt(height * height + along * along)
+    return along >= pennation_min_fiber_along_tendon ? FiberRoot(height_squared + along * along)
                                                      : pennation_min_fiber;
   }
 
@@ -253,6 +254,16 @@ struct MuscleForceModel::Impl {
     return f;
   }
 
+  // std::sqrt(x) for x >= 0 or NaN, without its errno branch (sqrtsd, correctly rounded as
+  // std::sqrt and the lanes' sqrtpd).
+  static double FiberRoot(double x) {
+#if defined(__SSE2__)
+    return _mm_cvtsd_f64(_mm_sqrt_sd(_mm_set_sd(x), _mm_set_sd(x)));
+#else
+    return std::sqrt(x);
+#endif
+  }
+
   // The rigid tendon's fiber and force (Millard2012EquilibriumMuscle::calcMuscleLengthInfo,
   // ignore_tendon_compliance): false when the fiber is at its minimum length, clamped with zero
   // velocity (isFiberStateClamped), producing no force (calcMuscleDynamicsInfo).
@@ -266,7 +277,7 @@ struct MuscleForceModel::Impl {
     // clamped; above it cos(phi) = (L - l_Ts) / l (the parallelogram).
     const double along = length - tendon_slack_length;
     if (!(along >= pennation_min_fiber_along_tendon)) return false;
-    r->l = std::sqrt(height * height + along * along);
+    r->l = FiberRoot(height_squared + along * along);
     if (!(r->l > min_fiber)) return false;
     if (!pennated) {
       r->sin_phi = 0.0;
@@ -358,7 +369,7 @@ struct MuscleForceModel::Impl {
     if (slack_along <= min_fiber_along_tendon) return out;
     // The fiber length where the tendon is exactly slack: the residual is >= 0 there (no
     // tendon force), and the equilibrium lies in [min_fiber, hi].
-    double hi = std::sqrt(height * height + slack_along * slack_along);
+    double hi = FiberRoot(height_squared + slack_along * slack_along);
     double lo = min_fiber;
     bool lo_negative = false;
     int iterations = 0;

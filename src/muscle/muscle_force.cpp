@@ -122,6 +122,7 @@ MuscleForceModel::MuscleForceModel(const std::string& muscle, double max_force,
   const double height = ofl * std::sin(pen);  // m_parallelogramHeight
   m.pennated = pen > kSimTKEps;
   m.height = m.pennated ? height : 0.0;
+  m.height_squared = m.height * m.height;
   m.max_pennation = max_pen;
   m.max_sin = std::sin(max_pen);
   m.max_cos = std::cos(max_pen);

@@ -81,7 +81,7 @@ ISOWRENCH_MUSCLE_INLINE unsigned MuscleForceModel::Impl::RigidLanes(const LaneV&
   muscle::LaneNotGreaterEqual<kAvx2>(
       along, ISOWRENCH_MUSCLE_SPLAT(pennation_min_fiber_along_tendon), slack);
   LaneV l;
-  LaneSqrt<kAvx2>(ISOWRENCH_MUSCLE_SPLAT(height * height) + along * along, l);
+  LaneSqrt<kAvx2>(ISOWRENCH_MUSCLE_SPLAT(height_squared) + along * along, l);
   muscle::LaneNotGreater<kAvx2>(l, ISOWRENCH_MUSCLE_SPLAT(min_fiber), short_fiber);
   slack |= short_fiber;
   LaneV cos_phi = ISOWRENCH_MUSCLE_SPLAT(1.0);
@@ -157,11 +157,11 @@ ISOWRENCH_MUSCLE_INLINE unsigned MuscleForceModel::Impl::CompliantLanes(
   const LaneI slack = (LaneI)(slack_along <= S(min_fiber_along_tendon));
   slack_bits = LaneBits<kAvx2>(slack);
   LaneV hi;
-  LaneSqrt<kAvx2>(S(height * height) + slack_along * slack_along, hi);
+  LaneSqrt<kAvx2>(S(height_squared) + slack_along * slack_along, hi);
   // OpenSimIteration's start.
   const LaneV along = length - S(1.01 * tendon_slack_length);
   LaneV root;
-  LaneSqrt<kAvx2>(S(height * height) + along * along, root);
+  LaneSqrt<kAvx2>(S(height_squared) + along * along, root);
   LaneV lce = (LaneI)(along >= S(pennation_min_fiber_along_tendon)) ? root : S(pennation_min_fiber);
   if (clamp_initial_guess) lce = (LaneI)(lce < S(min_fiber)) ? S(min_fiber) : lce;
   lce = slack ? S(min_fiber) : lce;  // (slack lanes: a harmless fiber, not used)

@@ -149,7 +149,7 @@ class SmoothCurve {
     if (!(x >= x0_)) return {y0_ + slope0_ * (x - x0_), slope0_};
     if (x > x1_) return {y1_ + slope1_ * (x - x1_), slope1_};
     const Segment& g = Find(x);
-    double dxdu = 0.0;
+    double dxdu;  // (U sets it)
     const double u = U(g, x, &dxdu);
     // calcQuinticBezierCurveDerivDYDX: dy/dx = (dy/du) / (dx/du), dx/du at the solved u.
     dxdu = Slope(g.dx, u);
@@ -160,7 +160,7 @@ class SmoothCurve {
     if (!(x >= x0_)) return y0_ + slope0_ * (x - x0_);
     if (x > x1_) return y1_ + slope1_ * (x - x1_);
     const Segment& g = Find(x);
-    double dxdu = 0.0;
+    double dxdu;  // (U sets it)
     return Poly(g.y, U(g, x, &dxdu));
   }
   /// Evaluate(x).value, and the slope with dx/du taken before the last Newton step of u(x)
@@ -170,7 +170,7 @@ class SmoothCurve {
     if (!(x >= x0_)) return {y0_ + slope0_ * (x - x0_), slope0_};
     if (x > x1_) return {y1_ + slope1_ * (x - x1_), slope1_};
     const Segment& g = Find(x);
-    double dxdu = 0.0;
+    double dxdu;  // (U sets it)
     const double u = U(g, x, &dxdu);
     return {Poly(g.y, u), dxdu > 0.0 ? Slope(g.dy, u) / dxdu : 0.0};
   }
