@@ -175,6 +175,19 @@ SmoothCurve::SmoothCurve(const ControlPoints* segments, int count, double y0, do
     ends_[static_cast<std::size_t>(s)] =
         s + 1 < count ? segments[s].x[5] : std::numeric_limits<double>::infinity();
   }
+  auto splat = [](double v) { return LaneDoubles{v, v, v, v}; };
+  lane_.x0 = splat(x0_);
+  lane_.x1 = splat(x1_);
+  for (int s = 0; s + 1 < kMaxSegments; ++s)
+    lane_.ends[s] = splat(ends_[static_cast<std::size_t>(s)]);
+  lane_.y0 = splat(y0_);
+  lane_.slope0 = splat(slope0_);
+  lane_.y1 = splat(y1_);
+  lane_.slope1 = splat(slope1_);
+  lane_.step_limit = splat(1e-8);
+  lane_.one = splat(1.0);
+  const long long magnitude = 0x7fffffffffffffffLL;
+  lane_.magnitude = LaneMasks{magnitude, magnitude, magnitude, magnitude};
 }
 
 CurvePoint SmoothCurve::ScalarLane(double x, bool slope) const {

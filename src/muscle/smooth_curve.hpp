@@ -260,6 +260,13 @@ class SmoothCurve {
   double Converge(const Segment& g, double x, double u, double* dxdu) const;
 
   std::vector<Segment> segments_;  // (sized once: an evaluation allocates nothing)
+  // The gather lanes' numbers splatted (memory operands, not a broadcast per use).
+  struct LaneConstants {
+    LaneDoubles x0{}, x1{}, ends[kMaxSegments - 1]{}, y0{}, slope0{}, y1{}, slope1{};
+    LaneDoubles step_limit{}, one{};  // 1e-8 (U's one-step bound), 1
+    LaneMasks magnitude{};            // all bits of a double but the sign
+  };
+  LaneConstants lane_;
   // 2, 3, 4, 5 in every lane (Multiples).
   std::array<LaneDoubles, 4> multiples_ = {
       LaneDoubles{2.0, 2.0, 2.0, 2.0}, LaneDoubles{3.0, 3.0, 3.0, 3.0},
@@ -407,7 +414,7 @@ ISOWRENCH_CURVE_INLINE void SmoothCurve::GatherLanes(const LaneDoubles& x, LaneD
   using V = LaneDoubles;
   using VI = LaneMasks;
 #define ISOWRENCH_CURVE_SPLAT(v) (V{(v), (v), (v), (v)})
-  const V x0 = ISOWRENCH_CURVE_SPLAT(x0_), x1 = ISOWRENCH_CURVE_SPLAT(x1_);
+  const V x0 = lane_.x0, x1 = lane_.x1;
   VI below;
   LaneNotGreaterEqual<true>(x, x0, below);  // (NaN too, as Value's !(x >= x0_))
   const VI above = (VI)(x > x1);            // (x1 > x0: not below)
@@ -415,10 +422,9 @@ ISOWRENCH_CURVE_INLINE void SmoothCurve::GatherLanes(const LaneDoubles& x, LaneD
   const unsigned outside_bits = below_bits | above_bits;
   if (outside_bits == 0xf) {  // (e.g. the passive curve below its slack length)
     // Outside [x0, x1]: the lines (x - x0 of a NaN x is NaN, as Value's).
-    value = below ? ISOWRENCH_CURVE_SPLAT(y0_) + ISOWRENCH_CURVE_SPLAT(slope0_) * (x - x0)
-                  : ISOWRENCH_CURVE_SPLAT(y1_) + ISOWRENCH_CURVE_SPLAT(slope1_) * (x - x1);
+    value = below ? lane_.y0 + lane_.slope0 * (x - x0) : lane_.y1 + lane_.slope1 * (x - x1);
     if constexpr (kSlope) {
-      slope = below ? ISOWRENCH_CURVE_SPLAT(slope0_) : ISOWRENCH_CURVE_SPLAT(slope1_);
+      slope = below ? lane_.slope0 : lane_.slope1;
     }
     return;
   }
@@ -427,11 +433,10 @@ ISOWRENCH_CURVE_INLINE void SmoothCurve::GatherLanes(const LaneDoubles& x, LaneD
   xs = (xs < x1) ? xs : x1;
   // Find, per lane: minus the number of inner segment ends at or before x; times minus the
   // segment stride (vpmuldq: the low 32 bits), the segment's offset in doubles.
-  VI minus_segment = (VI)(xs >= ISOWRENCH_CURVE_SPLAT(ends_[0]));
+  VI minus_segment = (VI)(xs >= lane_.ends[0]);
   if (count_ > 2) {
-    minus_segment += (VI)(xs >= ISOWRENCH_CURVE_SPLAT(ends_[1])) +
-                     (VI)(xs >= ISOWRENCH_CURVE_SPLAT(ends_[2])) +
-                     (VI)(xs >= ISOWRENCH_CURVE_SPLAT(ends_[3]));
+    minus_segment +=
+        (VI)(xs >= lane_.ends[1]) + (VI)(xs >= lane_.ends[2]) + (VI)(xs >= lane_.ends[3]);
   }
   constexpr long long kStride = static_cast<long long>(sizeof(Segment) / sizeof(double));
   static_assert(sizeof(Segment) % sizeof(double) == 0, "segments in whole doubles");
@@ -478,7 +483,7 @@ ISOWRENCH_CURVE_INLINE void SmoothCurve::GatherLanes(const LaneDoubles& x, LaneD
     const V d = (((dx[4] * u + dx[3]) * u + dx[2]) * u + dx[1]) * u + dx[0];
     du = (((((cx[5] * u + cx[4]) * u + cx[3]) * u + cx[2]) * u + cx[1]) * u + cx[0] - xq) / d;
     const V v = u - du;
-    const V one = ISOWRENCH_CURVE_SPLAT(1.0);
+    const V one = lane_.one;
     const V un = (one < v) ? one : v;  // std::min(u - du, 1.0)
     V cy[6];
     ISOWRENCH_CURVE_UNROLL
@@ -503,19 +508,19 @@ ISOWRENCH_CURVE_INLINE void SmoothCurve::GatherLanes(const LaneDoubles& x, LaneD
   }
   if (outside_bits != 0) {
     if (below_bits != 0) {
-      y = below ? ISOWRENCH_CURVE_SPLAT(y0_) + ISOWRENCH_CURVE_SPLAT(slope0_) * (x - x0) : y;
-      if constexpr (kSlope) s = below ? ISOWRENCH_CURVE_SPLAT(slope0_) : s;
+      y = below ? lane_.y0 + lane_.slope0 * (x - x0) : y;
+      if constexpr (kSlope) s = below ? lane_.slope0 : s;
     }
     if (above_bits != 0) {
-      y = above ? ISOWRENCH_CURVE_SPLAT(y1_) + ISOWRENCH_CURVE_SPLAT(slope1_) * (x - x1) : y;
-      if constexpr (kSlope) s = above ? ISOWRENCH_CURVE_SPLAT(slope1_) : s;
+      y = above ? lane_.y1 + lane_.slope1 * (x - x1) : y;
+      if constexpr (kSlope) s = above ? lane_.slope1 : s;
     }
   }
   // Lanes inside whose Newton step exceeds 1e-8 (or is not a number): the scalar evaluation.
   // (vcmpnlepd: !(|du| <= 1e-8) in one compare)
   const unsigned far_bits =
-      ~outside_bits & LaneBits<true>((VI)__builtin_ia32_cmppd256(
-                          (V)((VI)du & 0x7fffffffffffffffLL), ISOWRENCH_CURVE_SPLAT(1e-8), 0x16));
+      ~outside_bits & LaneBits<true>((VI)__builtin_ia32_cmppd256((V)((VI)du & lane_.magnitude),
+                                                                 lane_.step_limit, 0x16));
   if (far_bits != 0) {
     for (int l = 0; l < 4; ++l) {
       if (!(far_bits & (1u << l))) continue;
