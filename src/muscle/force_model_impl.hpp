@@ -296,6 +296,40 @@ struct MuscleForceModel::Impl {
   }
 
   // The batch force stage's lanes (src/muscle/muscle_lanes.cpp, MuscleForceModel::Tension4).
+  // The numbers the compliant lanes use in every sample, splatted once (SplatLaneNumbers, at
+  // the end of construction): memory operands in muscle_lanes.cpp, not a broadcast per use.
+  struct LaneNumbers {
+    muscle::LaneDoubles one{}, half{}, nan{}, sqrt_eps{}, significant_real{}, rounding{};
+    muscle::LaneDoubles min_fiber{}, max_sin{}, max_cos{}, height{}, pennation_min_fiber{};
+    muscle::LaneDoubles tolerance{}, max_force{}, inv_optimal_fiber_length{};
+    muscle::LaneDoubles inv_tendon_slack_length{}, force_per_optimal_length{};
+    muscle::LaneDoubles force_per_tendon_slack_length{};
+    muscle::LaneMasks magnitude{};  // all bits of a double but the sign
+  };
+  LaneNumbers lane;
+  void SplatLaneNumbers() {
+    auto splat = [](double v) { return muscle::LaneDoubles{v, v, v, v}; };
+    lane.one = splat(1.0);
+    lane.half = splat(0.5);
+    lane.nan = splat(std::numeric_limits<double>::quiet_NaN());
+    lane.sqrt_eps = splat(kSqrtEps);
+    lane.significant_real = splat(kSignificantReal);
+    lane.rounding = splat(2 * kSimTKEps);
+    lane.min_fiber = splat(min_fiber);
+    lane.max_sin = splat(max_sin);
+    lane.max_cos = splat(max_cos);
+    lane.height = splat(height);
+    lane.pennation_min_fiber = splat(pennation_min_fiber);
+    lane.tolerance = splat(tolerance);
+    lane.max_force = splat(max_force);
+    lane.inv_optimal_fiber_length = splat(inv_optimal_fiber_length);
+    lane.inv_tendon_slack_length = splat(inv_tendon_slack_length);
+    lane.force_per_optimal_length = splat(force_per_optimal_length);
+    lane.force_per_tendon_slack_length = splat(force_per_tendon_slack_length);
+    const long long bits = 0x7fffffffffffffffLL;
+    lane.magnitude = muscle::LaneMasks{bits, bits, bits, bits};
+  }
+
   // kAvx2: compiled for AVX2 (the curves' gathers, one-instruction lane masks).
   template <bool kSlope, int kCurve, bool kAvx2>
   void CurveLanes(const muscle::LaneDoubles& x, muscle::LaneDoubles& value,

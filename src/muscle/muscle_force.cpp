@@ -220,6 +220,7 @@ MuscleForceModel::MuscleForceModel(const std::string& muscle, double max_force,
   const double scale =
       max_force * slope_bound * (1.0 + m.inv_optimal_fiber_length + m.inv_tendon_slack_length);
   m.fast_tension = std::isfinite(scale) && scale <= 1e100;
+  m.SplatLaneNumbers();
   impl_ = impl;
 }
 

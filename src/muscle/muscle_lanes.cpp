@@ -113,33 +113,33 @@ ISOWRENCH_MUSCLE_INLINE void MuscleForceModel::Impl::IterateLanes(const LaneV& l
                                                                   LaneV& tendon_force,
                                                                   LaneV& fiber_along) const {
 #define S ISOWRENCH_MUSCLE_SPLAT
-  LaneV sin_phi = S(0.0), cos_phi = S(1.0);
+  LaneV sin_phi = S(0.0), cos_phi = lane.one;
   if (pennated) {  // Pennation
-    const LaneV s = (LaneI)(l > S(pennation_min_fiber)) ? S(height) / l : S(max_sin);
-    const LaneI within = s < S(max_sin);
+    const LaneV s = (LaneI)(l > lane.pennation_min_fiber) ? lane.height / l : lane.max_sin;
+    const LaneI within = s < lane.max_sin;
     LaneV root;
-    LaneSqrt<kAvx2>((LaneV)((LaneI)(S(1.0) - s * s) & 0x7fffffffffffffffLL), root);
-    sin_phi = within ? s : S(max_sin);
-    cos_phi = within ? root : S(max_cos);
+    LaneSqrt<kAvx2>((LaneV)((LaneI)(lane.one - s * s) & lane.magnitude), root);
+    sin_phi = within ? s : lane.max_sin;
+    cos_phi = within ? root : lane.max_cos;
   }
-  const LaneV norm = l * S(inv_optimal_fiber_length);
+  const LaneV norm = l * lane.inv_optimal_fiber_length;
   const LaneV tendon_length = length - l * cos_phi;
-  const LaneV norm_tendon = tendon_length * S(inv_tendon_slack_length);
+  const LaneV norm_tendon = tendon_length * lane.inv_tendon_slack_length;
   LaneV fal, dfal, fpe, dfpe, fse, dfse;
   CurveLanes<true, 0, kAvx2>(norm, fal, dfal);
   CurveLanes<true, 1, kAvx2>(norm, fpe, dfpe);
   CurveLanes<true, 2, kAvx2>(norm_tendon, fse, dfse);
   const LaneV active_force = S(max_force * a) * fal;
-  const LaneV passive_force = S(max_force) * fpe;
+  const LaneV passive_force = lane.max_force * fpe;
   const LaneV fiber = active_force + passive_force;
-  const LaneV dfiber = (S(a) * dfal + dfpe) * S(force_per_optimal_length);
+  const LaneV dfiber = (S(a) * dfal + dfpe) * lane.force_per_optimal_length;
   const LaneV dcos = sin_phi * sin_phi / (l * cos_phi);
   fiber_along = fiber * cos_phi;
   const LaneV dfiber_along = dfiber * cos_phi + fiber * dcos;
-  tendon_force = S(max_force) * fse;
-  const LaneV tendon_stiffness = dfse * S(force_per_tendon_slack_length);
+  tendon_force = lane.max_force * fse;
+  const LaneV tendon_stiffness = dfse * lane.force_per_tendon_slack_length;
   const LaneV r = fiber_along - tendon_force;
-  residual = (LaneI)((l - l) == S(0.0)) ? r : S(std::numeric_limits<double>::quiet_NaN());
+  residual = (LaneI)((l - l) == S(0.0)) ? r : lane.nan;
   slope = dfiber_along + tendon_stiffness / cos_phi;
 #undef S
 }
@@ -162,11 +162,12 @@ ISOWRENCH_MUSCLE_INLINE unsigned MuscleForceModel::Impl::CompliantLanes(
   const LaneV along = length - S(1.01 * tendon_slack_length);
   LaneV root;
   LaneSqrt<kAvx2>(S(height_squared) + along * along, root);
-  LaneV lce = (LaneI)(along >= S(pennation_min_fiber_along_tendon)) ? root : S(pennation_min_fiber);
-  if (clamp_initial_guess) lce = (LaneI)(lce < S(min_fiber)) ? S(min_fiber) : lce;
-  lce = slack ? S(min_fiber) : lce;  // (slack lanes: a harmless fiber, not used)
-  const auto magnitude = [](const LaneV& v) ISOWRENCH_MUSCLE_LAMBDA_INLINE {
-    return (LaneV)((LaneI)v & 0x7fffffffffffffffLL);
+  LaneV lce =
+      (LaneI)(along >= S(pennation_min_fiber_along_tendon)) ? root : lane.pennation_min_fiber;
+  if (clamp_initial_guess) lce = (LaneI)(lce < lane.min_fiber) ? lane.min_fiber : lce;
+  lce = slack ? lane.min_fiber : lce;  // (slack lanes: a harmless fiber, not used)
+  const auto magnitude = [this](const LaneV& v) ISOWRENCH_MUSCLE_LAMBDA_INLINE {
+    return (LaneV)((LaneI)v & lane.magnitude);
   };
   const LaneV opensim_tolerance_v = S(opensim_tolerance);
   const LaneV max_iterations = S(static_cast<double>(opensim_max_iterations));
@@ -177,8 +178,8 @@ ISOWRENCH_MUSCLE_INLINE unsigned MuscleForceModel::Impl::CompliantLanes(
   // `opensim` (a sample at lce pending), `entering` (OpenSim's iteration just ended),
   // `polish` (a sample at x pending, then the polish's loop head), `done`, `scalar`.
   LaneV ferr = S(0.0), slope = ferr, tendon_force = ferr, fiber_along = ferr, last_slope = ferr;
-  LaneV ferr_prev = ferr, lce_prev = lce, h = S(1.0), iter = S(0.0);
-  LaneV x = lce, lo = S(min_fiber), step_before = hi - lo, step = step_before;
+  LaneV ferr_prev = ferr, lce_prev = lce, h = lane.one, iter = S(0.0);
+  LaneV x = lce, lo = lane.min_fiber, step_before = hi - lo, step = step_before;
   LaneI first = ~slack, opensim = none, entering = none, polish = none, lo_negative = none;
   LaneI scalar = none, done = slack;
   for (int round = 0; round < 64; ++round) {
@@ -196,18 +197,18 @@ ISOWRENCH_MUSCLE_INLINE unsigned MuscleForceModel::Impl::CompliantLanes(
     LaneI check = (entering & polish) | (polish & ~entering & ~done & ~scalar);
     entering = LaneI{0, 0, 0, 0};
     if (LaneBits<kAvx2>(check) != 0) {
-      const LaneI within = (LaneI)(magnitude(ferr) <= S(tolerance));
+      const LaneI within = (LaneI)(magnitude(ferr) <= lane.tolerance);
       done |= check & within;
       LaneI go = check & ~within;
       const LaneI negative = (LaneI)(ferr < S(0.0));
       lo = (go & negative) ? x : lo;
       lo_negative |= go & negative;
       hi = (go & ~negative) ? x : hi;
-      const LaneI rounding = (LaneI)(hi - lo <= S(2 * kSimTKEps) * hi);
+      const LaneI rounding = (LaneI)(hi - lo <= lane.rounding * hi);
       done |= go & rounding;
       go &= ~rounding;
       const LaneV next = x - ferr / last_slope;
-      const LaneI slow = (LaneI)(magnitude(next - x) > S(0.5) * magnitude(step_before));
+      const LaneI slow = (LaneI)(magnitude(next - x) > lane.half * magnitude(step_before));
       step_before = go ? step : step_before;
       const LaneI newton = (LaneI)(next > lo) & (LaneI)(next < hi) & ~slow;
       scalar |= go & ~newton;  // bisection or the minimum-length check
@@ -221,11 +222,11 @@ ISOWRENCH_MUSCLE_INLINE unsigned MuscleForceModel::Impl::CompliantLanes(
     // lce_prev), the polish's at x.
     if (LaneBits<kAvx2>(opensim) != 0) {
       const LaneV delta = -h * ferr_prev / slope;
-      const LaneI big = (LaneI)(magnitude(delta) > S(kSignificantReal));
-      const LaneV sign = (LaneV)((LaneI)(delta > S(0.0)) & (LaneI)S(1.0)) -
-                         (LaneV)((LaneI)(delta < S(0.0)) & (LaneI)S(1.0));
-      LaneV next = big ? lce_prev + delta : lce_prev - sign * S(kSqrtEps);
-      next = (LaneI)(next < S(min_fiber)) ? S(min_fiber) : next;
+      const LaneI big = (LaneI)(magnitude(delta) > lane.significant_real);
+      const LaneV sign = (LaneV)((LaneI)(delta > S(0.0)) & (LaneI)lane.one) -
+                         (LaneV)((LaneI)(delta < S(0.0)) & (LaneI)lane.one);
+      LaneV next = big ? lce_prev + delta : lce_prev - sign * lane.sqrt_eps;
+      next = (LaneI)(next < lane.min_fiber) ? lane.min_fiber : next;
       lce = opensim ? next : lce;
       h = (opensim & ~big) ? S(0.0) : h;
     }
@@ -240,8 +241,8 @@ ISOWRENCH_MUSCLE_INLINE unsigned MuscleForceModel::Impl::CompliantLanes(
     // OpenSim's inner loop after its sample: break when h <= sqrt(eps), else halve h and
     // repeat while |ferr| >= |ferr_prev|; then its outer loop's tail and head.
     if (LaneBits<kAvx2>(opensim) != 0) {
-      const LaneI brk = (LaneI)(h <= S(kSqrtEps));
-      h = (opensim & ~brk) ? S(0.5) * h : h;
+      const LaneI brk = (LaneI)(h <= lane.sqrt_eps);
+      h = (opensim & ~brk) ? lane.half * h : h;
       const LaneI inner = opensim & ~brk & (LaneI)(magnitude(ferr) >= magnitude(ferr_prev));
       LaneI tail = opensim & ~inner;
       const LaneI same = (LaneI)(lce == lce_prev) & (LaneI)(ferr == ferr_prev);
@@ -250,11 +251,11 @@ ISOWRENCH_MUSCLE_INLINE unsigned MuscleForceModel::Impl::CompliantLanes(
       ferr_prev = tail ? ferr : ferr_prev;
       lce_prev = tail ? lce : lce_prev;
       slope = tail ? last_slope : slope;
-      iter = tail ? iter + S(1.0) : iter;
+      iter = tail ? iter + lane.one : iter;
       const LaneI again = tail & (LaneI)(magnitude(ferr) > opensim_tolerance_v) &
                           (LaneI)(iter < max_iterations) &
                           (LaneI)(magnitude(ferr) >= magnitude(ferr_prev));
-      h = again ? S(1.0) : h;
+      h = again ? lane.one : h;
       leave |= tail & ~again;
       opensim = inner | again;
       entering = leave;
@@ -274,7 +275,8 @@ ISOWRENCH_MUSCLE_INLINE unsigned MuscleForceModel::Impl::CompliantLanes(
   scalar |= ~done & ~scalar;  // (still iterating after 64 samples)
   const LaneI valid = (LaneI)(magnitude(tendon_force) <= S(1e150)) &
                       (LaneI)(magnitude(fiber_along) <= S(1e150)) & (LaneI)(x <= S(1e150));
-  const LaneI minimum = ~lo_negative & (LaneI)(x <= S(min_fiber)) & (LaneI)(ferr > S(tolerance));
+  const LaneI minimum =
+      ~lo_negative & (LaneI)(x <= lane.min_fiber) & (LaneI)(ferr > lane.tolerance);
   scalar |= ~slack & (~valid | minimum);
   force = slack ? S(0.0) : tendon_force;
   return LaneBits<kAvx2>(scalar & ~slack);
