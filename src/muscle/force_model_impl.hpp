@@ -338,7 +338,8 @@ struct MuscleForceModel::Impl {
   unsigned RigidLanes(const muscle::LaneDoubles& length, double a, muscle::LaneDoubles& force,
                       unsigned& slack_bits) const;
   template <bool kAvx2>
-  void IterateLanes(const muscle::LaneDoubles& l, const muscle::LaneDoubles& length, double a,
+  void IterateLanes(const muscle::LaneDoubles& l, const muscle::LaneDoubles& length,
+                    const muscle::LaneDoubles& a, const muscle::LaneDoubles& max_force_a,
                     muscle::LaneDoubles& residual, muscle::LaneDoubles& slope,
                     muscle::LaneDoubles& tendon_force, muscle::LaneDoubles& fiber_along) const;
   template <bool kAvx2>

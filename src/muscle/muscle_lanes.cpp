@@ -105,13 +105,12 @@ ISOWRENCH_MUSCLE_INLINE unsigned MuscleForceModel::Impl::RigidLanes(const LaneV&
 }
 
 // At<false>(l, length, a)'s residual, slope, tendon force and fiber force along the tendon
-// (Iterate) on four lanes, the same operations in the same order.
+// (Iterate) on four lanes, the same operations in the same order (a and max_force * a
+// splatted by the caller).
 template <bool kAvx2>
-ISOWRENCH_MUSCLE_INLINE void MuscleForceModel::Impl::IterateLanes(const LaneV& l,
-                                                                  const LaneV& length, double a,
-                                                                  LaneV& residual, LaneV& slope,
-                                                                  LaneV& tendon_force,
-                                                                  LaneV& fiber_along) const {
+ISOWRENCH_MUSCLE_INLINE void MuscleForceModel::Impl::IterateLanes(
+    const LaneV& l, const LaneV& length, const LaneV& a, const LaneV& max_force_a, LaneV& residual,
+    LaneV& slope, LaneV& tendon_force, LaneV& fiber_along) const {
 #define S ISOWRENCH_MUSCLE_SPLAT
   LaneV sin_phi = S(0.0), cos_phi = lane.one;
   if (pennated) {  // Pennation
@@ -129,10 +128,10 @@ ISOWRENCH_MUSCLE_INLINE void MuscleForceModel::Impl::IterateLanes(const LaneV& l
   CurveLanes<true, 0, kAvx2>(norm, fal, dfal);
   CurveLanes<true, 1, kAvx2>(norm, fpe, dfpe);
   CurveLanes<true, 2, kAvx2>(norm_tendon, fse, dfse);
-  const LaneV active_force = S(max_force * a) * fal;
+  const LaneV active_force = max_force_a * fal;
   const LaneV passive_force = lane.max_force * fpe;
   const LaneV fiber = active_force + passive_force;
-  const LaneV dfiber = (S(a) * dfal + dfpe) * lane.force_per_optimal_length;
+  const LaneV dfiber = (a * dfal + dfpe) * lane.force_per_optimal_length;
   const LaneV dcos = sin_phi * sin_phi / (l * cos_phi);
   fiber_along = fiber * cos_phi;
   const LaneV dfiber_along = dfiber * cos_phi + fiber * dcos;
@@ -170,6 +169,7 @@ ISOWRENCH_MUSCLE_INLINE unsigned MuscleForceModel::Impl::CompliantLanes(
     return (LaneV)((LaneI)v & lane.magnitude);
   };
   const LaneV opensim_tolerance_v = S(opensim_tolerance);
+  const LaneV a_lanes = S(a), max_force_a = S(max_force * a);
   const LaneV max_iterations = S(static_cast<double>(opensim_max_iterations));
   const LaneI none = LaneI{0, 0, 0, 0};
   // The lanes' state: OpenSim's iteration (lce, lce_prev, ferr, ferr_prev, slope, h, iter),
@@ -232,7 +232,7 @@ ISOWRENCH_MUSCLE_INLINE unsigned MuscleForceModel::Impl::CompliantLanes(
     }
     const LaneV point = (first | opensim) ? lce : x;
     LaneV r, sl, tf, fa;
-    IterateLanes<kAvx2>(point, length, a, r, sl, tf, fa);
+    IterateLanes<kAvx2>(point, length, a_lanes, max_force_a, r, sl, tf, fa);
     const LaneI sampled = first | opensim | polish;
     ferr = sampled ? r : ferr;
     last_slope = sampled ? sl : last_slope;
