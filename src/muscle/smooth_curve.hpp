@@ -433,10 +433,12 @@ ISOWRENCH_CURVE_INLINE void SmoothCurve::GatherLanes(const LaneDoubles& x, LaneD
   xs = (xs < x1) ? xs : x1;
   // Find, per lane: minus the number of inner segment ends at or before x; times minus the
   // segment stride (vpmuldq: the low 32 bits), the segment's offset in doubles.
-  VI minus_segment = (VI)(xs >= lane_.ends[0]);
+  // (xs >= end by vcmppd GE with the splatted end as its memory operand: xs is not NaN)
+  VI minus_segment = (VI)__builtin_ia32_cmppd256(xs, lane_.ends[0], 0x1d);  // (_CMP_GE_OQ)
   if (count_ > 2) {
-    minus_segment +=
-        (VI)(xs >= lane_.ends[1]) + (VI)(xs >= lane_.ends[2]) + (VI)(xs >= lane_.ends[3]);
+    minus_segment += (VI)__builtin_ia32_cmppd256(xs, lane_.ends[1], 0x1d) +
+                     (VI)__builtin_ia32_cmppd256(xs, lane_.ends[2], 0x1d) +
+                     (VI)__builtin_ia32_cmppd256(xs, lane_.ends[3], 0x1d);
   }
   constexpr long long kStride = static_cast<long long>(sizeof(Segment) / sizeof(double));
   static_assert(sizeof(Segment) % sizeof(double) == 0, "segments in whole doubles");
