@@ -481,7 +481,11 @@ ISOWRENCH_CURVE_INLINE void SmoothCurve::GatherLanes(const LaneDoubles& x, LaneD
     for (int i = 0; i < 6; ++i) coefficient(kLaneX + i, cx[i]);
     // dx/du's coefficients (k + 1) x_(k+1), the table's products.
     V dx[5];
-    Multiples(cx, dx);
+    if constexpr (kShared) {  // (the table's dx/du coefficients, splatted: memory operands)
+      for (int i = 0; i < 5; ++i) dx[i] = s0.splat[static_cast<std::size_t>(kLaneDx + i)];
+    } else {
+      Multiples(cx, dx);
+    }
     const V d = (((dx[4] * u + dx[3]) * u + dx[2]) * u + dx[1]) * u + dx[0];
     du = (((((cx[5] * u + cx[4]) * u + cx[3]) * u + cx[2]) * u + cx[1]) * u + cx[0] - xq) / d;
     const V v = u - du;
@@ -493,7 +497,11 @@ ISOWRENCH_CURVE_INLINE void SmoothCurve::GatherLanes(const LaneDoubles& x, LaneD
     y = ((((cy[5] * un + cy[4]) * un + cy[3]) * un + cy[2]) * un + cy[1]) * un + cy[0];
     if constexpr (kSlope) {
       V b[5];
-      Multiples(cy, b);
+      if constexpr (kShared) {
+        for (int i = 0; i < 5; ++i) b[i] = s0.splat[static_cast<std::size_t>(kLaneDy + i)];
+      } else {
+        Multiples(cy, b);
+      }
       const V dy = (((b[4] * un + b[3]) * un + b[2]) * un + b[1]) * un + b[0];
       s = (d > ISOWRENCH_CURVE_SPLAT(0.0)) ? dy / d : ISOWRENCH_CURVE_SPLAT(0.0);
     }
