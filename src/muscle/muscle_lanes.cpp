@@ -48,6 +48,16 @@ ISOWRENCH_MUSCLE_INLINE void LaneSqrt(const LaneV& x, LaneV& out) {
 #endif
 }
 
+// mask ? a : b per lane, for a mask whose lanes are all ones or zero (kAvx2: one vblendvpd on
+// its sign bits; GCC's vector select first tests mask != 0 when it cannot tell).
+template <bool kAvx2>
+ISOWRENCH_MUSCLE_INLINE LaneV Pick(const LaneI& mask, const LaneV& a, const LaneV& b) {
+#if defined(ISOWRENCH_MUSCLE_AVX2)
+  if constexpr (kAvx2) return __builtin_ia32_blendvpd256(b, a, (LaneV)mask);
+#endif
+  return mask ? a : b;
+}
+
 using muscle::LaneBits;
 
 }  // namespace
@@ -189,7 +199,7 @@ ISOWRENCH_MUSCLE_INLINE unsigned MuscleForceModel::Impl::CompliantLanes(
       const LaneV clamped = (LaneI)(lce < lo) ? lo : (LaneI)(hi < lce) ? hi : lce;
       const LaneI inside = converged & (LaneI)(clamped == lce);
       scalar |= entering & ~inside;
-      x = entering ? lce : x;
+      x = Pick<kAvx2>(entering, lce, x);
       // (the polish's checks below run on OpenSim's last sample)
       polish |= entering & inside;
     }
@@ -201,20 +211,20 @@ ISOWRENCH_MUSCLE_INLINE unsigned MuscleForceModel::Impl::CompliantLanes(
       done |= check & within;
       LaneI go = check & ~within;
       const LaneI negative = (LaneI)(ferr < S(0.0));
-      lo = (go & negative) ? x : lo;
+      lo = Pick<kAvx2>(go & negative, x, lo);
       lo_negative |= go & negative;
-      hi = (go & ~negative) ? x : hi;
+      hi = Pick<kAvx2>(go & ~negative, x, hi);
       const LaneI rounding = (LaneI)(hi - lo <= lane.rounding * hi);
       done |= go & rounding;
       go &= ~rounding;
       const LaneV next = x - ferr / last_slope;
       const LaneI slow = (LaneI)(magnitude(next - x) > lane.half * magnitude(step_before));
-      step_before = go ? step : step_before;
+      step_before = Pick<kAvx2>(go, step, step_before);
       const LaneI newton = (LaneI)(next > lo) & (LaneI)(next < hi) & ~slow;
       scalar |= go & ~newton;  // bisection or the minimum-length check
       go &= newton;
-      step = go ? next - x : step;
-      x = go ? next : x;
+      step = Pick<kAvx2>(go, next - x, step);
+      x = Pick<kAvx2>(go, next, x);
       polish = (polish & ~check) | go;  // (the lanes that need a sample at x)
     }
     if (LaneBits<kAvx2>(first | opensim | polish) == 0) break;
@@ -227,43 +237,43 @@ ISOWRENCH_MUSCLE_INLINE unsigned MuscleForceModel::Impl::CompliantLanes(
                          (LaneV)((LaneI)(delta < S(0.0)) & (LaneI)lane.one);
       LaneV next = big ? lce_prev + delta : lce_prev - sign * lane.sqrt_eps;
       next = (LaneI)(next < lane.min_fiber) ? lane.min_fiber : next;
-      lce = opensim ? next : lce;
-      h = (opensim & ~big) ? S(0.0) : h;
+      lce = Pick<kAvx2>(opensim, next, lce);
+      h = Pick<kAvx2>(opensim & ~big, S(0.0), h);
     }
-    const LaneV point = (first | opensim) ? lce : x;
+    const LaneV point = Pick<kAvx2>(first | opensim, lce, x);
     LaneV r, sl, tf, fa;
     IterateLanes<kAvx2>(point, length, a_lanes, max_force_a, r, sl, tf, fa);
     const LaneI sampled = first | opensim | polish;
-    ferr = sampled ? r : ferr;
-    last_slope = sampled ? sl : last_slope;
-    tendon_force = sampled ? tf : tendon_force;
-    fiber_along = sampled ? fa : fiber_along;
+    ferr = Pick<kAvx2>(sampled, r, ferr);
+    last_slope = Pick<kAvx2>(sampled, sl, last_slope);
+    tendon_force = Pick<kAvx2>(sampled, tf, tendon_force);
+    fiber_along = Pick<kAvx2>(sampled, fa, fiber_along);
     // OpenSim's inner loop after its sample: break when h <= sqrt(eps), else halve h and
     // repeat while |ferr| >= |ferr_prev|; then its outer loop's tail and head.
     if (LaneBits<kAvx2>(opensim) != 0) {
       const LaneI brk = (LaneI)(h <= lane.sqrt_eps);
-      h = (opensim & ~brk) ? lane.half * h : h;
+      h = Pick<kAvx2>(opensim & ~brk, lane.half * h, h);
       const LaneI inner = opensim & ~brk & (LaneI)(magnitude(ferr) >= magnitude(ferr_prev));
       LaneI tail = opensim & ~inner;
       const LaneI same = (LaneI)(lce == lce_prev) & (LaneI)(ferr == ferr_prev);
       LaneI leave = tail & same;
       tail &= ~same;
-      ferr_prev = tail ? ferr : ferr_prev;
-      lce_prev = tail ? lce : lce_prev;
-      slope = tail ? last_slope : slope;
-      iter = tail ? iter + lane.one : iter;
+      ferr_prev = Pick<kAvx2>(tail, ferr, ferr_prev);
+      lce_prev = Pick<kAvx2>(tail, lce, lce_prev);
+      slope = Pick<kAvx2>(tail, last_slope, slope);
+      iter = Pick<kAvx2>(tail, iter + lane.one, iter);
       const LaneI again = tail & (LaneI)(magnitude(ferr) > opensim_tolerance_v) &
                           (LaneI)(iter < max_iterations) &
                           (LaneI)(magnitude(ferr) >= magnitude(ferr_prev));
-      h = again ? lane.one : h;
+      h = Pick<kAvx2>(again, lane.one, h);
       leave |= tail & ~again;
       opensim = inner | again;
       entering = leave;
     }
     // OpenSim's first sample: its while conditions (|ferr| >= |ferr_prev|: not a number).
     if (LaneBits<kAvx2>(first) != 0) {
-      ferr_prev = first ? ferr : ferr_prev;
-      slope = first ? last_slope : slope;
+      ferr_prev = Pick<kAvx2>(first, ferr, ferr_prev);
+      slope = Pick<kAvx2>(first, last_slope, slope);
       const LaneI start = first & (LaneI)(magnitude(ferr) > opensim_tolerance_v) &
                           (LaneI)(iter < max_iterations) &
                           (LaneI)(magnitude(ferr) >= magnitude(ferr_prev));
