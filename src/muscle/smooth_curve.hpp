@@ -422,12 +422,14 @@ ISOWRENCH_CURVE_INLINE void SmoothCurve::GatherLanes(const LaneDoubles& x, LaneD
   const unsigned outside_bits = below_bits | above_bits;
   if (outside_bits == 0xf) {  // (e.g. the passive curve below its slack length)
     // Outside [x0, x1]: the lines (x - x0 of a NaN x is NaN, as Value's).
-    value = below ? lane_.y0 + lane_.slope0 * (x - x0) : lane_.y1 + lane_.slope1 * (x - x1);
+    value = __builtin_ia32_blendvpd256(lane_.y1 + lane_.slope1 * (x - x1),
+                                       lane_.y0 + lane_.slope0 * (x - x0), (V)below);
     if constexpr (kSlope) {
-      slope = below ? lane_.slope0 : lane_.slope1;
+      slope = __builtin_ia32_blendvpd256(lane_.slope1, lane_.slope0, (V)below);
     }
     return;
   }
+  // (selects by vblendvpd: below, above are compare masks GCC cannot see through the builtin)
   // The lanes outside look up x clamped to [x0, x1] (NaN: x0), a valid segment and interval.
   V xs = (x > x0) ? x : x0;
   xs = (xs < x1) ? xs : x1;
@@ -461,7 +463,9 @@ ISOWRENCH_CURVE_INLINE void SmoothCurve::GatherLanes(const LaneDoubles& x, LaneD
     };
     // U: the guess interval k = (int) t and r = t - k per lane, the guess's six coefficients.
     // (kShared: the lanes outside the curve look up the segment's start)
-    const V xq = kShared ? (V)((below | above) ? ISOWRENCH_CURVE_SPLAT(s0.x_begin) : xs) : xs;
+    const V xq = kShared ? __builtin_ia32_blendvpd256(xs, ISOWRENCH_CURVE_SPLAT(s0.x_begin),
+                                                      (V)(below | above))
+                         : xs;
     V begin, inv_step;
     coefficient(kLaneBegin, begin);
     coefficient(kLaneInvStep, inv_step);
@@ -518,12 +522,12 @@ ISOWRENCH_CURVE_INLINE void SmoothCurve::GatherLanes(const LaneDoubles& x, LaneD
   }
   if (outside_bits != 0) {
     if (below_bits != 0) {
-      y = below ? lane_.y0 + lane_.slope0 * (x - x0) : y;
-      if constexpr (kSlope) s = below ? lane_.slope0 : s;
+      y = __builtin_ia32_blendvpd256(y, lane_.y0 + lane_.slope0 * (x - x0), (V)below);
+      if constexpr (kSlope) s = __builtin_ia32_blendvpd256(s, lane_.slope0, (V)below);
     }
     if (above_bits != 0) {
-      y = above ? lane_.y1 + lane_.slope1 * (x - x1) : y;
-      if constexpr (kSlope) s = above ? lane_.slope1 : s;
+      y = __builtin_ia32_blendvpd256(y, lane_.y1 + lane_.slope1 * (x - x1), (V)above);
+      if constexpr (kSlope) s = __builtin_ia32_blendvpd256(s, lane_.slope1, (V)above);
     }
   }
   // Lanes inside whose Newton step exceeds 1e-8 (or is not a number): the scalar evaluation.
