@@ -54,6 +54,24 @@ void AddWrapOption(CLI::App& app, std::string& wrap) {
       ->check(CLI::IsMember({"opensim", "exact"}));
 }
 
+namespace {
+
+void AddActivationOption(CLI::App& app, double& activation) {
+  app.add_option("--activation", activation,
+                 "Activation in [0, 1]: F = F(L_MT, activation) of the muscle's force model "
+                 "(constant model: activation x max_force) (default 1)")
+      ->check(CLI::Range(0.0, 1.0));
+}
+
+}  // namespace
+
+void AddMusclesAndActivation(CLI::App& app, std::vector<std::string>& muscles, double& activation) {
+  app.add_option("--muscle", muscles,
+                 "Muscle name(s), repeatable or comma-separated (default: the first)")
+      ->delimiter(',');
+  AddActivationOption(app, activation);
+}
+
 void AddModelOptions(CLI::App& app, ModelOptions& o, ModelOptionParts parts) {
   app.add_option("urdf", o.urdf,
                  "Limb URDF with isowrench extension tags (e.g. urdf/rat_hindlimb_5dof.urdf)")
@@ -93,10 +111,7 @@ void AddModelOptions(CLI::App& app, ModelOptions& o, ModelOptionParts parts) {
       ->check(CLI::IsMember({"model", "constant", "rigid"}));
   if (parts.muscle) {
     app.add_option("--muscle", o.muscle, "Muscle name (default: the first muscle in the URDF)");
-    app.add_option("--activation", o.activation,
-                   "Activation in [0, 1]: F = F(L_MT, activation) of the muscle's force model "
-                   "(constant model: activation x max_force) (default 1)")
-        ->check(CLI::Range(0.0, 1.0));
+    AddActivationOption(app, o.activation);
   }
   if (!parts.statics) return;
   app.add_option("--max-endpoint-fraction", o.statics.max_endpoint_fraction,

@@ -66,6 +66,10 @@ struct ModelOptionParts {
 /// Add the shared options (positional <urdf> included) to a subcommand.
 void AddModelOptions(CLI::App& app, ModelOptions& options, ModelOptionParts parts = {});
 
+/// --muscle NAME[,NAME...] (repeatable; default: the first muscle) and --activation: for the
+/// commands that compare several muscles in one run (diagnose, releases).
+void AddMusclesAndActivation(CLI::App& app, std::vector<std::string>& muscles, double& activation);
+
 /// --wrap opensim|exact into `wrap` (the commands that take no other model option call it too).
 void AddWrapOption(CLI::App& app, std::string& wrap);
 

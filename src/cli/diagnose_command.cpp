@@ -247,13 +247,7 @@ const bool kDiagnoseRegistered = RegisterCommand({
     [](CLI::App& app) -> std::function<int()> {
       auto o = std::make_shared<DiagnoseOptions>();
       AddModelOptions(app, o->model, {/*muscle=*/false});
-      app.add_option("--muscle", o->muscles,
-                     "Muscle name(s), repeatable or comma-separated (default: the first)")
-          ->delimiter(',');
-      app.add_option("--activation", o->activation,
-                     "Activation in [0, 1] of the muscle force model (constant model: force = "
-                     "activation x max_force) (default 1)")
-          ->check(CLI::Range(0.0, 1.0));
+      AddMusclesAndActivation(app, o->muscles, o->activation);
       app.add_option(
           "--postures", o->postures,
           "CSV of postures: header of joint names (optional 'label' column), rows in degrees "
