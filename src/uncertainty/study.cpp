@@ -19,6 +19,7 @@
 #include "isowrench/io.hpp"
 #include "isowrench/uncertainty.hpp"
 #include "uncertainty/normal_quantile.hpp"
+#include "uncertainty/unc_math.hpp"
 
 namespace isowrench {
 
@@ -85,9 +86,10 @@ struct Dimension {
 double IndependentValue(const Dimension& d, double u) {
   switch (d.distribution) {
     case InputDistribution::kNormal: return d.a + d.b * NormalQuantile(u);
-    case InputDistribution::kLogNormal: return d.a * std::exp(d.b * NormalQuantile(u));
+    // exp: UncExp (unc_math.hpp), the same bits as the block draws' ExpValues.
+    case InputDistribution::kLogNormal: return d.a * UncExp(0.0 + NormalQuantile(u) * d.b);
     case InputDistribution::kUniform: return d.a + u * (d.b - d.a);
-    case InputDistribution::kLogUniform: return std::exp(d.a + u * (d.b - d.a));
+    case InputDistribution::kLogUniform: return 1.0 * UncExp(d.a + u * (d.b - d.a));
   }
   return 0.0;
 }
@@ -97,7 +99,7 @@ double CentralValue(const Dimension& d) {
     case InputDistribution::kNormal: return d.a;
     case InputDistribution::kLogNormal: return d.a;
     case InputDistribution::kUniform: return 0.5 * (d.a + d.b);
-    case InputDistribution::kLogUniform: return std::exp(0.5 * (d.a + d.b));
+    case InputDistribution::kLogUniform: return UncExp(0.5 * (d.a + d.b));
   }
   return 0.0;
 }
@@ -364,13 +366,24 @@ struct UncertaintyStudy::Impl {
   int Rows() const { return options.sobol ? G() + 2 : 1; }
   int RecordSize() const { return kCounts + kQ * kPerQuantity + 2 * G() * kQ; }
 
-  void Draw(long j, int matrix, double* u) const {
+  // Sample j's uniforms: word w of its stream is word w % 4 of Philox call (seed; j, 0, w / 4).
+  // With the Sobol design (uB not null) dimension k of matrix A is word 2 k and of matrix B word
+  // 2 k + 1; without it dimension k is word k. No word of a call is thrown away, and a
+  // dimension's uniforms do not depend on how many dimensions follow it.
+  void Draw(long j, double* uA, double* uB) const {
     const int D = static_cast<int>(dims.size());
-    for (int k = 0; k < D; k += 4) {
-      const std::array<double, 4> r =
-          PhiloxUniforms(options.seed, static_cast<std::uint64_t>(j),
-                         static_cast<std::uint64_t>(matrix), static_cast<std::uint64_t>(k / 4));
-      for (int l = 0; l < 4 && k + l < D; ++l) u[k + l] = r[static_cast<size_t>(l)];
+    const int words = uB ? 2 * D : D;
+    for (int w = 0; w < words; w += 4) {
+      const std::array<double, 4> r = PhiloxUniforms(options.seed, static_cast<std::uint64_t>(j), 0,
+                                                     static_cast<std::uint64_t>(w / 4));
+      for (int l = 0; l < 4 && w + l < words; ++l) {
+        const int i = w + l;
+        if (!uB) {
+          uA[i] = r[static_cast<size_t>(l)];
+        } else {
+          (i % 2 == 0 ? uA : uB)[i / 2] = r[static_cast<size_t>(l)];
+        }
+      }
     }
   }
 
@@ -547,7 +560,7 @@ int UncertaintyStudy::Impl::ReadingQuantities(const PostureData& pd, const Vecto
     y[8] = std::numeric_limits<double>::quiet_NaN();
   } else {
     const Eigen::Vector3d fw = W.head<3>();
-    y[8] = std::atan2(fw.cross(pd.force_direction).norm(), fw.dot(pd.force_direction));
+    y[8] = UncAtan2(fw.cross(pd.force_direction).norm(), fw.dot(pd.force_direction));
   }
   // A finite |f| (the square root of the sum of squares) has finite components; so has |m|.
   finite = finite && std::isfinite(y[6]) && std::isfinite(y[7]);
@@ -1280,6 +1293,17 @@ UNC_CLONES void NormalQuantiles(const double* p, double* z, long n) {
   for (; i < n; ++i) z[i] = NormalQuantile(p[i]);
 }
 
+// v[i] = c * exp(a + x[i] * w), i < n (x == v allowed), four at a time (UncExpLanes): the
+// arithmetic of IndependentValue, so the same bits.
+UNC_CLONES void ExpValues(const double* x, double* v, long n, double a, double w, double c) {
+  for (long i = 0; i < n; i += 4) {
+    double t[4] = {0.0, 0.0, 0.0, 0.0}, e[4];
+    for (int l = 0; l < 4 && i + l < n; ++l) t[l] = a + x[i + l] * w;
+    UncExpLanes(t, e);
+    for (int l = 0; l < 4 && i + l < n; ++l) v[i + l] = c * e[l];
+  }
+}
+
 // One thread's evaluation of blocks.
 class BlockRunner {
  public:
@@ -1333,8 +1357,7 @@ class BlockRunner {
     const int rows = s_.Rows();
     inputs_.resize(static_cast<size_t>(count * rows));
     for (long jj = 0; jj < count; ++jj) {
-      s_.Draw(j0 + jj, 0, uA_.data());
-      if (s_.options.sobol) s_.Draw(j0 + jj, 1, uB_.data());
+      s_.Draw(j0 + jj, uA_.data(), s_.options.sobol ? uB_.data() : nullptr);
       RowInputs* row = &inputs_[static_cast<size_t>(jj * rows)];
       s_.Values(uA_.data(), valuesA_);
       s_.Assemble(valuesA_.data(), valuesA_.data(), -1, row[0]);
@@ -1395,8 +1418,7 @@ class BlockRunner {
           if (matrices == 2) valuesB_[static_cast<size_t>(k)] = v[1];
         }
       } else {
-        s_.Draw(j0 + jj, 0, uA_.data());
-        if (s_.options.sobol) s_.Draw(j0 + jj, 1, uB_.data());
+        s_.Draw(j0 + jj, uA_.data(), s_.options.sobol ? uB_.data() : nullptr);
         s_.Values(uA_.data(), valuesA_);
         if (s_.options.sobol) s_.Values(uB_.data(), valuesB_);
       }
@@ -1535,15 +1557,16 @@ class BlockRunner {
     const long n = count * matrices;
     block_u_.resize(static_cast<size_t>(D_ * n));
     block_values_.resize(static_cast<size_t>(D_ * n));
+    // Impl::Draw's words: word w is dimension w / matrices of matrix w % matrices.
+    const int words = matrices * D_;
     for (long jj = 0; jj < count; ++jj) {
-      for (int mx = 0; mx < matrices; ++mx) {
-        for (int k = 0; k < D_; k += 4) {
-          const std::array<double, 4> r =
-              PhiloxUniforms(s_.options.seed, static_cast<std::uint64_t>(j0 + jj),
-                             static_cast<std::uint64_t>(mx), static_cast<std::uint64_t>(k / 4));
-          for (int l = 0; l < 4 && k + l < D_; ++l)
-            block_u_[static_cast<size_t>((k + l) * n + jj * matrices + mx)] =
-                r[static_cast<size_t>(l)];
+      for (int w = 0; w < words; w += 4) {
+        const std::array<double, 4> r =
+            PhiloxUniforms(s_.options.seed, static_cast<std::uint64_t>(j0 + jj), 0,
+                           static_cast<std::uint64_t>(w / 4));
+        for (int l = 0; l < 4 && w + l < words; ++l) {
+          const int k = (w + l) / matrices, mx = (w + l) % matrices;
+          block_u_[static_cast<size_t>(k * n + jj * matrices + mx)] = r[static_cast<size_t>(l)];
         }
       }
     }
@@ -1558,14 +1581,12 @@ class BlockRunner {
           break;
         case InputDistribution::kLogNormal:
           NormalQuantiles(u, v, n);
-          for (long i = 0; i < n; ++i) v[i] = d.a * std::exp(d.b * v[i]);
+          ExpValues(v, v, n, 0.0, d.b, d.a);
           break;
         case InputDistribution::kUniform:
           for (long i = 0; i < n; ++i) v[i] = d.a + u[i] * (d.b - d.a);
           break;
-        case InputDistribution::kLogUniform:
-          for (long i = 0; i < n; ++i) v[i] = std::exp(d.a + u[i] * (d.b - d.a));
-          break;
+        case InputDistribution::kLogUniform: ExpValues(u, v, n, d.a, d.b - d.a, 1.0); break;
       }
     }
   }
