@@ -41,6 +41,36 @@ constexpr int kAllFinite = kRowFinite | kAngleFinite;
 constexpr double kPi = 3.14159265358979323846;
 constexpr double kPercentileLevels[4] = {0.025, 0.5, 0.95, 0.975};
 
+// A reading's quantities in lane order (kLaneOf) for one row (T = double) or four (T = 4
+// doubles, unc_math.hpp): y[0..5] the reading W, y[6] |f|, y[7] |m|, y[8] the angle between f and
+// the unit direction d (NaN when !has_direction or |f| = 0), y[9..14] the world axes R f, R m
+// (R: R_W_T, column-major), y[15] = 0. Every operation in a fixed order, so a lane gives the
+// scalar's bits.
+template <class T>
+inline void ReadingLaneQuantities(const T* W, const double* R, const double* d, bool has_direction,
+                                  T* y) {
+  for (int i = 0; i < 6; ++i) y[i] = W[i];
+  for (int i = 0; i < 3; ++i) {
+    y[9 + i] = (R[i] * W[0] + R[3 + i] * W[1]) + R[6 + i] * W[2];
+    y[12 + i] = (R[i] * W[3] + R[3 + i] * W[4]) + R[6 + i] * W[5];
+  }
+  y[15] = T{};
+  UncSqrt((W[0] * W[0] + W[1] * W[1]) + W[2] * W[2], y[6]);
+  UncSqrt((W[3] * W[3] + W[4] * W[4]) + W[5] * W[5], y[7]);
+  const T nan = T{} + std::numeric_limits<double>::quiet_NaN();
+  if (!has_direction) {
+    y[8] = nan;
+    return;
+  }
+  const T c0 = W[1] * d[2] - W[2] * d[1], c1 = W[2] * d[0] - W[0] * d[2],
+          c2 = W[0] * d[1] - W[1] * d[0];
+  T cross, angle;
+  UncSqrt((c0 * c0 + c1 * c1) + c2 * c2, cross);
+  const T dot = (W[0] * d[0] + W[1] * d[1]) + W[2] * d[2];
+  UncAtan2NonNegativeY(cross, dot, angle);
+  y[8] = y[6] == 0.0 ? nan : angle;
+}
+
 const char* const kDofNames[6] = {"x", "y", "z", "rx", "ry", "rz"};
 const char* const kAxisNames[6] = {"fx", "fy", "fz", "mx", "my", "mz"};
 
@@ -540,27 +570,15 @@ int UncertaintyStudy::Impl::Quantities(const PostureData& pd, const Vector6d& W1
 
 int UncertaintyStudy::Impl::ReadingQuantities(const PostureData& pd, const Vector6d& W, double* y,
                                               bool world) {
-  // y in lane order (kLaneOf): the reading, |f|, |m|, the angle, the world axes, a pad.
-  for (int i = 0; i < 6; ++i) y[i] = W[i];
+  // y in lane order (kLaneOf): the reading, |f|, |m|, the angle, the world axes, a pad; the
+  // arithmetic of the batch rows' RowQuantityLanes.
+  ReadingLaneQuantities(W.data(), pd.R_W_T.data(), pd.force_direction.data(),
+                        !pd.force_direction.isZero(), y);
   bool finite = true;
   if (world) {
-    const Eigen::Vector3d f = pd.R_W_T * W.head<3>(), m = pd.R_W_T * W.tail<3>();
-    for (int i = 0; i < 3; ++i) {
-      y[9 + i] = f[i];
-      y[12 + i] = m[i];
-    }
     for (int i = 9; i < 15; ++i) finite = finite && std::isfinite(y[i]);
   } else {
     for (int i = 9; i < 15; ++i) y[i] = 0.0;  // not a Sobol quantity (kSobolQuantity)
-  }
-  y[15] = 0.0;
-  y[6] = W.head<3>().norm();
-  y[7] = W.tail<3>().norm();
-  if (pd.force_direction.isZero() || y[6] == 0.0) {
-    y[8] = std::numeric_limits<double>::quiet_NaN();
-  } else {
-    const Eigen::Vector3d fw = W.head<3>();
-    y[8] = UncAtan2(fw.cross(pd.force_direction).norm(), fw.dot(pd.force_direction));
   }
   // A finite |f| (the square root of the sum of squares) has finite components; so has |m|.
   finite = finite && std::isfinite(y[6]) && std::isfinite(y[7]);
@@ -569,11 +587,18 @@ int UncertaintyStudy::Impl::ReadingQuantities(const PostureData& pd, const Vecto
 
 bool UncertaintyStudy::Impl::SmallMotionFails(const Matrix6Xd& J,
                                               const Eigen::VectorXd& dtheta) const {
-  // docs/model.md "Validity of the linear model", as SolveStatics (statics.cpp) applies it.
-  const double translation = (J.topRows<3>() * dtheta).norm();
+  // docs/model.md "Validity of the linear model", as SolveStatics (statics.cpp) applies it
+  // (plain loops: this runs for every row of A and B).
+  const Eigen::Index m = dtheta.size();
+  double v[3] = {0.0, 0.0, 0.0};
+  for (Eigen::Index c = 0; c < m; ++c) {
+    const double* Jc = J.col(c).data();
+    for (int i = 0; i < 3; ++i) v[i] += Jc[i] * dtheta[c];
+  }
+  const double translation = std::sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
   const double limit = options.statics.max_endpoint_fraction * leg_length;
   if (leg_length > 0 && translation > limit) return true;
-  for (Eigen::Index c = 0; c < dtheta.size(); ++c) {
+  for (Eigen::Index c = 0; c < m; ++c) {
     const double a = std::abs(dtheta[c]);
     if (revolute[static_cast<size_t>(c)]) {
       if (a > options.statics.max_joint_rotation) return true;
@@ -1234,6 +1259,13 @@ namespace {
 typedef double UncV4 __attribute__((vector_size(32)));
 typedef double UncV4u __attribute__((vector_size(32), aligned(8), may_alias));
 #define UNC_LOAD(p) (*reinterpret_cast<const UncV4u*>(p))
+#define UNC_STORE(p, v) (*reinterpret_cast<UncV4u*>(p) = (v))
+// Lanes i, j, k, l of (a, b) (0-3: a's, 4-7: b's).
+#if defined(__clang__)
+#define UNC_SHUFFLE(a, b, i, j, k, l) __builtin_shufflevector(a, b, i, j, k, l)
+#else
+#define UNC_SHUFFLE(a, b, i, j, k, l) __builtin_shuffle(a, b, UncMathI4{i, j, k, l})
+#endif
 
 // The hot sums are compiled twice, for AVX (4 doubles per instruction) and for the baseline; the
 // loader picks the one the CPU runs (GNU ifunc, as src/fast/simd.hpp's ISOWRENCH_CLONES). "avx"
@@ -1301,6 +1333,68 @@ UNC_CLONES void ExpValues(const double* x, double* v, long n, double a, double w
     for (int l = 0; l < 4 && i + l < n; ++l) t[l] = a + x[i + l] * w;
     UncExpLanes(t, e);
     for (int l = 0; l < 4 && i + l < n; ++l) v[i + l] = c * e[l];
+  }
+}
+
+// The quantities of rows 0 .. n - 1 of a batch block (row r: sample r / rows, variant r % rows;
+// W = scale[r] x results[r].wrench), four rows at a time: ReadingLaneQuantities and the flags of
+// Impl::ReadingQuantities (world axes only for variants < stat_rows, else 0). Row (v, jj)'s
+// kLanes doubles go to quantities + (v count + jj) kLanes, its flags to flags[v count + jj].
+UNC_CLONES void RowQuantityLanes(const WrenchResult* results, const double* scale, long n, int rows,
+                                 int stat_rows, long count, const double* R, const double* d,
+                                 bool has_direction, double* quantities, unsigned char* flags) {
+  const double big = std::numeric_limits<double>::max();
+  for (long r0 = 0; r0 < n; r0 += 4) {
+    const int lanes = static_cast<int>(std::min<long>(4, n - r0));
+    UncV4 W[6];
+    for (int l = 0; l < 4; ++l) {
+      const long r = r0 + std::min(l, lanes - 1);
+      const double* w = results[r].wrench.data();
+      for (int i = 0; i < 6; ++i) W[i][l] = scale[r] * w[i];
+    }
+    UncV4 y[kLanes];
+    ReadingLaneQuantities(W, R, d, has_direction, y);
+    UncV4 a6, a7, a8;
+    UncAbs(y[6], a6);
+    UncAbs(y[7], a7);
+    UncAbs(y[8], a8);
+    const UncMathI4 norms_finite = (a6 <= big) & (a7 <= big);
+    UncMathI4 world_finite = norms_finite;
+    for (int i = 9; i < 15; ++i) {
+      UncV4 a;
+      UncAbs(y[i], a);
+      world_finite &= a <= big;
+    }
+    const UncMathI4 angle_finite = a8 <= big;
+    long jj[4];
+    int v[4];
+    UncMathI4 world;
+    for (int l = 0; l < 4; ++l) {
+      const long r = r0 + std::min(l, lanes - 1);
+      jj[l] = r / rows;
+      v[l] = static_cast<int>(r % rows);
+      world[l] = v[l] < stat_rows ? -1 : 0;
+    }
+    for (int i = 9; i < 15; ++i) y[i] = world ? y[i] : 0.0;
+    const UncMathI4 finite = world ? world_finite : norms_finite;
+    // Four 4 x 4 transposes: row l's lanes 4k .. 4k + 3 in out[l][k].
+    UncV4 out[4][4];
+    for (int k = 0; k < 4; ++k) {
+      const UncV4 t0 = UNC_SHUFFLE(y[4 * k], y[4 * k + 1], 0, 4, 2, 6);
+      const UncV4 t1 = UNC_SHUFFLE(y[4 * k], y[4 * k + 1], 1, 5, 3, 7);
+      const UncV4 t2 = UNC_SHUFFLE(y[4 * k + 2], y[4 * k + 3], 0, 4, 2, 6);
+      const UncV4 t3 = UNC_SHUFFLE(y[4 * k + 2], y[4 * k + 3], 1, 5, 3, 7);
+      out[0][k] = UNC_SHUFFLE(t0, t2, 0, 1, 4, 5);
+      out[1][k] = UNC_SHUFFLE(t1, t3, 0, 1, 4, 5);
+      out[2][k] = UNC_SHUFFLE(t0, t2, 2, 3, 6, 7);
+      out[3][k] = UNC_SHUFFLE(t1, t3, 2, 3, 6, 7);
+    }
+    for (int l = 0; l < lanes; ++l) {
+      double* to = quantities + (v[l] * count + jj[l]) * kLanes;
+      for (int k = 0; k < 4; ++k) UNC_STORE(to + 4 * k, out[l][k]);
+      flags[v[l] * count + jj[l]] = static_cast<unsigned char>(
+          (finite[l] ? kRowFinite : 0) | (angle_finite[l] ? kAngleFinite : 0));
+    }
   }
 }
 
@@ -1630,26 +1724,39 @@ class BlockRunner {
           const bool statistics = v < stat_rows;
           if (status == 0 && statistics) {
             // dtheta at activation 1 from W (see the reconstruction in the constructor).
+            // Plain loops: Eigen's general products cost ~4x more at these sizes (the
+            // rounding differs from theirs in the last bits, which only moves the rule's
+            // threshold by as much).
             Eigen::Index k = 0;
             for (int rr : s_.restrained_rows) b[k++] = w.wrench[rr] / set.s_t[rr];
-            JtW_.noalias() = pd.J.transpose() * w.wrench;
-            for (int c : s_.stiff_columns) b[k++] = (pd.tau[c] - JtW_[c]) / set.s_p[c];
-            dtheta.noalias() = pd.dtheta_from * b;
-            dtheta *= scale;
+            for (int c : s_.stiff_columns) {
+              const double* Jc = pd.J.col(c).data();
+              double jtw = 0.0;
+              for (int i = 0; i < 6; ++i) jtw += Jc[i] * w.wrench[i];
+              b[k++] = (pd.tau[c] - jtw) / set.s_p[c];
+            }
+            const double* from = pd.dtheta_from.data();
+            for (int i = 0; i < m; ++i) dtheta[i] = 0.0;
+            for (Eigen::Index l = 0; l < k; ++l) {
+              const double bl = b[l];
+              for (int i = 0; i < m; ++i) dtheta[i] += from[l * m + i] * bl;
+            }
+            for (int i = 0; i < m; ++i) dtheta[i] *= scale;
             if (s_.SmallMotionFails(pd.J, dtheta)) status |= 4;
           }
-          if (status == 0 || status == 4) {
-            if (sets_only_) {
-              const Vector6d W = scale * w.wrench;
-              flags_[Status(v, jj)] = static_cast<unsigned char>(
-                  UncertaintyStudy::Impl::ReadingQuantities(pd, W, y, statistics));
-            } else {
-              flags_[Status(v, jj)] = static_cast<unsigned char>(
-                  s_.Quantities(pd, w.wrench, inputs_[static_cast<size_t>(r)], y, statistics));
-            }
+          if ((status == 0 || status == 4) && !sets_only_) {
+            flags_[Status(v, jj)] = static_cast<unsigned char>(
+                s_.Quantities(pd, w.wrench, inputs_[static_cast<size_t>(r)], y, statistics));
           }
           status_[static_cast<size_t>(v * count_ + jj)] = status;
         }
+      }
+      // Without reading inputs: every row's quantities four rows at a time (the rows that are
+      // not valid are computed too and never read).
+      if (sets_only_) {
+        RowQuantityLanes(results_.data(), scale_.data(), n_rows, rows, stat_rows, count_,
+                         pd.R_W_T.data(), pd.force_direction.data(), !pd.force_direction.isZero(),
+                         quantities_.data(), flags_.data());
       }
       return;
     }

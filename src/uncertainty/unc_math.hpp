@@ -15,6 +15,9 @@
 #include <cmath>
 #include <cstdint>
 #include <cstring>
+#if defined(__SSE2__)
+#include <emmintrin.h>
+#endif
 
 namespace isowrench {
 
@@ -64,49 +67,88 @@ inline double UncExp(double x) {
   return out[0];
 }
 
-// atan(t) for t >= 0 (or +inf; NaN gives NaN): Cephes atan.c.
-inline double UncAtanNonNegative(double t) {
+// Lane helpers: the same source for a double (T = double, masks are bool) and four doubles
+// (T = UncMathV4, masks are UncMathI4), so that every lane rounds as the scalar does. Results
+// by reference: a 32-byte vector returned by value draws GCC's -Wpsabi note.
+inline void UncAbs(double x, double& out) { out = std::fabs(x); }
+inline void UncAbs(const UncMathV4& x, UncMathV4& out) {
+  UncMathI4 b;
+  std::memcpy(&b, &x, sizeof b);
+  b &= 0x7fffffffffffffffll;
+  std::memcpy(&out, &b, sizeof out);
+}
+inline void UncSignBit(double x, bool& out) { out = std::signbit(x); }
+inline void UncSignBit(const UncMathV4& x, UncMathI4& out) {
+  UncMathI4 b;
+  std::memcpy(&b, &x, sizeof b);
+  out = b < 0;
+}
+inline void UncSqrt(double x, double& out) { out = std::sqrt(x); }
+inline void UncSqrt(const UncMathV4& x, UncMathV4& out) {
+#if defined(__SSE2__)
+  // sqrtpd (correctly rounded, as sqrtsd): two lanes per instruction, no errno branch.
+  __m128d lo, hi;
+  std::memcpy(&lo, &x, sizeof lo);
+  std::memcpy(&hi, reinterpret_cast<const char*>(&x) + sizeof lo, sizeof hi);
+  lo = _mm_sqrt_pd(lo);
+  hi = _mm_sqrt_pd(hi);
+  std::memcpy(&out, &lo, sizeof lo);
+  std::memcpy(reinterpret_cast<char*>(&out) + sizeof lo, &hi, sizeof hi);
+#else
+  for (int l = 0; l < 4; ++l) out[l] = std::sqrt(x[l]);
+#endif
+}
+template <class T>
+struct UncMask {
+  typedef bool type;
+};
+template <>
+struct UncMask<UncMathV4> {
+  typedef UncMathI4 type;
+};
+
+// atan2(y, x) for y >= 0 (or NaN) and any x (Cephes atan.c on t = y / |x|, every branch
+// computed and the right one selected, so a lane and a scalar give the same bits).
+template <class T>
+inline void UncAtan2NonNegativeY(const T& y, const T& x, T& out) {
   constexpr double kMoreBits = 6.123233995736765886130E-17;  // pi/2 - double(pi/2)
-  double y0 = 0.0, extra = 0.0;
-  if (t > 2.41421356237309504880) {  // tan(3 pi / 8)
-    y0 = 1.57079632679489661923;
-    extra = kMoreBits;
-    t = -1.0 / t;
-  } else if (t > 0.66) {
-    y0 = 0.78539816339744830962;
-    extra = 0.5 * kMoreBits;
-    t = (t - 1.0) / (t + 1.0);
-  }
-  const double z = t * t;
-  const double p = (((-8.750608600031904122785E-1 * z - 1.615753718733365076637E1) * z -
-                     7.500855792314704667340E1) *
-                        z -
-                    1.228866684490136173410E2) *
-                       z -
-                   6.485021904942025371773E1;
-  const double q = ((((z + 2.485846490142306297962E1) * z + 1.650270098316988542046E2) * z +
-                     4.328810604912902668951E2) *
-                        z +
-                    4.853903996359136964868E2) *
-                       z +
-                   1.945506571482613964425E2;
-  const double r = t * (z * p / q) + t;
-  return y0 + (r + extra);
+  constexpr double kPiHi = 3.141592653589793116, kPiLo = 1.2246467991473532072e-16;
+  T ax;
+  UncAbs(x, ax);
+  const T t0 = y / ax;                           // ax = 0: +inf (pi/2); y = 0: 0 (0 or pi below)
+  const auto big = t0 > 2.41421356237309504880;  // tan(3 pi / 8)
+  const auto mid = t0 > 0.66;
+  const T t_big = -1.0 / t0, t_mid = (t0 - 1.0) / (t0 + 1.0);
+  const T t = big ? t_big : mid ? t_mid : t0;
+  const T y0 = big ? T{} + 1.57079632679489661923 : mid ? T{} + 0.78539816339744830962 : T{};
+  const T extra = big ? T{} + kMoreBits : mid ? T{} + 0.5 * kMoreBits : T{};
+  const T z = t * t;
+  const T p = (((-8.750608600031904122785E-1 * z - 1.615753718733365076637E1) * z -
+                7.500855792314704667340E1) *
+                   z -
+               1.228866684490136173410E2) *
+                  z -
+              6.485021904942025371773E1;
+  const T q = ((((z + 2.485846490142306297962E1) * z + 1.650270098316988542046E2) * z +
+                4.328810604912902668951E2) *
+                   z +
+               4.853903996359136964868E2) *
+                  z +
+              1.945506571482613964425E2;
+  const T r = t * (z * p / q) + t;
+  const T a = y0 + (r + extra);
+  typename UncMask<T>::type x_negative;
+  UncSignBit(x, x_negative);
+  const T a_signed = x_negative ? (kPiHi - a) + kPiLo : a;
+  const T zero_y = x_negative ? T{} + kPiHi : T{};
+  out = y == 0.0 ? zero_y : a_signed;
 }
 
 // atan2(y, x) for finite or infinite y, x (the quadrant from the signs, as std::atan2; both
 // infinite gives NaN, not +-pi/4).
 inline double UncAtan2(double y, double x) {
-  constexpr double kPiHi = 3.141592653589793116, kPiLo = 1.2246467991473532072e-16;
-  const double ay = std::fabs(y), ax = std::fabs(x);
-  const bool x_negative = std::signbit(x);
   double a;
-  if (ay == 0.0) {
-    a = x_negative ? kPiHi : 0.0;
-  } else {
-    a = UncAtanNonNegative(ay / ax);  // ax = 0: +inf, pi/2
-    if (x_negative) a = (kPiHi - a) + kPiLo;
-  }
+  UncAtan2NonNegativeY(std::fabs(y), x, a);
   return std::signbit(y) ? -a : a;
 }
 

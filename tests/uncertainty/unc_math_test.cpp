@@ -73,6 +73,24 @@ TEST(UncertaintyMath, Atan2MatchesStdAtan2WithinOneFemtoradian) {
   EXPECT_TRUE(std::isnan(UncAtan2(std::numeric_limits<double>::quiet_NaN(), 1.0)));
 }
 
+TEST(UncertaintyMath, Atan2LanesGiveTheScalarsBits) {
+  // Every branch of the reduction in one vector, against the scalar one by one.
+  UncMathPoints points;
+  for (int i = 0; i < 20000; ++i) {
+    UncMathV4 y, x, lanes;
+    for (int l = 0; l < 4; ++l) {
+      y[l] = l == 3 && i % 3 == 0 ? 0.0 : std::exp(points.Next(-5.0, 5.0));
+      x[l] = (points.Next(0, 1) < 0.5 ? -1 : 1) * std::exp(points.Next(-5.0, 5.0));
+    }
+    UncAtan2NonNegativeY(y, x, lanes);
+    for (int l = 0; l < 4; ++l) {
+      double scalar;
+      UncAtan2NonNegativeY(y[l], x[l], scalar);
+      ASSERT_EQ(lanes[l], scalar) << y[l] << " " << x[l];
+    }
+  }
+}
+
 TEST(UncertaintyMath, PhiloxMatchesRandom123KnownAnswers) {
   // Random123's kat_vectors, "philox4x64 10": counter, key, result.
   struct Kat {
