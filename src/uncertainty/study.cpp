@@ -19,6 +19,7 @@
 #include "isowrench/io.hpp"
 #include "isowrench/uncertainty.hpp"
 #include "uncertainty/normal_quantile.hpp"
+#include "uncertainty/percentiles.hpp"
 #include "uncertainty/unc_math.hpp"
 
 namespace isowrench {
@@ -2139,61 +2140,6 @@ const char* UncertaintyQuantityUnit(int q) {
 
 namespace {
 
-// Puts the order statistics of the ascending distinct `ranks` (each in [first, last)) at their
-// places in v[first, last): the rank nearest the middle of the range first (nth_element), then the
-// ranks on each side within their side only; a rank at the start of its range is that range's
-// minimum. Any selection gives the same values (order statistics are unique, a +0 / -0 tie
-// aside, which the interpolation below turns into +0 either way).
-template <class Vector>
-void SelectRanks(Vector& v, size_t first, size_t last, const size_t* ranks, int count) {
-  if (count == 0) return;
-  const size_t middle = first + (last - first) / 2;
-  int m = 0;
-  for (int k = 1; k < count; ++k) {
-    const size_t dk = ranks[k] > middle ? ranks[k] - middle : middle - ranks[k];
-    const size_t dm = ranks[m] > middle ? ranks[m] - middle : middle - ranks[m];
-    if (dk < dm) m = k;
-  }
-  const size_t r = ranks[m];
-  const auto begin = v.begin();
-  if (r == first) {
-    std::iter_swap(begin + static_cast<std::ptrdiff_t>(first),
-                   std::min_element(begin + static_cast<std::ptrdiff_t>(first),
-                                    begin + static_cast<std::ptrdiff_t>(last)));
-  } else {
-    std::nth_element(begin + static_cast<std::ptrdiff_t>(first),
-                     begin + static_cast<std::ptrdiff_t>(r),
-                     begin + static_cast<std::ptrdiff_t>(last));
-  }
-  SelectRanks(v, first, r, ranks, m);
-  SelectRanks(v, r + 1, last, ranks + m + 1, count - m - 1);
-}
-
-// Type 7 percentiles of `v` at ascending `levels` (v is reordered): the order statistics at
-// floor(h) and floor(h) + 1 of every level are selected at once (SelectRanks).
-template <class Vector>
-void ExactPercentiles(Vector& v, const double* levels, int count, double* out) {
-  size_t ranks[8];
-  int n_ranks = 0;
-  for (int k = 0; k < count && k < 4; ++k) {
-    const double h = (static_cast<double>(v.size()) - 1.0) * levels[k];
-    const size_t lo = static_cast<size_t>(std::floor(h));
-    const size_t hi = std::min(v.size() - 1, lo + 1);
-    for (size_t r : {lo, hi})
-      if (n_ranks == 0 || ranks[n_ranks - 1] < r) ranks[n_ranks++] = r;
-  }
-  SelectRanks(v, 0, v.size(), ranks, n_ranks);
-  for (int k = 0; k < count && k < 4; ++k) {
-    const double h = (static_cast<double>(v.size()) - 1.0) * levels[k];
-    const size_t lo = static_cast<size_t>(std::floor(h));
-    const size_t hi = std::min(v.size() - 1, lo + 1);
-    const double a = v[lo];
-    double b = a;
-    if (hi != lo) b = v[hi];
-    out[k] = a + (h - static_cast<double>(lo)) * (b - a);
-  }
-}
-
 // The smallest and largest of v[0, n) as folds of std::min / std::max from +-inf in order would
 // give them: four lanes at a time; a zero extreme (where +0 and -0 compare equal, so the fold's
 // first one wins) is found again by the ordered fold. Other equal values have equal bits.
@@ -2399,8 +2345,8 @@ UncertaintyResult FinishUncertainty(const UncertaintyStudy& study,
           histograms[static_cast<size_t>(p * kQ + q)].ForEach(bin);
         }
         if (s.exact) {
-          ExactPercentiles(values[static_cast<size_t>(p * kQ + q)], kPercentileLevels, 4,
-                           st.percentiles.data());
+          BucketPercentiles(values[static_cast<size_t>(p * kQ + q)], lo, hi, kPercentileLevels, 4,
+                            st.percentiles.data());
         } else {
           for (int k = 0; k < 4; ++k) {
             st.percentiles[static_cast<size_t>(k)] = HistogramPercentile(

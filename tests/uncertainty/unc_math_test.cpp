@@ -1,5 +1,6 @@
 // The uncertainty studies' own elementary functions (src/uncertainty/unc_math.hpp) against
-// std::exp and std::atan2, and the generator (PhiloxUniforms' Philox4x64-10, Random123) against
+// std::exp and std::atan2, the bucketed exact percentiles (percentiles.hpp) against a full sort,
+// and the generator (PhiloxUniforms' Philox4x64-10, Random123) against
 // Random123's published known-answer vectors (kat_vectors, philox4x64 10).
 
 #include "uncertainty/unc_math.hpp"
@@ -10,8 +11,10 @@
 #include <cmath>
 #include <cstdint>
 #include <limits>
+#include <vector>
 
 #include "isowrench/uncertainty.hpp"
+#include "uncertainty/percentiles.hpp"
 
 namespace isowrench {
 namespace {
@@ -124,6 +127,43 @@ TEST(UncertaintyMath, PhiloxMatchesRandom123KnownAnswers) {
   for (int i = 0; i < 4; ++i) {
     EXPECT_EQ(u[static_cast<size_t>(i)],
               (static_cast<double>(bits[static_cast<size_t>(i)] >> 11) + 0.5) * 0x1p-53);
+  }
+}
+
+TEST(UncertaintyPercentiles, BucketedSelectionEqualsAFullSort) {
+  // Type 7 from a sorted copy: the reference.
+  const double levels[4] = {0.025, 0.5, 0.95, 0.975};
+  auto sorted_percentiles = [&](std::vector<double> v, double* out) {
+    std::sort(v.begin(), v.end());
+    for (int k = 0; k < 4; ++k) {
+      const double h = (static_cast<double>(v.size()) - 1.0) * levels[k];
+      const size_t lo = static_cast<size_t>(std::floor(h));
+      const size_t hi = std::min(v.size() - 1, lo + 1);
+      out[k] = v[lo] + (h - static_cast<double>(lo)) * (v[hi] - v[lo]);
+    }
+  };
+  UncMathPoints points;
+  for (int shape = 0; shape < 7; ++shape) {
+    for (size_t n : {size_t{100}, size_t{8191}, size_t{8192}, size_t{20001}}) {
+      std::vector<double> v(n);
+      for (size_t i = 0; i < n; ++i) {
+        const double u = points.Next(0.0, 1.0);
+        switch (shape) {
+          case 0: v[i] = u; break;
+          case 1: v[i] = std::exp(20.0 * (u - 0.5)); break;  // log-uniform over 9 decades
+          case 2: v[i] = i == 7 ? 1e300 : -3.0 + u; break;   // one huge outlier
+          case 3: v[i] = std::floor(5.0 * u); break;         // five values, many ties
+          case 4: v[i] = 2.5; break;                         // all equal
+          case 5: v[i] = 1.0 + 1e-13 * u; break;             // a narrow spread
+          default: v[i] = (i % 2 ? -1.0 : 1.0) * std::exp(-30.0 * u); break;  // both signs
+        }
+      }
+      double expected[4], got[4];
+      sorted_percentiles(v, expected);
+      const auto extremes = std::minmax_element(v.begin(), v.end());
+      BucketPercentiles(v, *extremes.first, *extremes.second, levels, 4, got);
+      for (int k = 0; k < 4; ++k) EXPECT_EQ(got[k], expected[k]) << shape << " " << n << " " << k;
+    }
   }
 }
 
