@@ -1502,6 +1502,10 @@ class BlockRunner {
     scale_.resize(n);
     const bool block_values = s_.fit_group < 0;
     if (block_values) BlockValues(j0, count);
+    if (block_values && entry_plan_) {
+      PlannedBlock(count);
+      return;
+    }
     const int matrices = s_.options.sobol ? 2 : 1;
     valuesA_.resize(static_cast<size_t>(D_));
     valuesB_.resize(static_cast<size_t>(D_));
@@ -1640,6 +1644,56 @@ class BlockRunner {
       const double activation =
           activation_dim_ < 0 ? s_.nominal_activation : value(activation_dim_);
       scale[v] = s_.WScale(factor, activation);
+    }
+  }
+
+  // PlannedRows for every sample of the block, straight from block_values_: each planned entry
+  // down the rows of every sample (A's value in every row, then B's in row B and in row
+  // A_B^group), then the W factors; the same values as PlannedRows.
+  void PlannedBlock(long count) {
+    const int rows = s_.Rows();
+    const int matrices = s_.options.sobol ? 2 : 1;
+    StiffnessSet* sets = sets_.data();
+    for (const PlannedEntry& e : planned_) {
+      const double* v = &block_values_[static_cast<size_t>(e.dim * count * matrices)];
+      for (long jj = 0; jj < count; ++jj) {
+        StiffnessSet* set = sets + jj * rows;
+        const double va = v[jj * matrices];
+        const double a = e.absolute ? va : e.nominal * va;
+        double b = a;
+        if (rows > 1) {
+          const double vb = v[jj * matrices + 1];
+          b = e.absolute ? vb : e.nominal * vb;
+        }
+        if (e.s_p) {
+          for (int r = 0; r < rows; ++r) set[r].s_p[e.index] = a;
+          if (rows > 1) set[1].s_p[e.index] = set[2 + e.group].s_p[e.index] = b;
+        } else {
+          for (int r = 0; r < rows; ++r) set[r].s_t[e.index] = a;
+          if (rows > 1) set[1].s_t[e.index] = set[2 + e.group].s_t[e.index] = b;
+        }
+      }
+    }
+    double* scale = scale_.data();
+    const long n = count * rows;
+    if (force_dims_.empty() && activation_dim_ < 0) {
+      const double nominal = s_.WScale(1.0, s_.nominal_activation);
+      std::fill(scale, scale + n, nominal);
+      return;
+    }
+    for (long jj = 0; jj < count; ++jj) {
+      for (int r = 0; r < rows; ++r) {
+        // Row r's source of dimension k: A, B, or B for group r - 2 only (PlannedRows).
+        auto value = [&](int k) {
+          const bool from_b = r == 1 || s_.dims[static_cast<size_t>(k)].group == r - 2;
+          return block_values_[static_cast<size_t>((k * count + jj) * matrices + (from_b ? 1 : 0))];
+        };
+        double factor = 1.0;
+        for (int k : force_dims_) factor *= value(k);
+        const double activation =
+            activation_dim_ < 0 ? s_.nominal_activation : value(activation_dim_);
+        scale[jj * rows + r] = s_.WScale(factor, activation);
+      }
     }
   }
 
