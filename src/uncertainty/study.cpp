@@ -1777,7 +1777,9 @@ class BlockRunner {
           int status = Classify(w);
           // A_B^i rows serve the Sobol sums only: no small-motion check, no world axes.
           const bool statistics = v < stat_rows;
-          if (status == 0 && statistics) {
+          if (status == 0 && statistics && m <= kLocalDofs) {
+            if (SmallMotionFailsFromW(pd, w.wrench.data(), set, scale)) status |= 4;
+          } else if (status == 0 && statistics) {
             // dtheta at activation 1 from W (see the reconstruction in the constructor).
             // Plain loops: Eigen's general products cost ~4x more at these sizes (the
             // rounding differs from theirs in the last bits, which only moves the rule's
@@ -1854,6 +1856,49 @@ class BlockRunner {
         status_[static_cast<size_t>(v * count_ + jj)] = status;
       }
     }
+  }
+
+  // The small-motion rule of a batch row from its W, as the loops in EvaluatePosture (the same
+  // operations in the same order) with every vector on the stack (m <= kLocalDofs).
+  static constexpr int kLocalDofs = 16;
+  bool SmallMotionFailsFromW(const UncertaintyStudy::Impl::PostureData& pd, const double* W,
+                             const StiffnessSet& set, double scale) const {
+    const int m = static_cast<int>(pd.J.cols());
+    double b[6 + kLocalDofs];
+    int k = 0;
+    for (int rr : s_.restrained_rows) b[k++] = W[rr] / set.s_t[rr];
+    for (int c : s_.stiff_columns) {
+      const double* Jc = pd.J.col(c).data();
+      double jtw = 0.0;
+      for (int i = 0; i < 6; ++i) jtw += Jc[i] * W[i];
+      b[k++] = (pd.tau[c] - jtw) / set.s_p[c];
+    }
+    const double* from = pd.dtheta_from.data();
+    double dtheta[kLocalDofs] = {};
+    for (int l = 0; l < k; ++l) {
+      const double bl = b[l];
+      const double* column = from + l * m;
+      for (int i = 0; i < m; ++i) dtheta[i] += column[i] * bl;
+    }
+    for (int i = 0; i < m; ++i) dtheta[i] *= scale;
+    // Impl::SmallMotionFails.
+    double v[3] = {0.0, 0.0, 0.0};
+    for (int c = 0; c < m; ++c) {
+      const double* Jc = pd.J.col(c).data();
+      for (int i = 0; i < 3; ++i) v[i] += Jc[i] * dtheta[c];
+    }
+    const double translation = std::sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
+    const double limit = s_.options.statics.max_endpoint_fraction * s_.leg_length;
+    if (s_.leg_length > 0 && translation > limit) return true;
+    for (int c = 0; c < m; ++c) {
+      const double a = std::abs(dtheta[c]);
+      if (s_.revolute[static_cast<size_t>(c)]) {
+        if (a > s_.options.statics.max_joint_rotation) return true;
+      } else if (s_.leg_length > 0 && a > limit) {
+        return true;
+      }
+    }
+    return false;
   }
 
   // A block's quantities: variant v (A, B, A_B^1 ...), sample jj, kLanes doubles in lane order
