@@ -1343,15 +1343,28 @@ UNC_CLONES void ExpValues(const double* x, double* v, long n, double a, double w
 // kLanes doubles go to quantities + (v count + jj) kLanes, its flags to flags[v count + jj].
 UNC_CLONES void RowQuantityLanes(const WrenchResult* results, const double* scale, long n, int rows,
                                  int stat_rows, long count, const double* R, const double* d,
-                                 bool has_direction, double* quantities, unsigned char* flags) {
+                                 bool has_direction, double* quantities, unsigned char* flags,
+                                 int* status) {
   const double big = std::numeric_limits<double>::max();
   for (long r0 = 0; r0 < n; r0 += 4) {
     const int lanes = static_cast<int>(std::min<long>(4, n - r0));
-    UncV4 W[6];
+    UncV4 raw[6], factor;
+    int state[4];
     for (int l = 0; l < 4; ++l) {
       const long r = r0 + std::min(l, lanes - 1);
       const double* w = results[r].wrench.data();
-      for (int i = 0; i < 6; ++i) W[i][l] = scale[r] * w[i];
+      for (int i = 0; i < 6; ++i) raw[i][l] = w[i];
+      factor[l] = scale[r];
+      state[l] = static_cast<int>(results[r].status);
+    }
+    // BlockRunner::Classify: 1 no equilibrium, 2 invalid or a non-finite W, else 0.
+    UncMathI4 raw_finite = {-1, -1, -1, -1};
+    UncV4 W[6];
+    for (int i = 0; i < 6; ++i) {
+      UncV4 a;
+      UncAbs(raw[i], a);
+      raw_finite &= a <= big;
+      W[i] = factor * raw[i];
     }
     UncV4 y[kLanes];
     ReadingLaneQuantities(W, R, d, has_direction, y);
@@ -1391,6 +1404,10 @@ UNC_CLONES void RowQuantityLanes(const WrenchResult* results, const double* scal
       out[3][k] = UNC_SHUFFLE(t1, t3, 2, 3, 6, 7);
     }
     for (int l = 0; l < lanes; ++l) {
+      status[v[l] * count + jj[l]] =
+          state[l] == static_cast<int>(StaticsStatus::kSelfMotion)                       ? 1
+          : state[l] == static_cast<int>(StaticsStatus::kInvalidInput) || !raw_finite[l] ? 2
+                                                                                         : 0;
       double* to = quantities + (v[l] * count + jj[l]) * kLanes;
       for (int k = 0; k < 4; ++k) UNC_STORE(to + 4 * k, out[l][k]);
       flags[v[l] * count + jj[l]] = static_cast<unsigned char>(
@@ -1759,61 +1776,42 @@ class BlockRunner {
       // (a force model: activation inputs take the scalar path, so every row has the nominal one)
       EvaluateBatch(s_.model, q, s_.muscle, sets_, results_,
                     s_.EngineActivation(s_.nominal_activation), batch);
-      const int m = s_.model.dof_count();
-      Eigen::VectorXd& b = b_;
-      Eigen::VectorXd& dtheta = dtheta_;
-      b.resize(pd.dtheta_from.cols());
-      dtheta.resize(m);
-      JtW_.resize(m);
+      if (sets_only_) {
+        // Without reading inputs: every row's status and quantities four rows at a time (the
+        // rows that are not valid are computed too and never read), then the small-motion rule
+        // of the valid A and B rows.
+        RowQuantityLanes(results_.data(), scale_.data(), n_rows, rows, stat_rows, count_,
+                         pd.R_W_T.data(), pd.force_direction.data(), !pd.force_direction.isZero(),
+                         quantities_.data(), flags_.data(), status_.data());
+        for (int v = 0; v < stat_rows; ++v) {
+          for (long jj = 0; jj < count_; ++jj) {
+            int& status = status_[Status(v, jj)];
+            const size_t r = static_cast<size_t>(jj * rows + v);
+            if (status == 0 &&
+                SmallMotionFailsFromW(pd, results_[r].wrench.data(), sets_[r], scale_[r]))
+              status |= 4;
+          }
+        }
+        return;
+      }
       long r = 0;
       for (long jj = 0; jj < count_; ++jj) {
         for (int v = 0; v < rows; ++v, ++r) {
           const WrenchResult& w = results_[static_cast<size_t>(r)];
-          const StiffnessSet& set = sets_[static_cast<size_t>(r)];
-          const double scale = sets_only_ ? scale_[static_cast<size_t>(r)]
-                                          : s_.WScale(inputs_[static_cast<size_t>(r)].factor,
-                                                      inputs_[static_cast<size_t>(r)].activation);
-          double* y = Row(v, jj);
+          const RowInputs& row = inputs_[static_cast<size_t>(r)];
           int status = Classify(w);
           // A_B^i rows serve the Sobol sums only: no small-motion check, no world axes.
           const bool statistics = v < stat_rows;
-          if (status == 0 && statistics && m <= kLocalDofs) {
-            if (SmallMotionFailsFromW(pd, w.wrench.data(), set, scale)) status |= 4;
-          } else if (status == 0 && statistics) {
-            // dtheta at activation 1 from W (see the reconstruction in the constructor).
-            // Plain loops: Eigen's general products cost ~4x more at these sizes (the
-            // rounding differs from theirs in the last bits, which only moves the rule's
-            // threshold by as much).
-            Eigen::Index k = 0;
-            for (int rr : s_.restrained_rows) b[k++] = w.wrench[rr] / set.s_t[rr];
-            for (int c : s_.stiff_columns) {
-              const double* Jc = pd.J.col(c).data();
-              double jtw = 0.0;
-              for (int i = 0; i < 6; ++i) jtw += Jc[i] * w.wrench[i];
-              b[k++] = (pd.tau[c] - jtw) / set.s_p[c];
-            }
-            const double* from = pd.dtheta_from.data();
-            for (int i = 0; i < m; ++i) dtheta[i] = 0.0;
-            for (Eigen::Index l = 0; l < k; ++l) {
-              const double bl = b[l];
-              for (int i = 0; i < m; ++i) dtheta[i] += from[l * m + i] * bl;
-            }
-            for (int i = 0; i < m; ++i) dtheta[i] *= scale;
-            if (s_.SmallMotionFails(pd.J, dtheta)) status |= 4;
-          }
-          if ((status == 0 || status == 4) && !sets_only_) {
+          if (status == 0 && statistics &&
+              SmallMotionFailsFromW(pd, w.wrench.data(), row.set,
+                                    s_.WScale(row.factor, row.activation)))
+            status |= 4;
+          if (status == 0 || status == 4) {
             flags_[Status(v, jj)] = static_cast<unsigned char>(
-                s_.Quantities(pd, w.wrench, inputs_[static_cast<size_t>(r)], y, statistics));
+                s_.Quantities(pd, w.wrench, row, Row(v, jj), statistics));
           }
           status_[static_cast<size_t>(v * count_ + jj)] = status;
         }
-      }
-      // Without reading inputs: every row's quantities four rows at a time (the rows that are
-      // not valid are computed too and never read).
-      if (sets_only_) {
-        RowQuantityLanes(results_.data(), scale_.data(), n_rows, rows, stat_rows, count_,
-                         pd.R_W_T.data(), pd.force_direction.data(), !pd.force_direction.isZero(),
-                         quantities_.data(), flags_.data());
       }
       return;
     }
@@ -1858,13 +1856,23 @@ class BlockRunner {
     }
   }
 
-  // The small-motion rule of a batch row from its W, as the loops in EvaluatePosture (the same
-  // operations in the same order) with every vector on the stack (m <= kLocalDofs).
+  // The small-motion rule of a batch row (activation 1, W factor `scale`) from its W: dtheta =
+  // scale x dtheta_from b, b = [W_r / s_r; (tau - J^T W)_c / s_c] (the reconstruction in the
+  // constructor), then Impl::SmallMotionFails' tests, in plain loops (Eigen's general products
+  // cost ~4x more at these sizes; the rounding differs from theirs in the last bits, which only
+  // moves the rule's threshold by as much). The vectors are on the stack up to kLocalDofs.
   static constexpr int kLocalDofs = 16;
   bool SmallMotionFailsFromW(const UncertaintyStudy::Impl::PostureData& pd, const double* W,
-                             const StiffnessSet& set, double scale) const {
+                             const StiffnessSet& set, double scale) {
     const int m = static_cast<int>(pd.J.cols());
-    double b[6 + kLocalDofs];
+    double b_local[6 + kLocalDofs], dtheta_local[kLocalDofs];
+    if (m > kLocalDofs) {
+      b_.resize(6 + m);
+      dtheta_.resize(m);
+    }
+    double* b = m > kLocalDofs ? b_.data() : b_local;
+    double* dtheta = m > kLocalDofs ? dtheta_.data() : dtheta_local;
+    for (int i = 0; i < m; ++i) dtheta[i] = 0.0;
     int k = 0;
     for (int rr : s_.restrained_rows) b[k++] = W[rr] / set.s_t[rr];
     for (int c : s_.stiff_columns) {
@@ -1874,7 +1882,6 @@ class BlockRunner {
       b[k++] = (pd.tau[c] - jtw) / set.s_p[c];
     }
     const double* from = pd.dtheta_from.data();
-    double dtheta[kLocalDofs] = {};
     for (int l = 0; l < k; ++l) {
       const double bl = b[l];
       const double* column = from + l * m;
@@ -2068,7 +2075,7 @@ class BlockRunner {
   std::vector<PlannedEntry> planned_;
   std::vector<int> force_dims_;
   int activation_dim_ = -1;
-  Eigen::VectorXd b_, JtW_, dtheta_, qr_, last_q_;
+  Eigen::VectorXd b_, dtheta_, qr_, last_q_;
   double last_activation_ = 1.0;
   Eigen::Matrix3Xd last_points_;
   std::vector<RowInputs> inputs_;
