@@ -2099,9 +2099,20 @@ constexpr char kPartialMagic[8] = {'I', 'W', 'U', 'N', 'C', 'P', '0', '1'};
 
 }  // namespace
 
-UncertaintyPartial RunUncertaintyBlocks(const UncertaintyStudy& study, long first_block,
-                                        long last_block, int threads,
-                                        const std::function<void(long, long)>& progress) {
+namespace {
+
+// What blocks [first, last) produce before they become a partial's bytes: the records (blocks x
+// postures x RecordSize), per block the kept values (postures x quantities), or the merged
+// histograms.
+struct BlockOutput {
+  std::vector<double> records;
+  std::vector<std::vector<ValueVector>> values;
+  std::vector<LogHistogram> histograms;
+};
+
+BlockOutput RunUncertaintyBlocksOutput(const UncertaintyStudy& study, long first_block,
+                                       long last_block, int threads,
+                                       const std::function<void(long, long)>& progress) {
   const UncertaintyStudy::Impl& s = study.impl();
   if (first_block < 0 || last_block > study.block_count() || first_block > last_block) {
     throw Error("uncertainty: blocks [" + std::to_string(first_block) + ", " +
@@ -2164,7 +2175,32 @@ UncertaintyPartial RunUncertaintyBlocks(const UncertaintyStudy& study, long firs
   for (std::thread& t : workers) t.join();
   if (failure) std::rethrow_exception(failure);
   if (progress) progress(total, total);
+  BlockOutput output;
+  output.records = std::move(records);
+  output.values = std::move(values);
+  output.histograms = std::move(histograms);
+  return output;
+}
 
+// The statistics from the records summed in block order, the kept values of each posture and
+// quantity in block order (exact) or the merged histograms: FinishUncertainty's second half.
+UncertaintyResult Statistics(const UncertaintyStudy& study, const std::vector<double>& sum,
+                             std::vector<ValueVector>& values,
+                             const std::vector<LogHistogram>& histograms);
+
+}  // namespace
+
+UncertaintyPartial RunUncertaintyBlocks(const UncertaintyStudy& study, long first_block,
+                                        long last_block, int threads,
+                                        const std::function<void(long, long)>& progress) {
+  const UncertaintyStudy::Impl& s = study.impl();
+  BlockOutput output =
+      RunUncertaintyBlocksOutput(study, first_block, last_block, threads, progress);
+  const long n_blocks = last_block - first_block;
+  const long P = s.postures.cols();
+  const std::vector<double>& records = output.records;
+  const std::vector<std::vector<ValueVector>>& values = output.values;
+  const std::vector<LogHistogram>& histograms = output.histograms;
   UncertaintyPartial partial;
   partial.fingerprint = s.fingerprint;
   partial.first_block = first_block;
@@ -2323,7 +2359,6 @@ UncertaintyResult FinishUncertainty(const UncertaintyStudy& study,
   }
   const long P = s.postures.cols();
   const int RS = s.RecordSize();
-  const int G = s.G();
   std::vector<double> sum(static_cast<size_t>(P * RS), 0.0);
   std::vector<ValueVector> values(s.exact ? static_cast<size_t>(P * kQ) : 0);
   std::vector<LogHistogram> histograms(s.exact ? 0 : static_cast<size_t>(P * kQ));
@@ -2375,7 +2410,18 @@ UncertaintyResult FinishUncertainty(const UncertaintyStudy& study,
       }
     }
   }
+  return Statistics(study, sum, values, histograms);
+}
 
+namespace {
+
+UncertaintyResult Statistics(const UncertaintyStudy& study, const std::vector<double>& sum,
+                             std::vector<ValueVector>& values,
+                             const std::vector<LogHistogram>& histograms) {
+  const UncertaintyStudy::Impl& s = study.impl();
+  const long P = s.postures.cols();
+  const int RS = s.RecordSize();
+  const int G = s.G();
   UncertaintyResult result;
   result.model = s.model.name();
   result.muscle = s.muscle_name;
@@ -2477,15 +2523,36 @@ UncertaintyResult FinishUncertainty(const UncertaintyStudy& study,
   return result;
 }
 
+}  // namespace
+
 UncertaintyResult RunUncertainty(const Model& model, const std::string& muscle,
                                  const Eigen::MatrixXd& postures, const UncertaintySpec& spec,
                                  const UncertaintyOptions& options) {
   const auto start = std::chrono::steady_clock::now();
   UncertaintyStudy study(model, muscle, postures, spec, options);
-  std::vector<UncertaintyPartial> partials;
-  partials.push_back(
-      RunUncertaintyBlocks(study, 0, study.block_count(), options.threads, options.progress));
-  UncertaintyResult result = FinishUncertainty(study, partials);
+  // RunUncertaintyBlocks + FinishUncertainty without the partial's bytes in between: the records
+  // added and the values concatenated in block order, as FinishUncertainty does (the same bits).
+  const UncertaintyStudy::Impl& s = study.impl();
+  BlockOutput output =
+      RunUncertaintyBlocksOutput(study, 0, study.block_count(), options.threads, options.progress);
+  const long n_blocks = study.block_count();
+  const long P = s.postures.cols();
+  const long RS = s.RecordSize();
+  std::vector<double> sum(static_cast<size_t>(P * RS), 0.0);
+  for (long k = 0; k < n_blocks; ++k) {
+    for (long i = 0; i < P * RS; ++i)
+      sum[static_cast<size_t>(i)] += output.records[static_cast<size_t>(k * P * RS + i)];
+  }
+  std::vector<ValueVector> values(s.exact ? static_cast<size_t>(P * kQ) : 0);
+  for (size_t i = 0; i < values.size(); ++i) {
+    size_t n = 0;
+    for (const std::vector<ValueVector>& block : output.values) n += block[i].size();
+    values[i].reserve(n);
+    for (const std::vector<ValueVector>& block : output.values)
+      values[i].insert(values[i].end(), block[i].begin(), block[i].end());
+  }
+  output.values.clear();
+  UncertaintyResult result = Statistics(study, sum, values, output.histograms);
   result.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   return result;
 }

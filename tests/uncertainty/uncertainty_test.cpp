@@ -245,13 +245,16 @@ TEST(UncertaintyStudy, SameBitsOnAnyThreadCountAndPartition) {
   postures.col(0) = model.nominal_posture();
   postures.col(1) = model.nominal_posture();
   postures(model.JointIndex("knee_rz"), 1) += 20 * kDeg;
-  // Batch path (stiffnesses and the reading only) and scalar path (angles too).
-  for (bool angles : {false, true}) {
+  // Batch path with stiffness sets only (kind 0: the sets written directly, the rows' quantities
+  // four at a time), batch path with the reading (kind 1) and scalar path (kind 2: angles too).
+  for (int kind : {0, 1, 2}) {
+    const bool angles = kind == 2;
     for (bool exact : {true, false}) {
       UncertaintySpec spec;
       spec.inputs.push_back(Input("transducer_stiffness:rz", InputDistribution::kLogNormal, {0.5}));
       spec.inputs.push_back(Input("base_stiffness", InputDistribution::kLogUniform, {}, 1e4, 1e7));
-      spec.inputs.push_back(Input("misalignment", InputDistribution::kNormal, {1.0}));
+      if (kind >= 1)
+        spec.inputs.push_back(Input("misalignment", InputDistribution::kNormal, {1.0}));
       if (angles) spec.inputs.push_back(Input("angle:hip_rz", InputDistribution::kNormal, {2.0}));
       UncertaintyOptions options;
       options.samples = 2 * kUncertaintyBlockSamples + 50;  // 3 blocks, the last one short
@@ -263,7 +266,7 @@ TEST(UncertaintyStudy, SameBitsOnAnyThreadCountAndPartition) {
         options.threads = threads;
         EXPECT_EQ(ResultBits(RunUncertainty(model, "GP", postures, spec, options), model),
                   reference)
-            << threads << " threads, angles " << angles << ", exact " << exact;
+            << threads << " threads, kind " << kind << ", exact " << exact;
       }
       // Parts [2, 3), [0, 1), [1, 2), through bytes, in that order, on 2 threads each.
       const UncertaintyStudy study(model, "GP", postures, spec, options);
@@ -274,7 +277,7 @@ TEST(UncertaintyStudy, SameBitsOnAnyThreadCountAndPartition) {
             UncertaintyPartial::FromBytes(RunUncertaintyBlocks(study, a, b, 2).ToBytes()));
       }
       UncertaintyResult merged = FinishUncertainty(study, parts);
-      EXPECT_EQ(ResultBits(merged, model), reference) << "angles " << angles << ", exact " << exact;
+      EXPECT_EQ(ResultBits(merged, model), reference) << "kind " << kind << ", exact " << exact;
       if (angles || exact) continue;
       // A missing block, a block twice, another study's partial: errors.
       parts.pop_back();
