@@ -1416,6 +1416,74 @@ UNC_CLONES void RowQuantityLanes(const WrenchResult* results, const double* scal
   }
 }
 
+// What the small-motion rule of a batch row needs besides the row (BlockRunner's
+// SmallMotionFailsFromW): the posture's J (6 x m, column-major), tau and dtheta_from (m x
+// (restrained + stiff), column-major), and the study's rows, columns and limits.
+struct SmallMotionPlan {
+  int m = 0;
+  const int* restrained = nullptr;
+  int n_restrained = 0;
+  const int* stiff = nullptr;
+  int n_stiff = 0;
+  const double* J = nullptr;
+  const double* tau = nullptr;
+  const double* from = nullptr;
+  const char* revolute = nullptr;
+  double leg_length = 0.0, limit = 0.0, max_rotation = 0.0;
+};
+constexpr int kSmallMotionLaneDofs = 16;
+
+// BlockRunner::SmallMotionFailsFromW for four rows at once (m <= kSmallMotionLaneDofs): the same
+// operations in the same order in every lane, so the same decisions.
+UNC_CLONES void SmallMotionLanes(const SmallMotionPlan& plan, const double* const* W,
+                                 const double* const* s_t, const double* const* s_p,
+                                 const double* scale, bool* fails) {
+  const int m = plan.m;
+  UncV4 b[6 + kSmallMotionLaneDofs];
+  int k = 0;
+  for (int i = 0; i < plan.n_restrained; ++i, ++k) {
+    const int rr = plan.restrained[i];
+    for (int l = 0; l < 4; ++l) b[k][l] = W[l][rr] / s_t[l][rr];
+  }
+  for (int i = 0; i < plan.n_stiff; ++i, ++k) {
+    const int c = plan.stiff[i];
+    const double* Jc = plan.J + 6 * c;
+    UncV4 jtw = {0.0, 0.0, 0.0, 0.0}, w, sp;
+    for (int r = 0; r < 6; ++r) {
+      for (int l = 0; l < 4; ++l) w[l] = W[l][r];
+      jtw += Jc[r] * w;
+    }
+    for (int l = 0; l < 4; ++l) sp[l] = s_p[l][c];
+    b[k] = (plan.tau[c] - jtw) / sp;
+  }
+  const UncV4 factor = UNC_LOAD(scale);
+  UncV4 dtheta[kSmallMotionLaneDofs];
+  for (int i = 0; i < m; ++i) {
+    UncV4 sum = {0.0, 0.0, 0.0, 0.0};
+    for (int l = 0; l < k; ++l) sum += plan.from[l * m + i] * b[l];
+    dtheta[i] = sum * factor;
+  }
+  UncV4 v[3] = {{0.0, 0.0, 0.0, 0.0}, {0.0, 0.0, 0.0, 0.0}, {0.0, 0.0, 0.0, 0.0}};
+  for (int c = 0; c < m; ++c) {
+    const double* Jc = plan.J + 6 * c;
+    for (int i = 0; i < 3; ++i) v[i] += Jc[i] * dtheta[c];
+  }
+  UncV4 translation;
+  UncSqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2], translation);
+  UncMathI4 fail = {0, 0, 0, 0};
+  if (plan.leg_length > 0) fail |= translation > plan.limit;
+  for (int c = 0; c < m; ++c) {
+    UncV4 a;
+    UncAbs(dtheta[c], a);
+    if (plan.revolute[c]) {
+      fail |= a > plan.max_rotation;
+    } else if (plan.leg_length > 0) {
+      fail |= a > plan.limit;
+    }
+  }
+  for (int l = 0; l < 4; ++l) fails[l] = fail[l] != 0;
+}
+
 // One thread's evaluation of blocks.
 class BlockRunner {
  public:
@@ -1783,6 +1851,47 @@ class BlockRunner {
         RowQuantityLanes(results_.data(), scale_.data(), n_rows, rows, stat_rows, count_,
                          pd.R_W_T.data(), pd.force_direction.data(), !pd.force_direction.isZero(),
                          quantities_.data(), flags_.data(), status_.data());
+        const int m = static_cast<int>(pd.J.cols());
+        if (m <= kLocalDofs) {
+          // Four rows at a time (SmallMotionLanes: SmallMotionFailsFromW lane by lane).
+          SmallMotionPlan plan;
+          plan.m = m;
+          plan.restrained = s_.restrained_rows.data();
+          plan.n_restrained = static_cast<int>(s_.restrained_rows.size());
+          plan.stiff = s_.stiff_columns.data();
+          plan.n_stiff = static_cast<int>(s_.stiff_columns.size());
+          plan.J = pd.J.data();
+          plan.tau = pd.tau.data();
+          plan.from = pd.dtheta_from.data();
+          plan.revolute = s_.revolute.data();
+          plan.leg_length = s_.leg_length;
+          plan.limit = s_.options.statics.max_endpoint_fraction * s_.leg_length;
+          plan.max_rotation = s_.options.statics.max_joint_rotation;
+          const long n_stat = count_ * stat_rows;
+          for (long i0 = 0; i0 < n_stat; i0 += 4) {
+            const double* W[4];
+            const double* s_t[4];
+            const double* s_p[4];
+            double scale[4];
+            int* status[4];
+            for (int l = 0; l < 4; ++l) {
+              const long i = std::min(i0 + l, n_stat - 1);  // (the last rows repeated)
+              const long jj = i / stat_rows;
+              const int v = static_cast<int>(i % stat_rows);
+              const size_t r = static_cast<size_t>(jj * rows + v);
+              W[l] = results_[r].wrench.data();
+              s_t[l] = sets_[r].s_t.data();
+              s_p[l] = sets_[r].s_p.data();
+              scale[l] = scale_[r];
+              status[l] = &status_[Status(v, jj)];
+            }
+            bool fails[4];
+            SmallMotionLanes(plan, W, s_t, s_p, scale, fails);
+            for (int l = 0; l < 4 && i0 + l < n_stat; ++l)
+              if (*status[l] == 0 && fails[l]) *status[l] |= 4;
+          }
+          return;
+        }
         for (int v = 0; v < stat_rows; ++v) {
           for (long jj = 0; jj < count_; ++jj) {
             int& status = status_[Status(v, jj)];
@@ -1861,7 +1970,7 @@ class BlockRunner {
   // constructor), then Impl::SmallMotionFails' tests, in plain loops (Eigen's general products
   // cost ~4x more at these sizes; the rounding differs from theirs in the last bits, which only
   // moves the rule's threshold by as much). The vectors are on the stack up to kLocalDofs.
-  static constexpr int kLocalDofs = 16;
+  static constexpr int kLocalDofs = kSmallMotionLaneDofs;
   bool SmallMotionFailsFromW(const UncertaintyStudy::Impl::PostureData& pd, const double* W,
                              const StiffnessSet& set, double scale) {
     const int m = static_cast<int>(pd.J.cols());
@@ -1872,7 +1981,6 @@ class BlockRunner {
     }
     double* b = m > kLocalDofs ? b_.data() : b_local;
     double* dtheta = m > kLocalDofs ? dtheta_.data() : dtheta_local;
-    for (int i = 0; i < m; ++i) dtheta[i] = 0.0;
     int k = 0;
     for (int rr : s_.restrained_rows) b[k++] = W[rr] / set.s_t[rr];
     for (int c : s_.stiff_columns) {
@@ -1882,12 +1990,11 @@ class BlockRunner {
       b[k++] = (pd.tau[c] - jtw) / set.s_p[c];
     }
     const double* from = pd.dtheta_from.data();
-    for (int l = 0; l < k; ++l) {
-      const double bl = b[l];
-      const double* column = from + l * m;
-      for (int i = 0; i < m; ++i) dtheta[i] += column[i] * bl;
+    for (int i = 0; i < m; ++i) {
+      double sum = 0.0;
+      for (int l = 0; l < k; ++l) sum += from[l * m + i] * b[l];
+      dtheta[i] = sum * scale;
     }
-    for (int i = 0; i < m; ++i) dtheta[i] *= scale;
     // Impl::SmallMotionFails.
     double v[3] = {0.0, 0.0, 0.0};
     for (int c = 0; c < m; ++c) {
