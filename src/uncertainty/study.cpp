@@ -1329,7 +1329,14 @@ UNC_CLONES void NormalQuantiles(const double* p, double* z, long n) {
 // v[i] = c * exp(a + x[i] * w), i < n (x == v allowed), four at a time (UncExpLanes): the
 // arithmetic of IndependentValue, so the same bits.
 UNC_CLONES void ExpValues(const double* x, double* v, long n, double a, double w, double c) {
-  for (long i = 0; i < n; i += 4) {
+  long i = 0;
+  for (; i + 4 <= n; i += 4) {
+    const UncV4 t = a + UNC_LOAD(x + i) * w;
+    UncV4 e;
+    UncExpLanes(reinterpret_cast<const double*>(&t), reinterpret_cast<double*>(&e));
+    UNC_STORE(v + i, c * e);
+  }
+  for (; i < n; i += 4) {
     double t[4] = {0.0, 0.0, 0.0, 0.0}, e[4];
     for (int l = 0; l < 4 && i + l < n; ++l) t[l] = a + x[i + l] * w;
     UncExpLanes(t, e);
