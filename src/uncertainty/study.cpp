@@ -2083,6 +2083,7 @@ class BlockRunner {
         histogram[l] = &histograms_[i];
       }
     }
+    long kept_rows = 0, kept_angles = 0;
     for (int v = 0; v < stat_rows; ++v) {
       for (long jj = 0; jj < count; ++jj) {
         if ((status_[Status(v, jj)] & 3) != 0) continue;
@@ -2104,10 +2105,13 @@ class BlockRunner {
           s2[k] += d * d;
         }
         if (s_.exact) {
-          for (int l = 0; l < kLanes - 1; ++l) {
-            *out[l] = y[l];
-            out[l] += (l != 8 || angle) ? 1 : 0;
-          }
+          // Every lane but the angle's keeps a value of every valid row: one running index;
+          // the angle's is kept only when finite (else overwritten next, or trimmed below).
+          for (int l = 0; l < 8; ++l) out[l][kept_rows] = y[l];
+          for (int l = 9; l < kLanes - 1; ++l) out[l][kept_rows] = y[l];
+          ++kept_rows;
+          out[8][kept_angles] = y[8];
+          kept_angles += angle ? 1 : 0;
         } else {
           for (int l = 0; l < kLanes - 1; ++l)
             if (l != 8 || angle) histogram[l]->Add(y[l]);
@@ -2121,7 +2125,7 @@ class BlockRunner {
       per_q[q * kPerQuantity + 2] += s2[l / 4][l % 4];
       if (s_.exact) {
         ValueVector& kept = (*values)[static_cast<size_t>(p * kQ + q)];
-        kept.resize(static_cast<size_t>(out[l] - kept.data()));
+        kept.resize(static_cast<size_t>(out[l] + (l == 8 ? kept_angles : kept_rows) - kept.data()));
       }
     }
     if (!s_.options.sobol) return;
