@@ -2188,8 +2188,8 @@ class BlockRunner {
   SolveOptions solve_;
   bool sets_only_ = false;
   std::vector<double> uA_, uB_, valuesA_, valuesB_;
-  std::vector<double> block_u_, block_values_;  // BlockValues
-  bool entry_plan_ = false;                     // PlanEntries
+  ValueVector block_u_, block_values_;  // BlockValues
+  bool entry_plan_ = false;             // PlanEntries
   std::vector<PlannedEntry> planned_;
   std::vector<int> force_dims_;
   int activation_dim_ = -1;
@@ -2198,13 +2198,13 @@ class BlockRunner {
   Eigen::Matrix3Xd last_points_;
   std::vector<RowInputs> inputs_;
   std::vector<StiffnessSet> sets_;
-  std::vector<double> scale_;
+  ValueVector scale_;
   std::vector<WrenchResult> results_;
-  std::vector<double> quantities_;
+  ValueVector quantities_;
   std::vector<int> status_;
   std::vector<unsigned char> flags_;  // Quantities' kRowFinite / kAngleFinite, as status_
   std::vector<char> code_, finite_lane_;
-  std::vector<double> dA_, dB_;  // f(A) - c, f(B) - c per sample, kW lanes
+  ValueVector dA_, dB_;  // f(A) - c, f(B) - c per sample, kW lanes
   long count_ = 0;
   bool kinematics_ok_ = true;
   Matrix6Xd J_;
