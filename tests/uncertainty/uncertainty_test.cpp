@@ -179,6 +179,31 @@ TEST(UncertaintyStudy, OneInputPercentilesAreTheAnalyticOnes) {
     }
     // The direction does not change with the force: the angle is 0 up to rounding.
     EXPECT_LT(p.statistics[14].percentiles[3], 1e-7);
+    if (!exact) continue;
+    // The exact values' histogram of fx: bin k of [lower, upper] holds the values in
+    // [lower + k w, lower + (k + 1) w) (the last one up to upper), n P(bin) within 5 binomial sds.
+    const QuantityStatistics& fx = p.statistics[0];
+    const double w0 = p.nominal[0], n = static_cast<double>(fx.count);
+    auto cdf = [&](double x) {  // P(fx <= x), fx = w0 (1 + 0.1 z)
+      const double z = (x / w0 - 1.0) / 0.1;
+      const double below = 0.5 * std::erfc(-z / std::sqrt(2.0));
+      return w0 > 0 ? below : 1.0 - below;
+    };
+    const int bins = static_cast<int>(fx.histogram.size());
+    ASSERT_EQ(bins, kUncertaintyHistogramBins);
+    const double width = (fx.histogram_upper - fx.histogram_lower) / bins;
+    long total = 0;
+    for (int k = 0; k < bins; ++k) {
+      const double a = fx.histogram_lower + k * width, b = a + width;
+      const double probability = cdf(b) - cdf(a);
+      EXPECT_NEAR(static_cast<double>(fx.histogram[static_cast<size_t>(k)]), n * probability,
+                  5 * std::sqrt(n * probability * (1 - probability)) + 1)
+          << "bin " << k;
+      total += fx.histogram[static_cast<size_t>(k)];
+    }
+    const double inside = cdf(fx.histogram_upper) - cdf(fx.histogram_lower);
+    EXPECT_NEAR(static_cast<double>(total), n * inside,
+                5 * std::sqrt(n * inside * (1 - inside)) + 1);
   }
 }
 
