@@ -252,6 +252,68 @@ TEST(MuscleForce, Tension4IsTensionPerLaneBitForBit) {
                Error);
 }
 
+// TensionStream (the batch's force stage over a block: a compliant tendon's lanes refilled with
+// the next length as each equilibrium ends) is Tension per length to the last bit: blocks of
+// 0 to 300 lengths (not multiples of four; over the 256 it takes at a time) mixing taut, slack,
+// NaN, zero, negative, huge and no-equilibrium lengths, for every model kind.
+TEST(MuscleForce, TensionStreamIsTensionPerLengthBitForBit) {
+  std::vector<MuscleForceSpec> specs = RatLikeSpecs();
+  for (MuscleForceSpec spec : RatLikeSpecs()) {
+    spec.ignore_tendon_compliance = true;
+    specs.push_back(spec);
+  }
+  MuscleForceSpec classic = MillardSpec(0.0293, 0.00639, 0.0524);
+  classic.fiber_damping = 0.0;
+  specs.push_back(classic);
+  specs.push_back(MillardSpec(0.018, 0.004, 0.0));
+  std::mt19937 rng(2828);
+  std::uniform_real_distribution<double> unit(0.0, 1.0);
+  std::map<MuscleForceStatus, int> seen;
+  const int sizes[] = {0, 1, 3, 5, 7, 13, 37, 258, 301};
+  for (const MuscleForceSpec& spec : specs) {
+    const MuscleForceModel m("R", 10.0, spec);
+    const double span = spec.optimal_fiber_length + spec.tendon_slack_length;
+    for (int block = 0; block < 18; ++block) {
+      const int n = sizes[block % 9];
+      std::vector<double> length(static_cast<size_t>(n)), force(length.size(), -7.0);
+      std::vector<MuscleForceStatus> status(length.size(), static_cast<MuscleForceStatus>(99));
+      for (double& L : length) {
+        const double pick = unit(rng);
+        L = pick < 0.9    ? span * (0.3 + 2.2 * unit(rng))  // mostly taut, some slack
+            : pick < 0.93 ? span * (0.9 + 0.2 * unit(rng)) * (1 + 1e-9 * unit(rng))
+            : pick < 0.95 ? std::numeric_limits<double>::quiet_NaN()
+            : pick < 0.96 ? -span * unit(rng)
+            : pick < 0.97 ? 0.0
+            : pick < 0.98 ? 1e300
+                          : span * 50 * unit(rng);
+      }
+      const double a = block % 7 == 0 ? 0.0 : block % 5 == 0 ? 1.0 : unit(rng);
+      m.TensionStream(length.data(), n, a, force.data(), status.data());
+      for (int i = 0; i < n; ++i) {
+        MuscleForceStatus one = MuscleForceStatus::kEquilibrium;
+        const double f = m.Tension(length[i], a, &one);
+        ASSERT_EQ(status[i], one) << ForceModelName(spec.model) << " L " << length[i] << " a " << a
+                                  << " entry " << i << " of " << n;
+        std::uint64_t bits_stream, bits_one;
+        std::memcpy(&bits_stream, &force[i], sizeof f);
+        std::memcpy(&bits_one, &f, sizeof f);
+        ASSERT_EQ(bits_stream, bits_one)
+            << ForceModelName(spec.model) << " rigid " << m.rigid_tendon() << " L " << length[i]
+            << " a " << a << " entry " << i << " of " << n << ": " << force[i] << " vs " << f;
+        ++seen[one];
+      }
+    }
+  }
+  EXPECT_GT(seen[MuscleForceStatus::kEquilibrium], 10000);
+  EXPECT_GT(seen[MuscleForceStatus::kSlack], 1000);
+  EXPECT_GT(seen[MuscleForceStatus::kNoEquilibrium], 300);
+  double length[5] = {0.03, 0.03, 0.03, 0.03, 0.03}, force[5];
+  MuscleForceStatus status[5];
+  EXPECT_THROW(
+      MuscleForceModel("R", 10.0, RatLikeSpecs()[0]).TensionStream(length, 5, 1.5, force, status),
+      Error);
+}
+
 TEST(MuscleForce, EquilibriumResidualBelow1e10NewtonAtEverySolution) {
   int solutions = 0;
   double worst = 0;
