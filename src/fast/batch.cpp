@@ -36,6 +36,8 @@ namespace {
 // stiffness sets still uses every thread.
 constexpr long kMaxPostureBlock = 256;
 constexpr long kUnitsPerThread = 8;
+// Groups of four postures whose force stage a compliant tendon computes at once (StreamLanes).
+constexpr long kStreamGroups = 16;
 
 long RoundUpToLanes(long n) { return (n + kLanes - 1) / kLanes * kLanes; }
 
@@ -84,7 +86,17 @@ class UnitEvaluator {
     long p = p0;
     // A muscle with moving or conditional points has its kinematics on the scalar path,
     // posture by posture (SetLanes); the statics still runs four stiffness sets at a time.
-    const bool scalar_kinematics = model_.impl().flat.muscles[muscle_].dynamic;
+    const FastMuscle& mu = model_.impl().flat.muscles[muscle_];
+    const bool scalar_kinematics = mu.dynamic;
+    // A compliant tendon's force stage over up to kStreamGroups groups at once (StreamLanes).
+    if (!scalar_kinematics && mu.force_curve && !mu.force_model.rigid_tendon() &&
+        mu.force_model.type() != ForceModelType::kConstant && LaneGroupSize(lanes_) > 0) {
+      while (p1 - p >= 2 * kLanes) {
+        const long groups = std::min<long>(kStreamGroups, (p1 - p) / kLanes);
+        StreamLanes(mu, p, groups, s0, s1);
+        p += groups * kLanes;
+      }
+    }
     // Groups of kLanes postures in the lanes; a short tail too when there are too few sets to
     // fill the lanes instead.
     while (!scalar_kinematics && p < p1 && (p1 - p >= kLanes || s1 - s0 < kLanes)) {
@@ -113,6 +125,41 @@ class UnitEvaluator {
     for (int l = 0; l < kLanes; ++l)
       q[l] = first + std::min(l, lanes - 1) * postures_.outerStride();
     const unsigned scalar_lanes = LaneKinematics(model_, lanes_, q, muscle_, activation_);
+    SolveGroup(p, lanes, s0, s1, scalar_lanes);
+  }
+
+  // Groups g = 0 .. groups - 1 of four postures from p: each group's kinematics into its place
+  // in the store, the muscle's force at all their lengths by one TensionStream (the lanes
+  // refilled as each equilibrium ends, instead of every group waiting for its slowest lane),
+  // then each group's force stage and statics.
+  void StreamLanes(const FastMuscle& mu, long p, long groups, long s0, long s1) {
+    const std::size_t size = LaneGroupSize(lanes_);
+    if (store_.empty()) store_.resize(kStreamGroups * size / 4);
+    unsigned scalar_lanes[kStreamGroups];
+    double length[kStreamGroups * kLanes], force[kStreamGroups * kLanes];
+    MuscleForceStatus status[kStreamGroups * kLanes];
+    for (long g = 0; g < groups; ++g) {
+      const double* q[kLanes];
+      const double* first = postures_.data() + (p + g * kLanes) * postures_.outerStride();
+      for (int l = 0; l < kLanes; ++l) q[l] = first + l * postures_.outerStride();
+      LaneStore(lanes_, reinterpret_cast<double*>(store_.data()) + g * size);
+      scalar_lanes[g] = LaneKinematics(model_, lanes_, q, muscle_, activation_, false);
+      LaneLengths(lanes_, length + g * kLanes);
+    }
+    mu.force_model.TensionStream(length, groups * kLanes, activation_, force, status);
+    for (long g = 0; g < groups; ++g) {
+      LaneStore(lanes_, reinterpret_cast<double*>(store_.data()) + g * size);
+      const unsigned scalar =
+          scalar_lanes[g] |
+          LaneApplyForce(lanes_, force + g * kLanes, status + g * kLanes, scalar_lanes[g]);
+      SolveGroup(p + g * kLanes, kLanes, s0, s1, scalar);
+    }
+    LaneStore(lanes_, nullptr);
+  }
+
+  // The statics of postures p .. p + lanes - 1 after their kinematics in the lanes, the lanes
+  // `scalar_lanes` on the scalar path.
+  void SolveGroup(long p, int lanes, long s0, long s1, unsigned scalar_lanes) {
     bool scalar_ready[kLanes] = {false, false, false, false};
     WrenchResult* out[kLanes];
     const long sets_per_posture = static_cast<long>(stiffness_.size());
@@ -202,6 +249,10 @@ class UnitEvaluator {
   const SolveOptions& options_;
   WrenchResult* const results_;
   LaneWorkspace lanes_;
+  struct alignas(32) Quad {
+    double v[4];
+  };
+  std::vector<Quad> store_;  // StreamLanes' groups' J and tau (LaneStore), when needed
   std::optional<Data> scalar_[kLanes];
   WrenchResult padding_;
 };

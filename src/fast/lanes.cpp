@@ -100,9 +100,10 @@ ISOWRENCH_INLINE void KnotLanes(const Function::Impl& f, const V& a, V& value, V
 // the scalar one (fast_impl.hpp): a small chain's fixed-size arrays, a large chain's buffers
 // sized from it in one allocation. The lane functions never allocate.
 struct LaneWorkspace::Impl {
-  explicit Impl(const FlatChain& d) : m(d.n) {}
+  explicit Impl(const FlatChain& d) : m(d.n), large(d.large) {}
   virtual ~Impl() = default;
-  int m = 0;  // the columns (the model's coordinates)
+  int m = 0;           // the columns (the model's coordinates)
+  bool large = false;  // LargeLanes, else SmallLanes
   // The stiffness sets in the lanes (LaneSolve); `splatted`: the one set in every lane, if so.
   // Sets are not changed during a batch, so the same pointer means the same numbers.
   V s_t[6];
@@ -133,9 +134,13 @@ struct SmallLanes final : LaneWorkspace::Impl {
   V U[kSmallJoints * kSmallJoints];  // statics (kernel::Cholesky)
   V x[kSmallJoints];                 // dtheta
   V s_p[kSmallJoints];
-  V* JacobianData() { return J[0]; }
+  // Where the lane functions write and read J and tau: the arrays above, or a group's place in
+  // the batch's store (LaneStore).
+  V* jacobian = J[0];
+  V* torque = tau;
+  V* JacobianData() { return jacobian; }
   static int JacobianStride() { return kSmallSlots; }
-  V* TauData() { return tau; }
+  V* TauData() { return torque; }
   void Resize(int) {}
 };
 
@@ -206,13 +211,10 @@ namespace {
 // bit; vectorised where the lanes take the common path), tau scaled by it. Lanes already going
 // to the scalar path (`skip`) get F = 0; a lane whose force model has no equilibrium goes there
 // too (returned bit), which reports it.
-template <class W>
-ISOWRENCH_INLINE unsigned LaneForceStage(const FastMuscle& mu, W& ws, double activation,
-                                         unsigned skip) {
-  double force[kLanes];
-  MuscleForceStatus status[kLanes];
-  // (the lengths in place: Tension4, out of line, reads them with memcpy)
-  MuscleTensionsOf(mu, reinterpret_cast<const double*>(&ws.length), activation, force, status);
+// tau scaled by the lanes' forces (lanes `skip` get F = 0); returns the lanes whose status is
+// kNoEquilibrium, not in skip.
+ISOWRENCH_INLINE unsigned LaneScaleTau(V* tau, int m, const double force[kLanes],
+                                       const MuscleForceStatus status[kLanes], unsigned skip) {
   V f;
   std::memcpy(&f, force, sizeof f);
   if (skip != 0) f = (V)((VI)f & (VI)((VI{1, 2, 4, 8} & static_cast<std::int64_t>(skip)) == 0));
@@ -220,7 +222,7 @@ ISOWRENCH_INLINE unsigned LaneForceStage(const FastMuscle& mu, W& ws, double act
 #if defined(__SSE2__)
   typedef int Ints4 __attribute__((vector_size(16)));
   typedef float Floats4 __attribute__((vector_size(16)));
-  static_assert(sizeof status == sizeof(Ints4), "MuscleForceStatus is an int");
+  static_assert(kLanes * sizeof(MuscleForceStatus) == sizeof(Ints4), "MuscleForceStatus is an int");
   Ints4 s;
   std::memcpy(&s, status, sizeof s);
   scalar = static_cast<unsigned>(
@@ -230,8 +232,6 @@ ISOWRENCH_INLINE unsigned LaneForceStage(const FastMuscle& mu, W& ws, double act
     scalar |= static_cast<unsigned>(status[l] == MuscleForceStatus::kNoEquilibrium) << l;
   }
 #endif
-  V* tau = ws.TauData();
-  const int m = ws.m;
 #if defined(__GNUC__) && !defined(__clang__)
 #pragma GCC unroll 4
 #endif
@@ -240,8 +240,18 @@ ISOWRENCH_INLINE unsigned LaneForceStage(const FastMuscle& mu, W& ws, double act
 }
 
 template <class W>
+ISOWRENCH_INLINE unsigned LaneForceStage(const FastMuscle& mu, W& ws, double activation,
+                                         unsigned skip) {
+  double force[kLanes];
+  MuscleForceStatus status[kLanes];
+  // (the lengths in place: Tension4, out of line, reads them with memcpy)
+  MuscleTensionsOf(mu, reinterpret_cast<const double*>(&ws.length), activation, force, status);
+  return LaneScaleTau(ws.TauData(), ws.m, force, status, skip);
+}
+
+template <class W>
 ISOWRENCH_INLINE unsigned LaneKinematicsOf(const FlatChain& d, W& ws, const double* const q[kLanes],
-                                           int muscle, double activation) {
+                                           int muscle, double activation, bool force_stage) {
   // The coordinates of the four postures, four per step by a 4 x 4 transpose, and whether each
   // is within the lane sin/cos range (every coordinate, not only the angles: a prismatic one
   // beyond 1e5 m only sends its lane to the scalar path too). Joint k takes coordinate k: on a
@@ -306,28 +316,57 @@ ISOWRENCH_INLINE unsigned LaneKinematicsOf(const FlatChain& d, W& ws, const doub
   kernel::Kinematics<false, false, true>(d, ws, &ws.q[0], mu, minus_force, !d.transducer_identity,
                                          coincident);
   unsigned scalar = Bits(coincident | out_of_range);
-  if (mu.force_curve) scalar |= LaneForceStage(mu, ws, activation, scalar);
+  if (mu.force_curve && force_stage) scalar |= LaneForceStage(mu, ws, activation, scalar);
   return scalar;
 }
 
 // A large chain's, out of line.
 ISOWRENCH_CLONES ISOWRENCH_NOINLINE unsigned LargeLaneKinematics(const FlatChain& d, LargeLanes& ws,
                                                                  const double* const q[kLanes],
-                                                                 int muscle, double activation) {
-  return LaneKinematicsOf(d, ws, q, muscle, activation);
+                                                                 int muscle, double activation,
+                                                                 bool force_stage) {
+  return LaneKinematicsOf(d, ws, q, muscle, activation, force_stage);
 }
 
 }  // namespace
 
 ISOWRENCH_CLONES unsigned LaneKinematics(const Model& model, LaneWorkspace& workspace,
                                          const double* const q[kLanes], int muscle,
-                                         double activation) {
+                                         double activation, bool force_stage) {
   const FlatChain& d = model.impl().flat;
   if (d.large) {
     return LargeLaneKinematics(d, static_cast<LargeLanes&>(workspace.impl()), q, muscle,
-                               activation);
+                               activation, force_stage);
   }
-  return LaneKinematicsOf(d, static_cast<SmallLanes&>(workspace.impl()), q, muscle, activation);
+  return LaneKinematicsOf(d, static_cast<SmallLanes&>(workspace.impl()), q, muscle, activation,
+                          force_stage);
+}
+
+std::size_t LaneGroupSize(const LaneWorkspace& workspace) {
+  if (const_cast<LaneWorkspace&>(workspace).impl().large) return 0;
+  return 7 * kSmallSlots * kLanes;  // J (6 rows of kSmallSlots) and tau, 4 doubles each
+}
+
+void LaneStore(LaneWorkspace& workspace, double* store) {
+  SmallLanes& ws = static_cast<SmallLanes&>(workspace.impl());
+  if (store == nullptr) {
+    ws.jacobian = ws.J[0];
+    ws.torque = ws.tau;
+  } else {
+    ws.jacobian = reinterpret_cast<V*>(store);
+    ws.torque = ws.jacobian + 6 * kSmallSlots;
+  }
+}
+
+void LaneLengths(LaneWorkspace& workspace, double length[kLanes]) {
+  std::memcpy(length, &workspace.impl().length, sizeof(V));
+}
+
+ISOWRENCH_CLONES unsigned LaneApplyForce(LaneWorkspace& workspace, const double force[kLanes],
+                                         const MuscleForceStatus status[kLanes], unsigned skip) {
+  LaneWorkspace::Impl& ws = workspace.impl();
+  V* tau = ws.large ? static_cast<LargeLanes&>(ws).TauData() : static_cast<SmallLanes&>(ws).TauData();
+  return LaneScaleTau(tau, ws.m, force, status, skip);
 }
 
 ISOWRENCH_CLONES void LaneBroadcast(const Data& scalar, LaneWorkspace& workspace) {

@@ -4,6 +4,7 @@
 // ComputeKinematics + SolveStatics; a lane it cannot decide is flagged and the caller
 // redoes it on the scalar path, which owns the eigen-solve and the self-motion report.
 
+#include <cstddef>
 #include <memory>
 
 #include "isowrench/engine.hpp"
@@ -35,8 +36,26 @@ class LaneWorkspace {
 /// there), or a revolute angle has |q| >= 1e5 rad, beyond the lane sin/cos range reduction
 /// (checked for every coordinate and every driven joint's position, which must also be finite:
 /// a prismatic one beyond 1e5 m, which the lanes could compute, goes to the scalar path too).
+/// force_stage false: a muscle with a force model keeps tau for a unit force (the caller scales
+/// it by LaneApplyForce).
 unsigned LaneKinematics(const Model& model, LaneWorkspace& ws, const double* const q[kLanes],
-                        int muscle, double activation);
+                        int muscle, double activation, bool force_stage = true);
+
+/// The doubles one lane group's Jacobian and torque take in a store (LaneStore); 0 where the
+/// workspace keeps them only in itself (a large chain).
+std::size_t LaneGroupSize(const LaneWorkspace& ws);
+
+/// Makes the lane functions write and read J and tau at `store` (LaneGroupSize doubles,
+/// 32-byte aligned), or in the workspace itself (nullptr). Only where LaneGroupSize > 0.
+void LaneStore(LaneWorkspace& ws, double* store);
+
+/// The muscle's path length in each lane after LaneKinematics (m).
+void LaneLengths(LaneWorkspace& ws, double length[kLanes]);
+
+/// The force stage after LaneKinematics(..., false): tau scaled by force[l] (lanes in `skip`
+/// get 0). Returns the lanes with status kNoEquilibrium, not in skip (for the scalar path).
+unsigned LaneApplyForce(LaneWorkspace& ws, const double force[kLanes],
+                        const MuscleForceStatus status[kLanes], unsigned skip);
 
 /// Puts the Jacobian and torque of the scalar workspace (after ComputeKinematics) in every
 /// lane: one posture, a different stiffness set per lane.
