@@ -6,6 +6,7 @@
 #include <atomic>
 #include <cstdint>
 #include <cstring>
+#include <memory>
 #include <optional>
 #include <thread>
 
@@ -134,7 +135,7 @@ class UnitEvaluator {
   // then each group's force stage and statics.
   void StreamLanes(const FastMuscle& mu, long p, long groups, long s0, long s1) {
     const std::size_t size = LaneGroupSize(lanes_);
-    if (store_.empty()) store_.resize(kStreamGroups * size / 4);
+    if (!store_) store_.reset(new Quad[kStreamGroups * size / 4]);  // (not zeroed: written first)
     unsigned scalar_lanes[kStreamGroups];
     double length[kStreamGroups * kLanes], force[kStreamGroups * kLanes];
     MuscleForceStatus status[kStreamGroups * kLanes];
@@ -142,13 +143,13 @@ class UnitEvaluator {
       const double* q[kLanes];
       const double* first = postures_.data() + (p + g * kLanes) * postures_.outerStride();
       for (int l = 0; l < kLanes; ++l) q[l] = first + l * postures_.outerStride();
-      LaneStore(lanes_, reinterpret_cast<double*>(store_.data()) + g * size);
+      LaneStore(lanes_, reinterpret_cast<double*>(store_.get()) + g * size);
       scalar_lanes[g] = LaneKinematics(model_, lanes_, q, muscle_, activation_, false);
       LaneLengths(lanes_, length + g * kLanes);
     }
     mu.force_model.TensionStream(length, groups * kLanes, activation_, force, status);
     for (long g = 0; g < groups; ++g) {
-      LaneStore(lanes_, reinterpret_cast<double*>(store_.data()) + g * size);
+      LaneStore(lanes_, reinterpret_cast<double*>(store_.get()) + g * size);
       const unsigned scalar =
           scalar_lanes[g] |
           LaneApplyForce(lanes_, force + g * kLanes, status + g * kLanes, scalar_lanes[g]);
@@ -252,7 +253,7 @@ class UnitEvaluator {
   struct alignas(32) Quad {
     double v[4];
   };
-  std::vector<Quad> store_;  // StreamLanes' groups' J and tau (LaneStore), when needed
+  std::unique_ptr<Quad[]> store_;  // StreamLanes' groups' J and tau (LaneStore), when needed
   std::optional<Data> scalar_[kLanes];
   WrenchResult padding_;
 };

@@ -12,6 +12,7 @@
 #endif
 
 #include "muscle/force_model_impl.hpp"
+#define ISOWRENCH_STREAM_SORTED 1
 
 namespace isowrench {
 namespace {
@@ -547,7 +548,7 @@ ISOWRENCH_MUSCLE_INLINE void TensionStreamOf(const MuscleForceModel& model, cons
     for (; i < n; ++i) force[i] = model.Tension(length[i], activation, &status[i]);
     return;
   }
-  const double a = std::max(activation, m.min_activation);
+  [[maybe_unused]] const double a = std::max(activation, m.min_activation);
   constexpr int kChunk = 256;
   int queue[kChunk], redo[kChunk];
   for (long c = 0; c < n; c += kChunk) {
@@ -567,7 +568,28 @@ ISOWRENCH_MUSCLE_INLINE void TensionStreamOf(const MuscleForceModel& model, cons
         queue[count++] = i;
       }
     }
+#if ISOWRENCH_STREAM_SORTED
+    // The taut lengths sorted, four neighbours per lane group: their fibers fall in the same
+    // curve segments and need about as many samples.
+    std::sort(queue, queue + count, [L](int i, int j) { return L[i] < L[j]; });
+    for (int k = 0; k < count; k += 4) {
+      // (a last group of fewer than four repeats its last length)
+      const int used = std::min(4, count - k);
+      const int last = queue[k + used - 1];
+      int at[4];
+      for (int l = 0; l < 4; ++l) at[l] = l < used ? queue[k + l] : last;
+      const double quad[4] = {L[at[0]], L[at[1]], L[at[2]], L[at[3]]};
+      double f[4];
+      MuscleForceStatus st[4];
+      TensionLanesOf<kAvx2>(model, quad, activation, f, st, m);
+      for (int l = 0; l < used; ++l) {
+        F[at[l]] = f[l];
+        St[at[l]] = st[l];
+      }
+    }
+#else
     redo_count += m.CompliantStream<kAvx2>(L, queue, count, a, F, St, redo + redo_count);
+#endif
     for (int k = 0; k < redo_count; ++k) {
       const int i = redo[k];
       F[i] = model.Tension(L[i], activation, &St[i]);
