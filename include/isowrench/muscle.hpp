@@ -243,12 +243,12 @@ class MuscleForceModel {
 
   /// n lengths at once (n >= 0): force[i] = Tension(length[i], activation, &status[i]) for
   /// i = 0..n-1, bit for bit (the batch engine's force stage over a block of postures: a
-  /// compliant tendon's equilibria are iterated four at a time on the SIMD lanes, each lane
-  /// taking the next length as soon as its own equilibrium is found; other models as Tension4,
-  /// four lengths at a time).
+  /// compliant tendon's taut lengths are sorted and solved by Tension4 four neighbours at a
+  /// time, so that the four lanes share curve segments and iteration counts more often; other
+  /// models by Tension4 in the given order).
   /// @throws Error naming the muscle and the value if activation is not in [0, 1].
-  void TensionStream(const double* length, long n, double activation, double* force,
-                     MuscleForceStatus* status) const;
+  void TensionBlock(const double* length, long n, double activation, double* force,
+                    MuscleForceStatus* status) const;
 
   /// Active force-length multiplier f_L at normalized fiber length l/l_o (kConstant: 1, 0).
   CurvePoint ActiveForceLength(double norm_fiber_length) const;

@@ -37,8 +37,9 @@ namespace {
 // stiffness sets still uses every thread.
 constexpr long kMaxPostureBlock = 256;
 constexpr long kUnitsPerThread = 8;
-// Groups of four postures whose force stage a compliant tendon computes at once (StreamLanes).
-constexpr long kStreamGroups = 16;
+// Groups of four postures whose force stage a compliant tendon computes at once (BlockLanes;
+// their J and tau take 7 KB per group on a small chain; 32 and 64 measured the same).
+constexpr long kBlockGroups = 32;
 
 long RoundUpToLanes(long n) { return (n + kLanes - 1) / kLanes * kLanes; }
 
@@ -89,12 +90,12 @@ class UnitEvaluator {
     // posture by posture (SetLanes); the statics still runs four stiffness sets at a time.
     const FastMuscle& mu = model_.impl().flat.muscles[muscle_];
     const bool scalar_kinematics = mu.dynamic;
-    // A compliant tendon's force stage over up to kStreamGroups groups at once (StreamLanes).
+    // A compliant tendon's force stage over up to kBlockGroups groups at once (BlockLanes).
     if (!scalar_kinematics && mu.force_curve && !mu.force_model.rigid_tendon() &&
         mu.force_model.type() != ForceModelType::kConstant && LaneGroupSize(lanes_) > 0) {
       while (p1 - p >= 2 * kLanes) {
-        const long groups = std::min<long>(kStreamGroups, (p1 - p) / kLanes);
-        StreamLanes(mu, p, groups, s0, s1);
+        const long groups = std::min<long>(kBlockGroups, (p1 - p) / kLanes);
+        BlockLanes(mu, p, groups, s0, s1);
         p += groups * kLanes;
       }
     }
@@ -130,15 +131,15 @@ class UnitEvaluator {
   }
 
   // Groups g = 0 .. groups - 1 of four postures from p: each group's kinematics into its place
-  // in the store, the muscle's force at all their lengths by one TensionStream (the lanes
-  // refilled as each equilibrium ends, instead of every group waiting for its slowest lane),
-  // then each group's force stage and statics.
-  void StreamLanes(const FastMuscle& mu, long p, long groups, long s0, long s1) {
+  // in the store, the muscle's force at all their lengths by one TensionBlock (the lengths
+  // sorted into lane groups: fewer samples waiting for a group's slowest lane, more shared
+  // curve segments; docs/performance.md), then each group's force stage and statics.
+  void BlockLanes(const FastMuscle& mu, long p, long groups, long s0, long s1) {
     const std::size_t size = LaneGroupSize(lanes_);
-    if (!store_) store_.reset(new Quad[kStreamGroups * size / 4]);  // (not zeroed: written first)
-    unsigned scalar_lanes[kStreamGroups];
-    double length[kStreamGroups * kLanes], force[kStreamGroups * kLanes];
-    MuscleForceStatus status[kStreamGroups * kLanes];
+    if (!store_) store_.reset(new Quad[kBlockGroups * size / 4]);  // (not zeroed: written first)
+    unsigned scalar_lanes[kBlockGroups];
+    double length[kBlockGroups * kLanes], force[kBlockGroups * kLanes];
+    MuscleForceStatus status[kBlockGroups * kLanes];
     for (long g = 0; g < groups; ++g) {
       const double* q[kLanes];
       const double* first = postures_.data() + (p + g * kLanes) * postures_.outerStride();
@@ -147,7 +148,7 @@ class UnitEvaluator {
       scalar_lanes[g] = LaneKinematics(model_, lanes_, q, muscle_, activation_, false);
       LaneLengths(lanes_, length + g * kLanes);
     }
-    mu.force_model.TensionStream(length, groups * kLanes, activation_, force, status);
+    mu.force_model.TensionBlock(length, groups * kLanes, activation_, force, status);
     for (long g = 0; g < groups; ++g) {
       LaneStore(lanes_, reinterpret_cast<double*>(store_.get()) + g * size);
       const unsigned scalar =
@@ -253,7 +254,7 @@ class UnitEvaluator {
   struct alignas(32) Quad {
     double v[4];
   };
-  std::unique_ptr<Quad[]> store_;  // StreamLanes' groups' J and tau (LaneStore), when needed
+  std::unique_ptr<Quad[]> store_;  // BlockLanes' groups' J and tau (LaneStore), when needed
   std::optional<Data> scalar_[kLanes];
   WrenchResult padding_;
 };

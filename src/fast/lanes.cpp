@@ -335,8 +335,8 @@ ISOWRENCH_CLONES unsigned LaneKinematics(const Model& model, LaneWorkspace& work
                                          double activation, bool force_stage) {
   const FlatChain& d = model.impl().flat;
   if (d.large) {
-    return LargeLaneKinematics(d, static_cast<LargeLanes&>(workspace.impl()), q, muscle,
-                               activation, force_stage);
+    return LargeLaneKinematics(d, static_cast<LargeLanes&>(workspace.impl()), q, muscle, activation,
+                               force_stage);
   }
   return LaneKinematicsOf(d, static_cast<SmallLanes&>(workspace.impl()), q, muscle, activation,
                           force_stage);
@@ -365,7 +365,8 @@ void LaneLengths(LaneWorkspace& workspace, double length[kLanes]) {
 ISOWRENCH_CLONES unsigned LaneApplyForce(LaneWorkspace& workspace, const double force[kLanes],
                                          const MuscleForceStatus status[kLanes], unsigned skip) {
   LaneWorkspace::Impl& ws = workspace.impl();
-  V* tau = ws.large ? static_cast<LargeLanes&>(ws).TauData() : static_cast<SmallLanes&>(ws).TauData();
+  V* tau =
+      ws.large ? static_cast<LargeLanes&>(ws).TauData() : static_cast<SmallLanes&>(ws).TauData();
   return LaneScaleTau(tau, ws.m, force, status, skip);
 }
 

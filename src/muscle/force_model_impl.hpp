@@ -345,9 +345,6 @@ struct MuscleForceModel::Impl {
   template <bool kAvx2>
   unsigned CompliantLanes(const muscle::LaneDoubles& length, double a, muscle::LaneDoubles& force,
                           unsigned& slack_bits) const;
-  template <bool kAvx2>
-  int CompliantStream(const double* length, const int* queue, int count, double a, double* force,
-                      MuscleForceStatus* status, int* redo) const;
 
   MuscleForce Rigid(double length, double a) const {
     RigidFiber r;

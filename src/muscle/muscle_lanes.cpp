@@ -12,7 +12,6 @@
 #endif
 
 #include "muscle/force_model_impl.hpp"
-#define ISOWRENCH_STREAM_SORTED 1
 
 namespace isowrench {
 namespace {
@@ -294,194 +293,6 @@ ISOWRENCH_MUSCLE_INLINE unsigned MuscleForceModel::Impl::CompliantLanes(
 #undef S
 }
 
-// The lanes (as a mask) whose bit is set in `bits`.
-ISOWRENCH_MUSCLE_INLINE LaneI LaneMaskOf(unsigned bits) {
-  return (LaneI)((LaneI{1, 2, 4, 8} & static_cast<long long>(bits)) != 0);
-}
-
-// CompliantLanes over many lengths (queue[0 .. count): indices into length[], each > 0, finite
-// and taut): the same per-lane steps, but a lane whose equilibrium is done (or goes to Tension)
-// takes the next length at once instead of waiting for the other three lanes. Each lane's
-// operations never depend on another lane's, so every length gets CompliantLanes' bits. Writes
-// force[i] and status[i] of the solved lengths and the indices Tension must decide into redo[];
-// returns how many.
-template <bool kAvx2>
-ISOWRENCH_MUSCLE_INLINE int MuscleForceModel::Impl::CompliantStream(const double* length,
-                                                                    const int* queue, int count,
-                                                                    double a, double* force,
-                                                                    MuscleForceStatus* status,
-                                                                    int* redo) const {
-#define S ISOWRENCH_MUSCLE_SPLAT
-  const auto magnitude = [this](const LaneV& v) ISOWRENCH_MUSCLE_LAMBDA_INLINE {
-    return (LaneV)((LaneI)v & lane.magnitude);
-  };
-  const LaneV opensim_tolerance_v = S(opensim_tolerance);
-  const LaneV a_lanes = S(a), max_force_a = S(max_force * a);
-  const LaneV max_iterations = S(static_cast<double>(opensim_max_iterations));
-  const LaneI none = LaneI{0, 0, 0, 0};
-  int index[4] = {0, 0, 0, 0};
-  int next = 0, redo_count = 0;
-  unsigned active = 0;
-  // The lanes' state as in CompliantLanes, plus each lane's length and its rounds so far.
-  LaneV len = lane.one, rounds = S(0.0);
-  LaneV ferr = S(0.0), slope = ferr, tendon_force = ferr, fiber_along = ferr, last_slope = ferr;
-  LaneV lce = lane.min_fiber, ferr_prev = ferr, lce_prev = lce, h = lane.one, iter = S(0.0);
-  LaneV x = lce, lo = lane.min_fiber, hi = lce, step_before = ferr, step = ferr;
-  LaneI first = none, opensim = none, entering = none, polish = none, lo_negative = none;
-  LaneI scalar = none, done = none;
-  for (;;) {
-    // A lane after 64 rounds goes to Tension (CompliantLanes' loop ends there).
-    const LaneI expired = (LaneI)(rounds >= S(64.0));
-    scalar |= expired;
-    entering &= ~expired;
-    // Lanes leaving OpenSim's iteration: converged and inside the bracket, or the scalar path.
-    if (LaneBits<kAvx2>(entering) != 0) {
-      const LaneI converged = (LaneI)(magnitude(ferr) < opensim_tolerance_v);
-      const LaneV clamped = (LaneI)(lce < lo) ? lo : (LaneI)(hi < lce) ? hi : lce;
-      const LaneI inside = converged & (LaneI)(clamped == lce);
-      scalar |= entering & ~inside;
-      x = Pick<kAvx2>(entering, lce, x);
-      polish |= entering & inside;
-    }
-    // The polish's loop head on the lanes with a new sample (entering or sampled).
-    LaneI check = (entering & polish) | (polish & ~entering & ~done & ~scalar);
-    entering = LaneI{0, 0, 0, 0};
-    if (LaneBits<kAvx2>(check) != 0) {
-      const LaneI within = (LaneI)(magnitude(ferr) <= lane.tolerance);
-      done |= check & within;
-      LaneI go = check & ~within;
-      const LaneI negative = (LaneI)(ferr < S(0.0));
-      lo = Pick<kAvx2>(go & negative, x, lo);
-      lo_negative |= go & negative;
-      hi = Pick<kAvx2>(go & ~negative, x, hi);
-      const LaneI rounding = (LaneI)(hi - lo <= lane.rounding * hi);
-      done |= go & rounding;
-      go &= ~rounding;
-      const LaneV next_x = x - ferr / last_slope;
-      const LaneI slow = (LaneI)(magnitude(next_x - x) > lane.half * magnitude(step_before));
-      step_before = Pick<kAvx2>(go, step, step_before);
-      const LaneI newton = (LaneI)(next_x > lo) & (LaneI)(next_x < hi) & ~slow;
-      scalar |= go & ~newton;  // bisection or the minimum-length check
-      go &= newton;
-      step = Pick<kAvx2>(go, next_x - x, step);
-      x = Pick<kAvx2>(go, next_x, x);
-      polish = (polish & ~check) | go;  // (the lanes that need a sample at x)
-    }
-    // Lanes done or going to Tension hand their length back (CompliantLanes' end) ...
-    const unsigned retire = LaneBits<kAvx2>(done | scalar) & active;
-    if (retire != 0) {
-      const LaneI valid = (LaneI)(magnitude(tendon_force) <= S(1e150)) &
-                          (LaneI)(magnitude(fiber_along) <= S(1e150)) & (LaneI)(x <= S(1e150));
-      const LaneI minimum =
-          ~lo_negative & (LaneI)(x <= lane.min_fiber) & (LaneI)(ferr > lane.tolerance);
-      const unsigned to_scalar = LaneBits<kAvx2>(scalar | ~valid | minimum);
-      for (int l = 0; l < 4; ++l) {
-        if (!(retire & (1u << l))) continue;
-        if (to_scalar & (1u << l)) {
-          redo[redo_count++] = index[l];
-        } else {
-          force[index[l]] = tendon_force[l];
-          status[index[l]] = MuscleForceStatus::kEquilibrium;
-        }
-      }
-      active &= ~retire;
-      const LaneI gone = LaneMaskOf(retire);
-      opensim &= ~gone;
-      polish &= ~gone;
-    }
-    // ... and take the next lengths: OpenSimIteration's start, CompliantLanes' first state.
-    if (active != 0xf && next < count) {
-      unsigned fill = 0;
-      for (int l = 0; l < 4 && next < count; ++l) {
-        if (active & (1u << l)) continue;
-        index[l] = queue[next++];
-        len[l] = length[index[l]];
-        fill |= 1u << l;
-      }
-      active |= fill;
-      const LaneI f = LaneMaskOf(fill);
-      const LaneV slack_along = len - S(tendon_slack_length);
-      LaneV top;
-      LaneSqrt<kAvx2>(S(height_squared) + slack_along * slack_along, top);
-      const LaneV along = len - S(1.01 * tendon_slack_length);
-      LaneV root;
-      LaneSqrt<kAvx2>(S(height_squared) + along * along, root);
-      LaneV start =
-          (LaneI)(along >= S(pennation_min_fiber_along_tendon)) ? root : lane.pennation_min_fiber;
-      if (clamp_initial_guess) start = (LaneI)(start < lane.min_fiber) ? lane.min_fiber : start;
-      lce = Pick<kAvx2>(f, start, lce);
-      lce_prev = Pick<kAvx2>(f, start, lce_prev);
-      x = Pick<kAvx2>(f, start, x);
-      h = Pick<kAvx2>(f, lane.one, h);
-      iter = Pick<kAvx2>(f, S(0.0), iter);
-      rounds = Pick<kAvx2>(f, S(0.0), rounds);
-      lo = Pick<kAvx2>(f, lane.min_fiber, lo);
-      hi = Pick<kAvx2>(f, top, hi);
-      step_before = Pick<kAvx2>(f, top - lane.min_fiber, step_before);
-      step = Pick<kAvx2>(f, top - lane.min_fiber, step);
-      first = f;
-      opensim &= ~f;
-      polish &= ~f;
-      lo_negative &= ~f;
-      scalar &= ~f;
-      done &= ~f;
-    }
-    if (active == 0) break;
-    // One sample per lane that needs one, as in CompliantLanes.
-    if (LaneBits<kAvx2>(opensim) != 0) {
-      const LaneV delta = -h * ferr_prev / slope;
-      const LaneI big = (LaneI)(magnitude(delta) > lane.significant_real);
-      const LaneV sign = (LaneV)((LaneI)(delta > S(0.0)) & (LaneI)lane.one) -
-                         (LaneV)((LaneI)(delta < S(0.0)) & (LaneI)lane.one);
-      LaneV next_l = big ? lce_prev + delta : lce_prev - sign * lane.sqrt_eps;
-      next_l = (LaneI)(next_l < lane.min_fiber) ? lane.min_fiber : next_l;
-      lce = Pick<kAvx2>(opensim, next_l, lce);
-      h = Pick<kAvx2>(opensim & ~big, S(0.0), h);
-    }
-    const LaneV point = Pick<kAvx2>(first | opensim, lce, x);
-    LaneV r, sl, tf, fa;
-    IterateLanes<kAvx2>(point, len, a_lanes, max_force_a, r, sl, tf, fa);
-    const LaneI sampled = first | opensim | polish;
-    ferr = Pick<kAvx2>(sampled, r, ferr);
-    last_slope = Pick<kAvx2>(sampled, sl, last_slope);
-    tendon_force = Pick<kAvx2>(sampled, tf, tendon_force);
-    fiber_along = Pick<kAvx2>(sampled, fa, fiber_along);
-    if (LaneBits<kAvx2>(opensim) != 0) {
-      const LaneI brk = (LaneI)(h <= lane.sqrt_eps);
-      h = Pick<kAvx2>(opensim & ~brk, lane.half * h, h);
-      const LaneI inner = opensim & ~brk & (LaneI)(magnitude(ferr) >= magnitude(ferr_prev));
-      LaneI tail = opensim & ~inner;
-      const LaneI same = (LaneI)(lce == lce_prev) & (LaneI)(ferr == ferr_prev);
-      LaneI leave = tail & same;
-      tail &= ~same;
-      ferr_prev = Pick<kAvx2>(tail, ferr, ferr_prev);
-      lce_prev = Pick<kAvx2>(tail, lce, lce_prev);
-      slope = Pick<kAvx2>(tail, last_slope, slope);
-      iter = Pick<kAvx2>(tail, iter + lane.one, iter);
-      const LaneI again = tail & (LaneI)(magnitude(ferr) > opensim_tolerance_v) &
-                          (LaneI)(iter < max_iterations) &
-                          (LaneI)(magnitude(ferr) >= magnitude(ferr_prev));
-      h = Pick<kAvx2>(again, lane.one, h);
-      leave |= tail & ~again;
-      opensim = inner | again;
-      entering = leave;
-    }
-    if (LaneBits<kAvx2>(first) != 0) {
-      ferr_prev = Pick<kAvx2>(first, ferr, ferr_prev);
-      slope = Pick<kAvx2>(first, last_slope, slope);
-      const LaneI start = first & (LaneI)(magnitude(ferr) > opensim_tolerance_v) &
-                          (LaneI)(iter < max_iterations) &
-                          (LaneI)(magnitude(ferr) >= magnitude(ferr_prev));
-      opensim |= start;
-      entering |= first & ~start;
-      first = none;
-    }
-    rounds += lane.one;
-  }
-  return redo_count;
-#undef S
-}
-
 namespace {
 
 // The four lanes' statuses for each set of slack lanes (bit l: lane l kSlack, else
@@ -533,13 +344,15 @@ ISOWRENCH_MUSCLE_INLINE void TensionLanesOf(const MuscleForceModel& model, const
   }
 }
 
-// MuscleForceModel::TensionStream: a compliant tendon's lengths through CompliantStream (those
-// Tension decides, and slack ones, sorted out first), other models four at a time.
+// MuscleForceModel::TensionBlock: a compliant tendon's taut lengths sorted and handed to the
+// lanes four neighbours at a time (those Tension decides, and slack ones, sorted out first),
+// other models four at a time in the given order. Which lengths share a lane group changes no
+// bit: each lane's operations never depend on another lane's.
 template <bool kAvx2>
-ISOWRENCH_MUSCLE_INLINE void TensionStreamOf(const MuscleForceModel& model, const double* length,
-                                             long n, double activation, double* force,
-                                             MuscleForceStatus* status,
-                                             const MuscleForceModel::Impl& m) {
+ISOWRENCH_MUSCLE_INLINE void TensionBlockOf(const MuscleForceModel& model, const double* length,
+                                            long n, double activation, double* force,
+                                            MuscleForceStatus* status,
+                                            const MuscleForceModel::Impl& m) {
   if (!m.fast_tension || m.type == ForceModelType::kConstant || m.rigid || !(activation >= 0.0) ||
       !(activation <= 1.0)) {
     long i = 0;
@@ -548,7 +361,6 @@ ISOWRENCH_MUSCLE_INLINE void TensionStreamOf(const MuscleForceModel& model, cons
     for (; i < n; ++i) force[i] = model.Tension(length[i], activation, &status[i]);
     return;
   }
-  [[maybe_unused]] const double a = std::max(activation, m.min_activation);
   constexpr int kChunk = 256;
   int queue[kChunk], redo[kChunk];
   for (long c = 0; c < n; c += kChunk) {
@@ -558,7 +370,8 @@ ISOWRENCH_MUSCLE_INLINE void TensionStreamOf(const MuscleForceModel& model, cons
     MuscleForceStatus* St = status + c;
     int count = 0, redo_count = 0;
     for (int i = 0; i < size; ++i) {
-      // (as TensionLanesOf and CompliantLanes: not > 0 or not finite to Tension; slack)
+      // (as TensionLanesOf and CompliantLanes: not > 0 or not finite to Tension; slack. NaN
+      // must not reach the sort)
       if (!(L[i] > 0.0) || !(L[i] <= std::numeric_limits<double>::max())) {
         redo[redo_count++] = i;
       } else if (L[i] - m.tendon_slack_length <= m.min_fiber_along_tendon) {
@@ -568,9 +381,8 @@ ISOWRENCH_MUSCLE_INLINE void TensionStreamOf(const MuscleForceModel& model, cons
         queue[count++] = i;
       }
     }
-#if ISOWRENCH_STREAM_SORTED
     // The taut lengths sorted, four neighbours per lane group: their fibers fall in the same
-    // curve segments and need about as many samples.
+    // curve segments more often, and the group's equilibrium waits less for its slowest lane.
     std::sort(queue, queue + count, [L](int i, int j) { return L[i] < L[j]; });
     for (int k = 0; k < count; k += 4) {
       // (a last group of fewer than four repeats its last length)
@@ -587,9 +399,6 @@ ISOWRENCH_MUSCLE_INLINE void TensionStreamOf(const MuscleForceModel& model, cons
         St[at[l]] = st[l];
       }
     }
-#else
-    redo_count += m.CompliantStream<kAvx2>(L, queue, count, a, F, St, redo + redo_count);
-#endif
     for (int k = 0; k < redo_count; ++k) {
       const int i = redo[k];
       F[i] = model.Tension(L[i], activation, &St[i]);
@@ -598,19 +407,19 @@ ISOWRENCH_MUSCLE_INLINE void TensionStreamOf(const MuscleForceModel& model, cons
 }
 
 #if defined(ISOWRENCH_MUSCLE_AVX2)
-__attribute__((target("avx2"))) void TensionStreamLanes(const MuscleForceModel& model,
-                                                        const double* length, long n,
-                                                        double activation, double* force,
-                                                        MuscleForceStatus* status,
-                                                        const MuscleForceModel::Impl& m) {
-  TensionStreamOf<true>(model, length, n, activation, force, status, m);
+__attribute__((target("avx2"))) void TensionBlockLanes(const MuscleForceModel& model,
+                                                       const double* length, long n,
+                                                       double activation, double* force,
+                                                       MuscleForceStatus* status,
+                                                       const MuscleForceModel::Impl& m) {
+  TensionBlockOf<true>(model, length, n, activation, force, status, m);
 }
 __attribute__((target("default")))
 #endif
-void TensionStreamLanes(const MuscleForceModel& model, const double* length, long n,
+void TensionBlockLanes(const MuscleForceModel& model, const double* length, long n,
                         double activation, double* force, MuscleForceStatus* status,
                         const MuscleForceModel::Impl& m) {
-  TensionStreamOf<false>(model, length, n, activation, force, status, m);
+  TensionBlockOf<false>(model, length, n, activation, force, status, m);
 }
 
 #if defined(ISOWRENCH_MUSCLE_AVX2)
@@ -635,9 +444,9 @@ void MuscleForceModel::Tension4(const double length[4], double activation, doubl
   TensionLanes(*this, length, activation, force, status, *impl_);
 }
 
-void MuscleForceModel::TensionStream(const double* length, long n, double activation, double* force,
-                                     MuscleForceStatus* status) const {
-  TensionStreamLanes(*this, length, n, activation, force, status, *impl_);
+void MuscleForceModel::TensionBlock(const double* length, long n, double activation, double* force,
+                                    MuscleForceStatus* status) const {
+  TensionBlockLanes(*this, length, n, activation, force, status, *impl_);
 }
 
 }  // namespace isowrench

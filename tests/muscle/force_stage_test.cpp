@@ -132,6 +132,48 @@ TEST(ForceStage, EvaluateAndBatchAgreeWithForceModels) {
   }
 }
 
+// A batch large enough for the compliant tendon's block force stage (batch.cpp BlockLanes:
+// the kinematics of up to 32 groups of four postures kept apart, one TensionBlock over their
+// lengths) on one and on two threads: every posture's wrench and status as Evaluate's, also
+// for postures far enough out that the muscle goes slack.
+TEST(ForceStage, LargeBatchesAgreeWithEvaluate) {
+  const Model model = Model::FromUrdfFile(ForceLimbPath());
+  std::vector<Eigen::VectorXd> list = StagePostures(model, 150, 28);
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<double> wide(-1.5, 1.5);
+  for (int i = 0; i < 53; ++i) {
+    Eigen::VectorXd q = model.nominal_posture();
+    for (Eigen::Index c = 0; c < q.size(); ++c) q[c] += wide(rng);
+    list.push_back(q);
+  }
+  Eigen::MatrixXd postures(model.dof_count(), static_cast<Eigen::Index>(list.size()));
+  for (size_t p = 0; p < list.size(); ++p) postures.col(static_cast<Eigen::Index>(p)) = list[p];
+  const std::vector<StiffnessSet> sets(1, model.model_stiffness());
+  Data ws(model);
+  for (const char* name : kForceMuscles) {
+    const int m = model.MuscleIndex(name);
+    for (int threads : {1, 2}) {
+      BatchOptions options;
+      options.threads = threads;
+      std::vector<WrenchResult> batch;
+      EvaluateBatch(model, postures, m, sets, batch, 0.6, options);
+      int zero = 0;
+      for (size_t p = 0; p < list.size(); ++p) {
+        const WrenchResult one = Evaluate(model, ws, list[p], m, sets[0], 0.6);
+        const WrenchResult& b = batch[p];
+        ASSERT_EQ(one.status, b.status) << name << " posture " << p;
+        const double scale = one.wrench.cwiseAbs().maxCoeff();
+        zero += scale == 0.0;
+        // (to rounding: the lanes' statics is not the scalar solve's; the far postures' K is
+        // less well conditioned, 1e-12 relative near the nominal posture)
+        EXPECT_LE((one.wrench - b.wrench).cwiseAbs().maxCoeff(), (p < 150 ? 1e-12 : 1e-9) * scale)
+            << name << " posture " << p << " threads " << threads;
+      }
+      EXPECT_LT(zero, 40) << name;
+    }
+  }
+}
+
 TEST(ForceStage, EvaluateWrenchReportsTheForceStageTheKernelApplied) {
   const Model model = Model::FromUrdfFile(ForceLimbPath());
   Data ws(model);

@@ -252,11 +252,11 @@ TEST(MuscleForce, Tension4IsTensionPerLaneBitForBit) {
                Error);
 }
 
-// TensionStream (the batch's force stage over a block: a compliant tendon's lanes refilled with
-// the next length as each equilibrium ends) is Tension per length to the last bit: blocks of
-// 0 to 300 lengths (not multiples of four; over the 256 it takes at a time) mixing taut, slack,
-// NaN, zero, negative, huge and no-equilibrium lengths, for every model kind.
-TEST(MuscleForce, TensionStreamIsTensionPerLengthBitForBit) {
+// TensionBlock (the batch's force stage over a block: a compliant tendon's taut lengths sorted
+// into lane groups) is Tension per length to the last bit: blocks of 0 to 301 lengths (not
+// multiples of four; over the 256 it takes at a time) mixing taut, slack, NaN, zero, negative,
+// huge and no-equilibrium lengths, for every model kind.
+TEST(MuscleForce, TensionBlockIsTensionPerLengthBitForBit) {
   std::vector<MuscleForceSpec> specs = RatLikeSpecs();
   for (MuscleForceSpec spec : RatLikeSpecs()) {
     spec.ignore_tendon_compliance = true;
@@ -288,7 +288,7 @@ TEST(MuscleForce, TensionStreamIsTensionPerLengthBitForBit) {
                           : span * 50 * unit(rng);
       }
       const double a = block % 7 == 0 ? 0.0 : block % 5 == 0 ? 1.0 : unit(rng);
-      m.TensionStream(length.data(), n, a, force.data(), status.data());
+      m.TensionBlock(length.data(), n, a, force.data(), status.data());
       for (int i = 0; i < n; ++i) {
         MuscleForceStatus one = MuscleForceStatus::kEquilibrium;
         const double f = m.Tension(length[i], a, &one);
@@ -310,7 +310,7 @@ TEST(MuscleForce, TensionStreamIsTensionPerLengthBitForBit) {
   double length[5] = {0.03, 0.03, 0.03, 0.03, 0.03}, force[5];
   MuscleForceStatus status[5];
   EXPECT_THROW(
-      MuscleForceModel("R", 10.0, RatLikeSpecs()[0]).TensionStream(length, 5, 1.5, force, status),
+      MuscleForceModel("R", 10.0, RatLikeSpecs()[0]).TensionBlock(length, 5, 1.5, force, status),
       Error);
 }
 
