@@ -381,9 +381,27 @@ ISOWRENCH_MUSCLE_INLINE void TensionBlockOf(const MuscleForceModel& model, const
         queue[count++] = i;
       }
     }
-    // The taut lengths sorted, four neighbours per lane group: their fibers fall in the same
-    // curve segments more often, and the group's equilibrium waits less for its slowest lane.
-    std::sort(queue, queue + count, [L](int i, int j) { return L[i] < L[j]; });
+    // The taut lengths sorted (into kBuckets equal bins between the shortest and the longest,
+    // a counting sort), four neighbours per lane group: their fibers fall in the same curve
+    // segments more often, and the group's equilibrium waits less for its slowest lane.
+    constexpr int kBuckets = 64;
+    double shortest = std::numeric_limits<double>::max(), longest = 0.0;
+    for (int k = 0; k < count; ++k) {
+      shortest = std::min(shortest, L[queue[k]]);
+      longest = std::max(longest, L[queue[k]]);
+    }
+    const double span = longest - shortest;  // (finite: the lengths are finite and > 0)
+    const double scale = span > 1e-300 ? (kBuckets - 0.5) / span : 0.0;
+    int start[kBuckets + 1] = {};
+    unsigned char bucket[kChunk];
+    for (int k = 0; k < count; ++k) {
+      bucket[k] = static_cast<unsigned char>((L[queue[k]] - shortest) * scale);  // 0 .. 63
+      ++start[bucket[k] + 1];
+    }
+    for (int b = 0; b < kBuckets; ++b) start[b + 1] += start[b];
+    int sorted[kChunk];
+    for (int k = 0; k < count; ++k) sorted[start[bucket[k]]++] = queue[k];
+    std::memcpy(queue, sorted, sizeof(int) * static_cast<std::size_t>(count));
     for (int k = 0; k < count; k += 4) {
       // (a last group of fewer than four repeats its last length)
       const int used = std::min(4, count - k);
