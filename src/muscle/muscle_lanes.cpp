@@ -361,6 +361,7 @@ ISOWRENCH_MUSCLE_INLINE void TensionBlockOf(const MuscleForceModel& model, const
     for (; i < n; ++i) force[i] = model.Tension(length[i], activation, &status[i]);
     return;
   }
+  const double a = std::max(activation, m.min_activation);
   constexpr int kChunk = 256;
   int queue[kChunk], redo[kChunk];
   for (long c = 0; c < n; c += kChunk) {
@@ -408,13 +409,18 @@ ISOWRENCH_MUSCLE_INLINE void TensionBlockOf(const MuscleForceModel& model, const
       const int last = queue[k + used - 1];
       int at[4];
       for (int l = 0; l < 4; ++l) at[l] = l < used ? queue[k + l] : last;
-      const double quad[4] = {L[at[0]], L[at[1]], L[at[2]], L[at[3]]};
-      double f[4];
-      MuscleForceStatus st[4];
-      TensionLanesOf<kAvx2>(model, quad, activation, f, st, m);
+      // (TensionLanesOf's compliant path: every length here is usable and taut)
+      const LaneV quad = {L[at[0]], L[at[1]], L[at[2]], L[at[3]]};
+      LaneV f;
+      unsigned slack = 0;
+      const unsigned scalar = m.CompliantLanes<kAvx2>(quad, a, f, slack);
       for (int l = 0; l < used; ++l) {
-        F[at[l]] = f[l];
-        St[at[l]] = st[l];
+        if (scalar & (1u << l)) {
+          F[at[l]] = model.Tension(L[at[l]], activation, &St[at[l]]);
+        } else {
+          F[at[l]] = f[l];
+          St[at[l]] = MuscleForceStatus::kEquilibrium;
+        }
       }
     }
     for (int k = 0; k < redo_count; ++k) {
