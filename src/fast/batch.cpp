@@ -38,8 +38,18 @@ namespace {
 constexpr long kMaxPostureBlock = 256;
 constexpr long kUnitsPerThread = 8;
 // Groups of four postures whose force stage a compliant tendon computes at once (BlockLanes;
-// their J and tau take 7 KB per group on a small chain; 32 and 64 measured the same).
-constexpr long kBlockGroups = 32;
+// their J and tau take 7 KB per group on a small chain): a whole posture block. Its lengths
+// are sorted into lane groups, and more lengths sort into closer neighbours: a compliant
+// tendon's batch takes half as many, twice as large, units (docs/performance.md).
+constexpr long kBlockGroups = kMaxPostureBlock / kLanes;
+constexpr long kBlockUnitsPerThread = 4;
+
+// Whether a muscle's batch force stage runs over whole blocks (BlockLanes): a compliant
+// tendon's, on a muscle whose kinematics run in the lanes.
+bool BlockForceStage(const FastMuscle& mu) {
+  return !mu.dynamic && mu.force_curve && !mu.force_model.rigid_tendon() &&
+         mu.force_model.type() != ForceModelType::kConstant;
+}
 
 long RoundUpToLanes(long n) { return (n + kLanes - 1) / kLanes * kLanes; }
 
@@ -91,8 +101,7 @@ class UnitEvaluator {
     const FastMuscle& mu = model_.impl().flat.muscles[muscle_];
     const bool scalar_kinematics = mu.dynamic;
     // A compliant tendon's force stage over up to kBlockGroups groups at once (BlockLanes).
-    if (!scalar_kinematics && mu.force_curve && !mu.force_model.rigid_tendon() &&
-        mu.force_model.type() != ForceModelType::kConstant && LaneGroupSize(lanes_) > 0) {
+    if (BlockForceStage(mu) && LaneGroupSize(lanes_) > 0) {
       while (p1 - p >= 2 * kLanes) {
         const long groups = std::min<long>(kBlockGroups, (p1 - p) / kLanes);
         BlockLanes(mu, p, groups, s0, s1);
@@ -322,7 +331,10 @@ void EvaluateBatch(const Model& model, const Eigen::Ref<const Eigen::MatrixXd>& 
 
   // Units: posture blocks, and set blocks when the posture blocks alone are too few.
   const long threads_wanted = std::max(1, options.threads);
-  const long wanted_units = threads_wanted * kUnitsPerThread;
+  const long wanted_units =
+      threads_wanted * (BlockForceStage(model.impl().flat.muscles[static_cast<size_t>(muscle)])
+                            ? kBlockUnitsPerThread
+                            : kUnitsPerThread);
   const long posture_block = std::clamp<long>(RoundUpToLanes((P + wanted_units - 1) / wanted_units),
                                               kLanes, kMaxPostureBlock);
   const long posture_units = (P + posture_block - 1) / posture_block;
