@@ -385,7 +385,10 @@ ISOWRENCH_MUSCLE_INLINE void TensionBlockOf(const MuscleForceModel& model, const
     // The taut lengths sorted (into kBuckets equal bins between the shortest and the longest,
     // a counting sort), four neighbours per lane group: their fibers fall in the same curve
     // segments more often, and the group's equilibrium waits less for its slowest lane.
-    constexpr int kBuckets = 64;
+    // (bins per 256 lengths, batch-compliant instructions per evaluation: 64 1,227.7, 128
+    // 1,225.3, 250 1,226.4)
+    constexpr int kBuckets = 128;
+    static_assert(kBuckets <= 256, "bins numbered by an unsigned char");
     double shortest = std::numeric_limits<double>::max(), longest = 0.0;
     for (int k = 0; k < count; ++k) {
       shortest = std::min(shortest, L[queue[k]]);
@@ -396,7 +399,7 @@ ISOWRENCH_MUSCLE_INLINE void TensionBlockOf(const MuscleForceModel& model, const
     int start[kBuckets + 1] = {};
     unsigned char bucket[kChunk];
     for (int k = 0; k < count; ++k) {
-      bucket[k] = static_cast<unsigned char>((L[queue[k]] - shortest) * scale);  // 0 .. 63
+      bucket[k] = static_cast<unsigned char>((L[queue[k]] - shortest) * scale);  // < kBuckets
       ++start[bucket[k] + 1];
     }
     for (int b = 0; b < kBuckets; ++b) start[b + 1] += start[b];
