@@ -133,7 +133,7 @@ TEST(ForceStage, EvaluateAndBatchAgreeWithForceModels) {
 }
 
 // A batch large enough for the compliant tendon's block force stage (batch.cpp BlockLanes:
-// the kinematics of up to 32 groups of four postures kept apart, one TensionBlock over their
+// the kinematics of a work unit's groups of four postures kept apart, one TensionBlock over their
 // lengths) on one and on two threads: every posture's wrench and status as Evaluate's, also
 // for postures far enough out that the muscle goes slack.
 TEST(ForceStage, LargeBatchesAgreeWithEvaluate) {
