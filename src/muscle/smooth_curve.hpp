@@ -196,7 +196,7 @@ class SmoothCurve {
 
  private:
   static constexpr int kMaxSegments = 5;
-  static constexpr int kGuessIntervals = 64;
+  static constexpr int kGuessIntervals = 128;
   struct Segment {
     double x_begin = 0.0, x_end = 0.0, inv_step = 0.0;
     std::array<double, 6> x{}, y{};    // power-basis coefficients of x(u), y(u)
