@@ -124,7 +124,7 @@ SmoothCurve::SmoothCurve(const ControlPoints* segments, int count, double y0, do
     g.x_end = segments[s].x[5];
     const double step = (g.x_end - g.x_begin) / kGuessIntervals;
     g.inv_step = 1.0 / step;
-    // Exact u, du/dx and d2u/dx2 = -x''(u) / x'(u)^3 at the 65 knots, then each interval's
+    // Exact u, du/dx and d2u/dx2 = -x''(u) / x'(u)^3 at the 129 knots, then each interval's
     // quintic Hermite guess in r (per unit r: du/dr = step du/dx, d2u/dr2 = step^2 d2u/dx2).
     std::array<double, kGuessIntervals + 1> u{}, m{}, c2{};
     for (int j = 0; j <= kGuessIntervals; ++j) {
