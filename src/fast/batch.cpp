@@ -38,11 +38,13 @@ namespace {
 constexpr long kMaxPostureBlock = 256;
 constexpr long kUnitsPerThread = 8;
 // Groups of four postures whose force stage a compliant tendon computes at once (BlockLanes;
-// their J and tau take 7 KB per group on a small chain): a whole posture block. Its lengths
-// are sorted into lane groups, and more lengths sort into closer neighbours: a compliant
-// tendon's batch takes half as many, twice as large, units (docs/performance.md).
-constexpr long kBlockGroups = kMaxPostureBlock / kLanes;
-constexpr long kBlockUnitsPerThread = 4;
+// their J and tau take 7 KB per group on a small chain, 896 KB per thread): a whole posture
+// block, of up to kMaxBlockPostures. Its lengths are sorted into lane groups, and more lengths
+// sort into closer neighbours: a compliant tendon's batch takes a quarter as many, up to four
+// times as large, units (docs/performance.md).
+constexpr long kMaxBlockPostures = 512;
+constexpr long kBlockGroups = kMaxBlockPostures / kLanes;
+constexpr long kBlockUnitsPerThread = 2;
 
 // Whether a muscle's batch force stage runs over whole blocks (BlockLanes): a compliant
 // tendon's, on a muscle whose kinematics run in the lanes.
@@ -331,12 +333,11 @@ void EvaluateBatch(const Model& model, const Eigen::Ref<const Eigen::MatrixXd>& 
 
   // Units: posture blocks, and set blocks when the posture blocks alone are too few.
   const long threads_wanted = std::max(1, options.threads);
-  const long wanted_units =
-      threads_wanted * (BlockForceStage(model.impl().flat.muscles[static_cast<size_t>(muscle)])
-                            ? kBlockUnitsPerThread
-                            : kUnitsPerThread);
-  const long posture_block = std::clamp<long>(RoundUpToLanes((P + wanted_units - 1) / wanted_units),
-                                              kLanes, kMaxPostureBlock);
+  const bool block_force = BlockForceStage(model.impl().flat.muscles[static_cast<size_t>(muscle)]);
+  const long wanted_units = threads_wanted * (block_force ? kBlockUnitsPerThread : kUnitsPerThread);
+  const long posture_block =
+      std::clamp<long>(RoundUpToLanes((P + wanted_units - 1) / wanted_units), kLanes,
+                       block_force ? kMaxBlockPostures : kMaxPostureBlock);
   const long posture_units = (P + posture_block - 1) / posture_block;
   long set_block = S;
   if (posture_units < wanted_units) {

@@ -253,8 +253,8 @@ TEST(MuscleForce, Tension4IsTensionPerLaneBitForBit) {
 }
 
 // TensionBlock (the batch's force stage over a block: a compliant tendon's taut lengths sorted
-// into lane groups) is Tension per length to the last bit: blocks of 0 to 301 lengths (not
-// multiples of four; over the 256 it takes at a time) mixing taut, slack, NaN, zero, negative,
+// into lane groups) is Tension per length to the last bit: blocks of 0 to 601 lengths (not
+// multiples of four; over the 512 it takes at a time) mixing taut, slack, NaN, zero, negative,
 // huge and no-equilibrium lengths, for every model kind.
 TEST(MuscleForce, TensionBlockIsTensionPerLengthBitForBit) {
   std::vector<MuscleForceSpec> specs = RatLikeSpecs();
@@ -269,7 +269,7 @@ TEST(MuscleForce, TensionBlockIsTensionPerLengthBitForBit) {
   std::mt19937 rng(2828);
   std::uniform_real_distribution<double> unit(0.0, 1.0);
   std::map<MuscleForceStatus, int> seen;
-  const int sizes[] = {0, 1, 3, 5, 7, 13, 37, 258, 301};
+  const int sizes[] = {0, 1, 3, 5, 7, 13, 37, 514, 601};
   for (const MuscleForceSpec& spec : specs) {
     const MuscleForceModel m("R", 10.0, spec);
     const double span = spec.optimal_fiber_length + spec.tendon_slack_length;
