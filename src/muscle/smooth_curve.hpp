@@ -188,6 +188,17 @@ class SmoothCurve {
 
   /// SolveEvaluate(x) (`slope` false: Value(x) and slope 0), out of line: the lanes' fallback.
   CurvePoint ScalarLane(double x, bool slope) const;
+  /// ScalarLane for the lanes l with bit l of `lanes` set: value[l] and (kSlope) slope[l].
+  template <bool kSlope>
+  ISOWRENCH_CURVE_INLINE void ScalarLanes(const LaneDoubles& x, unsigned lanes, LaneDoubles& value,
+                                          LaneDoubles& slope) const {
+    for (int l = 0; l < 4; ++l) {
+      if (!(lanes & (1u << l))) continue;
+      const CurvePoint p = ScalarLane(x[l], kSlope);
+      value[l] = p.value;
+      if constexpr (kSlope) slope[l] = p.slope;
+    }
+  }
 
   int segment_count() const { return count_; }
   const ControlPoints& control_points(int i) const { return control_[i]; }
@@ -394,14 +405,8 @@ ISOWRENCH_CURVE_INLINE void SmoothCurve::Lanes(const LaneDoubles& x, LaneDoubles
   // Lanes inside whose Newton step exceeds 1e-8 (or is not a number): the scalar evaluation.
   const VI far =
       inside & ~(VI)(((V)((VI)du & 0x7fffffffffffffffLL)) <= ISOWRENCH_CURVE_SPLAT(1e-8));
-  if (const unsigned far_bits = LaneBits(far); far_bits != 0) {
-    for (int l = 0; l < 4; ++l) {
-      if (!(far_bits & (1u << l))) continue;
-      const CurvePoint p = ScalarLane(x[l], kSlope);
-      y[l] = p.value;
-      if constexpr (kSlope) s[l] = p.slope;
-    }
-  }
+  if (const unsigned far_bits = LaneBits(far); far_bits != 0)
+    ScalarLanes<kSlope>(x, far_bits, y, s);
   value = y;
   if constexpr (kSlope) slope = s;
 #undef ISOWRENCH_CURVE_SPLAT
@@ -548,14 +553,7 @@ ISOWRENCH_CURVE_INLINE void SmoothCurve::GatherLanes(const LaneDoubles& x, LaneD
   const unsigned far_bits =
       ~outside_bits & LaneBits<true>((VI)__builtin_ia32_cmppd256((V)((VI)du & lane_.magnitude),
                                                                  lane_.step_limit, 0x16));
-  if (far_bits != 0) {
-    for (int l = 0; l < 4; ++l) {
-      if (!(far_bits & (1u << l))) continue;
-      const CurvePoint p = ScalarLane(x[l], kSlope);
-      y[l] = p.value;
-      if constexpr (kSlope) s[l] = p.slope;
-    }
-  }
+  if (far_bits != 0) ScalarLanes<kSlope>(x, far_bits, y, s);
   value = y;
   if constexpr (kSlope) slope = s;
 #undef ISOWRENCH_CURVE_SPLAT

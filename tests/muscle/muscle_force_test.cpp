@@ -185,12 +185,9 @@ TEST(MuscleForce, TensionIsEvaluatesForceBitForBit) {
   EXPECT_THROW(MuscleForceModel("R", 10.0, RatLikeSpecs()[0]).Tension(0.03, 1.5, &status), Error);
 }
 
-// Tension4 (the batch lanes' force stage, vectorised) is Tension lane by lane to the last bit:
-// groups of four random lengths mixing taut, slack, minimum-length, huge, zero, negative and
-// NaN lengths and lengths where the model has no number, for every model kind (rigid and
-// compliant Millard2012, classic and damped, Thelen2003, a zero tendon slack length, a Thelen
-// muscle whose passive curve overflows) at activations at, below and above the floor.
-TEST(MuscleForce, Tension4IsTensionPerLaneBitForBit) {
+// The models of the lane tests: the rat-like ones with compliant and with rigid tendons, a
+// classic (undamped) Millard2012 and one with a zero tendon slack length.
+std::vector<MuscleForceSpec> LaneTestSpecs() {
   std::vector<MuscleForceSpec> specs = RatLikeSpecs();
   for (MuscleForceSpec spec : RatLikeSpecs()) {
     spec.ignore_tendon_compliance = true;
@@ -200,6 +197,30 @@ TEST(MuscleForce, Tension4IsTensionPerLaneBitForBit) {
   classic.fiber_damping = 0.0;
   specs.push_back(classic);
   specs.push_back(MillardSpec(0.018, 0.004, 0.0));
+  return specs;
+}
+
+// A musculotendon length for the lane tests (span = l_o + l_Ts): mostly taut, some slack, near
+// the slack length, NaN, negative, zero, huge and far beyond the curves.
+double MixedLength(std::mt19937& rng, double span) {
+  std::uniform_real_distribution<double> unit(0.0, 1.0);
+  const double pick = unit(rng);
+  return pick < 0.9    ? span * (0.3 + 2.2 * unit(rng))  // mostly taut, some slack
+         : pick < 0.93 ? span * (0.9 + 0.2 * unit(rng)) * (1 + 1e-9 * unit(rng))
+         : pick < 0.95 ? std::numeric_limits<double>::quiet_NaN()
+         : pick < 0.96 ? -span * unit(rng)
+         : pick < 0.97 ? 0.0
+         : pick < 0.98 ? 1e300
+                       : span * 50 * unit(rng);
+}
+
+// Tension4 (the batch lanes' force stage, vectorised) is Tension lane by lane to the last bit:
+// groups of four random lengths mixing taut, slack, minimum-length, huge, zero, negative and
+// NaN lengths and lengths where the model has no number, for every model kind (rigid and
+// compliant Millard2012, classic and damped, Thelen2003, a zero tendon slack length, a Thelen
+// muscle whose passive curve overflows) at activations at, below and above the floor.
+TEST(MuscleForce, Tension4IsTensionPerLaneBitForBit) {
+  std::vector<MuscleForceSpec> specs = LaneTestSpecs();
   specs.push_back(ThelenSpec(1e-4, 0.004, 0.1));  // l/l_o in the hundreds: exp overflows
   std::mt19937 rng(28);
   std::uniform_real_distribution<double> unit(0.0, 1.0);
@@ -211,14 +232,7 @@ TEST(MuscleForce, Tension4IsTensionPerLaneBitForBit) {
     for (int group = 0; group < 1500; ++group) {
       double length[4];
       for (double& L : length) {
-        const double pick = unit(rng);
-        L = pick < 0.9    ? span * (0.3 + 2.2 * unit(rng))  // mostly taut, some slack
-            : pick < 0.93 ? span * (0.9 + 0.2 * unit(rng)) * (1 + 1e-9 * unit(rng))
-            : pick < 0.95 ? std::numeric_limits<double>::quiet_NaN()
-            : pick < 0.96 ? -span * unit(rng)
-            : pick < 0.97 ? 0.0
-            : pick < 0.98 ? 1e300
-                          : span * 50 * unit(rng);
+        L = MixedLength(rng, span);
       }
       const double a = group % 7 == 0 ? 0.0 : group % 11 == 0 ? 1.0 : unit(rng);
       double force[4];
@@ -257,15 +271,7 @@ TEST(MuscleForce, Tension4IsTensionPerLaneBitForBit) {
 // multiples of four; over the 512 it takes at a time) mixing taut, slack, NaN, zero, negative,
 // huge and no-equilibrium lengths, for every model kind.
 TEST(MuscleForce, TensionBlockIsTensionPerLengthBitForBit) {
-  std::vector<MuscleForceSpec> specs = RatLikeSpecs();
-  for (MuscleForceSpec spec : RatLikeSpecs()) {
-    spec.ignore_tendon_compliance = true;
-    specs.push_back(spec);
-  }
-  MuscleForceSpec classic = MillardSpec(0.0293, 0.00639, 0.0524);
-  classic.fiber_damping = 0.0;
-  specs.push_back(classic);
-  specs.push_back(MillardSpec(0.018, 0.004, 0.0));
+  const std::vector<MuscleForceSpec> specs = LaneTestSpecs();
   std::mt19937 rng(2828);
   std::uniform_real_distribution<double> unit(0.0, 1.0);
   std::map<MuscleForceStatus, int> seen;
@@ -278,14 +284,7 @@ TEST(MuscleForce, TensionBlockIsTensionPerLengthBitForBit) {
       std::vector<double> length(static_cast<size_t>(n)), force(length.size(), -7.0);
       std::vector<MuscleForceStatus> status(length.size(), static_cast<MuscleForceStatus>(99));
       for (double& L : length) {
-        const double pick = unit(rng);
-        L = pick < 0.9    ? span * (0.3 + 2.2 * unit(rng))  // mostly taut, some slack
-            : pick < 0.93 ? span * (0.9 + 0.2 * unit(rng)) * (1 + 1e-9 * unit(rng))
-            : pick < 0.95 ? std::numeric_limits<double>::quiet_NaN()
-            : pick < 0.96 ? -span * unit(rng)
-            : pick < 0.97 ? 0.0
-            : pick < 0.98 ? 1e300
-                          : span * 50 * unit(rng);
+        L = MixedLength(rng, span);
       }
       const double a = block % 7 == 0 ? 0.0 : block % 5 == 0 ? 1.0 : unit(rng);
       m.TensionBlock(length.data(), n, a, force.data(), status.data());
