@@ -246,7 +246,7 @@ class MuscleForceModel {
   /// compliant tendon's taut lengths are sorted and solved by Tension4 four neighbours at a
   /// time, so that the four lanes share curve segments and iteration counts more often; other
   /// models by Tension4 in the given order).
-  /// @throws Error naming the muscle and the value if activation is not in [0, 1].
+  /// @throws Error naming the muscle and the value if activation is not in [0, 1] (n > 0).
   void TensionBlock(const double* length, long n, double activation, double* force,
                     MuscleForceStatus* status) const;
 

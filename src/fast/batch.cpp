@@ -333,7 +333,9 @@ void EvaluateBatch(const Model& model, const Eigen::Ref<const Eigen::MatrixXd>& 
 
   // Units: posture blocks, and set blocks when the posture blocks alone are too few.
   const long threads_wanted = std::max(1, options.threads);
-  const bool block_force = BlockForceStage(model.impl().flat.muscles[static_cast<size_t>(muscle)]);
+  // (BlockLanes runs on a small chain only: LaneGroupSize)
+  const bool block_force = !model.impl().flat.large &&
+                           BlockForceStage(model.impl().flat.muscles[static_cast<size_t>(muscle)]);
   const long wanted_units = threads_wanted * (block_force ? kBlockUnitsPerThread : kUnitsPerThread);
   const long posture_block =
       std::clamp<long>(RoundUpToLanes((P + wanted_units - 1) / wanted_units), kLanes,

@@ -8,7 +8,7 @@
 // the same rational approximations in the same order of operations.
 //
 // UncExpLanes: exp of four doubles (GCC/Clang vector extensions), relative error below
-// 3.5e-16, 1.6 ulp (tests/uncertainty/uncertainty_test.cpp against std::exp). UncExp: the same for
+// 3.5e-16 (tests/uncertainty/unc_math_test.cpp against std::exp). UncExp: the same for
 // one double (lane 0 of the four: the same bits). UncAtan2: atan2 of one pair, absolute error below
 // 1e-15 rad (against std::atan2).
 

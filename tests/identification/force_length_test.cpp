@@ -368,5 +368,35 @@ TEST(TrialForceWithAForceModel, SimulatedFactorsScaleTheStimulatedPartOnly) {
   }
 }
 
+TEST(TrialForceWithAForceModel, TheFitReadsTheSpreadOfTheStimulatedPart) {
+  // The fit itself (trial_force a candidate: Context's raw wrenches with the passive part) on
+  // data simulated with a spread of 0.2 at a = 0.1 (passive share ~52 %): trial_force chosen,
+  // its spread within 4 SE of 0.2 and the level within 4 SE of 1 (scaling the whole wrench
+  // would read a spread of about 0.1 and a level of about 0.5 + 0.5 g).
+  const Model model = Model::FromUrdfFile(kForceLengthLimb);
+  std::vector<AppliedEffect> applied = {ParseEffectAssignment(model, "trial_force=0.2")};
+  SimulationOptions s;
+  s.postures = 60;
+  s.seed = 17;
+  s.muscles = {"GP_compliant"};
+  s.activation_min = s.activation_max = 0.1;
+  const std::vector<Trial> trials =
+      SimulateTrials(model, ApplyEffects(model.description(), applied), s);
+  FitOptions o;
+  o.max_rounds = 1;
+  o.candidates = {"trial_force"};
+  const FitReport r = FitEffects(model, trials, o);
+  const CandidateFit* f = ChosenFit(r, "trial_force");
+  ASSERT_NE(f, nullptr) << r.BriefReport();
+  std::cout << "[trial_force] " << r.ForceLevelSummary() << "; as a candidate: spread "
+            << f->values.at(0) << "\n";
+  // The spread the round fitted (trial_force free) and the report's (trial_force in the model).
+  EXPECT_LE(std::abs(f->values.at(0) - 0.2), kForceLengthSigmas * r.trial_force_spread_se);
+  EXPECT_LE(std::abs(r.trial_force_spread - 0.2), kForceLengthSigmas * r.trial_force_spread_se);
+  ASSERT_EQ(r.trial_force_levels.size(), 1u);
+  const FitReport::ForceLevel& level = r.trial_force_levels[0];
+  EXPECT_LE(std::abs(level.level - 1.0), kForceLengthSigmas * level.standard_error);
+}
+
 }  // namespace
 }  // namespace isowrench
