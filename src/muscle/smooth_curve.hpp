@@ -8,9 +8,10 @@
 // y1 + slope1 (x - x1) right of x1. y(x) needs u(x): OpenSim fits a cubic spline of u(x) per
 // segment and refines it by Newton's method to |x(u) - x| <= 100 eps (calcU); here a quintic
 // Hermite guess from u, du/dx and d2u/dx2 at 129 exact samples per segment (OpenSim's default
-// curves: the first Newton step at most 1.7e-10) is refined by one Newton step to machine
+// curves: the first Newton step at most 6.6e-9 on the damped model's active curve, floor 0, and
+// 1.7e-10 on the others; tests/muscle/curve_test.cpp) is refined by one Newton step to machine
 // precision (more steps only where that step exceeds 1e-8: none on the default curves; with 65
-// samples, 0.2 % of one active segment), so the values are those of the exact curve.
+// samples, up to 3.6e-7), so the values are those of the exact curve.
 //
 // Three evaluations share that u(x), so they give the same value to the last bit: Evaluate
 // (value and exact slope), Value (value only: the rigid tendon's force) and SolveEvaluate (value
@@ -200,6 +201,15 @@ class SmoothCurve {
     }
   }
 
+  /// |du| of the first Newton step of u(x) from the guess table at x in [x0, x1]: the table's
+  /// error in u, to first order. One step suffices where it is at most 1e-8 (else the
+  /// evaluation iterates on, and the lanes fall back to ScalarLane).
+  double FirstNewtonStep(double x) const {
+    const Segment& g = Find(x);
+    const double u = Guess(g, x);
+    return std::abs((Poly(g.x, u) - x) / Slope(g.dx, u));
+  }
+
   int segment_count() const { return count_; }
   const ControlPoints& control_points(int i) const { return control_[i]; }
   double x0() const { return x0_; }
@@ -250,14 +260,18 @@ class SmoothCurve {
   }
   // calcU: u in [0, 1] with x(u) = x on segment g (x in [x_begin, x_end]); *dxdu: dx/du at
   // the u before the last Newton step.
-  double U(const Segment& g, double x, double* dxdu) const {
+  // The guess table's u at x on segment g.
+  static double Guess(const Segment& g, double x) {
     const double t = (x - g.x_begin) * g.inv_step;  // in [0, kGuessIntervals (1 + 2 eps)]
     const int k = static_cast<int>(t);
     const double r = t - k;
     const double* c = &g.guess[6 * static_cast<std::size_t>(k)];
-    // (No clamp to [0, 1]: the guess is within ~1e-10 of u in [0, 1], and the polynomials are
+    // (No clamp to [0, 1]: the guess is within ~1e-8 of u in [0, 1], and the polynomials are
     // as good just outside; at a knot it is the knot's exact u, 0 at a segment's start.)
-    const double u = ((((c[5] * r + c[4]) * r + c[3]) * r + c[2]) * r + c[1]) * r + c[0];
+    return ((((c[5] * r + c[4]) * r + c[3]) * r + c[2]) * r + c[1]) * r + c[0];
+  }
+  double U(const Segment& g, double x, double* dxdu) const {
+    const double u = Guess(g, x);
     const double d = Slope(g.dx, u);
     const double du = (Poly(g.x, u) - x) / d;
     // Newton converges quadratically: after a step du the error in u is about
